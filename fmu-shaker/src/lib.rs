@@ -1,0 +1,1 @@
+//! The shaker FMU (filled by the FMU work).

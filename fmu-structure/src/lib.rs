@@ -1,0 +1,1 @@
+//! The structure FMU (filled by the FMU work).

@@ -1,0 +1,55 @@
+//! Nonlinear modal analysis (paper Section 3.1): Harmonic Balance with AFT,
+//! the Extended Periodic Motion Concept (`eq:EPMC`:
+//! `M q'' - 2 D omega M q' + g(q, q') = 0`), arc-length continuation, and the
+//! modal table that every consumer of the nonlinear mode reads.
+//!
+//! (skeleton: the modal-table type; HB, EPMC and continuation are filled in by
+//! the NMA work.)
+use serde::{Deserialize, Serialize};
+
+/// Identifier written into every modal-table file.
+pub const MODAL_TABLE_FORMAT: &str = "nlmode-modal-table";
+/// Current modal-table format version.
+pub const MODAL_TABLE_VERSION: u32 = 1;
+
+/// The harmonics of the mode shape at one named physical point along the branch:
+/// `phi_n(a)` for `n = 0..=H`, so that the point's displacement is
+/// `u(t) = Re( a sum_n phi_n(a) e^{i n psi} )` (`eq:ansatz`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointShape {
+    pub name: String,
+    /// `re[j][n]`: real part of `phi_n` at amplitude `amplitude[j]` [m / (sqrt(kg) m)].
+    pub re: Vec<Vec<f64>>,
+    /// `im[j][n]`: imaginary part of `phi_n`.
+    pub im: Vec<Vec<f64>>,
+}
+
+/// A nonlinear modal table (file format `nlmode-modal-table`, version 1; JSON).
+///
+/// Modal amplitude `a = sqrt(q1^H M q1)` (paper Section 3.1), so the fundamental
+/// harmonic of the shape is mass-normalized. `amplitude` is strictly increasing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModalTable {
+    pub format: String,
+    pub version: u32,
+    /// Free text: model, harmonics, how the table was made.
+    pub description: String,
+    /// Harmonic truncation order `H` of the stored shapes.
+    pub harmonics: usize,
+    /// Modal amplitude `a` [sqrt(kg) m], strictly increasing.
+    pub amplitude: Vec<f64>,
+    /// Modal frequency `omega(a)` [rad/s].
+    pub omega_rad_s: Vec<f64>,
+    /// Modal damping ratio `D(a)` [-].
+    pub damping_ratio: Vec<f64>,
+    /// Shape harmonics at named physical points (`tip`, exciter locations, DOFs).
+    pub points: Vec<PointShape>,
+    /// Shape harmonics of all generalized (reduced) coordinates, if stored;
+    /// `coordinates[i]` is coordinate `i` (named `q<i>`).
+    #[serde(default)]
+    pub coordinates: Vec<PointShape>,
+    /// Amplitude at which the primary branch was truncated (first fold of `a`),
+    /// if any [sqrt(kg) m].
+    #[serde(default)]
+    pub truncated_at_fold: Option<f64>,
+}
