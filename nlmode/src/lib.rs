@@ -23,5 +23,6 @@ pub mod nma;
 pub mod reduced;
 pub mod reference;
 pub mod structure;
+pub mod table;
 
 pub use num_complex::Complex64;

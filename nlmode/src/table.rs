@@ -1,0 +1,491 @@
+//! Modal-table I/O, validation and interpolation.
+//!
+//! The table ([`ModalTable`], format `nlmode-modal-table` version 1, JSON) holds
+//! the nonlinear mode along the amplitude `a`: `omega(a)`, `D(a)` and the harmonics
+//! `phi_n(a)` of the deflection shape at named points (paper Section 3.1,
+//! `eq:fourier`, `eq:ansatz`). Both the host's `nlmode` path and the structure FMU
+//! read it; it can also come from an experimental nonlinear modal analysis.
+//!
+//! Interpolation in `a` is piecewise cubic Hermite with monotonicity-preserving
+//! slopes (PCHIP, Fritsch-Carlson with the harmonic-mean slope rule), as the
+//! paper recommends ("Piecewise cubic Hermite interpolation ... very good
+//! results"). Written here rather than taken from a crate because it is a few
+//! lines, must be allocation-free on the hot path of the slow-flow integration,
+//! and no maintained Rust crate offers PCHIP with precomputed slopes.
+//!
+//! Range policy: below the first tabulated amplitude the properties are held at
+//! their first values (the linear limit `a -> 0`); above the last one
+//! [`TableInterpolator::eval`] returns [`TableError::AboveRange`] so that callers
+//! report it instead of extrapolating silently.
+use crate::nma::{ModalTable, PointShape, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
+use num_complex::Complex64;
+use std::path::Path;
+
+/// Errors of modal tables; each names the field or value at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum TableError {
+    #[error("modal table: format is '{0}', expected '{MODAL_TABLE_FORMAT}'")]
+    Format(String),
+    #[error("modal table: version {0} is not supported (this build reads version {MODAL_TABLE_VERSION})")]
+    Version(u32),
+    #[error("modal table: need at least 2 amplitude points, got {0}")]
+    TooFewPoints(usize),
+    #[error("modal table: field '{field}' has {got} entries, expected {expected}")]
+    Length { field: String, got: usize, expected: usize },
+    #[error("modal table: amplitude must be positive and strictly increasing; amplitude[{index}] = {value} after {previous}")]
+    NotIncreasing { index: usize, value: f64, previous: f64 },
+    #[error("modal table: field '{field}' entry {index} is {value}, expected a finite{positive} number")]
+    BadValue { field: String, index: usize, value: f64, positive: &'static str },
+    #[error("modal table: no point named '{name}' (available: {available})")]
+    UnknownPoint { name: String, available: String },
+    #[error("modal amplitude a = {a:.6e} lies above the table's range (max {max:.6e}); the single-nonlinear-mode model is not defined there")]
+    AboveRange { a: f64, max: f64 },
+    #[error("modal amplitude a = {0} is not a finite non-negative number")]
+    BadAmplitude(f64),
+    #[error("modal table '{path}': {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("modal table '{path}': invalid JSON: {source}")]
+    Json { path: String, source: serde_json::Error },
+}
+
+impl ModalTable {
+    /// A table of a linear mode: constant `omega0`, `D0` and fundamental shape
+    /// `phi` at the given points over `[a_min, a_max]` (used by the linear
+    /// variants and by tests).
+    pub fn linear(
+        omega0_rad_s: f64,
+        damping_ratio: f64,
+        points: &[(&str, Complex64)],
+        a_min: f64,
+        a_max: f64,
+    ) -> Self {
+        let n = 2;
+        let amplitude = vec![a_min, a_max];
+        let points = points
+            .iter()
+            .map(|(name, phi)| PointShape {
+                name: name.to_string(),
+                re: vec![vec![0.0, phi.re]; n],
+                im: vec![vec![0.0, phi.im]; n],
+            })
+            .collect();
+        ModalTable {
+            format: MODAL_TABLE_FORMAT.into(),
+            version: MODAL_TABLE_VERSION,
+            description: format!("linear mode: omega0 = {omega0_rad_s} rad/s, D0 = {damping_ratio}"),
+            harmonics: 1,
+            amplitude,
+            omega_rad_s: vec![omega0_rad_s; n],
+            damping_ratio: vec![damping_ratio; n],
+            points,
+            coordinates: Vec::new(),
+            truncated_at_fold: None,
+        }
+    }
+
+    /// Check format, version, lengths, monotonicity and finiteness.
+    pub fn validate(&self) -> Result<(), TableError> {
+        if self.format != MODAL_TABLE_FORMAT {
+            return Err(TableError::Format(self.format.clone()));
+        }
+        if self.version != MODAL_TABLE_VERSION {
+            return Err(TableError::Version(self.version));
+        }
+        let n = self.amplitude.len();
+        if n < 2 {
+            return Err(TableError::TooFewPoints(n));
+        }
+        let len = |field: &str, got: usize, expected: usize| {
+            if got != expected {
+                Err(TableError::Length { field: field.into(), got, expected })
+            } else {
+                Ok(())
+            }
+        };
+        len("omega_rad_s", self.omega_rad_s.len(), n)?;
+        len("damping_ratio", self.damping_ratio.len(), n)?;
+        for (j, &a) in self.amplitude.iter().enumerate() {
+            let prev = if j == 0 { 0.0 } else { self.amplitude[j - 1] };
+            if !a.is_finite() || a <= prev {
+                return Err(TableError::NotIncreasing { index: j, value: a, previous: prev });
+            }
+        }
+        for (j, &w) in self.omega_rad_s.iter().enumerate() {
+            if !(w.is_finite() && w > 0.0) {
+                return Err(TableError::BadValue {
+                    field: "omega_rad_s".into(),
+                    index: j,
+                    value: w,
+                    positive: " positive",
+                });
+            }
+        }
+        for (j, &d) in self.damping_ratio.iter().enumerate() {
+            if !d.is_finite() {
+                return Err(TableError::BadValue {
+                    field: "damping_ratio".into(),
+                    index: j,
+                    value: d,
+                    positive: "",
+                });
+            }
+        }
+        for p in self.points.iter().chain(self.coordinates.iter()) {
+            len(&format!("points[{}].re", p.name), p.re.len(), n)?;
+            len(&format!("points[{}].im", p.name), p.im.len(), n)?;
+            for (j, (re, im)) in p.re.iter().zip(&p.im).enumerate() {
+                len(&format!("points[{}].re[{j}]", p.name), re.len(), self.harmonics + 1)?;
+                len(&format!("points[{}].im[{j}]", p.name), im.len(), self.harmonics + 1)?;
+                if let Some(v) = re.iter().chain(im).find(|v| !v.is_finite()) {
+                    return Err(TableError::BadValue {
+                        field: format!("points[{}]", p.name),
+                        index: j,
+                        value: *v,
+                        positive: "",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Parse and validate a table from JSON text.
+    pub fn from_json(text: &str) -> Result<Self, serde_json::Error> {
+        serde_json::from_str(text)
+    }
+
+    /// Serialize to pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("modal table serializes")
+    }
+
+    /// Read and validate a table file.
+    pub fn read(path: &Path) -> Result<Self, TableError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| TableError::Io { path: p.clone(), source })?;
+        let table = Self::from_json(&text).map_err(|source| TableError::Json { path: p, source })?;
+        table.validate()?;
+        Ok(table)
+    }
+
+    /// Write the table as JSON.
+    pub fn write(&self, path: &Path) -> Result<(), TableError> {
+        std::fs::write(path, self.to_json())
+            .map_err(|source| TableError::Io { path: path.display().to_string(), source })
+    }
+
+    /// Index of the named point.
+    pub fn point_index(&self, name: &str) -> Result<usize, TableError> {
+        self.points.iter().position(|p| p.name == name).ok_or_else(|| TableError::UnknownPoint {
+            name: name.into(),
+            available: self.points.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
+        })
+    }
+
+    /// Build the PCHIP interpolator (validates the table first).
+    pub fn interpolator(&self) -> Result<TableInterpolator, TableError> {
+        self.validate()?;
+        TableInterpolator::new(self)
+    }
+}
+
+/// One monotone piecewise-cubic Hermite interpolant on the table's grid.
+#[derive(Debug, Clone)]
+struct Pchip {
+    y: Vec<f64>,
+    d: Vec<f64>,
+}
+
+impl Pchip {
+    fn new(x: &[f64], y: &[f64]) -> Self {
+        let n = x.len();
+        let h: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
+        let delta: Vec<f64> = (0..n - 1).map(|k| (y[k + 1] - y[k]) / h[k]).collect();
+        let mut d = vec![0.0; n];
+        if n == 2 {
+            d[0] = delta[0];
+            d[1] = delta[0];
+            return Self { y: y.to_vec(), d };
+        }
+        for k in 1..n - 1 {
+            if delta[k - 1] * delta[k] > 0.0 {
+                // weighted harmonic mean (Fritsch-Butland / scipy's pchip)
+                let w1 = 2.0 * h[k] + h[k - 1];
+                let w2 = h[k] + 2.0 * h[k - 1];
+                d[k] = (w1 + w2) / (w1 / delta[k - 1] + w2 / delta[k]);
+            }
+        }
+        let end = |h0: f64, h1: f64, d0: f64, d1: f64| {
+            let mut s = ((2.0 * h0 + h1) * d0 - h0 * d1) / (h0 + h1);
+            if s.signum() != d0.signum() {
+                s = 0.0;
+            } else if d0.signum() != d1.signum() && s.abs() > 3.0 * d0.abs() {
+                s = 3.0 * d0;
+            }
+            s
+        };
+        d[0] = end(h[0], h[1], delta[0], delta[1]);
+        d[n - 1] = end(h[n - 2], h[n - 3], delta[n - 2], delta[n - 3]);
+        Self { y: y.to_vec(), d }
+    }
+
+    /// Value and derivative on segment `k` at local coordinate `t in [0, 1]`.
+    #[inline]
+    fn eval(&self, k: usize, t: f64, h: f64) -> (f64, f64) {
+        let (y0, y1, d0, d1) = (self.y[k], self.y[k + 1], self.d[k], self.d[k + 1]);
+        let t2 = t * t;
+        let t3 = t2 * t;
+        let h00 = 2.0 * t3 - 3.0 * t2 + 1.0;
+        let h10 = t3 - 2.0 * t2 + t;
+        let h01 = -2.0 * t3 + 3.0 * t2;
+        let h11 = t3 - t2;
+        let v = h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1;
+        let dv = ((6.0 * t2 - 6.0 * t) * y0
+            + (3.0 * t2 - 4.0 * t + 1.0) * h * d0
+            + (-6.0 * t2 + 6.0 * t) * y1
+            + (3.0 * t2 - 2.0 * t) * h * d1)
+            / h;
+        (v, dv)
+    }
+}
+
+/// Modal properties at one amplitude.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModalProperties {
+    /// `omega(a)` [rad/s].
+    pub omega_rad_s: f64,
+    /// `D(a)` [-].
+    pub damping_ratio: f64,
+    /// `d omega / d a`.
+    pub domega_da: f64,
+}
+
+/// PCHIP interpolation of a [`ModalTable`] in the modal amplitude `a`.
+#[derive(Debug, Clone)]
+pub struct TableInterpolator {
+    amplitude: Vec<f64>,
+    omega: Pchip,
+    damping: Pchip,
+    /// per point, per harmonic: (re, im)
+    shapes: Vec<Vec<(Pchip, Pchip)>>,
+    point_names: Vec<String>,
+    harmonics: usize,
+}
+
+impl TableInterpolator {
+    fn new(table: &ModalTable) -> Result<Self, TableError> {
+        let x = &table.amplitude;
+        let shapes = table
+            .points
+            .iter()
+            .map(|p| {
+                (0..=table.harmonics)
+                    .map(|n| {
+                        let re: Vec<f64> = p.re.iter().map(|r| r[n]).collect();
+                        let im: Vec<f64> = p.im.iter().map(|r| r[n]).collect();
+                        (Pchip::new(x, &re), Pchip::new(x, &im))
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(Self {
+            amplitude: x.clone(),
+            omega: Pchip::new(x, &table.omega_rad_s),
+            damping: Pchip::new(x, &table.damping_ratio),
+            shapes,
+            point_names: table.points.iter().map(|p| p.name.clone()).collect(),
+            harmonics: table.harmonics,
+        })
+    }
+
+    /// Tabulated amplitude range `(a_min, a_max)`.
+    pub fn amplitude_range(&self) -> (f64, f64) {
+        (self.amplitude[0], *self.amplitude.last().unwrap())
+    }
+
+    /// Harmonic truncation order `H` of the shapes.
+    pub fn harmonics(&self) -> usize {
+        self.harmonics
+    }
+
+    /// Index of a named point.
+    pub fn point_index(&self, name: &str) -> Result<usize, TableError> {
+        self.point_names.iter().position(|p| p == name).ok_or_else(|| TableError::UnknownPoint {
+            name: name.into(),
+            available: self.point_names.join(", "),
+        })
+    }
+
+    /// Segment and local coordinate of `a`; `None` below the range (hold).
+    #[inline]
+    fn locate(&self, a: f64) -> Result<Option<(usize, f64, f64)>, TableError> {
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(TableError::BadAmplitude(a));
+        }
+        let (amin, amax) = self.amplitude_range();
+        if a <= amin {
+            return Ok(None);
+        }
+        if a > amax {
+            return Err(TableError::AboveRange { a, max: amax });
+        }
+        let k = self.amplitude.partition_point(|&x| x < a).saturating_sub(1).min(self.amplitude.len() - 2);
+        let h = self.amplitude[k + 1] - self.amplitude[k];
+        Ok(Some((k, (a - self.amplitude[k]) / h, h)))
+    }
+
+    /// `omega(a)`, `D(a)` and `d omega/d a`.
+    pub fn eval(&self, a: f64) -> Result<ModalProperties, TableError> {
+        Ok(match self.locate(a)? {
+            None => ModalProperties {
+                omega_rad_s: self.omega.y[0],
+                damping_ratio: self.damping.y[0],
+                domega_da: 0.0,
+            },
+            Some((k, t, h)) => {
+                let (w, dw) = self.omega.eval(k, t, h);
+                let (d, _) = self.damping.eval(k, t, h);
+                ModalProperties { omega_rad_s: w, damping_ratio: d, domega_da: dw }
+            }
+        })
+    }
+
+    /// Harmonic `n` of the shape at point `point` (index from [`Self::point_index`]).
+    pub fn shape(&self, point: usize, n: usize, a: f64) -> Result<Complex64, TableError> {
+        let (re, im) = &self.shapes[point][n];
+        Ok(match self.locate(a)? {
+            None => Complex64::new(re.y[0], im.y[0]),
+            Some((k, t, h)) => Complex64::new(re.eval(k, t, h).0, im.eval(k, t, h).0),
+        })
+    }
+
+    /// All harmonics `phi_0..phi_H` at a point, written into `out` (length `H+1`).
+    pub fn shape_all(&self, point: usize, a: f64, out: &mut [Complex64]) -> Result<(), TableError> {
+        let loc = self.locate(a)?;
+        for (n, (re, im)) in self.shapes[point].iter().enumerate() {
+            out[n] = match loc {
+                None => Complex64::new(re.y[0], im.y[0]),
+                Some((k, t, h)) => Complex64::new(re.eval(k, t, h).0, im.eval(k, t, h).0),
+            };
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> ModalTable {
+        let a: Vec<f64> = (0..18).map(|j| 1e-4 * 1.35f64.powi(j)).collect();
+        let omega: Vec<f64> = a.iter().map(|&a| (356.2f64.powi(2) + 0.75 * 6e9 * 0.9 * a * a).sqrt()).collect();
+        let damping: Vec<f64> = a.iter().map(|&a| 0.004 * 356.2 / (356.2f64.powi(2) + 0.75 * 6e9 * 0.9 * a * a).sqrt()).collect();
+        let re = a.iter().map(|&a| vec![0.0, 1.05 + 10.0 * a, 0.01 * a]).collect();
+        let im = a.iter().map(|&a| vec![0.0, -2.0 * a, 0.0]).collect();
+        ModalTable {
+            format: MODAL_TABLE_FORMAT.into(),
+            version: MODAL_TABLE_VERSION,
+            description: "test".into(),
+            harmonics: 2,
+            amplitude: a,
+            omega_rad_s: omega,
+            damping_ratio: damping,
+            points: vec![PointShape { name: "tip".into(), re, im }],
+            coordinates: vec![],
+            truncated_at_fold: Some(0.5),
+        }
+    }
+
+    #[test]
+    fn round_trip_is_exact_and_nodes_are_interpolated_exactly() {
+        let t = sample();
+        let dir = std::env::temp_dir().join(format!("nlmode-table-{}.json", std::process::id()));
+        t.write(&dir).unwrap();
+        let back = ModalTable::read(&dir).unwrap();
+        std::fs::remove_file(&dir).ok();
+        assert_eq!(t, back);
+        let ip = back.interpolator().unwrap();
+        let tip = ip.point_index("tip").unwrap();
+        for j in 0..t.amplitude.len() {
+            let p = ip.eval(t.amplitude[j]).unwrap();
+            assert_eq!(p.omega_rad_s, t.omega_rad_s[j]);
+            assert_eq!(p.damping_ratio, t.damping_ratio[j]);
+            let phi = ip.shape(tip, 1, t.amplitude[j]).unwrap();
+            assert_eq!(phi, Complex64::new(t.points[0].re[j][1], t.points[0].im[j][1]));
+        }
+    }
+
+    #[test]
+    fn interpolation_is_monotone_between_nodes_and_accurate() {
+        let t = sample();
+        let ip = t.interpolator().unwrap();
+        let (amin, amax) = ip.amplitude_range();
+        let mut prev = 0.0;
+        let mut maxerr: f64 = 0.0;
+        for k in 0..=2000 {
+            let a = amin + (amax - amin) * k as f64 / 2000.0;
+            let p = ip.eval(a).unwrap();
+            assert!(p.omega_rad_s >= prev, "not monotone at a = {a}");
+            prev = p.omega_rad_s;
+            let exact = (356.2f64.powi(2) + 0.75 * 6e9 * 0.9 * a * a).sqrt();
+            maxerr = maxerr.max((p.omega_rad_s - exact).abs() / exact);
+        }
+        assert!(maxerr < 2e-3, "{maxerr}");
+        // derivative consistent with finite differences
+        let a = 0.3 * amax;
+        let h = 1e-7 * amax;
+        let fd = (ip.eval(a + h).unwrap().omega_rad_s - ip.eval(a - h).unwrap().omega_rad_s) / (2.0 * h);
+        assert!((ip.eval(a).unwrap().domega_da - fd).abs() < 1e-5 * fd.abs());
+    }
+
+    #[test]
+    fn monotone_data_with_a_kink_does_not_overshoot() {
+        let x = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let y = [0.0, 0.0, 1.0, 1.0, 1.0];
+        let p = Pchip::new(&x, &y);
+        for k in 0..4 {
+            for s in 0..=50 {
+                let (v, _) = p.eval(k, s as f64 / 50.0, 1.0);
+                assert!((-1e-15..=1.0 + 1e-15).contains(&v), "{v}");
+            }
+        }
+    }
+
+    #[test]
+    fn range_policy() {
+        let t = sample();
+        let ip = t.interpolator().unwrap();
+        let (amin, amax) = ip.amplitude_range();
+        assert_eq!(ip.eval(0.0).unwrap().omega_rad_s, t.omega_rad_s[0]);
+        assert_eq!(ip.eval(0.5 * amin).unwrap().omega_rad_s, t.omega_rad_s[0]);
+        assert!(matches!(ip.eval(1.01 * amax), Err(TableError::AboveRange { .. })));
+        assert!(matches!(ip.eval(f64::NAN), Err(TableError::BadAmplitude(_))));
+        assert!(matches!(ip.point_index("nope"), Err(TableError::UnknownPoint { .. })));
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let mut t = sample();
+        t.amplitude[3] = t.amplitude[2];
+        assert!(matches!(t.validate(), Err(TableError::NotIncreasing { index: 3, .. })));
+        let mut t = sample();
+        t.omega_rad_s.pop();
+        assert!(matches!(t.validate(), Err(TableError::Length { .. })));
+        let mut t = sample();
+        t.points[0].re[2].pop();
+        assert!(matches!(t.validate(), Err(TableError::Length { .. })));
+        let mut t = sample();
+        t.version = 9;
+        assert!(matches!(t.validate(), Err(TableError::Version(9))));
+    }
+
+    #[test]
+    fn linear_table_is_constant() {
+        let t = ModalTable::linear(356.2, 0.004, &[("tip", Complex64::new(1.4, 0.0))], 1e-6, 1.0);
+        let ip = t.interpolator().unwrap();
+        let p = ip.eval(0.37).unwrap();
+        assert_eq!(p.omega_rad_s, 356.2);
+        assert_eq!(p.damping_ratio, 0.004);
+        assert_eq!(ip.shape(0, 1, 0.37).unwrap(), Complex64::new(1.4, 0.0));
+    }
+}
