@@ -1,0 +1,449 @@
+//! The scenario file (TOML): structure, exciters, excitation, NMA, methods, output.
+//! Documented in `docs/scenario.md`; the commented default is `sweep.toml` at
+//! the repository root, embedded into the binary.
+//!
+//! Parsing rejects unknown keys (serde `deny_unknown_fields`); [`Scenario::validate`]
+//! rejects bad values with a message naming the key and the expected form.
+use serde::{Deserialize, Serialize};
+
+/// The default scenario (paper case (a)), embedded from `sweep.toml`.
+pub const DEFAULT_SCENARIO: &str = include_str!("../../sweep.toml");
+
+/// All method names the host knows.
+pub const METHODS: &[&str] =
+    &["reference", "linear-frf", "nlmode", "linear-slowflow", "linear-steady", "imposed-force", "cosim"];
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    #[serde(default)]
+    pub title: String,
+    #[serde(default)]
+    pub structure: StructureSpec,
+    #[serde(default = "default_exciters")]
+    pub exciter: Vec<ExciterSpec>,
+    #[serde(default)]
+    pub excitation: ExcitationSpec,
+    #[serde(default)]
+    pub nma: NmaSpec,
+    #[serde(default)]
+    pub run: RunSpec,
+    #[serde(default)]
+    pub imposed_force: ImposedForceSpec,
+    #[serde(default)]
+    pub reference: ReferenceSpec,
+    #[serde(default)]
+    pub cosim: CosimSpec,
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StructureSpec {
+    pub length_m: f64,
+    pub height_m: f64,
+    pub width_m: f64,
+    pub youngs_modulus_pa: f64,
+    pub density_kg_m3: f64,
+    pub n_nodes: usize,
+    pub boundary: String,
+    pub k3_n_per_m3: f64,
+    pub damping_ratio: f64,
+    pub reduction: String,
+    pub cb_modes: usize,
+}
+
+impl Default for StructureSpec {
+    fn default() -> Self {
+        use nlmode::benchmark as b;
+        Self {
+            length_m: b::LENGTH_M,
+            height_m: b::HEIGHT_M,
+            width_m: b::WIDTH_M,
+            youngs_modulus_pa: b::YOUNGS_MODULUS_PA,
+            density_kg_m3: b::DENSITY_KG_M3,
+            n_nodes: b::N_NODES,
+            boundary: "clamped-free".into(),
+            k3_n_per_m3: b::K3_N_PER_M3,
+            damping_ratio: b::D0,
+            reduction: "craig-bampton".into(),
+            cb_modes: b::CB_MODES,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ExciterSpec {
+    pub name: String,
+    /// Fraction of the length: "l/3", "2l/3", "l" or a number in (0, 1].
+    pub location: Option<toml::Value>,
+    pub location_m: Option<f64>,
+    pub inductance_h: f64,
+    pub resistance_ohm: f64,
+    pub force_constant_n_per_a: f64,
+    pub armature_mass_kg: f64,
+    pub armature_stiffness_n_per_m: f64,
+    pub armature_damping_ratio: Option<f64>,
+    pub armature_damping_n_s_per_m: Option<f64>,
+    pub stinger: String,
+    pub stinger_stiffness_n_per_m: f64,
+}
+
+impl Default for ExciterSpec {
+    fn default() -> Self {
+        use nlmode::benchmark as b;
+        Self {
+            name: "shaker".into(),
+            location: None,
+            location_m: None,
+            inductance_h: b::SHAKER_L_H,
+            resistance_ohm: b::SHAKER_R_OHM,
+            force_constant_n_per_a: b::SHAKER_G_N_PER_A,
+            armature_mass_kg: b::SHAKER_MA_KG,
+            armature_stiffness_n_per_m: b::SHAKER_KA_N_PER_M,
+            armature_damping_ratio: None,
+            armature_damping_n_s_per_m: None,
+            stinger: "elastic".into(),
+            stinger_stiffness_n_per_m: b::STINGER_KS_N_PER_M,
+        }
+    }
+}
+
+fn default_exciters() -> Vec<ExciterSpec> {
+    vec![ExciterSpec { location: Some(toml::Value::String("2l/3".into())), ..Default::default() }]
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ExcitationSpec {
+    /// Voltage amplitude `u_hat` [V].
+    pub voltage_v: f64,
+    pub eta_start: f64,
+    pub eta_end: f64,
+    /// The paper's `r`: `dOmega/dt = r omega0^2/(2 pi)`.
+    pub rate_per_pseudo_period: f64,
+}
+
+impl Default for ExcitationSpec {
+    fn default() -> Self {
+        Self { voltage_v: 10.0, eta_start: 0.8, eta_end: 1.8, rate_per_pseudo_period: 0.02 }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NmaSpec {
+    pub harmonics: usize,
+    /// Largest tip amplitude |q_tip,1| the NMA continues to [m].
+    pub max_tip_amplitude_m: f64,
+    /// Modal table to use instead of computing one (JSON, `nlmode-modal-table`).
+    pub table: Option<String>,
+    /// Compute the conservative branch too (for the backbone plot).
+    pub conservative: bool,
+}
+
+impl Default for NmaSpec {
+    fn default() -> Self {
+        Self { harmonics: 3, max_tip_amplitude_m: 0.02, table: None, conservative: true }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RunSpec {
+    pub methods: Vec<String>,
+    /// Number of excitation frequencies of `linear-frf` / `linear-steady`.
+    pub frf_points: usize,
+}
+
+impl Default for RunSpec {
+    fn default() -> Self {
+        Self {
+            methods: vec!["reference".into(), "nlmode".into(), "linear-slowflow".into(), "linear-steady".into(), "linear-frf".into()],
+            frf_points: 500,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImposedForceSpec {
+    /// Where the imposed force envelope comes from: a method of this run
+    /// (`nlmode`, `reference`) or a CSV file (columns omega_rad_s,
+    /// force_amplitude_N, optional force_phase_rad).
+    pub source: String,
+    /// Relative natural-frequency error `eps`: omega(a) -> (1 + eps) omega(a).
+    pub frequency_error: f64,
+    /// Additive natural-frequency offset [rad/s].
+    pub frequency_offset_rad_s: f64,
+    /// Apply the same frequency error to `nlmode` (the paper's "NM with shaker, +5 %").
+    pub apply_to_nlmode: bool,
+}
+
+impl Default for ImposedForceSpec {
+    fn default() -> Self {
+        Self { source: "nlmode".into(), frequency_error: 0.0, frequency_offset_rad_s: 0.0, apply_to_nlmode: false }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReferenceSpec {
+    /// Integrator of the full-order reference (library default when empty).
+    pub integrator: String,
+    pub rtol: f64,
+    /// Output sample interval of the time series [s] (0 = a library default).
+    pub output_interval_s: f64,
+}
+
+impl Default for ReferenceSpec {
+    fn default() -> Self {
+        Self { integrator: String::new(), rtol: 1e-6, output_interval_s: 0.0 }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CosimSpec {
+    /// Co-simulation master algorithm: jacobi | gauss-seidel | iterative.
+    pub algorithm: String,
+    /// Macro (communication) step [s].
+    pub macro_step_s: f64,
+    pub structure_fmu: Option<String>,
+    pub shaker_fmu: Option<String>,
+}
+
+impl Default for CosimSpec {
+    fn default() -> Self {
+        Self { algorithm: "gauss-seidel".into(), macro_step_s: 1e-5, structure_fmu: None, shaker_fmu: None }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OutputSpec {
+    pub time_series: bool,
+    pub plots: bool,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self { time_series: true, plots: true }
+    }
+}
+
+/// A scenario error: the key at fault and what was expected.
+#[derive(Debug, thiserror::Error)]
+#[error("{key}: {message}")]
+pub struct ScenarioError {
+    pub key: String,
+    pub message: String,
+}
+
+fn bad(key: &str, message: impl Into<String>) -> ScenarioError {
+    ScenarioError { key: key.into(), message: message.into() }
+}
+
+fn positive(key: &str, v: f64) -> Result<(), ScenarioError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(bad(key, format!("expected a positive finite number, got {v}")))
+    }
+}
+
+impl Scenario {
+    /// Parse TOML text (unknown keys are errors) and validate it.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let s: Scenario = toml::from_str(text).map_err(|e| e.to_string())?;
+        s.validate().map_err(|e| e.to_string())?;
+        Ok(s)
+    }
+
+    /// The embedded default scenario.
+    pub fn default_scenario() -> Self {
+        Self::parse(DEFAULT_SCENARIO).expect("embedded default scenario is valid")
+    }
+
+    /// Check every value; the error names the key.
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        let st = &self.structure;
+        positive("structure.length_m", st.length_m)?;
+        positive("structure.height_m", st.height_m)?;
+        positive("structure.width_m", st.width_m)?;
+        positive("structure.youngs_modulus_pa", st.youngs_modulus_pa)?;
+        positive("structure.density_kg_m3", st.density_kg_m3)?;
+        if st.n_nodes < 3 {
+            return Err(bad("structure.n_nodes", format!("expected at least 3 nodes, got {}", st.n_nodes)));
+        }
+        if !["clamped-free", "clamped-clamped", "pinned-pinned", "clamped-pinned"].contains(&st.boundary.as_str()) {
+            return Err(bad(
+                "structure.boundary",
+                format!("expected clamped-free, clamped-clamped, pinned-pinned or clamped-pinned, got '{}'", st.boundary),
+            ));
+        }
+        if !(st.k3_n_per_m3.is_finite() && st.k3_n_per_m3 >= 0.0) {
+            return Err(bad("structure.k3_n_per_m3", format!("expected a finite number >= 0, got {}", st.k3_n_per_m3)));
+        }
+        if !(st.damping_ratio.is_finite() && st.damping_ratio >= 0.0 && st.damping_ratio < 1.0) {
+            return Err(bad("structure.damping_ratio", format!("expected 0 <= D0 < 1, got {}", st.damping_ratio)));
+        }
+        if !["craig-bampton", "none"].contains(&st.reduction.as_str()) {
+            return Err(bad("structure.reduction", format!("expected 'craig-bampton' or 'none', got '{}'", st.reduction)));
+        }
+        if st.reduction == "craig-bampton" && st.cb_modes == 0 {
+            return Err(bad("structure.cb_modes", "expected at least 1 fixed-interface mode"));
+        }
+        if self.exciter.is_empty() {
+            return Err(bad("exciter", "expected at least one [[exciter]] table"));
+        }
+        for (i, ex) in self.exciter.iter().enumerate() {
+            let k = |f: &str| format!("exciter[{i}].{f}");
+            self.exciter_location_m(i)?;
+            positive(&k("inductance_h"), ex.inductance_h)?;
+            positive(&k("resistance_ohm"), ex.resistance_ohm)?;
+            positive(&k("force_constant_n_per_a"), ex.force_constant_n_per_a)?;
+            positive(&k("armature_mass_kg"), ex.armature_mass_kg)?;
+            positive(&k("armature_stiffness_n_per_m"), ex.armature_stiffness_n_per_m)?;
+            match (ex.armature_damping_ratio, ex.armature_damping_n_s_per_m) {
+                (Some(_), Some(_)) => {
+                    return Err(bad(&k("armature_damping_ratio"), "give either armature_damping_ratio or armature_damping_n_s_per_m, not both"))
+                }
+                (Some(d), None) => positive(&k("armature_damping_ratio"), d)?,
+                (None, Some(d)) if !(d.is_finite() && d >= 0.0) => {
+                    return Err(bad(&k("armature_damping_n_s_per_m"), format!("expected a finite number >= 0, got {d}")))
+                }
+                _ => {}
+            }
+            if !["elastic", "rigid"].contains(&ex.stinger.as_str()) {
+                return Err(bad(&k("stinger"), format!("expected 'elastic' or 'rigid', got '{}'", ex.stinger)));
+            }
+            positive(&k("stinger_stiffness_n_per_m"), ex.stinger_stiffness_n_per_m)?;
+            if self.exciter[..i].iter().any(|o| o.name == ex.name) {
+                return Err(bad(&k("name"), format!("exciter names must be unique, '{}' repeats", ex.name)));
+            }
+        }
+        let e = &self.excitation;
+        if !(e.voltage_v.is_finite() && e.voltage_v >= 0.0) {
+            return Err(bad("excitation.voltage_v", format!("expected a finite voltage >= 0, got {}", e.voltage_v)));
+        }
+        positive("excitation.eta_start", e.eta_start)?;
+        positive("excitation.eta_end", e.eta_end)?;
+        if e.eta_start == e.eta_end {
+            return Err(bad("excitation.eta_end", format!("expected eta_end != eta_start (both {})", e.eta_start)));
+        }
+        positive("excitation.rate_per_pseudo_period", e.rate_per_pseudo_period)?;
+        if !(1..=64).contains(&self.nma.harmonics) {
+            return Err(bad("nma.harmonics", format!("expected 1 <= H <= 64, got {}", self.nma.harmonics)));
+        }
+        positive("nma.max_tip_amplitude_m", self.nma.max_tip_amplitude_m)?;
+        if self.run.methods.is_empty() {
+            return Err(bad("run.methods", format!("expected a non-empty list from {METHODS:?}")));
+        }
+        for (i, m) in self.run.methods.iter().enumerate() {
+            if !METHODS.contains(&m.as_str()) {
+                return Err(bad(&format!("run.methods[{i}]"), format!("unknown method '{m}', expected one of {METHODS:?}")));
+            }
+        }
+        if self.run.frf_points < 2 {
+            return Err(bad("run.frf_points", format!("expected at least 2, got {}", self.run.frf_points)));
+        }
+        if !self.imposed_force.frequency_error.is_finite() || self.imposed_force.frequency_error <= -1.0 {
+            return Err(bad("imposed_force.frequency_error", "expected a finite number > -1"));
+        }
+        positive("reference.rtol", self.reference.rtol)?;
+        if !(self.reference.output_interval_s.is_finite() && self.reference.output_interval_s >= 0.0) {
+            return Err(bad("reference.output_interval_s", "expected a finite number >= 0"));
+        }
+        positive("cosim.macro_step_s", self.cosim.macro_step_s)?;
+        if !["jacobi", "gauss-seidel", "iterative"].contains(&self.cosim.algorithm.as_str()) {
+            return Err(bad("cosim.algorithm", format!("expected jacobi, gauss-seidel or iterative, got '{}'", self.cosim.algorithm)));
+        }
+        Ok(())
+    }
+
+    /// Location of exciter `i` along the beam [m].
+    pub fn exciter_location_m(&self, i: usize) -> Result<f64, ScenarioError> {
+        let ex = &self.exciter[i];
+        let l = self.structure.length_m;
+        let key = format!("exciter[{i}].location");
+        let x = match (&ex.location, ex.location_m) {
+            (Some(_), Some(_)) => return Err(bad(&key, "give either location or location_m, not both")),
+            (None, None) => return Err(bad(&key, "missing: expected location = \"2l/3\" (fraction of l) or location_m")),
+            (None, Some(x)) => x,
+            (Some(v), None) => l * parse_fraction(v).ok_or_else(|| {
+                bad(&key, format!("expected a fraction of the length like \"l/3\", \"2l/3\", \"l\" or a number in (0, 1], got {v}"))
+            })?,
+        };
+        if !(x.is_finite() && x > 0.0 && x <= l * (1.0 + 1e-12)) {
+            return Err(bad(&key, format!("location {x} m lies outside the beam (0, {l}] m")));
+        }
+        Ok(x.min(l))
+    }
+}
+
+/// "l/3" -> 1/3, "2l/3" -> 2/3, "l" -> 1, 0.5 -> 0.5.
+fn parse_fraction(v: &toml::Value) -> Option<f64> {
+    match v {
+        toml::Value::Float(f) => Some(*f),
+        toml::Value::Integer(i) => Some(*i as f64),
+        toml::Value::String(s) => {
+            let s = s.replace(' ', "");
+            let (num, den) = match s.split_once('/') {
+                Some((n, d)) => (n.to_string(), d.parse::<f64>().ok()?),
+                None => (s.clone(), 1.0),
+            };
+            let num = num.strip_suffix('l').or_else(|| num.strip_suffix('L'))?;
+            let k = if num.is_empty() { 1.0 } else { num.parse::<f64>().ok()? };
+            if den == 0.0 {
+                return None;
+            }
+            Some(k / den)
+        }
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_scenario_is_the_papers_case_a() {
+        let s = Scenario::default_scenario();
+        assert_eq!(s.exciter.len(), 1);
+        let x = s.exciter_location_m(0).unwrap();
+        assert!((x - 2.0 * 0.53 / 3.0).abs() < 1e-15);
+        assert_eq!(s.excitation.voltage_v, 10.0);
+        assert_eq!(s.excitation.rate_per_pseudo_period, 0.02);
+        assert!(s.excitation.eta_end >= 1.8);
+    }
+
+    #[test]
+    fn fractions() {
+        let f = |s: &str| parse_fraction(&toml::Value::String(s.into()));
+        assert_eq!(f("l/3"), Some(1.0 / 3.0));
+        assert_eq!(f("2l/3"), Some(2.0 / 3.0));
+        assert_eq!(f("l"), Some(1.0));
+        assert_eq!(f("2/3"), None);
+        assert_eq!(f("x"), None);
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_name_the_key() {
+        let e = Scenario::parse("[structure]\nlenght_m = 1.0\n").unwrap_err();
+        assert!(e.contains("lenght_m"), "{e}");
+        let e = Scenario::parse("[structure]\nlength_m = -1.0\n").unwrap_err();
+        assert!(e.contains("structure.length_m") && e.contains("positive"), "{e}");
+        let e = Scenario::parse("[[exciter]]\nlocation = \"4l/3\"\n").unwrap_err();
+        assert!(e.contains("exciter[0].location") && e.contains("outside"), "{e}");
+        let e = Scenario::parse("[excitation]\neta_start = 1.0\neta_end = 1.0\n").unwrap_err();
+        assert!(e.contains("excitation.eta_end"), "{e}");
+        let e = Scenario::parse("[excitation]\nrate_per_pseudo_period = 0.0\n").unwrap_err();
+        assert!(e.contains("rate_per_pseudo_period"), "{e}");
+        let e = Scenario::parse("[run]\nmethods = [\"magic\"]\n").unwrap_err();
+        assert!(e.contains("run.methods[0]") && e.contains("magic"), "{e}");
+    }
+}

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Run every test of the repository: the Rust workspace (unit, integration and
+# doc tests) and the fmpy harness that checks each FMU on its own (it creates
+# its own Python venv in .venv and pins its versions, see tests/requirements.txt).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+echo "== cargo test (workspace; the test profile optimises the numerics)"
+cargo test --workspace 2>&1
+if [ -x tests/run.sh ]; then
+  echo "== fmpy harness"
+  ./tests/run.sh
+fi
