@@ -1,8 +1,49 @@
 //! `host`: the command-line front end of the nlmode tool.
+//!
+//! `host run [SCENARIO] -o DIR` sweeps through resonance by the methods the
+//! scenario lists and writes the output contract (DESIGN.md section 7);
+//! `host nma` computes the nonlinear mode; `host frf` the steady-state
+//! frequency responses; `host package` builds the FMUs.
+mod methods;
+mod model;
 mod plot;
 mod results;
+mod run;
 mod scenario;
 
-fn main() {
-    println!("host: under construction");
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "host", version, about = "Nonlinear vibration testing with attached exciters: sweeps, NMA, FMUs")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Sweep through resonance by every method the scenario lists.
+    Run {
+        /// Scenario file (TOML); the embedded default (paper case (a)) if omitted.
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(short, long, default_value = "out")]
+        out: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run { scenario, out } => run::run(scenario.as_deref(), &out),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
 }

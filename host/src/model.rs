@@ -1,0 +1,182 @@
+//! Scenario -> physical model: the beam (Craig-Bampton reduced or full), the
+//! shakers as generic linear attachments, the sweep. Thin mapping onto `nlmode`.
+use crate::scenario::{ExciterSpec, Scenario};
+use anyhow::{bail, Context, Result};
+use nlmode::attachment::{ArmatureDamping, LinearAttachment, ShakerParams, Stinger};
+use nlmode::excitation::LinearSweep;
+use nlmode::structure::{
+    craig_bampton, modal_analysis, stiffness_proportional_damping, BeamSpec, BoundaryCondition, CubicSpring,
+    StructuralModel,
+};
+
+/// Name of the tip point.
+pub const TIP: &str = "tip";
+
+/// Everything the methods need, built once per run.
+pub struct Setup {
+    /// The structural model the methods use (reduced unless `reduction = "none"`).
+    pub model: StructuralModel,
+    /// Linear natural frequency of mode 1 of the full model [rad/s].
+    pub omega0_rad_s: f64,
+    /// Degrees of freedom of the full FE model.
+    pub full_ndof: usize,
+    pub shakers: Vec<ShakerParams>,
+    pub attachments: Vec<LinearAttachment>,
+    /// Structure point of each exciter.
+    pub exciter_points: Vec<String>,
+    pub sweep: LinearSweep,
+    /// Linear modal damping ratio of mode 1, `D0`.
+    pub d0: f64,
+}
+
+/// Point name of a location: `tip`, `l3`, `2l3` or `x<metres>`.
+pub fn point_name(x_m: f64, length_m: f64) -> String {
+    let near = |a: f64| (x_m - a).abs() <= 1e-9 * length_m;
+    if near(length_m) {
+        TIP.into()
+    } else if near(length_m / 3.0) {
+        "l3".into()
+    } else if near(2.0 * length_m / 3.0) {
+        "2l3".into()
+    } else {
+        format!("x{x_m:.6}")
+    }
+}
+
+pub fn shaker_params(ex: &ExciterSpec) -> ShakerParams {
+    ShakerParams {
+        inductance_h: ex.inductance_h,
+        resistance_ohm: ex.resistance_ohm,
+        force_constant_n_per_a: ex.force_constant_n_per_a,
+        armature_mass_kg: ex.armature_mass_kg,
+        armature_stiffness_n_per_m: ex.armature_stiffness_n_per_m,
+        armature_damping: match (ex.armature_damping_ratio, ex.armature_damping_n_s_per_m) {
+            (_, Some(d)) => ArmatureDamping::Viscous(d),
+            (Some(r), None) => ArmatureDamping::Ratio(r),
+            (None, None) => ArmatureDamping::Ratio(nlmode::benchmark::SHAKER_DA),
+        },
+        stinger: if ex.stinger == "rigid" {
+            Stinger::Rigid
+        } else {
+            Stinger::Elastic { stiffness_n_per_m: ex.stinger_stiffness_n_per_m }
+        },
+    }
+}
+
+/// The structure of the scenario with the named points `extra_points` (name, x).
+pub fn build_structure(sc: &Scenario, extra_points: &[(String, f64)]) -> Result<(StructuralModel, f64, usize)> {
+    let st = &sc.structure;
+    let boundary = match st.boundary.as_str() {
+        "clamped-free" => BoundaryCondition::ClampedFree,
+        "clamped-clamped" => BoundaryCondition::ClampedClamped,
+        "pinned-pinned" => BoundaryCondition::PinnedPinned,
+        "clamped-pinned" => BoundaryCondition::ClampedPinned,
+        other => bail!("structure.boundary: unknown boundary condition '{other}'"),
+    };
+    let spec = BeamSpec {
+        length_m: st.length_m,
+        height_m: st.height_m,
+        width_m: st.width_m,
+        youngs_modulus_pa: st.youngs_modulus_pa,
+        density_kg_m3: st.density_kg_m3,
+        n_nodes: st.n_nodes,
+        boundary,
+    };
+    let mut beam = spec.assemble().context("structure")?;
+    let l = st.length_m;
+    let tip_node = beam.n_nodes() - 1;
+    let tip_dof = beam.translation_dof(tip_node).with_context(|| {
+        format!("structure.boundary: '{}' constrains the tip translation, which carries the cubic spring and is the Craig-Bampton master; use clamped-free", st.boundary)
+    })?;
+    beam.add_point(TIP, l).context("structure: tip point")?;
+    for (name, x) in extra_points {
+        if name != TIP && beam.model.points.iter().all(|p| &p.name != name) {
+            beam.add_point(name, *x).with_context(|| format!("exciter location {x} m"))?;
+        }
+    }
+    if st.k3_n_per_m3 > 0.0 {
+        let e_tip = beam.translation_vector("cubic_spring", l)?;
+        beam.model.add_nonlinear("cubic_spring", e_tip, CubicSpring::new(st.k3_n_per_m3)?)?;
+    }
+    stiffness_proportional_damping(&mut beam.model, 0, st.damping_ratio).context("structure.damping_ratio")?;
+    let omega0 = modal_analysis(&beam.model, 1).context("structure: modal analysis")?.omega_rad_s[0];
+    let full_ndof = beam.model.ndof();
+    let model = if st.reduction == "craig-bampton" {
+        craig_bampton(&beam.model, &[tip_dof], st.cb_modes).context("structure.cb_modes")?.reduced
+    } else {
+        beam.model
+    };
+    Ok((model, omega0, full_ndof))
+}
+
+impl Setup {
+    pub fn new(sc: &Scenario) -> Result<Self> {
+        let l = sc.structure.length_m;
+        let mut pts = Vec::new();
+        for i in 0..sc.exciter.len() {
+            let x = sc.exciter_location_m(i)?;
+            pts.push((point_name(x, l), x));
+        }
+        // The standard points of the paper, so that one modal table serves both locations.
+        for (n, x) in [("l3", l / 3.0), ("2l3", 2.0 * l / 3.0)] {
+            if pts.iter().all(|(p, _)| p != n) && sc.structure.n_nodes % 3 == 1 {
+                pts.push((n.into(), x));
+            }
+        }
+        let (model, omega0, full_ndof) = build_structure(sc, &pts)?;
+        let mut shakers = Vec::new();
+        let mut attachments = Vec::new();
+        let mut exciter_points = Vec::new();
+        for (i, ex) in sc.exciter.iter().enumerate() {
+            let p = shaker_params(ex);
+            p.validate().with_context(|| format!("exciter[{i}]"))?;
+            let point = pts[i].0.clone();
+            attachments.push(LinearAttachment::shaker(&ex.name, &p, &point).with_context(|| format!("exciter[{i}]"))?);
+            shakers.push(p);
+            exciter_points.push(point);
+        }
+        let e = &sc.excitation;
+        let sweep = LinearSweep::per_pseudo_period(omega0, e.eta_start, e.eta_end, e.rate_per_pseudo_period, e.voltage_v)
+            .context("excitation")?;
+        Ok(Self { model, omega0_rad_s: omega0, full_ndof, shakers, attachments, exciter_points, sweep, d0: sc.structure.damping_ratio })
+    }
+
+    /// Modal mass `1/phi(x)^2` of mode 1 at each exciter [kg] and the mass ratio `m_a/m_mod`.
+    pub fn modal_masses(&self) -> Result<Vec<(f64, f64)>> {
+        let modes = modal_analysis(&self.model, 1)?;
+        self.exciter_points
+            .iter()
+            .zip(&self.shakers)
+            .map(|(p, s)| {
+                let e = &self.model.point(p)?.direction;
+                let m = modes.modal_mass_kg(0, e);
+                Ok((m, s.armature_mass_kg / m))
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_setup_matches_the_paper() {
+        let s = Setup::new(&Scenario::default_scenario()).unwrap();
+        assert!((s.omega0_rad_s - 356.2).abs() < 0.4, "{}", s.omega0_rad_s);
+        assert_eq!(s.model.ndof(), 11);
+        assert_eq!(s.exciter_points, vec!["2l3".to_string()]);
+        let mm = s.modal_masses().unwrap();
+        assert!((mm[0].0 - 0.92).abs() < 0.03, "{:?}", mm);
+        assert!((mm[0].1 - 0.047).abs() < 0.002, "{:?}", mm);
+        assert!((s.sweep.omega_end_rad_s / s.omega0_rad_s - 1.8).abs() < 1e-12);
+    }
+
+    #[test]
+    fn between_nodes_is_rejected_with_the_location() {
+        let sc = Scenario::parse("[[exciter]]\nlocation_m = 0.2\n").unwrap();
+        let e = Setup::new(&sc).err().unwrap();
+        let msg = format!("{e:#}");
+        assert!(msg.contains("0.2") && msg.contains("between"), "{msg}");
+    }
+}

@@ -1,0 +1,141 @@
+//! `host run`: scenario -> setup -> methods -> output contract, plots, summary.
+use crate::methods;
+use crate::model::Setup;
+use crate::plot;
+use crate::results::{self, MethodResult};
+use crate::scenario::Scenario;
+use anyhow::{Context, Result};
+use serde_json::{json, Map, Value};
+use std::path::Path;
+
+/// Read a scenario file or take the embedded default.
+pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
+    match path {
+        None => Ok((Scenario::default_scenario(), "embedded default (sweep.toml)".into())),
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("cannot read scenario file {}", p.display()))?;
+            let sc = Scenario::parse(&text).map_err(|e| anyhow::anyhow!("scenario {}: {e}", p.display()))?;
+            Ok((sc, p.display().to_string()))
+        }
+    }
+}
+
+pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
+    let (sc, source) = load_scenario(path)?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
+    let setup = Setup::new(&sc).with_context(|| format!("scenario {source}"))?;
+    let masses = setup.modal_masses()?;
+    println!("scenario: {source}");
+    if !sc.title.is_empty() {
+        println!("  {}", sc.title);
+    }
+    println!(
+        "structure: {} DOFs ({} full), omega0 = {:.2} rad/s ({:.2} Hz), D0 = {:.3} %",
+        setup.model.ndof(),
+        setup.full_ndof,
+        setup.omega0_rad_s,
+        setup.omega0_rad_s / (2.0 * std::f64::consts::PI),
+        100.0 * setup.d0
+    );
+    for (i, (m, mu)) in masses.iter().enumerate() {
+        println!(
+            "exciter '{}' at {}: modal mass {:.3} kg, mass ratio mu = {:.2} %",
+            sc.exciter[i].name,
+            setup.exciter_points[i],
+            m,
+            100.0 * mu
+        );
+    }
+    let s = &setup.sweep;
+    println!(
+        "sweep: {:.1} V, Omega {:.1} -> {:.1} rad/s at {:.1} rad/s^2 ({} s)",
+        s.amplitude,
+        s.omega_start_rad_s,
+        s.omega_end_rad_s,
+        s.signed_rate_rad_s2(),
+        format!("{:.3}", s.duration_s())
+    );
+    let mut done: Vec<MethodResult> = Vec::new();
+    for m in &sc.run.methods {
+        let r = match m.as_str() {
+            "linear-frf" => methods::linear_frf(&setup, sc.run.frf_points)?,
+            other => anyhow::bail!("run.methods: method '{other}' is not available in this build yet"),
+        };
+        done.push(r);
+    }
+    write_outputs(&sc, &setup, out, &done)?;
+    print_summary(&setup, &done);
+    Ok(())
+}
+
+fn write_outputs(sc: &Scenario, setup: &Setup, out: &Path, done: &[MethodResult]) -> Result<()> {
+    let mut methods = Map::new();
+    for r in done {
+        results::write_envelope(out, r)?;
+        if sc.output.time_series {
+            results::write_time_series(out, r)?;
+        }
+        methods.insert(r.name.clone(), r.summary());
+    }
+    let masses = setup.modal_masses()?;
+    let summary = json!({
+        "title": sc.title,
+        "omega0_rad_s": setup.omega0_rad_s,
+        "damping_ratio": setup.d0,
+        "model_ndof": setup.model.ndof(),
+        "full_ndof": setup.full_ndof,
+        "exciters": setup.exciter_points.iter().zip(&masses).map(|(p, (m, mu))| json!({
+            "point": p, "modal_mass_kg": m, "mass_ratio": mu})).collect::<Vec<_>>(),
+        "sweep": {
+            "voltage_v": setup.sweep.amplitude,
+            "omega_start_rad_s": setup.sweep.omega_start_rad_s,
+            "omega_end_rad_s": setup.sweep.omega_end_rad_s,
+            "rate_rad_s2": setup.sweep.signed_rate_rad_s2(),
+            "duration_s": setup.sweep.duration_s(),
+        },
+        "methods": Value::Object(methods),
+        "speedup_nlmode_over_reference": speedup(done),
+    });
+    let path = out.join("summary.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&summary)?).with_context(|| format!("cannot write {}", path.display()))?;
+    if sc.output.plots {
+        let refs: Vec<&MethodResult> = done.iter().collect();
+        let title = if sc.title.is_empty() { "sweep".to_string() } else { sc.title.clone() };
+        plot::sweep_plot(&out.join("sweep.svg"), &title, setup.omega0_rad_s, &refs, None)?;
+    }
+    Ok(())
+}
+
+fn speedup(done: &[MethodResult]) -> Value {
+    let t = |n: &str| done.iter().find(|r| r.name == n).map(|r| r.wall_time_s);
+    match (t("reference"), t("nlmode")) {
+        (Some(a), Some(b)) if b > 0.0 => json!(a / b),
+        _ => Value::Null,
+    }
+}
+
+fn print_summary(setup: &Setup, done: &[MethodResult]) {
+    println!();
+    println!(
+        "{:<16} {:>10} {:>14} {:>12} {:>12} {:>12} {:>10}",
+        "method", "wall [s]", "peak tip [mm]", "at Omega/w0", "min |F| [N]", "max |F| [N]", "drop [%]"
+    );
+    for r in done {
+        let s = r.summary();
+        let g = |k: &str| s.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+        let drop = s.get("force_drop").and_then(|v| v.as_f64()).map(|d| format!("{:.1}", 100.0 * d)).unwrap_or_default();
+        println!(
+            "{:<16} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",
+            r.name,
+            r.wall_time_s,
+            1e3 * g("peak_tip_amplitude_m"),
+            g("peak_omega_rad_s") / setup.omega0_rad_s,
+            g("min_force_amplitude_N"),
+            g("max_force_amplitude_N"),
+            drop
+        );
+    }
+    if let Some(x) = speedup(done).as_f64() {
+        println!("nlmode is {x:.0} times faster than reference");
+    }
+}
