@@ -87,6 +87,7 @@ use crate::table::{TableError, TableInterpolator};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
+use std::sync::Arc;
 
 /// RK4 sub-steps per period of the highest modal frequency.
 pub const STEPS_PER_PERIOD: f64 = 40.0;
@@ -183,7 +184,8 @@ pub struct PointResponse {
 /// The time-domain nonlinear-mode oscillator driven at one point of the table.
 #[derive(Debug, Clone)]
 pub struct ModalOscillator {
-    interp: TableInterpolator,
+    /// shared: clones (FMU states, rollback) do not copy the table
+    interp: Arc<TableInterpolator>,
     drive: usize,
     frequency_factor: f64,
     h_max_s: f64,
@@ -205,7 +207,7 @@ impl ModalOscillator {
         let omega_max = factor * table.omega_rad_s.iter().cloned().fold(0.0, f64::max);
         let (_, a_max) = interp.amplitude_range();
         Ok(Self {
-            interp,
+            interp: Arc::new(interp),
             drive,
             frequency_factor: factor,
             h_max_s: 2.0 * PI / (omega_max * STEPS_PER_PERIOD),
@@ -317,9 +319,13 @@ impl ModalOscillator {
     /// Displacement and velocity of point `point` synthesized with all harmonics
     /// of the table (`eq:ansatz`, see the module docs).
     pub fn point_response(&self, point: usize) -> Result<PointResponse, OscillatorError> {
-        let z = self.state.z();
+        self.response_of(&self.state, point)
+    }
+
+    fn response_of(&self, s: &OscillatorState, point: usize) -> Result<PointResponse, OscillatorError> {
+        let z = s.z();
         let a = z.norm();
-        let (w_rad_s, _, _) = self.properties(a, self.state.time_s)?;
+        let (w_rad_s, _, _) = self.properties(a, s.time_s)?;
         let g = self.interp.shape(self.drive, 1, a)?;
         let g = if g.norm() > 0.0 { g / g.norm() } else { Complex64::new(1.0, 0.0) };
         // w = e^{i psi} / g: unit phasor of the original gauge of the table
@@ -335,6 +341,39 @@ impl ModalOscillator {
             wn *= unit;
         }
         Ok(PointResponse { x_m: x, v_m_s: v })
+    }
+
+    /// Rates `(eta', u')` of the state under the force `c_n` [N].
+    pub fn state_rate(&self, c_n: f64) -> Result<(f64, f64), OscillatorError> {
+        self.rhs(self.state.eta, self.state.u, c_n, self.state.time_s)
+    }
+
+    /// Time derivatives `(dx/dt, dv/dt)` of [`Self::point_response`] along the
+    /// oscillator's flow under the force `c_n` [N] (for extrapolating masters).
+    /// Central difference along the flow with the time increment
+    /// `1e-5 / omega(a)`: truncation error ~1e-10 relative, round-off ~1e-11.
+    pub fn point_response_rate(&self, point: usize, c_n: f64) -> Result<PointResponse, OscillatorError> {
+        let (de, du) = self.state_rate(c_n)?;
+        let w = self.modal()?.omega_rad_s;
+        let eps = 1e-5 / w;
+        let s = self.state;
+        let plus = OscillatorState { time_s: s.time_s, eta: s.eta + eps * de, u: s.u + eps * du };
+        let minus = OscillatorState { time_s: s.time_s, eta: s.eta - eps * de, u: s.u - eps * du };
+        let (p, m) = (self.response_of(&plus, point)?, self.response_of(&minus, point)?);
+        Ok(PointResponse { x_m: (p.x_m - m.x_m) / (2.0 * eps), v_m_s: (p.v_m_s - m.v_m_s) / (2.0 * eps) })
+    }
+
+    /// `(da/dt, d omega/dt)` along the flow under the force `c_n` [N].
+    pub fn modal_rate(&self, c_n: f64) -> Result<(f64, f64), OscillatorError> {
+        let (de, du) = self.state_rate(c_n)?;
+        let s = self.state;
+        let a = s.amplitude();
+        if a == 0.0 {
+            return Ok((0.0, 0.0));
+        }
+        let a_dot = (s.eta * de + s.u * du) / a;
+        let m = self.interp.eval(a)?;
+        Ok((a_dot, self.frequency_factor * m.domega_da * a_dot))
     }
 }
 
@@ -685,6 +724,29 @@ mod tests {
         assert!(matches!(osc.step(1e-3, InputPolynomial::constant(f64::NAN)), Err(OscillatorError::BadInput { name: "c0", .. })));
         assert!(matches!(ModalOscillator::new(&t, "ex", -1.0), Err(OscillatorError::BadFrequencyError(_))));
         assert!(matches!(ModalOscillator::new(&t, "nope", 0.0), Err(OscillatorError::Table(TableError::UnknownPoint { .. }))));
+    }
+
+    #[test]
+    fn output_rates_are_the_derivatives_along_the_flow() {
+        let t = duffing(100.0, 3.0e4, 0.02, Complex64::new(0.9, 0.2), Complex64::new(1.2, -0.1), Complex64::new(0.05, 0.01), 2.0);
+        let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
+        let tip = osc.point_index("tip").unwrap();
+        osc.set_state(OscillatorState { time_s: 0.0, eta: 0.6, u: -0.5 }).unwrap();
+        let c = 30.0;
+        let r0 = osc.point_response(tip).unwrap();
+        let m0 = osc.modal().unwrap();
+        let rate = osc.point_response_rate(tip, c).unwrap();
+        let (a_dot, w_dot) = osc.modal_rate(c).unwrap();
+        let dt = 1e-6;
+        osc.step(dt, InputPolynomial::constant(c)).unwrap();
+        let r1 = osc.point_response(tip).unwrap();
+        let m1 = osc.modal().unwrap();
+        let fd = |y1: f64, y0: f64| (y1 - y0) / dt;
+        // forward difference over dt: error ~ dt * second derivative ~ 1e-6 * omega ~ 2e-4 relative
+        assert!((fd(r1.x_m, r0.x_m) - rate.x_m).abs() < 1e-3 * rate.x_m.abs(), "{} vs {}", fd(r1.x_m, r0.x_m), rate.x_m);
+        assert!((fd(r1.v_m_s, r0.v_m_s) - rate.v_m_s).abs() < 1e-3 * rate.v_m_s.abs());
+        assert!((fd(m1.amplitude, m0.amplitude) - a_dot).abs() < 1e-3 * a_dot.abs().max(1e-3));
+        assert!((fd(m1.omega_rad_s, m0.omega_rad_s) - w_dot).abs() < 1e-3 * w_dot.abs().max(1e-3));
     }
 
     #[test]
