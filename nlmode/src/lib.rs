@@ -20,6 +20,7 @@ pub mod benchmark;
 pub mod excitation;
 pub mod frf;
 pub mod nma;
+pub mod oscillator;
 pub mod reduced;
 pub mod reference;
 pub mod structure;
