@@ -4,6 +4,7 @@
 //! scenario lists and writes the output contract (DESIGN.md section 7);
 //! `host nma` computes the nonlinear mode; `host frf` the steady-state
 //! frequency responses; `host package` builds the FMUs.
+mod cosim;
 mod methods;
 mod model;
 mod plot;
