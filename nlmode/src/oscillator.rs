@@ -332,24 +332,56 @@ impl ModalOscillator {
     }
 
     fn response_of(&self, s: &OscillatorState, point: usize) -> Result<PointResponse, OscillatorError> {
+        let mut out = [PointResponse { x_m: 0.0, v_m_s: 0.0 }];
+        self.synthesize(s, &[point], &mut out)?;
+        Ok(out[0])
+    }
+
+    /// Modal quantities and the responses of several points at once (one table
+    /// look-up for all of them; the FMU's output path).
+    pub fn outputs(&self, points: &[usize], out: &mut [PointResponse]) -> Result<ModalSnapshot, OscillatorError> {
+        self.synthesize(&self.state, points, out)
+    }
+
+    fn synthesize(
+        &self,
+        s: &OscillatorState,
+        points: &[usize],
+        out: &mut [PointResponse],
+    ) -> Result<ModalSnapshot, OscillatorError> {
+        assert_eq!(points.len(), out.len());
         let z = s.z();
         let a = z.norm();
-        let (w_rad_s, _, _) = self.properties(a, s.time_s)?;
+        let (w_rad_s, d, _) = self.properties(a, s.time_s)?;
         let g = self.interp.shape(self.drive, 1, a)?;
         let g = if g.norm() > 0.0 { g / g.norm() } else { Complex64::new(1.0, 0.0) };
         // w = e^{i psi} / g: unit phasor of the original gauge of the table
         let unit = if a > 0.0 { z / (a * g) } else { Complex64::new(1.0, 0.0) };
-        let mut x = 0.0;
-        let mut v = 0.0;
-        let mut wn = Complex64::new(1.0, 0.0);
-        for n in 0..=self.interp.harmonics() {
-            let term = a * self.interp.shape(point, n, a)? * wn;
-            x += term.re;
-            // Re(i n omega term) = -n omega Im(term)
-            v -= n as f64 * w_rad_s * term.im;
-            wn *= unit;
+        let nh = self.interp.harmonics() + 1;
+        // harmonics on the stack up to H = 31 (the paper uses H <= 13)
+        let mut stack = [Complex64::new(0.0, 0.0); 32];
+        let mut heap = Vec::new();
+        let phi: &mut [Complex64] = if nh <= stack.len() {
+            &mut stack[..nh]
+        } else {
+            heap.resize(nh, Complex64::new(0.0, 0.0));
+            &mut heap
+        };
+        for (&point, o) in points.iter().zip(out.iter_mut()) {
+            self.interp.shape_all(point, a, phi)?;
+            let mut x = 0.0;
+            let mut v = 0.0;
+            let mut wn = Complex64::new(1.0, 0.0);
+            for (n, p) in phi.iter().enumerate() {
+                let term = a * p * wn;
+                x += term.re;
+                // Re(i n omega term) = -n omega Im(term)
+                v -= n as f64 * w_rad_s * term.im;
+                wn *= unit;
+            }
+            *o = PointResponse { x_m: x, v_m_s: v };
         }
-        Ok(PointResponse { x_m: x, v_m_s: v })
+        Ok(ModalSnapshot { amplitude: a, omega_rad_s: w_rad_s, damping_ratio: d, eta_dot: w_rad_s * s.u })
     }
 
     /// Rates `(eta', u')` of the state under the force `c_n` [N].
