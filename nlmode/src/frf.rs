@@ -15,7 +15,7 @@
 //! structure displacement, see [`crate::attachment`]), and the complex response
 //! `e^T q_hat` at every named point are returned. Amplitudes are complex
 //! fundamental Fourier coefficients: `f(t) = Re(f_hat e^{i Omega t})`.
-use crate::attachment::{AttachmentError, InterfaceCondensation, LinearAttachment, Localization, ShakerParams};
+use crate::attachment::{AttachmentError, Condenser, InterfaceCondensation, LinearAttachment, ShakerParams};
 use crate::structure::StructuralModel;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -72,9 +72,11 @@ pub fn assembled_frf(
     assert_eq!(model.stiffness.shape(), (ndof, ndof), "K shape");
     assert_eq!(model.damping.shape(), (ndof, ndof), "C shape");
     struct Prepared<'a> {
-        att: &'a LinearAttachment,
-        loc: Localization,
+        condenser: Condenser,
+        /// `E` (`ndof x ncon`).
         e: DMatrix<Complex64>,
+        /// `e_a e_b^T` for all constraint pairs `(a, b)`, row-major in `(a, b)`.
+        outer: Vec<DMatrix<f64>>,
         u: &'a DVector<Complex64>,
     }
     let mut prepared = Vec::with_capacity(attachments.len());
@@ -87,9 +89,13 @@ pub fn assembled_frf(
             }
             .into());
         }
-        let loc = att.localization()?;
-        let e = complex(&att.interface_vectors(model)?);
-        prepared.push(Prepared { att, loc, e, u });
+        let condenser = Condenser::new(att)?;
+        let e = att.interface_vectors(model)?;
+        let nc = e.ncols();
+        let outer = (0..nc * nc)
+            .map(|ab| e.column(ab / nc) * e.column(ab % nc).transpose())
+            .collect();
+        prepared.push(Prepared { condenser, e: complex(&e), outer, u });
     }
     let mut observe = DMatrix::<Complex64>::zeros(model.points.len(), ndof);
     for (i, p) in model.points.iter().enumerate() {
@@ -99,22 +105,29 @@ pub fn assembled_frf(
     let (m, c, k) = (&model.mass, &model.damping, &model.stiffness);
     let mut out = Vec::with_capacity(omegas.len());
     let mut conds: Vec<InterfaceCondensation> = Vec::with_capacity(prepared.len());
+    let mut dyn_stiff = DMatrix::<Complex64>::zeros(ndof, ndof);
     for &w in omegas {
         if !w.is_finite() {
             return Err(FrfError::NonFiniteOmega { omega_rad_s: w });
         }
         let w2 = w * w;
-        let mut dyn_stiff =
-            DMatrix::<Complex64>::from_fn(ndof, ndof, |i, j| Complex64::new(k[(i, j)] - w2 * m[(i, j)], w * c[(i, j)]));
+        for (d, ((kij, mij), cij)) in dyn_stiff.iter_mut().zip(k.iter().zip(m.iter()).zip(c.iter())) {
+            *d = Complex64::new(kij - w2 * mij, w * cij);
+        }
         let mut rhs = DVector::<Complex64>::zeros(ndof);
         conds.clear();
         for p in &prepared {
-            let cond = p.loc.condense(p.att, w)?;
-            dyn_stiff += &p.e * &cond.z_g * p.e.transpose();
+            let cond = p.condenser.condense(w)?;
+            let nc = cond.z_g.nrows();
+            for (ab, outer) in p.outer.iter().enumerate() {
+                let z = cond.z_g[(ab / nc, ab % nc)];
+                dyn_stiff.zip_apply(outer, |d, o| *d += z * o);
+            }
             rhs += &p.e * (&cond.t_g * p.u);
             conds.push(cond);
         }
         let q = dyn_stiff
+            .clone()
             .lu()
             .solve(&rhs)
             .filter(|q| q.iter().all(|v| v.re.is_finite() && v.im.is_finite()))

@@ -7,7 +7,7 @@ use nlmode::frf::{
     assembled_frf, force_drop_closed_form, force_ratio_closed_form, linear_force_drop, mass_ratio,
     modal_mass, structure_receptance, FrfError,
 };
-use nlmode::structure::{NamedPoint, StructuralModel};
+use nlmode::structure::{modal_analysis, paper_structure, NamedPoint, PaperStructureOptions, StructuralModel};
 use nlmode::Complex64;
 
 fn c(re: f64) -> Complex64 {
@@ -255,37 +255,15 @@ fn bad_frf_inputs_are_rejected() {
     );
 }
 
-/// An 11-DOF spring-mass chain as a stand-in for the Craig-Bampton model's size.
-fn chain(n: usize) -> StructuralModel {
-    let mut k = DMatrix::<f64>::zeros(n, n);
-    for i in 0..n {
-        k[(i, i)] += 1e5;
-        if i + 1 < n {
-            k[(i, i)] += 1e5;
-            k[(i + 1, i + 1)] += 0.0;
-            k[(i, i + 1)] -= 1e5;
-            k[(i + 1, i)] -= 1e5;
-        }
-    }
-    StructuralModel {
-        mass: DMatrix::identity(n, n) * 0.1,
-        damping: &k * 1e-5,
-        stiffness: k,
-        nonlinear: vec![],
-        points: vec![
-            NamedPoint { name: "tip".into(), direction: unit(n, n - 1) },
-            NamedPoint { name: "drive".into(), direction: unit(n, n / 2) },
-        ],
-    }
-}
-
 /// Timing (not a pass/fail performance test): `cargo test --release -p nlmode
 /// --test frf -- --ignored --nocapture frf_timing`.
 #[test]
 #[ignore]
 fn frf_timing() {
-    let model = chain(11);
-    let att = LinearAttachment::shaker("s", &ShakerParams::paper(), "drive").unwrap();
+    let ps = paper_structure(&PaperStructureOptions::default()).unwrap();
+    let model = ps.model;
+    assert_eq!(model.mass.nrows(), 11);
+    let att = LinearAttachment::shaker("s", &ShakerParams::paper(), "2l3").unwrap();
     let omegas: Vec<f64> = (0..500).map(|i| 200.0 + i as f64).collect();
     let u = [DVector::from_element(1, c(10.0))];
     let atts = [att];
@@ -297,4 +275,74 @@ fn frf_timing() {
     }
     let dt = t.elapsed().as_secs_f64() / n as f64;
     println!("assembled_frf: 500 frequencies, 11 DOF, 1 shaker: {:.3} ms", dt * 1e3);
+}
+
+/// The paper's beam (Craig-Bampton, 11 DOFs): force drop at resonance from the
+/// assembled FRF against eq:forcedrop with mu from the modal mass `1/phi_ex^2`.
+#[test]
+fn paper_beam_force_drop_matches_eq_forcedrop() {
+    let ps = paper_structure(&PaperStructureOptions::default()).unwrap();
+    let model = &ps.model;
+    let modes = modal_analysis(model, 1).unwrap();
+    let omega0 = modes.omega_rad_s[0];
+    assert!((omega0 / ps.omega0_rad_s - 1.0).abs() < 1e-3, "{omega0} vs {}", ps.omega0_rad_s);
+    // Modal damping ratio of mode 1 of the reduced model: phi^T C phi = 2 D0 omega0.
+    let phi = modes.shape(0);
+    let d0 = (phi.transpose() * &model.damping * &phi)[(0, 0)] / (2.0 * omega0);
+    assert!((d0 - 0.004).abs() < 1e-5, "D0 = {d0}");
+    let sp = ShakerParams::paper();
+    let ra = sp.omega_a() / omega0;
+    let mut results = vec![];
+    for (point, mmod_expected, drop_expected) in [("2l3", 0.92, 0.97), ("l3", 10.0, 0.765)] {
+        let e = &model.points.iter().find(|p| p.name == point).unwrap().direction;
+        let mmod = modal_mass(modes.deflection(0, e));
+        let mu = mass_ratio(sp.armature_mass_kg, mmod);
+        assert!((mmod / mmod_expected - 1.0).abs() < 0.03, "{point}: m_mod = {mmod}");
+        let closed = 1.0 - force_drop_closed_form(d0, mu, ra, sp.damping_ratio());
+        let assembled = linear_force_drop(model, &sp, point, omega0).unwrap();
+        results.push((point, mmod, mu, closed, assembled));
+        assert!((assembled - closed).abs() < 0.01, "{point}: FRF {assembled} vs eq:forcedrop {closed}");
+        assert!((assembled - drop_expected).abs() < 0.012, "{point}: {assembled}");
+        // Drive-point and tip FRF with the measured force are the structure's own.
+        let omegas: Vec<f64> = (0..=60).map(|i| omega0 * (0.7 + 0.01 * i as f64)).collect();
+        let att = LinearAttachment::shaker("s", &sp, point).unwrap();
+        let frf = assembled_frf(model, &[att], &[DVector::from_element(1, c(10.0))], &omegas).unwrap();
+        let ip = model.points.iter().position(|p| p.name == point).unwrap();
+        let it = model.points.iter().position(|p| p.name == "tip").unwrap();
+        let h = structure_receptance(model, point, point, &omegas).unwrap();
+        let h_tip = structure_receptance(model, point, "tip", &omegas).unwrap();
+        for (p, (hd, ht)) in frf.iter().zip(h.iter().zip(&h_tip)) {
+            assert!(close(p.points[ip] / p.force_n[0], *hd, 1e-8));
+            assert!(close(p.points[it] / p.force_n[0], *ht, 1e-8));
+        }
+        // The force minimum of the FRF lies at the structural resonance (within 1 %).
+        let imin = (0..frf.len()).min_by(|&a, &b| frf[a].force_n[0].norm().total_cmp(&frf[b].force_n[0].norm())).unwrap();
+        assert!((frf[imin].omega_rad_s / omega0 - 1.0).abs() <= 0.011, "{}", frf[imin].omega_rad_s / omega0);
+    }
+    for (point, mmod, mu, closed, assembled) in results {
+        println!("{point}: m_mod = {mmod:.4} kg, mu = {:.3} %, force drop eq:forcedrop = {:.2} %, assembled FRF = {:.2} %",
+            mu * 100.0, closed * 100.0, assembled * 100.0);
+    }
+}
+
+#[test]
+#[ignore]
+fn frf_timing_parts() {
+    let ps = paper_structure(&PaperStructureOptions::default()).unwrap();
+    let model = ps.model;
+    let omegas: Vec<f64> = (0..500).map(|i| 200.0 + i as f64).collect();
+    let n = 50;
+    let t = std::time::Instant::now();
+    for _ in 0..n {
+        assembled_frf(&model, &[], &[], &omegas).unwrap();
+    }
+    println!("no attachment: {:.3} ms", t.elapsed().as_secs_f64() / n as f64 * 1e3);
+    let cd = nlmode::attachment::Condenser::new(&LinearAttachment::shaker("s", &ShakerParams::paper(), "2l3").unwrap()).unwrap();
+    let t = std::time::Instant::now();
+    for _ in 0..n {
+        for &w in &omegas {
+            cd.condense(w).unwrap();
+        }
+    }
+    println!("condense only: {:.3} ms", t.elapsed().as_secs_f64() / n as f64 * 1e3);
 }
