@@ -646,6 +646,7 @@ fns! {
     set_integer: "fmi2SetInteger": fn(Component, *const c_uint, usize, *const c_int) -> Status;
     get_boolean: "fmi2GetBoolean": fn(Component, *const c_uint, usize, *mut c_int) -> Status;
     set_boolean: "fmi2SetBoolean": fn(Component, *const c_uint, usize, *const c_int) -> Status;
+    set_string: "fmi2SetString": fn(Component, *const c_uint, usize, *const *const c_char) -> Status;
     get_fmu_state: "fmi2GetFMUstate": fn(Component, *mut FmuStatePtr) -> Status;
     set_fmu_state: "fmi2SetFMUstate": fn(Component, FmuStatePtr) -> Status;
     free_fmu_state: "fmi2FreeFMUstate": fn(Component, *mut FmuStatePtr) -> Status;
@@ -870,6 +871,15 @@ impl Instance {
         // SAFETY: both buffers have `vrs.len()` elements.
         let st = unsafe { (self.fns.set_boolean)(self.comp, vrs.as_ptr(), vrs.len(), raw.as_ptr()) };
         self.check("fmi2SetBoolean", st)
+    }
+
+    pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Result<()> {
+        assert_eq!(vrs.len(), values.len());
+        let owned: Vec<CString> = values.iter().map(|s| CString::new(s.replace('\0', "")).expect("no NUL")).collect();
+        let ptrs: Vec<*const c_char> = owned.iter().map(|s| s.as_ptr()).collect();
+        // SAFETY: both buffers have `vrs.len()` elements; the strings outlive the call.
+        let st = unsafe { (self.fns.set_string)(self.comp, vrs.as_ptr(), vrs.len(), ptrs.as_ptr()) };
+        self.check("fmi2SetString", st)
     }
 
     /// `fmi2SetRealInputDerivatives` of the given orders.

@@ -1,6 +1,19 @@
-//! Co-simulation of FMI 2.0 Co-Simulation FMUs: import ([`import`]) and the
-//! master algorithms ([`master`]).
+//! Co-simulation of FMI 2.0 Co-Simulation FMUs: import ([`import`]), the
+//! generic master ([`master`]), the envelope extraction ([`envelope`]) and the
+//! `cosim` method on this repository's structure and shaker FMUs ([`paper`]).
 //!
 //! Self-contained (no `crate::` imports), so that benches and integration
 //! tests can include it by path.
+#![allow(dead_code)]
+pub mod envelope;
 pub mod import;
+pub mod master;
+pub mod paper;
+
+#[cfg(test)]
+mod tests;
+
+#[allow(unused_imports)]
+pub use master::{Algorithm, Master, MasterError, MasterOptions, ParamValue};
+#[allow(unused_imports)]
+pub use paper::{run_cosim, CosimEnvelope, CosimError, CosimOutput, CosimParams, SweepSpec};

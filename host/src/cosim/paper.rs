@@ -1,0 +1,234 @@
+//! The `cosim` method: the structure FMU and the shaker FMU of this
+//! repository (DESIGN.md section 5) co-simulated over a sine sweep.
+//!
+//! Connections: `structure.x -> shaker.x`, `structure.v -> shaker.v`,
+//! `shaker.F -> structure.F`. The shaker generates the sweep voltage itself
+//! (`u_hat`, `Omega_start`, `Omega_end`, `Omega_rate`); the excitation phase
+//! for the envelope is the integral of its `Omega` output.
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+use nlmode::attachment::{ShakerParams, Stinger};
+use num_complex::Complex64;
+
+use super::envelope::{fourier_envelope, phase_from_omega};
+use super::import::Fmu;
+use super::master::{run, Algorithm, Master, MasterError, MasterOptions, MasterStats, ParamValue};
+
+/// The sweep the shaker FMU generates: `u = u_hat cos(Phi)`, `dPhi/dt = Omega`,
+/// `Omega` linear from start to end at `|dOmega/dt| = rate` (0: fixed sine at
+/// `omega_start_rad_s`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepSpec {
+    pub u_hat_v: f64,
+    pub omega_start_rad_s: f64,
+    pub omega_end_rad_s: f64,
+    pub rate_rad_s2: f64,
+}
+
+impl From<&nlmode::excitation::LinearSweep> for SweepSpec {
+    fn from(s: &nlmode::excitation::LinearSweep) -> Self {
+        Self { u_hat_v: s.amplitude, omega_start_rad_s: s.omega_start_rad_s, omega_end_rad_s: s.omega_end_rad_s, rate_rad_s2: s.rate_rad_s2 }
+    }
+}
+
+/// Everything `run_cosim` needs besides the two FMU files.
+#[derive(Debug, Clone)]
+pub struct CosimParams {
+    pub algorithm: Algorithm,
+    pub macro_step_s: f64,
+    /// Input extrapolation / interpolation through input derivatives.
+    pub extrapolate: bool,
+    /// Gauss-Seidel: step the shaker before the structure (default: structure first).
+    pub shaker_first: bool,
+    pub shaker: ShakerParams,
+    pub sweep: SweepSpec,
+    /// Drive point name in the modal table (`2l3`, `l3`).
+    pub drive_point: String,
+    /// Modal table file; `None`: the one in the structure FMU's `resources/`.
+    pub modal_table: Option<PathBuf>,
+    /// Relative natural-frequency error of the structure FMU.
+    pub frequency_error: f64,
+    /// End time [s]; `None`: the sweep duration.
+    pub stop_time_s: Option<f64>,
+    /// Sample interval of the time series [s], rounded to a multiple of the
+    /// macro step; 0: about 1/64 of the shortest excitation period.
+    pub output_interval_s: f64,
+    pub iteration_rtol: f64,
+    pub iteration_max: usize,
+}
+
+impl CosimParams {
+    /// Defaults for a shaker and sweep: Gauss-Seidel, structure first,
+    /// extrapolation on, `h = 1e-5 s`, drive point `2l3`.
+    pub fn new(shaker: ShakerParams, sweep: SweepSpec) -> Self {
+        Self {
+            algorithm: Algorithm::GaussSeidel,
+            macro_step_s: 1e-5,
+            extrapolate: true,
+            shaker_first: false,
+            shaker,
+            sweep,
+            drive_point: "2l3".into(),
+            modal_table: None,
+            frequency_error: 0.0,
+            stop_time_s: None,
+            output_interval_s: 0.0,
+            iteration_rtol: 1e-6,
+            iteration_max: 20,
+        }
+    }
+
+    /// Duration of the run [s].
+    pub fn duration_s(&self) -> f64 {
+        self.stop_time_s.unwrap_or_else(|| {
+            let s = &self.sweep;
+            if s.rate_rad_s2 > 0.0 {
+                (s.omega_end_rad_s - s.omega_start_rad_s).abs() / s.rate_rad_s2
+            } else {
+                f64::NAN
+            }
+        })
+    }
+}
+
+/// Envelope (fundamental harmonics against the excitation frequency).
+#[derive(Debug, Clone, Default)]
+pub struct CosimEnvelope {
+    pub omega_rad_s: Vec<f64>,
+    pub force_amplitude_n: Vec<f64>,
+    pub force_phase_rad: Vec<f64>,
+    pub tip_amplitude_m: Vec<f64>,
+    pub drive_amplitude_m: Vec<f64>,
+}
+
+/// Result of `run_cosim`.
+#[derive(Debug, Clone, Default)]
+pub struct CosimOutput {
+    pub time_s: Vec<f64>,
+    /// Instantaneous excitation frequency `Omega` (shaker output) [rad/s].
+    pub omega_rad_s: Vec<f64>,
+    pub x_tip_m: Vec<f64>,
+    /// Drive-point displacement [m].
+    pub x_m: Vec<f64>,
+    /// Stinger force on the structure [N].
+    pub force_n: Vec<f64>,
+    pub voltage_v: Vec<f64>,
+    pub current_a: Vec<f64>,
+    pub envelope: CosimEnvelope,
+    /// Set when an FMU failed mid-run: the time [s] and the error with the FMU's log.
+    pub stopped: Option<(f64, String)>,
+    pub stats: MasterStats,
+    pub wall_time_s: f64,
+}
+
+/// Errors before the run starts (after that, failures end up in `CosimOutput::stopped`).
+#[derive(Debug, thiserror::Error)]
+pub enum CosimError {
+    #[error("{what} FMU {path}: {source}")]
+    Load { what: &'static str, path: PathBuf, source: super::import::FmuError },
+    #[error(transparent)]
+    Master(#[from] MasterError),
+    #[error("the shaker FMU needs an elastic stinger (its force is k_s (q_a - x)); a rigid stinger is not co-simulated")]
+    RigidStinger,
+    #[error("run duration must be positive and finite, got {0} s (give stop_time_s for a fixed-frequency run)")]
+    BadDuration(f64),
+}
+
+/// Build the master for the two FMUs with the parameters set, initialized at t = 0.
+pub fn build_master(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) -> Result<Master, CosimError> {
+    let ks = match p.shaker.stinger {
+        Stinger::Elastic { stiffness_n_per_m } => stiffness_n_per_m,
+        Stinger::Rigid => return Err(CosimError::RigidStinger),
+    };
+    let st = Fmu::load(structure_fmu).map_err(|source| CosimError::Load { what: "structure", path: structure_fmu.into(), source })?;
+    let sh = Fmu::load(shaker_fmu).map_err(|source| CosimError::Load { what: "shaker", path: shaker_fmu.into(), source })?;
+    let conns: Vec<(String, String)> = [("structure.x", "shaker.x"), ("structure.v", "shaker.v"), ("shaker.F", "structure.F")]
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    let opts = MasterOptions {
+        algorithm: p.algorithm,
+        macro_step_s: p.macro_step_s,
+        extrapolate: p.extrapolate,
+        order: if p.shaker_first { Some(vec![1, 0]) } else { Some(vec![0, 1]) },
+        iteration_rtol: p.iteration_rtol,
+        iteration_max: p.iteration_max,
+    };
+    let mut m = Master::new(vec![("structure".into(), st), ("shaker".into(), sh)], &conns, opts)?;
+    let s = &p.shaker;
+    let real = |v: f64| ParamValue::Real(v);
+    for (name, v) in [
+        ("L", s.inductance_h),
+        ("R", s.resistance_ohm),
+        ("G", s.force_constant_n_per_a),
+        ("m_a", s.armature_mass_kg),
+        ("k_a", s.armature_stiffness_n_per_m),
+        ("D_a", s.damping_ratio()),
+        ("k_s", ks),
+        ("u_hat", p.sweep.u_hat_v),
+        ("Omega_start", p.sweep.omega_start_rad_s),
+        ("Omega_end", p.sweep.omega_end_rad_s),
+        ("Omega_rate", p.sweep.rate_rad_s2),
+    ] {
+        m.set_parameter(1, name, &real(v))?;
+    }
+    m.set_parameter(1, "use_external_voltage", &ParamValue::Boolean(false))?;
+    m.set_parameter(0, "frequency_error", &real(p.frequency_error))?;
+    m.set_parameter(0, "drive_point", &ParamValue::String(p.drive_point.clone()))?;
+    if let Some(t) = &p.modal_table {
+        m.set_parameter(0, "modal_table", &ParamValue::String(t.to_string_lossy().into_owned()))?;
+    }
+    let dur = p.duration_s();
+    if !(dur.is_finite() && dur > 0.0) {
+        return Err(CosimError::BadDuration(dur));
+    }
+    m.initialize(0.0, Some(dur))?;
+    Ok(m)
+}
+
+/// Co-simulate the structure and shaker FMUs over the sweep of `p`.
+/// `progress` receives the simulated time [s] now and then.
+pub fn run_cosim(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams, progress: &mut dyn FnMut(f64)) -> Result<CosimOutput, CosimError> {
+    let mut m = build_master(structure_fmu, shaker_fmu, p)?;
+    let dur = p.duration_s();
+    let h = p.macro_step_s;
+    let w_max = p.sweep.omega_start_rad_s.max(p.sweep.omega_end_rad_s);
+    let dt_out = if p.output_interval_s > 0.0 { p.output_interval_s } else { 2.0 * PI / w_max / 64.0 };
+    let every = ((dt_out / h).round() as usize).max(1);
+    let names: Vec<String> = ["shaker.Omega", "structure.x_tip", "structure.x", "shaker.F", "shaker.u", "shaker.I"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let rec = run(&mut m, dur, &names, every, progress)?;
+    let col = |k: usize| rec.columns[k].1.clone();
+    let mut out = CosimOutput {
+        time_s: rec.time_s.clone(),
+        omega_rad_s: col(0),
+        x_tip_m: col(1),
+        x_m: col(2),
+        force_n: col(3),
+        voltage_v: col(4),
+        current_a: col(5),
+        stopped: rec.stopped.clone(),
+        stats: rec.stats.clone(),
+        wall_time_s: rec.wall_time_s,
+        ..Default::default()
+    };
+    out.envelope = envelope_of(&out);
+    Ok(out)
+}
+
+/// The envelope of a co-simulated time series (windows every half period).
+pub fn envelope_of(o: &CosimOutput) -> CosimEnvelope {
+    let phi = phase_from_omega(&o.time_s, &o.omega_rad_s, 0.0);
+    let fe = fourier_envelope(&o.time_s, &phi, &o.omega_rad_s, &[&o.force_n, &o.x_tip_m, &o.x_m], PI);
+    let abs = |v: &[Complex64]| v.iter().map(|c| c.norm()).collect::<Vec<_>>();
+    CosimEnvelope {
+        omega_rad_s: fe.omega_rad_s.clone(),
+        force_amplitude_n: abs(&fe.amplitudes[0]),
+        force_phase_rad: fe.amplitudes[0].iter().map(|c| c.arg()).collect(),
+        tip_amplitude_m: abs(&fe.amplitudes[1]),
+        drive_amplitude_m: abs(&fe.amplitudes[2]),
+    }
+}

@@ -1,0 +1,268 @@
+//! Tests of import and master on the C test FMU (`csrc/testosc.c`, a
+//! mass-spring-damper with injectable failures) and, in `fmus`, on the
+//! repository's structure and shaker FMUs.
+use super::import::*;
+use super::master::*;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+const TEST_GUID: &str = "{host-test-osc-0001}";
+
+fn test_md(guid: &str) -> String {
+    format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="testosc" guid="{guid}">
+  <CoSimulation modelIdentifier="testosc" canHandleVariableCommunicationStepSize="true"
+     canInterpolateInputs="true" canGetAndSetFMUstate="true"/>
+  <ModelVariables>
+    <ScalarVariable name="m" valueReference="0" causality="parameter" variability="fixed"><Real start="1" unit="kg"/></ScalarVariable>
+    <ScalarVariable name="k" valueReference="1" causality="parameter" variability="fixed"><Real start="100" unit="N/m"/></ScalarVariable>
+    <ScalarVariable name="d" valueReference="2" causality="parameter" variability="fixed"><Real start="0" unit="N.s/m"/></ScalarVariable>
+    <ScalarVariable name="F" valueReference="3" causality="input"><Real start="0" unit="N"/></ScalarVariable>
+    <ScalarVariable name="x" valueReference="4" causality="output"><Real unit="m"/></ScalarVariable>
+    <ScalarVariable name="v" valueReference="5" causality="output"><Real unit="m/s"/></ScalarVariable>
+    <ScalarVariable name="fail_at_s" valueReference="6" causality="parameter" variability="fixed"><Real start="1e300" unit="s"/></ScalarVariable>
+    <ScalarVariable name="discard_at_s" valueReference="7" causality="parameter" variability="fixed"><Real start="1e300" unit="s"/></ScalarVariable>
+    <ScalarVariable name="substeps" valueReference="8" causality="parameter" variability="fixed"><Real start="10"/></ScalarVariable>
+    <ScalarVariable name="x0" valueReference="9" causality="parameter" variability="fixed"><Real start="0" unit="m"/></ScalarVariable>
+  </ModelVariables>
+  <ModelStructure><Outputs><Unknown index="5" dependencies=""/><Unknown index="6" dependencies=""/></Outputs></ModelStructure>
+</fmiModelDescription>
+"#
+    )
+}
+
+/// Write a `.fmu` with the given entries (name, bytes) and optional symlink entries.
+fn write_zip(path: &Path, entries: &[(&str, Vec<u8>)], symlinks: &[(&str, &str)]) {
+    let f = std::fs::File::create(path).unwrap();
+    let mut z = zip::ZipWriter::new(f);
+    let o = zip::write::SimpleFileOptions::default();
+    for (n, b) in entries {
+        z.start_file(*n, o).unwrap();
+        z.write_all(b).unwrap();
+    }
+    for (n, target) in symlinks {
+        z.add_symlink(*n, *target, o).unwrap();
+    }
+    z.finish().unwrap();
+}
+
+fn test_lib() -> Vec<u8> {
+    std::fs::read(env!("HOST_TEST_FMU_LIB")).expect("test FMU library built by build.rs")
+}
+
+/// The test FMU with `md` as modelDescription.
+pub(super) fn test_fmu(dir: &Path, name: &str, md: &str, with_binary: bool) -> PathBuf {
+    let p = dir.join(name);
+    let mut e = vec![("modelDescription.xml", md.as_bytes().to_vec())];
+    if with_binary {
+        e.push(("binaries/linux64/testosc.so", test_lib()));
+    }
+    write_zip(&p, &e, &[]);
+    p
+}
+
+fn fmu_err(p: &Path) -> FmuError {
+    Fmu::load(p).err().expect("import must fail")
+}
+
+#[test]
+fn imports_the_test_fmu_and_simulates_a_free_oscillation() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = Fmu::load(&test_fmu(dir.path(), "osc.fmu", &test_md(TEST_GUID), true)).unwrap();
+    assert_eq!(fmu.md.co_simulation.model_identifier, "testosc");
+    let mut i = fmu.instantiate("osc", false).unwrap();
+    i.set_real(&[1, 9], &[400.0, 1e-3]).unwrap(); // k = 400 N/m, m = 1 kg: omega = 20 rad/s
+    i.setup_experiment(0.0, None, None).unwrap();
+    i.enter_initialization_mode().unwrap();
+    i.exit_initialization_mode().unwrap();
+    let h = 1e-3;
+    let mut x = [0.0];
+    for n in 0..500 {
+        i.do_step(n as f64 * h, h).unwrap();
+        i.get_real(&[4], &mut x).unwrap();
+        let t = (n + 1) as f64 * h;
+        assert!((x[0] - 1e-3 * (20.0 * t).cos()).abs() < 1e-9, "t = {t}: {}", x[0]);
+    }
+    // a wrong communication point is refused with the FMU's message (printf
+    // arguments formatted by the C logger shim)
+    let e = i.do_step(7.0, h).unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.contains("fmi2DoStep") && msg.contains("fmi2Error") && msg.contains("expected currentCommunicationPoint = 0.5"), "{msg}");
+    assert!(i.log().iter().any(|r| r.status == "fmi2Error" && r.message.contains("but was 7")), "{:?}", i.log());
+}
+
+#[test]
+fn rollback_restores_the_state_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = Fmu::load(&test_fmu(dir.path(), "osc.fmu", &test_md(TEST_GUID), true)).unwrap();
+    let mut i = fmu.instantiate("osc", false).unwrap();
+    i.set_real(&[9], &[1e-3]).unwrap();
+    i.setup_experiment(0.0, None, None).unwrap();
+    i.enter_initialization_mode().unwrap();
+    i.exit_initialization_mode().unwrap();
+    i.do_step(0.0, 0.01).unwrap();
+    i.save_state().unwrap();
+    let mut a = [0.0; 2];
+    let mut b = [0.0; 2];
+    i.do_step(0.01, 0.01).unwrap();
+    i.get_real(&[4, 5], &mut a).unwrap();
+    i.restore_state().unwrap();
+    i.set_real(&[3], &[5.0]).unwrap();
+    i.do_step(0.01, 0.01).unwrap();
+    i.get_real(&[4, 5], &mut b).unwrap();
+    assert!(a != b);
+    i.restore_state().unwrap();
+    i.set_real(&[3], &[0.0]).unwrap();
+    i.do_step(0.01, 0.01).unwrap();
+    i.get_real(&[4, 5], &mut b).unwrap();
+    assert_eq!(a, b);
+}
+
+#[test]
+fn rejects_entries_escaping_the_folder_and_writes_nothing_outside() {
+    let dir = tempfile::tempdir().unwrap();
+    let outside = std::env::temp_dir().join(format!("host-evil-{}.txt", std::process::id()));
+    let tmp_before: usize = std::fs::read_dir(std::env::temp_dir()).unwrap().count();
+    let md = test_md(TEST_GUID).into_bytes();
+    let rel = format!("../../../../../../../../..{}", outside.display());
+    for (name, entry) in [("dotdot.fmu", rel.as_str()), ("abs.fmu", outside.to_str().unwrap()), ("inner.fmu", "resources/../../x.txt")] {
+        let p = dir.path().join(name);
+        // the bad entry comes after a good one: nothing may be unpacked at all
+        write_zip(&p, &[("modelDescription.xml", md.clone()), (entry, b"pwned".to_vec())], &[]);
+        match fmu_err(&p) {
+            FmuError::UnsafeEntry { entry: e, .. } => assert_eq!(e, entry),
+            other => panic!("{name}: {other}"),
+        }
+        assert!(!outside.exists(), "{name} wrote {}", outside.display());
+    }
+    let p = dir.path().join("link.fmu");
+    write_zip(&p, &[("modelDescription.xml", md)], &[("resources/link", "/etc/passwd")]);
+    let e = fmu_err(&p);
+    assert!(matches!(&e, FmuError::Symlink { entry, .. } if entry == "resources/link"), "{e}");
+    assert!(e.to_string().contains("symbolic link"));
+    // the temporary folders of the failed imports are gone again
+    let tmp_after: usize = std::fs::read_dir(std::env::temp_dir()).unwrap().count();
+    assert!(tmp_after <= tmp_before + 2, "{tmp_before} -> {tmp_after}"); // other tests may run concurrently
+}
+
+#[test]
+fn missing_binary_guid_mismatch_version_and_model_exchange_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let e = fmu_err(&test_fmu(dir.path(), "nobin.fmu", &test_md(TEST_GUID), false));
+    assert!(matches!(&e, FmuError::MissingBinary { identifier, .. } if identifier == "testosc"), "{e}");
+    assert!(e.to_string().contains("binaries/linux64/testosc.so"), "{e}");
+
+    let fmu = Fmu::load(&test_fmu(dir.path(), "guid.fmu", &test_md("{another-guid}"), true)).unwrap();
+    let e = fmu.instantiate("g", false).err().unwrap();
+    let msg = e.to_string();
+    assert!(matches!(e, FmuError::Instantiate { .. }), "{msg}");
+    assert!(msg.contains("GUID mismatch: expected {host-test-osc-0001}, got {another-guid}"), "{msg}");
+
+    let e = fmu_err(&test_fmu(dir.path(), "v1.fmu", &test_md(TEST_GUID).replace("fmiVersion=\"2.0\"", "fmiVersion=\"1.0\""), true));
+    assert!(matches!(&e, FmuError::Version { found } if found == "1.0"), "{e}");
+    let e = fmu_err(&test_fmu(dir.path(), "v3.fmu", &test_md(TEST_GUID).replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\""), true));
+    assert!(e.to_string().contains("FMI 2.0 only"), "{e}");
+
+    let me = test_md(TEST_GUID).replace("<CoSimulation", "<ModelExchange");
+    let e = fmu_err(&test_fmu(dir.path(), "me.fmu", &me, true));
+    assert!(matches!(e, FmuError::NoCoSimulation { .. }), "{e}");
+
+    let bad = test_md(TEST_GUID).replace("<Real unit=\"m\"/>", "<Real unit=\"m\">");
+    let e = fmu_err(&test_fmu(dir.path(), "xml.fmu", &bad, true));
+    assert!(matches!(e, FmuError::Xml { line: 10, .. }), "{e}");
+
+    let p = dir.path().join("notzip.fmu");
+    std::fs::write(&p, b"not a zip").unwrap();
+    assert!(matches!(fmu_err(&p), FmuError::Zip { .. }));
+}
+
+fn single_osc_master(dir: &Path, fail: Option<(&str, f64)>) -> Master {
+    let fmu = Fmu::load(&test_fmu(dir, "osc.fmu", &test_md(TEST_GUID), true)).unwrap();
+    let mut m = Master::new(vec![("osc".into(), fmu)], &[], MasterOptions { macro_step_s: 1e-3, ..Default::default() }).unwrap();
+    m.set_parameter(0, "x0", &ParamValue::Real(1e-3)).unwrap();
+    if let Some((name, t)) = fail {
+        m.set_parameter(0, name, &ParamValue::Real(t)).unwrap();
+    }
+    m.initialize(0.0, None).unwrap();
+    m
+}
+
+#[test]
+fn an_fmu_error_mid_run_stops_cleanly_and_keeps_the_results() {
+    let dir = tempfile::tempdir().unwrap();
+    for (param, status) in [("fail_at_s", "fmi2Error"), ("discard_at_s", "fmi2Discard")] {
+        let mut m = single_osc_master(dir.path(), Some((param, 0.0305)));
+        let rec = run(&mut m, 0.1, &["osc.x".into()], 1, &mut |_| {}).unwrap();
+        let (t, msg) = rec.stopped.clone().expect("stopped");
+        assert!((t - 0.030).abs() < 1e-12, "{t}");
+        assert!(msg.contains(status) && msg.contains("injected") && msg.contains("t = 0.03 s"), "{msg}");
+        // samples up to the last good communication point, and they are right
+        assert_eq!(rec.time_s.len(), 31);
+        let x = rec.column("osc.x").unwrap();
+        for (k, &t) in rec.time_s.iter().enumerate() {
+            assert!((x[k] - 1e-3 * (10.0 * t).cos()).abs() < 1e-9, "{t}: {}", x[k]);
+        }
+    }
+}
+
+#[test]
+fn connection_errors_name_the_endpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let mk = |c: &[(&str, &str)]| {
+        let a = Fmu::load(&test_fmu(dir.path(), "a.fmu", &test_md(TEST_GUID), true)).unwrap();
+        let b = Fmu::load(&test_fmu(dir.path(), "b.fmu", &test_md(TEST_GUID), true)).unwrap();
+        let c: Vec<(String, String)> = c.iter().map(|(x, y)| (x.to_string(), y.to_string())).collect();
+        Master::new(vec![("a".into(), a), ("b".into(), b)], &c, MasterOptions::default()).err().unwrap().to_string()
+    };
+    assert!(mk(&[("a.x", "c.F")]).contains("no unit named 'c'"));
+    assert!(mk(&[("a.x", "b.nope")]).contains("'nope'"));
+    assert!(mk(&[("a.F", "b.F")]).contains("expected output"));
+    assert!(mk(&[("a.x", "b.x")]).contains("expected input"));
+    assert!(mk(&[("a.x", "b.F"), ("a.v", "b.F")]).contains("more than one"));
+    assert!(mk(&[("ax", "b.F")]).contains("unit.variable"));
+}
+
+/// Two test oscillators coupled by forces through the generic master:
+/// a.F <- b.x, b.F <- a.x (k_c x of the other): with m = 1, k = 100, the
+/// coupling `F_a = c x_b`, `F_b = c x_a` gives modes at omega^2 = 100 -+ c.
+/// Here c = 1 through a unit "gain": the test FMU has no gain output, so the
+/// forces are x itself (c = 1 N/m by units convention of the connection).
+#[test]
+fn coupled_oscillators_match_the_modal_solution_for_every_algorithm() {
+    let dir = tempfile::tempdir().unwrap();
+    for alg in [Algorithm::Jacobi, Algorithm::GaussSeidel, Algorithm::Iterative] {
+        let a = Fmu::load(&test_fmu(dir.path(), "a.fmu", &test_md(TEST_GUID), true)).unwrap();
+        let b = Fmu::load(&test_fmu(dir.path(), "b.fmu", &test_md(TEST_GUID), true)).unwrap();
+        let c = vec![("a.x".to_string(), "b.F".to_string()), ("b.x".to_string(), "a.F".to_string())];
+        let mut m = Master::new(
+            vec![("a".into(), a), ("b".into(), b)],
+            &c,
+            MasterOptions { algorithm: alg, macro_step_s: 1e-3, iteration_rtol: 1e-10, ..Default::default() },
+        )
+        .unwrap();
+        m.set_parameter(0, "x0", &ParamValue::Real(1.0)).unwrap();
+        m.initialize(0.0, None).unwrap();
+        let rec = run(&mut m, 2.0, &["a.x".into(), "b.x".into()], 10, &mut |_| {}).unwrap();
+        assert!(rec.stopped.is_none());
+        // x_a = (cos w1 t + cos w2 t)/2, x_b = (cos w1 t - cos w2 t)/2 with
+        // w1^2 = 100 - 1 (antisymmetric... ) : F_a = x_b pushes along +x.
+        // m x_a'' + k x_a = x_b, m x_b'' + k x_b = x_a: symmetric mode w^2 = 99, antisymmetric 101.
+        let (w1, w2) = (99f64.sqrt(), 101f64.sqrt());
+        let (xa, xb) = (rec.column("a.x").unwrap(), rec.column("b.x").unwrap());
+        let mut err: f64 = 0.0;
+        for (k, &t) in rec.time_s.iter().enumerate() {
+            let ea = 0.5 * ((w1 * t).cos() + (w2 * t).cos());
+            let eb = 0.5 * ((w1 * t).cos() - (w2 * t).cos());
+            err = err.max((xa[k] - ea).abs()).max((xb[k] - eb).abs());
+        }
+        let tol = match alg {
+            Algorithm::Iterative => 1e-6,
+            _ => 1e-3,
+        };
+        assert!(err < tol, "{alg:?}: max error {err:e}");
+        if alg == Algorithm::Iterative {
+            assert!(rec.stats.evaluations >= rec.stats.steps && rec.stats.jacobian_builds >= 1, "{:?}", rec.stats);
+        }
+    }
+}
