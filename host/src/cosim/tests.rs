@@ -266,3 +266,113 @@ fn coupled_oscillators_match_the_modal_solution_for_every_algorithm() {
         }
     }
 }
+
+/// Tests on the repository's FMUs (built with `cargo build -p fmu-shaker -p
+/// fmu-structure`, packaged here with `fmi2::package`, the structure FMU
+/// with a linear modal table of the paper's beam).
+mod fmus {
+    use super::super::paper::*;
+    use super::*;
+    use crate::model::Setup;
+    use crate::scenario::Scenario;
+    use nlmode::nma::ModalTable;
+    use nlmode::structure::modal_analysis;
+    use nlmode::Complex64;
+    use std::sync::OnceLock;
+
+    /// Build the two cdylibs once per test process; their paths.
+    fn libs() -> &'static (PathBuf, PathBuf) {
+        static LIBS: OnceLock<(PathBuf, PathBuf)> = OnceLock::new();
+        LIBS.get_or_init(|| {
+            let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let st = std::process::Command::new(cargo)
+                .current_dir(&root)
+                .args(["build", "--lib", "-p", "fmu-shaker", "-p", "fmu-structure"])
+                .status()
+                .expect("cargo runs");
+            assert!(st.success(), "building the FMU libraries failed");
+            let d = root.join("target").join("debug");
+            (d.join("libstructure.so"), d.join("libshaker.so"))
+        })
+    }
+
+    /// The paper's beam (default scenario): omega0, D0, phi at 2l3 and tip.
+    pub(super) struct Beam {
+        pub omega0: f64,
+        pub d0: f64,
+        pub phi_ex: f64,
+        pub phi_tip: f64,
+        pub setup: Setup,
+    }
+
+    pub(super) fn beam() -> Beam {
+        let setup = Setup::new(&Scenario::default_scenario()).unwrap();
+        let modes = modal_analysis(&setup.model, 1).unwrap();
+        let phi = |p: &str| modes.deflection(0, &setup.model.point(p).unwrap().direction);
+        Beam { omega0: modes.omega_rad_s[0], d0: setup.d0, phi_ex: phi("2l3"), phi_tip: phi("tip"), setup }
+    }
+
+    /// Package `structure.fmu` (with `table` as resources/modal_table.json) and `shaker.fmu` into `dir`.
+    pub(super) fn package(dir: &Path, table: &ModalTable) -> (PathBuf, PathBuf) {
+        let (st_lib, sh_lib) = libs();
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let tp = dir.join("modal_table.json");
+        table.write(&tp).unwrap();
+        let mut out = Vec::new();
+        for (id, lib, res) in [("structure", st_lib, vec![(tp.clone(), "modal_table.json".to_string())]), ("shaker", sh_lib, vec![])] {
+            let spec = fmi2::package::FmuSpec {
+                model_identifier: id.into(),
+                model_description: root.join("modelDescription").join(id).join("modelDescription.xml"),
+                library: lib.clone(),
+                resources: res,
+                documentation: vec![],
+            };
+            let p = dir.join(format!("{id}.fmu"));
+            fmi2::package::write_fmu(&spec, &p).unwrap();
+            out.push(p);
+        }
+        (out[0].clone(), out[1].clone())
+    }
+
+    pub(super) fn linear_table(b: &Beam) -> ModalTable {
+        ModalTable::linear(
+            b.omega0,
+            b.d0,
+            &[("tip", Complex64::new(b.phi_tip, 0.0)), ("2l3", Complex64::new(b.phi_ex, 0.0)), ("l3", Complex64::new(0.0, 0.0))],
+            1e-9,
+            10.0,
+        )
+    }
+
+    /// Linear single-mode structure + shaker, steady state at `w`: (F, x_tip) complex.
+    pub(super) fn linear_steady(b: &Beam, w: f64, u_hat: f64) -> (Complex64, Complex64) {
+        let sh = &b.setup.shakers[0];
+        let hm = 1.0 / Complex64::new(b.omega0 * b.omega0 - w * w, 2.0 * b.d0 * b.omega0 * w);
+        let fb = sh.closed_form_blocked_force(w, Complex64::new(u_hat, 0.0));
+        let z = sh.closed_form_interface_impedance(w);
+        let f = fb / (1.0 + z * b.phi_ex * b.phi_ex * hm);
+        (f, b.phi_tip * b.phi_ex * hm * f)
+    }
+
+    #[test]
+    #[ignore]
+    fn explore() {
+        let b = beam();
+        let dir = tempfile::tempdir().unwrap();
+        let (st, sh) = package(dir.path(), &linear_table(&b));
+        for eta in [0.9, 1.0] {
+            let w = eta * b.omega0;
+            let mut p = CosimParams::new(b.setup.shakers[0], SweepSpec { u_hat_v: 1.0, omega_start_rad_s: w, omega_end_rad_s: w, rate_rad_s2: 0.0 });
+            p.stop_time_s = Some(1.0);
+            let o = run_cosim(&st, &sh, &p, &mut |_| {}).unwrap();
+            let (f, tip) = linear_steady(&b, w, 1.0);
+            let e = &o.envelope;
+            let n = e.omega_rad_s.len();
+            for k in (0..n).step_by(n / 10) {
+                println!("eta {eta} t-idx {k}: F {:.5} (steady {:.5}) tip {:.4e} (steady {:.4e})", e.force_amplitude_n[k], f.norm(), e.tip_amplitude_m[k], tip.norm());
+            }
+            println!("wall {} stats {:?} stopped {:?}", o.wall_time_s, o.stats, o.stopped);
+        }
+    }
+}
