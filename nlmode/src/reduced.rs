@@ -65,6 +65,7 @@ use std::sync::Arc;
 pub mod dopri;
 mod imposed;
 mod post;
+pub mod problems;
 mod steady;
 mod sweep;
 
