@@ -442,3 +442,21 @@ fn bad_inputs_are_typed_errors() {
     ));
     assert!(m.clone().with_frequency_error(FrequencyError { eps: -1.5, offset_rad_s: 0.0 }).is_err());
 }
+
+#[test]
+fn default_tolerances_are_converged_on_case_a() {
+    let table = benchmark_duffing_table(bm::K3_N_PER_M3);
+    let m = shaker_model(&table, "2l3");
+    let sweep = case_sweep(10.0);
+    let r = m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap();
+    let fine = SlowFlowOptions { rtol: 1e-10, atol_rel: 1e-12, channel_tol: 1e-12, ..Default::default() };
+    let rf = m.simulate_sweep(&sweep, &fine).unwrap();
+    let d = max_rel_diff(&rf, &r);
+    let (s, sf) = (r.summary().unwrap(), rf.summary().unwrap());
+    eprintln!(
+        "default vs fine tolerances: max tip difference {d:e} of peak; steps {} vs {}; peak {:.6e} vs {:.6e}",
+        r.stats.accepted_steps, rf.stats.accepted_steps, s.peak_tip_amplitude_m, sf.peak_tip_amplitude_m
+    );
+    assert!(d < 1e-3, "{d}");
+    assert!((s.peak_tip_amplitude_m - sf.peak_tip_amplitude_m).abs() < 1e-4 * sf.peak_tip_amplitude_m);
+}
