@@ -100,12 +100,12 @@ fn craig_bampton_reproduces_the_first_three_frequencies() {
     assert_eq!(p.transform.shape(), (198, 11));
     let full = modal_analysis(&p.beam.model, 3).unwrap();
     let red = modal_analysis(&p.model, 3).unwrap();
-    for j in 0..3 {
-        let (wf, wr) = (full.omega_rad_s[j], red.omega_rad_s[j]);
+    for (j, (&wf, &wr)) in full.omega_rad_s.iter().zip(&red.omega_rad_s).enumerate() {
         assert!(rel(wr, wf) < 1e-3, "mode {j}: CB {wr} vs full {wf}");
-        // a Ritz approximation lies above (up to the eigensolver's rounding, about 1e-7 here)
+        // a Ritz approximation lies above (this needs the refined eigensolver: the
+        // plain dense one is off by about 1e-7 on this mesh)
         assert!(
-            wr >= wf * (1.0 - 1e-7),
+            wr >= wf * (1.0 - 1e-12),
             "CB is a Ritz approximation: from above"
         );
         let exact = p.beam.spec.analytic_omega_rad_s(CLAMPED_FREE[j]);
@@ -193,13 +193,18 @@ fn stiffness_proportional_damping_on_the_paper_model() {
         for j in 0..3 {
             let d = cm[(j, j)] / (2.0 * modes.omega_rad_s[j]);
             let expected = benchmark::D0 * modes.omega_rad_s[j] / p.omega0_rad_s;
-            // C = beta K: D_j = beta omega_j / 2 exactly (up to the eigensolver's rounding)
-            assert!(rel(d, expected) < 1e-6, "mode {j}: D = {d} vs {expected}");
+            // C = beta K: D_j = beta omega_j / 2; measured through Phi^T C Phi, whose
+            // rounding (cancellation in K phi on the 198-DOF mesh) is about 1e-8
+            assert!(rel(d, expected) < 1e-7, "mode {j}: D = {d} vs {expected}");
         }
         let d1 = cm[(0, 0)] / (2.0 * modes.omega_rad_s[0]);
         assert!(rel(d1, 0.004) < 1e-6, "{d1}");
     }
     assert!(rel(p.damping_beta_s, 2.0 * 0.004 / p.omega0_rad_s) < 1e-14);
+    assert_eq!(
+        p.beam.model.damping,
+        &p.beam.model.stiffness * p.damping_beta_s
+    );
 }
 
 #[test]

@@ -106,12 +106,11 @@ mod tests {
         let modes = modal_analysis(&m, 4).unwrap();
         assert!((beta - 0.02 / modes.omega_rad_s[1]).abs() < 1e-15);
         let (d, _) = modal_ratios(&m, 4);
-        for j in 0..4 {
-            let expected = 0.01 * modes.omega_rad_s[j] / modes.omega_rad_s[1];
+        for (j, (dj, wj)) in d.iter().zip(&modes.omega_rad_s).enumerate() {
+            let expected = 0.01 * wj / modes.omega_rad_s[1];
             assert!(
-                (d[j] - expected).abs() < 1e-8 * expected,
-                "mode {j}: {} vs {expected}",
-                d[j]
+                (dj - expected).abs() < 1e-10 * expected,
+                "mode {j}: {dj} vs {expected}"
             );
         }
     }
@@ -122,10 +121,9 @@ mod tests {
         rayleigh_damping(&mut m, 3.0, 1e-5).unwrap();
         let modes = modal_analysis(&m, 3).unwrap();
         let (d, _) = modal_ratios(&m, 3);
-        for j in 0..3 {
-            let w = modes.omega_rad_s[j];
+        for (dj, w) in d.iter().zip(&modes.omega_rad_s) {
             let expected = 3.0 / (2.0 * w) + 1e-5 * w / 2.0;
-            assert!((d[j] - expected).abs() < 1e-10 * expected);
+            assert!((dj - expected).abs() < 1e-10 * expected);
         }
         modal_damping(&mut m, &[0.01, 0.02]).unwrap();
         let (d, cm) = modal_ratios(&m, 3);
