@@ -15,9 +15,12 @@
 use super::{NamedPoint, Result, StructuralModel, StructureError};
 use crate::benchmark;
 use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
 
-/// Boundary conditions at the two ends `x = 0` and `x = l`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// Boundary conditions at the two ends `x = 0` and `x = l` (serialised in snake_case:
+/// `clamped_free`, `clamped_clamped`, `pinned_pinned`, `clamped_pinned`, `free_free`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum BoundaryCondition {
     /// Clamped at `x = 0`, free at `x = l` (the paper's cantilever).
     #[default]
@@ -49,8 +52,10 @@ impl BoundaryCondition {
     }
 }
 
-/// Geometry, material and discretisation of a uniform rectangular beam.
-#[derive(Debug, Clone, PartialEq)]
+/// Geometry, material and discretisation of a uniform rectangular beam
+/// (serialisable; unknown keys are rejected, `boundary` defaults to clamped-free).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct BeamSpec {
     /// Length `l` [m].
     pub length_m: f64,
@@ -65,6 +70,7 @@ pub struct BeamSpec {
     /// Number of nodes including both ends (at least 2).
     pub n_nodes: usize,
     /// Boundary conditions.
+    #[serde(default)]
     pub boundary: BoundaryCondition,
 }
 
@@ -465,6 +471,27 @@ mod tests {
             b.add_point("tip", l),
             Err(StructureError::DuplicateName { .. })
         ));
+    }
+
+    #[test]
+    fn spec_serialises_and_rejects_unknown_keys() {
+        let s = BeamSpec {
+            boundary: BoundaryCondition::PinnedPinned,
+            ..BeamSpec::paper()
+        };
+        let json = serde_json::to_string(&s).unwrap();
+        assert!(json.contains("\"pinned_pinned\""), "{json}");
+        assert_eq!(serde_json::from_str::<BeamSpec>(&json).unwrap(), s);
+        let no_bc = r#"{"length_m":1,"height_m":0.01,"width_m":0.01,"youngs_modulus_pa":2e11,"density_kg_m3":7800,"n_nodes":5}"#;
+        assert_eq!(
+            serde_json::from_str::<BeamSpec>(no_bc).unwrap().boundary,
+            BoundaryCondition::ClampedFree
+        );
+        let typo = no_bc.replace("n_nodes", "nodes");
+        let err = serde_json::from_str::<BeamSpec>(&typo)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("nodes"), "{err}");
     }
 
     #[test]

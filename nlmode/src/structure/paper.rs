@@ -24,8 +24,11 @@ pub const TWO_L3: &str = "2l3";
 /// Name of the cubic spring element.
 pub const CUBIC_SPRING: &str = "cubic_spring";
 
-/// Options of [`paper_structure`]; `Default` is the paper.
-#[derive(Debug, Clone, PartialEq)]
+/// Options of [`paper_structure`]; `Default` is the paper. Serialisable: missing keys
+/// take the paper's values, unknown keys are rejected; `points` is a list of
+/// `[name, x_m]` pairs.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct PaperStructureOptions {
     /// Number of beam nodes (100).
     pub n_nodes: usize,
