@@ -6,7 +6,7 @@
 //! * Rayleigh `C = alpha M + beta K`, `D_k = alpha / (2 omega_k) + beta omega_k / 2`;
 //! * modal `C = M Phi diag(2 D_k omega_k) Phi^T M` over the first modes (mass-normalised
 //!   `Phi`), exactly `D_k` on those modes and no damping on the others.
-use super::modal::modal_analysis;
+use super::modal::{modal_analysis, LinearModes};
 use super::{Result, StructuralModel, StructureError};
 use nalgebra::DMatrix;
 
@@ -36,7 +36,25 @@ pub fn stiffness_proportional_damping(
         });
     }
     let modes = modal_analysis(model, mode_index + 1)?;
-    let omega = modes.omega_rad_s[mode_index];
+    stiffness_proportional_damping_from_modes(model, &modes, mode_index, ratio)
+}
+
+/// As [`stiffness_proportional_damping`] with the linear modes of `model` already
+/// computed (`modes` must come from [`modal_analysis`] of this model).
+pub fn stiffness_proportional_damping_from_modes(
+    model: &mut StructuralModel,
+    modes: &LinearModes,
+    mode_index: usize,
+    ratio: f64,
+) -> Result<f64> {
+    check_ratio("ratio", ratio)?;
+    let omega = *modes
+        .omega_rad_s
+        .get(mode_index)
+        .ok_or(StructureError::ModeIndexOutOfRange {
+            index: mode_index,
+            available: modes.n_modes(),
+        })?;
     if omega == 0.0 {
         return Err(StructureError::ZeroFrequencyMode {
             index: mode_index,

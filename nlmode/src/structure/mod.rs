@@ -71,7 +71,10 @@ pub mod paper;
 
 pub use beam::{Beam, BeamSpec, BoundaryCondition};
 pub use craig_bampton::{craig_bampton, CraigBampton};
-pub use damping::{modal_damping, rayleigh_damping, stiffness_proportional_damping};
+pub use damping::{
+    modal_damping, rayleigh_damping, stiffness_proportional_damping,
+    stiffness_proportional_damping_from_modes,
+};
 pub use laws::{RegularizedFriction, UnilateralSpring};
 pub use modal::{modal_analysis, LinearModes};
 pub use paper::{paper_structure, PaperStructure, PaperStructureOptions};
