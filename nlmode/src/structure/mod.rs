@@ -96,6 +96,9 @@ pub enum StructureError {
     /// The beam needs at least `min` nodes.
     #[error("`n_nodes` = {n_nodes} is too few: the beam needs at least {min} nodes")]
     TooFewNodes { n_nodes: usize, min: usize },
+    /// An unknown boundary-condition name.
+    #[error("unknown boundary condition `{name}`; expected one of {expected}")]
+    UnknownBoundaryCondition { name: String, expected: String },
     /// A location outside `[0, l]`.
     #[error("location x = {x_m} m lies outside the beam [0, {length_m}] m")]
     LocationOutsideBeam { x_m: f64, length_m: f64 },
