@@ -571,3 +571,40 @@ fn paper_beam_conservative_and_damped_backbones_nearly_coincide() {
     assert!(bc.damping_ratio.abs() < 1e-10);
     assert_eq!(c.linear_damping_ratio, 0.0);
 }
+
+#[test]
+fn options_deserialize_with_defaults() {
+    let o: NmaOptions = serde_json::from_str(
+        r#"{"harmonics": 3, "amplitude": {"point": {"name": "tip", "start_m": 1e-6, "end_m": 0.02}}, "continuation": {"ds": 0.05}}"#,
+    )
+    .unwrap();
+    assert_eq!(o.harmonics, 3);
+    assert_eq!(o.amplitude, AmplitudeRange::Point { name: "tip".into(), start_m: 1e-6, end_m: 0.02 });
+    assert_eq!(o.continuation.ds, 0.05);
+    assert_eq!(o.continuation.dsmin(), 0.01);
+    assert_eq!(o.continuation.dsmax(), 0.25);
+    assert_eq!(o.mode_index, 0);
+    assert!(serde_json::from_str::<NmaOptions>(r#"{"harmonic": 3}"#).is_err());
+}
+
+#[test]
+fn higher_mode_index_continues_that_mode() {
+    let mut model = test_chain(0.0);
+    model.nonlinear[0].law = Arc::new(CubicLaw { k3: 4e5, c3: 0.0 });
+    let basis = ModalBasis::new(&model, false).unwrap();
+    let opts = NmaOptions {
+        harmonics: 3,
+        mode_index: 2,
+        amplitude: AmplitudeRange::Modal { log10_start: -5.0, log10_end: -1.0 },
+        ..Default::default()
+    };
+    let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    let b = &r.branch[0];
+    assert!((b.omega_rad_s / basis.omega(2) - 1.0).abs() < 1e-8);
+    assert!((b.damping_ratio / basis.damping_ratio(2) - 1.0).abs() < 1e-6);
+    let l = r.branch.last().unwrap();
+    assert!(l.omega_rad_s > b.omega_rad_s, "{} {} {} {:?} {:?} {:?}", l.omega_rad_s, l.amplitude, l.damping_ratio, r.stop, r.warnings, r.folds);
+    for (i, c) in b.coordinates.iter().enumerate() {
+        assert!((c[1].re - basis.phi[(i, 2)]).abs() < 1e-6, "{i}");
+    }
+}

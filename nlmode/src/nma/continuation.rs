@@ -49,8 +49,9 @@ pub trait Residual {
 }
 
 /// Options of the continuation (defaults as in NLvib: `dsmin = ds/5`,
-/// `dsmax = 5 ds`).
-#[derive(Debug, Clone, PartialEq)]
+/// `dsmax = 5 ds`). Serialisable; missing keys take the defaults.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ContinuationOptions {
     /// Initial step length in the scaled arc length.
     pub ds: f64,

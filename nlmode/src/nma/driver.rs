@@ -77,8 +77,10 @@ pub enum NmaWarning {
     LeftRange { amplitude: f64 },
 }
 
-/// Amplitude range of the continuation.
-#[derive(Debug, Clone, PartialEq)]
+/// Amplitude range of the continuation (serialised externally tagged,
+/// e.g. TOML `amplitude = { modal = { log10_start = -6.0, log10_end = -1.0 } }`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum AmplitudeRange {
     /// Modal amplitude `a = sqrt(q1^H M q1)` [sqrt(kg) m], as `log10 a` bounds.
     Modal { log10_start: f64, log10_end: f64 },
@@ -89,8 +91,11 @@ pub enum AmplitudeRange {
     Point { name: String, start_m: f64, end_m: f64 },
 }
 
-/// Options of [`nonlinear_modal_analysis`].
-#[derive(Debug, Clone, PartialEq)]
+/// Options of [`nonlinear_modal_analysis`]. Serialisable; missing keys take
+/// the defaults (`Default`: H = 13, mode 0, `a` from 1e-6 to 1e-1, damped,
+/// `ds = 0.1`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct NmaOptions {
     /// Harmonic truncation order `H` (`eq:fourier`); the paper uses 13.
     pub harmonics: usize,
@@ -325,8 +330,29 @@ fn find_point(model: &StructuralModel, name: &str) -> Result<usize, NmaError> {
 /// [`NmaResult::to_table`] for the modal table. On a continuation failure the
 /// error carries the computed part of the branch.
 pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> Result<NmaResult, NmaError> {
+    check_harmonics(opts.harmonics, opts.samples)?;
+    let n = model.mass.nrows();
+    if opts.mode_index >= n {
+        return Err(NmaError::ModeIndexOutOfRange { mode_index: opts.mode_index, n_modes: n });
+    }
+    let basis = Arc::new(ModalBasis::new(model, opts.conservative)?);
+    nonlinear_modal_analysis_with_basis(model, basis, opts)
+}
+
+/// [`nonlinear_modal_analysis`] with the linear modes of `model` computed
+/// beforehand (`ModalBasis::new(model, opts.conservative)`), e.g. to reuse
+/// them or to time the continuation alone. Panics if `basis` does not belong
+/// to `model` / `opts.conservative`.
+pub fn nonlinear_modal_analysis_with_basis(
+    model: &StructuralModel,
+    basis: Arc<ModalBasis>,
+    opts: &NmaOptions,
+) -> Result<NmaResult, NmaError> {
     let samples = check_harmonics(opts.harmonics, opts.samples)?;
     let n = model.mass.nrows();
+    assert_eq!(basis.n_modes(), n, "modal basis of another model");
+    assert_eq!(basis.w.ncols(), model.nonlinear.len(), "modal basis of another model");
+    assert_eq!(basis.conservative, opts.conservative, "modal basis with the other damping option");
     if opts.mode_index >= n {
         return Err(NmaError::ModeIndexOutOfRange { mode_index: opts.mode_index, n_modes: n });
     }
@@ -335,7 +361,6 @@ pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> R
     } else {
         opts.points.iter().map(|p| find_point(model, p)).collect::<Result<_, _>>()?
     };
-    let basis = Arc::new(ModalBasis::new(model, opts.conservative)?);
     let j = opts.mode_index;
     let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, j);
     let point_modal: Vec<DVector<f64>> =

@@ -62,6 +62,8 @@ pub struct ModalBasis {
     pub w: DMatrix<f64>,
     /// Nonlinear force laws, one per column of `w`.
     pub laws: Vec<Arc<dyn NonlinearLaw>>,
+    /// Whether the damping was dropped (`cm = 0`).
+    pub conservative: bool,
 }
 
 impl ModalBasis {
@@ -74,22 +76,13 @@ impl ModalBasis {
         assert_eq!(model.mass.shape(), (n, n), "mass matrix must be square");
         assert_eq!(model.stiffness.shape(), (n, n), "stiffness matrix must be n x n");
         assert_eq!(model.damping.shape(), (n, n), "damping matrix must be n x n");
-        let chol = nalgebra::Cholesky::new(model.mass.clone()).ok_or(NmaError::MassNotPositiveDefinite)?;
-        let l = chol.l();
-        // A = L^-1 K L^-T
-        let linv_k = l.solve_lower_triangular(&model.stiffness).expect("Cholesky factor is regular");
-        let a = l.solve_lower_triangular(&linv_k.transpose()).expect("Cholesky factor is regular");
-        let a = (&a + a.transpose()) * 0.5;
-        let eig = nalgebra::SymmetricEigen::new(a);
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
-        let mut v = DMatrix::zeros(n, n);
-        let mut omega2 = DVector::zeros(n);
-        for (c, &i) in order.iter().enumerate() {
-            v.set_column(c, &eig.eigenvectors.column(i));
-            omega2[c] = eig.eigenvalues[i];
+        if nalgebra::Cholesky::new(model.mass.clone()).is_none() {
+            return Err(NmaError::MassNotPositiveDefinite);
         }
-        let mut phi = l.transpose().solve_upper_triangular(&v).expect("Cholesky factor is regular");
+        let (omega2, mut phi) = match nalgebra::Cholesky::new(model.stiffness.clone()) {
+            Some(ck) => flexibility_modes(&model.mass, &ck.l()),
+            None => stiffness_modes(&model.mass, &model.stiffness),
+        };
         let reference: Option<&DVector<f64>> = model
             .points
             .first()
@@ -113,11 +106,17 @@ impl ModalBasis {
             let cm = phi.transpose() * &model.damping * &phi;
             (&cm + cm.transpose()) * 0.5
         };
+        // Off-diagonal modal damping counts if it exceeds both a relative
+        // 1e-9 of the diagonal and the rounding level of Phi^T C Phi (about
+        // eps times the largest modal damping; a fine FE mesh has
+        // omega_max^2 / omega_1^2 ~ 1e10, so C = beta K is not diagonal to
+        // much better than that in floating point).
+        let c_max = (0..n).map(|k| cm[(k, k)].abs()).fold(0.0, f64::max);
         let mut diagonal_damping = true;
         for i in 0..n {
             for j in 0..n {
                 if i != j {
-                    let bound = 1e-9 * (cm[(i, i)].abs() * cm[(j, j)].abs()).sqrt() + 1e-14 * cm.amax();
+                    let bound = (1e-9 * (cm[(i, i)].abs() * cm[(j, j)].abs()).sqrt()).max(1e4 * f64::EPSILON * c_max);
                     if cm[(i, j)].abs() > bound {
                         diagonal_damping = false;
                     }
@@ -131,7 +130,7 @@ impl ModalBasis {
             w.set_column(e, &(phi.transpose() * &el.direction));
         }
         let laws = model.nonlinear.iter().map(|e| e.law.clone()).collect();
-        Ok(Self { phi, omega2, cm, diagonal_damping, w, laws })
+        Ok(Self { phi, omega2, cm, diagonal_damping, w, laws, conservative })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -188,6 +187,57 @@ impl ModalBasis {
             })
             .collect()
     }
+}
+
+/// All modes from the flexibility form `B = L_K^-1 M L_K^-T`, `K = L_K L_K^T`:
+/// `B u = (1/omega^2) u`, `phi = L_K^-T u / sqrt(mu)`. A dense eigensolver has
+/// an absolute eigenvalue error of about `eps max(mu)`, so the low modes (large
+/// `mu = 1/omega^2`) come out to machine precision even on fine FE meshes
+/// where `omega_max^2 / omega_1^2 ~ 1e14` (the stiffness form would lose
+/// `omega_1` there). The highest modes of such meshes are not resolved
+/// (`mu` at rounding level): their `mu` is floored at `1e3 eps max(mu)`,
+/// which keeps their quasi-static flexibility `phi phi^T / omega^2 =
+/// L_K^-T u u^T L_K^-1` exact and only misstates their negligible inertia.
+fn flexibility_modes(m: &DMatrix<f64>, lk: &DMatrix<f64>) -> (DVector<f64>, DMatrix<f64>) {
+    let n = m.nrows();
+    let linv_m = lk.solve_lower_triangular(m).expect("Cholesky factor is regular");
+    let b = lk.solve_lower_triangular(&linv_m.transpose()).expect("Cholesky factor is regular");
+    let b = (&b + b.transpose()) * 0.5;
+    let eig = nalgebra::SymmetricEigen::new(b);
+    let mu_max = eig.eigenvalues.max();
+    let floor = 1e3 * f64::EPSILON * mu_max;
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&i, &j| eig.eigenvalues[j].total_cmp(&eig.eigenvalues[i]));
+    let mut u = DMatrix::zeros(n, n);
+    let mut omega2 = DVector::zeros(n);
+    for (c, &i) in order.iter().enumerate() {
+        let mu = eig.eigenvalues[i].max(floor);
+        u.set_column(c, &(eig.eigenvectors.column(i) / mu.sqrt()));
+        omega2[c] = 1.0 / mu;
+    }
+    let phi = lk.transpose().solve_upper_triangular(&u).expect("Cholesky factor is regular");
+    (omega2, phi)
+}
+
+/// All modes from `A = L_M^-1 K L_M^-T` (used when `K` is singular, e.g. free
+/// structures); low modes carry an absolute error of `eps omega_max^2`.
+fn stiffness_modes(m: &DMatrix<f64>, k: &DMatrix<f64>) -> (DVector<f64>, DMatrix<f64>) {
+    let n = m.nrows();
+    let l = nalgebra::Cholesky::new(m.clone()).expect("mass checked positive definite").l();
+    let linv_k = l.solve_lower_triangular(k).expect("Cholesky factor is regular");
+    let a = l.solve_lower_triangular(&linv_k.transpose()).expect("Cholesky factor is regular");
+    let a = (&a + a.transpose()) * 0.5;
+    let eig = nalgebra::SymmetricEigen::new(a);
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
+    let mut v = DMatrix::zeros(n, n);
+    let mut omega2 = DVector::zeros(n);
+    for (c, &i) in order.iter().enumerate() {
+        v.set_column(c, &eig.eigenvectors.column(i));
+        omega2[c] = eig.eigenvalues[i];
+    }
+    let phi = l.transpose().solve_upper_triangular(&v).expect("Cholesky factor is regular");
+    (omega2, phi)
 }
 
 /// Structured Jacobian of a modal Harmonic Balance residual (see module doc):
@@ -447,8 +497,14 @@ impl HbJacobian {
                     if gv == 0.0 {
                         continue;
                     }
-                    for cz in 0..s {
-                        a[(ri, ne_e + cz)] += gv * q[(e * nh + h2, cz)];
+                    // Q couples only the two components of one harmonic
+                    let nn2 = harmonic_of(h2);
+                    let comps2: &[usize] = if nn2 == 0 { &[0] } else { &[cos_index(nn2), sin_index(nn2)] };
+                    for e2 in 0..ne {
+                        for &hz in comps2 {
+                            let cz = e2 * nh + hz;
+                            a[(ri, ne_e + cz)] += gv * q[(e * nh + h2, cz)];
+                        }
                     }
                     for (i, &gi) in e_list.iter().enumerate() {
                         if gi / n == h2 {
