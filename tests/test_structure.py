@@ -263,14 +263,28 @@ class NM:
         self.damping = pchip(amp, table["damping_ratio"])
         re, im = pchip(amp, [r[1] for r in p["re"]]), pchip(amp, [r[1] for r in p["im"]])
         self.phi_ex = lambda a: np.abs(re(a) + 1j * im(a))
-        self.grid = np.linspace(self.a_min, self.a_max, 200001)
+        self.grid = np.linspace(self.a_min, self.a_max, 20001)
+
+    def residual(self, a, omega, f0):
+        w, d = self.omega(a), self.damping(a)
+        return np.abs(w**2 - omega**2 + 2j * d * w * omega) * a - self.phi_ex(a) * f0
 
     def roots(self, omega, f0):
+        """All roots in the table's range: sign changes on a grid, then bisection."""
         a = self.grid
-        w, d = self.omega(a), self.damping(a)
-        r = np.abs(w**2 - omega**2 + 2j * d * w * omega) * a - self.phi_ex(a) * f0
-        idx = np.nonzero(np.sign(r[:-1]) != np.sign(r[1:]))[0]
-        return [a[i] - r[i] * (a[i + 1] - a[i]) / (r[i + 1] - r[i]) for i in idx]
+        r = self.residual(a, omega, f0)
+        out = []
+        for i in np.nonzero(np.sign(r[:-1]) != np.sign(r[1:]))[0]:
+            lo, hi, r_lo = a[i], a[i + 1], r[i]
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                r_mid = self.residual(mid, omega, f0)
+                if np.sign(r_mid) == np.sign(r_lo):
+                    lo, r_lo = mid, r_mid
+                else:
+                    hi = mid
+            out.append(0.5 * (lo + hi))
+        return out
 
 
 def nm_steady_roots(table, omega, phi_ex, f0, drive="2l3"):
@@ -377,7 +391,10 @@ def test_misuse_gives_error_status_and_log_and_the_process_survives(unzipped, tm
     fmu.freeInstance()
 
     # missing resources: no table in resources/ and no modal_table parameter
-    fmu = open_fmu(unzipped, "nores")
+    nores = tmp_path / "nores"
+    shutil.copytree(unzipped, nores)
+    (nores / "resources" / "modal_table.json").unlink(missing_ok=True)
+    fmu = open_fmu(str(nores), "nores")
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     expect_error(fmu, fmu.exitInitializationMode, text="modal_table.json")
@@ -405,9 +422,11 @@ def test_table_from_the_resources_folder(structure_fmu, tmp_path):
     """The default table location is resources/modal_table.json of the FMU, found
     through the resource URI (here with a space in the path: percent-encoded)."""
     fmu_copy = tmp_path / "with resources.fmu"
-    shutil.copy(structure_fmu, fmu_copy)
-    with zipfile.ZipFile(fmu_copy, "a") as z:
-        z.writestr("resources/modal_table.json", json.dumps(linear_table()))
+    with zipfile.ZipFile(structure_fmu) as src, zipfile.ZipFile(fmu_copy, "w") as dst:
+        for item in src.infolist():
+            if item.filename != "resources/modal_table.json":
+                dst.writestr(item, src.read(item.filename))
+        dst.writestr("resources/modal_table.json", json.dumps(linear_table()))
     unz = extract(str(fmu_copy), unzipdir=str(tmp_path / "unzipped with space"))
     fmu = start(unz, None)
     assert fmu.getReal([VR_OMEGA])[0] == W0
