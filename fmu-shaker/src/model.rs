@@ -341,9 +341,14 @@ impl Shaker {
         )
     }
 
-    /// Current states `[I, q_a, v_a]`.
+    /// Current states `[I, q_a, v_a]` (A, m, m/s).
     pub fn states(&self) -> [f64; 3] {
         [self.s[0], self.s[1], self.s[2]]
+    }
+
+    /// Overwrite the states `[I, q_a, v_a]` (analysis of the coupled step map).
+    pub fn set_states(&mut self, s: [f64; 3]) {
+        self.s = Vector3::new(s[0], s[1], s[2]);
     }
 }
 
