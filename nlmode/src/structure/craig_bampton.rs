@@ -1,0 +1,280 @@
+//! Craig-Bampton reduction (paper Section 5: tip translation as master plus 10
+//! fixed-interface normal modes).
+//!
+//! With the master DOFs `b` and the remaining (interior) DOFs `i`,
+//!
+//! ```text
+//! q = T q_red,   q_red = [q_b; eta],   T = [ I       0    ]   (rows b)
+//!                                          [ Psi   Phi_i  ]   (rows i)
+//! Psi = -K_ii^{-1} K_ib   (static constraint modes),
+//! K_ii Phi_i = M_ii Phi_i diag(omega_i^2)   (fixed-interface modes, mass-normalised)
+//! ```
+//!
+//! The reduced model is `T^T M T`, `T^T K T`, `T^T C T`; named points and nonlinear
+//! element directions are projected as `T^T e` (so `u = e^T q = (T^T e)^T q_red`).
+//! Reduced coordinates: the masters first (in the order given), then the modal
+//! coordinates `eta` in ascending frequency.
+use super::modal::generalized_eigen;
+use super::{symmetrize, NamedPoint, NonlinearElement, Result, StructuralModel, StructureError};
+use nalgebra::{DMatrix, DVector};
+
+/// A Craig-Bampton reduced model and its transformation.
+#[derive(Debug, Clone)]
+pub struct CraigBampton {
+    /// The reduced structural model (`ndof = masters + modes`).
+    pub reduced: StructuralModel,
+    /// `n_full x n_red` transformation, `q_full = T q_red`.
+    pub transform: DMatrix<f64>,
+    /// Master DOFs of the full model, in the order of the first reduced coordinates.
+    pub masters: Vec<usize>,
+    /// Natural frequencies of the fixed-interface modes [rad/s].
+    pub interface_omega_rad_s: Vec<f64>,
+}
+
+impl CraigBampton {
+    /// Full-model coordinates `q_full = T q_red`.
+    pub fn recover(&self, q_red: &DVector<f64>) -> DVector<f64> {
+        assert_eq!(
+            q_red.len(),
+            self.transform.ncols(),
+            "q_red has the wrong length"
+        );
+        &self.transform * q_red
+    }
+
+    /// One physical DOF of the full model, `q_full[dof] = T[dof, :] q_red`.
+    pub fn recover_dof(&self, dof: usize, q_red: &DVector<f64>) -> Result<f64> {
+        let n = self.transform.nrows();
+        if dof >= n {
+            return Err(StructureError::DofOutOfRange {
+                name: "dof",
+                dof,
+                ndof: n,
+            });
+        }
+        assert_eq!(
+            q_red.len(),
+            self.transform.ncols(),
+            "q_red has the wrong length"
+        );
+        Ok(self.transform.row(dof).transpose().dot(q_red))
+    }
+}
+
+/// Craig-Bampton reduction of `model` with the master DOFs `masters` and the
+/// `n_modes` lowest fixed-interface modes (`n_modes = 0`: Guyan reduction).
+pub fn craig_bampton(
+    model: &StructuralModel,
+    masters: &[usize],
+    n_modes: usize,
+) -> Result<CraigBampton> {
+    model.validate()?;
+    let n = model.ndof();
+    let mut is_master = vec![false; n];
+    for &dof in masters {
+        if dof >= n {
+            return Err(StructureError::DofOutOfRange {
+                name: "masters",
+                dof,
+                ndof: n,
+            });
+        }
+        if is_master[dof] {
+            return Err(StructureError::DuplicateDof {
+                name: "masters",
+                dof,
+            });
+        }
+        is_master[dof] = true;
+    }
+    let interior: Vec<usize> = (0..n).filter(|&i| !is_master[i]).collect();
+    let nb = masters.len();
+    let ni = interior.len();
+    if (n_modes == 0 && nb == 0) || n_modes > ni {
+        return Err(StructureError::ModeCount {
+            name: "n_modes",
+            requested: n_modes,
+            available: ni,
+        });
+    }
+    let mut t = DMatrix::zeros(n, nb + n_modes);
+    for (c, &dof) in masters.iter().enumerate() {
+        t[(dof, c)] = 1.0;
+    }
+    let mut interface_omega_rad_s = Vec::new();
+    if ni > 0 {
+        let k_ii = model
+            .stiffness
+            .select_rows(&interior)
+            .select_columns(&interior);
+        let k_ib = model
+            .stiffness
+            .select_rows(&interior)
+            .select_columns(masters);
+        let singular = || StructureError::SingularInterior {
+            masters: masters.to_vec(),
+        };
+        // The lowest fixed-interface eigenvalue detects a singular K_ii robustly (a
+        // Cholesky factorisation may pass with a rounding-size pivot).
+        let m_ii = model.mass.select_rows(&interior).select_columns(&interior);
+        let (omega, phi) =
+            generalized_eigen(&m_ii, &k_ii, n_modes.max(1), "n_modes").map_err(|e| match e {
+                StructureError::NegativeEigenvalue { .. } => singular(),
+                e => e,
+            })?;
+        if omega[0] == 0.0 {
+            return Err(singular());
+        }
+        let chol = k_ii.cholesky().ok_or_else(singular)?;
+        let psi = -chol.solve(&k_ib);
+        for (r, &dof) in interior.iter().enumerate() {
+            for c in 0..nb {
+                t[(dof, c)] = psi[(r, c)];
+            }
+            for j in 0..n_modes {
+                t[(dof, nb + j)] = phi[(r, j)];
+            }
+        }
+        interface_omega_rad_s = omega[..n_modes].to_vec();
+    }
+    let tt = t.transpose();
+    let project = |a: &DMatrix<f64>| symmetrize(&tt * a * &t);
+    let reduced = StructuralModel {
+        mass: project(&model.mass),
+        stiffness: project(&model.stiffness),
+        damping: project(&model.damping),
+        nonlinear: model
+            .nonlinear
+            .iter()
+            .map(|e| NonlinearElement {
+                name: e.name.clone(),
+                direction: &tt * &e.direction,
+                law: e.law.clone(),
+            })
+            .collect(),
+        points: model
+            .points
+            .iter()
+            .map(|p| NamedPoint {
+                name: p.name.clone(),
+                direction: &tt * &p.direction,
+            })
+            .collect(),
+    };
+    Ok(CraigBampton {
+        reduced,
+        transform: t,
+        masters: masters.to_vec(),
+        interface_omega_rad_s,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::structure::modal::modal_analysis;
+    use crate::structure::{BeamSpec, BoundaryCondition, CubicSpring};
+
+    fn beam(n_nodes: usize) -> crate::structure::Beam {
+        let mut b = BeamSpec {
+            n_nodes,
+            ..BeamSpec::paper()
+        }
+        .assemble()
+        .unwrap();
+        let l = b.spec.length_m;
+        b.add_point("tip", l).unwrap();
+        b.add_point("mid", l / 2.0).unwrap();
+        let e = b.translation_vector("spring", l).unwrap();
+        b.model
+            .add_nonlinear("spring", e, CubicSpring::new(6e9).unwrap())
+            .unwrap();
+        b
+    }
+
+    #[test]
+    fn all_modes_kept_reproduces_the_spectrum() {
+        let b = beam(9);
+        let tip = b.translation_dof(8).unwrap();
+        let cb = craig_bampton(&b.model, &[tip], b.model.ndof() - 1).unwrap();
+        let full = modal_analysis(&b.model, b.model.ndof()).unwrap();
+        let red = modal_analysis(&cb.reduced, b.model.ndof()).unwrap();
+        for (wf, wr) in full.omega_rad_s.iter().zip(&red.omega_rad_s) {
+            assert!((wf - wr).abs() < 1e-9 * wf, "{wf} vs {wr}");
+        }
+    }
+
+    #[test]
+    fn static_tip_load_is_exact_and_points_project() {
+        let b = beam(21);
+        let tip = b.translation_dof(20).unwrap();
+        let cb = craig_bampton(&b.model, &[tip], 3).unwrap();
+        assert_eq!(cb.reduced.ndof(), 4);
+        // static tip load F = 1 N: constraint modes make the Guyan part exact
+        let e_full = b.model.point("tip").unwrap().direction.clone();
+        let e_red = cb.reduced.point("tip").unwrap().direction.clone();
+        assert_eq!(e_red[0], 1.0);
+        assert!(
+            e_red.rows(1, 3).amax() < 1e-12,
+            "fixed-interface modes vanish at the master"
+        );
+        let q_full = b.model.stiffness.clone().cholesky().unwrap().solve(&e_full);
+        let q_red = cb
+            .reduced
+            .stiffness
+            .clone()
+            .cholesky()
+            .unwrap()
+            .solve(&e_red);
+        let rec = cb.recover(&q_red);
+        let err = (&rec - &q_full).amax() / q_full.amax();
+        assert!(err < 1e-10, "{err:e}");
+        // analytic cantilever tip compliance l^3 / (3 EI)
+        let s = &b.spec;
+        let c = s.length_m.powi(3) / (3.0 * s.bending_stiffness_n_m2());
+        assert!((q_full[tip] - c).abs() < 1e-9 * c);
+        let mid = b.translation_dof(10).unwrap();
+        assert!((cb.recover_dof(mid, &q_red).unwrap() - q_full[mid]).abs() < 1e-12 * c);
+        // nonlinear direction projected: w_red^T q_red = w^T T q_red
+        let w = &cb.reduced.nonlinear[0].direction;
+        assert!((w.dot(&q_red) - rec[tip]).abs() < 1e-15);
+        assert!(matches!(
+            cb.recover_dof(10_000, &q_red),
+            Err(StructureError::DofOutOfRange { .. })
+        ));
+    }
+
+    #[test]
+    fn bad_masters_and_mode_counts() {
+        let b = beam(7);
+        let n = b.model.ndof();
+        assert!(
+            matches!(craig_bampton(&b.model, &[n], 2), Err(StructureError::DofOutOfRange { dof, .. }) if dof == n)
+        );
+        assert!(matches!(
+            craig_bampton(&b.model, &[1, 1], 2),
+            Err(StructureError::DuplicateDof { dof: 1, .. })
+        ));
+        assert!(matches!(
+            craig_bampton(&b.model, &[1], n),
+            Err(StructureError::ModeCount { .. })
+        ));
+        assert!(matches!(
+            craig_bampton(&b.model, &[], 0),
+            Err(StructureError::ModeCount { .. })
+        ));
+        let ff = BeamSpec {
+            n_nodes: 5,
+            boundary: BoundaryCondition::FreeFree,
+            ..BeamSpec::paper()
+        }
+        .assemble()
+        .unwrap();
+        assert!(matches!(
+            craig_bampton(&ff.model, &[0], 2),
+            Err(StructureError::SingularInterior { .. })
+        ));
+        // two translations restrain both rigid-body modes of the free-free beam
+        craig_bampton(&ff.model, &[0, 8], 2).unwrap();
+    }
+}
