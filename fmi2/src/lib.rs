@@ -22,9 +22,9 @@
 //!    * optionally `setup_experiment`, `exit_initialization_mode` (validate
 //!      parameters here), `set_real_input_derivative`,
 //!      `get_real_output_derivative`, `partial_derivative`.
-//!    The layer has already checked value references, settability, finite
-//!    inputs, pointers, the call sequence and `h > 0` before it calls you.
-//!    Return [`ModelError`] for failures (any `std::error::Error` converts).
+//!    * the layer has already checked value references, settability, finite
+//!      inputs, pointers, the call sequence and `h > 0` before it calls you;
+//!      return [`ModelError`] for failures (any `std::error::Error` converts).
 //! 3. In the cdylib crate root: `fmi2::export_fmu!(MyModel);` — this defines
 //!    every `fmi2*` symbol of the shared library.
 //! 4. Test the XML against the table:

@@ -9,6 +9,9 @@ use std::ffi::{c_void, CStr, CString};
 use std::os::raw::c_char;
 use std::sync::Mutex;
 
+/// The logger's fixed arguments without the C variadic tail.
+type PlainLogger = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
+
 use fmi2::types::*;
 use fmi2::*;
 
@@ -134,10 +137,10 @@ unsafe extern "C" fn record(env: *mut c_void, name: *const c_char, status: Statu
 }
 
 fn callbacks(log: &Log) -> CallbackFunctions {
-    let f: unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char) = record;
+    let f: PlainLogger = record;
     CallbackFunctions {
         // SAFETY: see the module doc (no variadic arguments are ever passed).
-        logger: Some(unsafe { std::mem::transmute::<_, CallbackLogger>(f) }),
+        logger: Some(unsafe { std::mem::transmute::<PlainLogger, CallbackLogger>(f) }),
         allocate_memory: None,
         free_memory: None,
         step_finished: None,
@@ -307,10 +310,13 @@ fn illegal_call_sequence_is_refused_and_logged() {
     }
 }
 
+/// A misuse and the text its log message must contain.
+type Case = (Box<dyn Fn(&Inst) -> Status>, &'static str);
+
 #[test]
 fn bad_arguments_are_errors_with_numbers() {
     let log = Log::default();
-    let cases: Vec<(Box<dyn Fn(&Inst) -> Status>, &str)> = vec![
+    let cases: Vec<Case> = vec![
         (Box::new(|i| set(i, 99, 1.0)), "unknown value reference 99"),
         (Box::new(|i| set(i, VR_U, f64::NAN)), "must be finite, got NaN"),
         (Box::new(|i| set(i, VR_U, f64::INFINITY)), "must be finite, got inf"),

@@ -4,6 +4,9 @@
 use std::ffi::{c_char, c_void, CString};
 
 use criterion::{criterion_group, criterion_main, Criterion};
+/// The logger's fixed arguments without the C variadic tail.
+type PlainLogger = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
+
 use fmi2::types::{CallbackFunctions, CallbackLogger, Status, FMI2_CO_SIMULATION};
 use shaker::model::{GUID, VR_F, VR_V, VR_X};
 use shaker::*;
@@ -11,10 +14,10 @@ use shaker::*;
 unsafe extern "C" fn quiet(_: *mut c_void, _: *const c_char, _: Status, _: *const c_char, _: *const c_char) {}
 
 fn bench(c: &mut Criterion) {
-    let f: unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char) = quiet;
+    let f: PlainLogger = quiet;
     let cb = CallbackFunctions {
         // non-variadic logger through the variadic type: no variadic arguments are passed
-        logger: Some(unsafe { std::mem::transmute::<_, CallbackLogger>(f) }),
+        logger: Some(unsafe { std::mem::transmute::<PlainLogger, CallbackLogger>(f) }),
         allocate_memory: None,
         free_memory: None,
         step_finished: None,
