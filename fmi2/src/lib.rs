@@ -224,6 +224,46 @@ macro_rules! export_fmu {
                 $crate::ffi::get_boolean_status::<M>(c, k, v)
             }
             #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterEventMode(c: Component) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2EnterEventMode")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2NewDiscreteStates(c: Component, _info: *mut ::std::os::raw::c_void) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2NewDiscreteStates")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: Component) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2EnterContinuousTimeMode")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(c: Component, _no_set: Boolean, _enter: *mut Boolean, _term: *mut Boolean) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2CompletedIntegratorStep")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetTime(c: Component, _t: Real) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2SetTime")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetContinuousStates(c: Component, _x: *const Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2SetContinuousStates")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetDerivatives(c: Component, _dx: *mut Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetDerivatives")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetEventIndicators(c: Component, _z: *mut Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetEventIndicators")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetContinuousStates(c: Component, _x: *mut Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetContinuousStates")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(c: Component, _x: *mut Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetNominalsOfContinuousStates")
+            }
+            #[no_mangle]
             pub unsafe extern "C" fn fmi2GetStringStatus(c: Component, k: StatusKind, v: *mut FmiString) -> Status {
                 $crate::ffi::get_string_status::<M>(c, k, v)
             }

@@ -332,6 +332,8 @@ fn bad_arguments_are_errors_with_numbers() {
         (Box::new(|i| unsafe { fmi2SetRealInputDerivatives(i.c, &VR_Y, 1, &1, &1.0) }), "y (value reference 2) is not an input"),
         (Box::new(|i| unsafe { fmi2GetRealOutputDerivatives(i.c, &VR_Y, 1, &1, &mut 0.0) }), "output derivatives are not supported"),
         (Box::new(|i| unsafe { fmi2SetDebugLogging(i.c, 1, 1, [c"logNope".as_ptr()].as_ptr()) }), "unknown log category \"logNope\""),
+        (Box::new(|i| unsafe { fmi2SetTime(i.c, 1.0) }), "fmi2SetTime: this FMU implements Co-Simulation only"),
+        (Box::new(|i| unsafe { fmi2GetDerivatives(i.c, std::ptr::null_mut(), 0) }), "fmi2GetDerivatives: this FMU implements Co-Simulation only"),
         (Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, 11.0, 0) }), "too large, 100%% sure"),
     ];
     for (f, expect) in cases {
