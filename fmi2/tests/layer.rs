@@ -9,6 +9,9 @@ use std::ffi::{c_void, CStr, CString};
 use std::os::raw::c_char;
 use std::sync::Mutex;
 
+/// The logger's fixed arguments without the C variadic tail.
+type PlainLogger = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
+
 use fmi2::types::*;
 use fmi2::*;
 
@@ -22,6 +25,8 @@ struct Lag {
     du: f64,
     n: i32,
     on: bool,
+    /// The decoded resource folder (String output `resources`).
+    resources: String,
 }
 
 const VR_TAU: u32 = 0;
@@ -39,9 +44,14 @@ impl CoSimModel for Lag {
         Variable { name: "d", vr: VR_D, ty: VarType::Real, causality: Causality::Parameter, variability: Variability::Tunable, start: Some(Start::Real(2.0)), unit: "" },
         Variable { name: "n", vr: 0, ty: VarType::Integer, causality: Causality::Parameter, variability: Variability::Fixed, start: Some(Start::Integer(3)), unit: "" },
         Variable { name: "on", vr: 0, ty: VarType::Boolean, causality: Causality::Parameter, variability: Variability::Fixed, start: Some(Start::Boolean(true)), unit: "" },
+        Variable { name: "resources", vr: 0, ty: VarType::String, causality: Causality::Local, variability: Variability::Continuous, start: None, unit: "" },
     ];
-    fn instantiate(_: &InstantiateContext<'_>) -> Result<Self, ModelError> {
-        Ok(Lag { tau: 0.5, d: 2.0, u: 0.0, x: 0.0, du: 0.0, n: 3, on: true })
+    fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
+        let resources = ctx.resource_dir.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
+        Ok(Lag { tau: 0.5, d: 2.0, u: 0.0, x: 0.0, du: 0.0, n: 3, on: true, resources })
+    }
+    fn get_string(&self, _: u32) -> Result<String, ModelError> {
+        Ok(self.resources.clone())
     }
     fn exit_initialization_mode(&mut self, _: &Logger) -> Result<(), ModelError> {
         if self.tau <= 0.0 {
@@ -127,10 +137,10 @@ unsafe extern "C" fn record(env: *mut c_void, name: *const c_char, status: Statu
 }
 
 fn callbacks(log: &Log) -> CallbackFunctions {
-    let f: unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char) = record;
+    let f: PlainLogger = record;
     CallbackFunctions {
         // SAFETY: see the module doc (no variadic arguments are ever passed).
-        logger: Some(unsafe { std::mem::transmute::<_, CallbackLogger>(f) }),
+        logger: Some(unsafe { std::mem::transmute::<PlainLogger, CallbackLogger>(f) }),
         allocate_memory: None,
         free_memory: None,
         step_finished: None,
@@ -188,6 +198,23 @@ fn set(i: &Inst, vr: u32, v: f64) -> Status {
 
 fn last(log: &Log) -> (String, Status, String, String) {
     log.lock().unwrap().last().cloned().expect("a log message")
+}
+
+fn resources_of(log: &Log, uri: &str) -> String {
+    let i = new(log, "res", Lag::GUID, Some(uri)).unwrap();
+    init(&i);
+    let mut p: FmiString = std::ptr::null();
+    assert_eq!(unsafe { fmi2GetString(i.c, &0, 1, &mut p) }, Status::Ok);
+    unsafe { CStr::from_ptr(p) }.to_str().unwrap().to_string()
+}
+
+#[test]
+fn resource_location_reaches_the_model_decoded() {
+    let log = Log::default();
+    assert_eq!(resources_of(&log, "file:///tmp/my%20fmu%25/resources"), "/tmp/my fmu%/resources");
+    assert_eq!(resources_of(&log, "file:////tmp/x y/resources"), "/tmp/x y/resources");
+    assert_eq!(resources_of(&log, "file:/tmp/r"), "/tmp/r");
+    assert!(log.lock().unwrap().is_empty());
 }
 
 #[test]
@@ -283,10 +310,13 @@ fn illegal_call_sequence_is_refused_and_logged() {
     }
 }
 
+/// A misuse and the text its log message must contain.
+type Case = (Box<dyn Fn(&Inst) -> Status>, &'static str);
+
 #[test]
 fn bad_arguments_are_errors_with_numbers() {
     let log = Log::default();
-    let cases: Vec<(Box<dyn Fn(&Inst) -> Status>, &str)> = vec![
+    let cases: Vec<Case> = vec![
         (Box::new(|i| set(i, 99, 1.0)), "unknown value reference 99"),
         (Box::new(|i| set(i, VR_U, f64::NAN)), "must be finite, got NaN"),
         (Box::new(|i| set(i, VR_U, f64::INFINITY)), "must be finite, got inf"),
@@ -302,6 +332,8 @@ fn bad_arguments_are_errors_with_numbers() {
         (Box::new(|i| unsafe { fmi2SetRealInputDerivatives(i.c, &VR_Y, 1, &1, &1.0) }), "y (value reference 2) is not an input"),
         (Box::new(|i| unsafe { fmi2GetRealOutputDerivatives(i.c, &VR_Y, 1, &1, &mut 0.0) }), "output derivatives are not supported"),
         (Box::new(|i| unsafe { fmi2SetDebugLogging(i.c, 1, 1, [c"logNope".as_ptr()].as_ptr()) }), "unknown log category \"logNope\""),
+        (Box::new(|i| unsafe { fmi2SetTime(i.c, 1.0) }), "fmi2SetTime: this FMU implements Co-Simulation only"),
+        (Box::new(|i| unsafe { fmi2GetDerivatives(i.c, std::ptr::null_mut(), 0) }), "fmi2GetDerivatives: this FMU implements Co-Simulation only"),
         (Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, 11.0, 0) }), "too large, 100%% sure"),
     ];
     for (f, expect) in cases {
@@ -464,6 +496,7 @@ fn xml_checker_finds_drift() {
     <ScalarVariable name="d" valueReference="3" causality="parameter" variability="tunable" description="feedthrough"><Real start="2"/></ScalarVariable>
     <ScalarVariable name="n" valueReference="0" causality="parameter" variability="fixed" description="n"><Integer start="3"/></ScalarVariable>
     <ScalarVariable name="on" valueReference="0" causality="parameter" variability="fixed" description="on"><Boolean start="true"/></ScalarVariable>
+    <ScalarVariable name="resources" valueReference="0" description="decoded resource folder"><String/></ScalarVariable>
   </ModelVariables>
   <ModelStructure><Outputs><Unknown index="3" dependencies="2"/></Outputs></ModelStructure>
 </fmiModelDescription>"#;

@@ -246,11 +246,11 @@ impl Shaker {
     pub fn fix_parameters(&mut self) -> Result<(), ModelError> {
         let src = self.source;
         for (name, v) in [("Omega_start", src.omega_start), ("Omega_end", src.omega_end)] {
-            if !(v >= 0.0) {
+            if v.is_nan() || v < 0.0 {
                 return Err(ModelError::error(format!("{name} must be >= 0 rad/s, got {v}")));
             }
         }
-        if !(src.rate >= 0.0) {
+        if src.rate.is_nan() || src.rate < 0.0 {
             return Err(ModelError::error(format!("Omega_rate must be >= 0 rad/s2, got {}", src.rate)));
         }
         let ss = self.params.state_space()?;
@@ -341,9 +341,14 @@ impl Shaker {
         )
     }
 
-    /// Current states `[I, q_a, v_a]`.
+    /// Current states `[I, q_a, v_a]` (A, m, m/s).
     pub fn states(&self) -> [f64; 3] {
         [self.s[0], self.s[1], self.s[2]]
+    }
+
+    /// Overwrite the states `[I, q_a, v_a]` (analysis of the coupled step map).
+    pub fn set_states(&mut self, s: [f64; 3]) {
+        self.s = Vector3::new(s[0], s[1], s[2]);
     }
 }
 

@@ -1,0 +1,103 @@
+//! Nonlinear modal analysis of the paper's beam (issue 3, performance section).
+//!
+//! - `nma_paper_cb/H3`, `nma_paper_cb/H13`: Craig-Bampton beam (11 DOF), damped,
+//!   `a = 1e-6` up to and through the first loop (1:3 internal resonance with
+//!   mode 2, fold at a ~ 4e-3) until `a = 6e-3`. Targets: H = 3 < 10 ms,
+//!   H = 13 < 100 ms.
+//! - scaling report (printed, one run each, `NMA_BENCH_SCALING=0` skips it):
+//!   the same analysis (H = 13, `a` from 1e-6 to 1e-3, weakly to moderately
+//!   nonlinear) on the CB model, the unreduced 100-node beam and unreduced
+//!   300- and 1000-node beams: time per continuation point and per Newton
+//!   iteration against the number of DOFs, with the one-off modal
+//!   decomposition timed separately.
+use criterion::{criterion_group, criterion_main, Criterion};
+use nlmode::nma::epmc::ModalBasis;
+use nlmode::nma::{nonlinear_modal_analysis, nonlinear_modal_analysis_with_basis, AmplitudeRange, ContinuationOptions, NmaOptions};
+use nlmode::structure::{paper_structure, PaperStructureOptions};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+fn options(harmonics: usize, log10_end: f64) -> NmaOptions {
+    NmaOptions {
+        harmonics,
+        amplitude: AmplitudeRange::Modal { log10_start: -6.0, log10_end },
+        continuation: ContinuationOptions { ds: 0.1, ..Default::default() },
+        store_coordinates: false,
+        ..Default::default()
+    }
+}
+
+fn paper_cb(c: &mut Criterion) {
+    let ps = paper_structure(&PaperStructureOptions::default()).expect("paper structure");
+    let mut group = c.benchmark_group("nma_paper_cb");
+    group.sample_size(20).measurement_time(Duration::from_secs(4));
+    for h in [3usize, 13] {
+        let opts = options(h, 6e-3f64.log10());
+        let r = nonlinear_modal_analysis(&ps.model, &opts).expect("NMA of the paper's beam");
+        eprintln!(
+            "paper CB beam, H = {h}: {} points, {} Newton iterations, {} rejected steps, folds at a = {:?}",
+            r.n_points(),
+            r.newton_iterations,
+            r.rejected_steps,
+            r.folds.iter().map(|f| f.amplitude).collect::<Vec<_>>()
+        );
+        group.bench_function(format!("H{h}"), |b| b.iter(|| nonlinear_modal_analysis(&ps.model, &opts).unwrap()));
+    }
+    group.finish();
+}
+
+struct Model {
+    model: nlmode::structure::StructuralModel,
+}
+
+/// Unreduced paper beam with `n_nodes` nodes, tip cubic spring and
+/// stiffness-proportional damping `C = beta K`, `beta = 2 D0 / omega0`
+/// (analytic `omega0`). Built without the structure module's linear modal
+/// analysis, whose stiffness-form eigensolver cannot resolve the fundamental
+/// of meshes this fine (`omega_max^2 / omega_1^2 ~ n^4`).
+fn full_beam(n_nodes: usize) -> nlmode::structure::StructuralModel {
+    use nlmode::structure::{BeamSpec, CubicSpring};
+    let spec = BeamSpec { n_nodes, ..BeamSpec::paper() };
+    let mut beam = spec.assemble().expect("beam");
+    let l = spec.length_m;
+    beam.add_point("tip", l).expect("tip");
+    let e_tip = beam.translation_vector("cubic_spring", l).expect("tip");
+    beam.model.add_nonlinear("cubic_spring", e_tip, CubicSpring::new(nlmode::benchmark::K3_N_PER_M3).expect("k3")).expect("spring");
+    let omega0 = spec.analytic_omega_rad_s(1.875_104_068_711_961);
+    beam.model.damping = &beam.model.stiffness * (2.0 * nlmode::benchmark::D0 / omega0);
+    beam.model
+}
+
+fn scaling(_c: &mut Criterion) {
+    if std::env::var("NMA_BENCH_SCALING").map(|v| v == "0").unwrap_or(false) {
+        return;
+    }
+    eprintln!("scaling: H = 13, damped, log10 a = -6 .. -3");
+    eprintln!("{:>22} {:>6} {:>10} {:>8} {:>8} {:>12} {:>12}", "model", "ndof", "modes [s]", "points", "Newton", "ms/point", "ms/solve");
+    let cases: [(&str, usize, bool); 4] =
+        [("CB (100 nodes)", 100, true), ("full 100 nodes", 100, false), ("full 301 nodes", 301, false), ("full 1000 nodes", 1000, false)];
+    for (label, n_nodes, cb) in cases {
+        let model = if cb { paper_structure(&PaperStructureOptions::default()).expect("beam").model } else { full_beam(n_nodes) };
+        let ps = Model { model };
+        let t = Instant::now();
+        let basis = Arc::new(ModalBasis::new(&ps.model, false).expect("modes"));
+        let t_modes = t.elapsed().as_secs_f64();
+        let opts = options(13, -3.0);
+        let t = Instant::now();
+        let r = nonlinear_modal_analysis_with_basis(&ps.model, basis, &opts).expect("NMA");
+        let t_cont = t.elapsed().as_secs_f64();
+        eprintln!(
+            "{:>22} {:>6} {:>10.3} {:>8} {:>8} {:>12.3} {:>12.3}",
+            label,
+            ps.model.mass.nrows(),
+            t_modes,
+            r.n_points(),
+            r.newton_iterations,
+            1e3 * t_cont / r.n_points() as f64,
+            1e3 * t_cont / (r.newton_iterations + r.n_points()) as f64
+        );
+    }
+}
+
+criterion_group!(benches, paper_cb, scaling);
+criterion_main!(benches);
