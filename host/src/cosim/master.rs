@@ -519,10 +519,13 @@ impl Master {
         DVector::from_iterator(guess.len(), (0..guess.len()).map(|c| self.y_new[c] - guess[c]))
     }
 
-    /// Relative size of a residual: max over connections of |r_c| / scale_c.
-    fn rel_norm(&self, r: &DVector<f64>) -> f64 {
-        let floor = 1e-300;
-        r.iter().enumerate().map(|(c, v)| v.abs() / self.scale[c].max(floor)).fold(0.0, f64::max)
+    /// Relative size of a residual: max over connections of
+    /// `|r_c| / max(scale_c, |Y_c|)` (absolute below 1e-300).
+    fn rel_norm(&self, r: &DVector<f64>, guess: &DVector<f64>) -> f64 {
+        r.iter()
+            .enumerate()
+            .map(|(c, v)| v.abs() / self.scale[c].max(guess[c].abs()).max(1e-300))
+            .fold(0.0, f64::max)
     }
 
     /// Finite-difference Jacobian `dR/dY` around `guess` (whose residual is `r0`).
@@ -530,7 +533,9 @@ impl Master {
         let nc = guess.len();
         let mut j = DMatrix::zeros(nc, nc);
         for c in 0..nc {
-            let d = 1e-7 * self.scale[c].max(guess[c].abs()).max(1e-12);
+            // relative perturbation; absolute 1e-9 while the connection has carried nothing yet
+            let mag = self.scale[c].max(guess[c].abs()).max(self.y_new[c].abs());
+            let d = if mag > 0.0 { 1e-7 * mag } else { 1e-9 };
             let mut g = guess.clone();
             g[c] += d;
             self.evaluate(t, h, &g, true)?;
@@ -553,7 +558,7 @@ impl Master {
         let mut rebuilt = false;
         let mut it = 0;
         loop {
-            let rn = self.rel_norm(&r);
+            let rn = self.rel_norm(&r, &guess);
             if rn <= self.opts.iteration_rtol || nc == 0 {
                 return Ok(());
             }

@@ -1,11 +1,10 @@
 //! Co-simulation of FMI 2.0 Co-Simulation FMUs: import ([`import`]), the
-//! generic master ([`master`]), the envelope extraction ([`envelope`]) and the
+//! generic master ([`master`]) and the
 //! `cosim` method on this repository's structure and shaker FMUs ([`paper`]).
 //!
 //! Self-contained (no `crate::` imports), so that benches and integration
 //! tests can include it by path.
 #![allow(dead_code)]
-pub mod envelope;
 pub mod import;
 pub mod master;
 pub mod paper;

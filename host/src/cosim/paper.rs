@@ -9,9 +9,8 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use nlmode::attachment::{ShakerParams, Stinger};
-use num_complex::Complex64;
+use nlmode::reference::envelope::fundamental_amplitudes;
 
-use super::envelope::{fourier_envelope, phase_from_omega};
 use super::import::Fmu;
 use super::master::{run, Algorithm, Master, MasterError, MasterOptions, MasterStats, ParamValue};
 
@@ -97,7 +96,6 @@ impl CosimParams {
 pub struct CosimEnvelope {
     pub omega_rad_s: Vec<f64>,
     pub force_amplitude_n: Vec<f64>,
-    pub force_phase_rad: Vec<f64>,
     pub tip_amplitude_m: Vec<f64>,
     pub drive_amplitude_m: Vec<f64>,
 }
@@ -219,16 +217,44 @@ pub fn run_cosim(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams, progr
     Ok(out)
 }
 
-/// The envelope of a co-simulated time series (windows every half period).
-pub fn envelope_of(o: &CosimOutput) -> CosimEnvelope {
-    let phi = phase_from_omega(&o.time_s, &o.omega_rad_s, 0.0);
-    let fe = fourier_envelope(&o.time_s, &phi, &o.omega_rad_s, &[&o.force_n, &o.x_tip_m, &o.x_m], PI);
-    let abs = |v: &[Complex64]| v.iter().map(|c| c.norm()).collect::<Vec<_>>();
-    CosimEnvelope {
-        omega_rad_s: fe.omega_rad_s.clone(),
-        force_amplitude_n: abs(&fe.amplitudes[0]),
-        force_phase_rad: fe.amplitudes[0].iter().map(|c| c.arg()).collect(),
-        tip_amplitude_m: abs(&fe.amplitudes[1]),
-        drive_amplitude_m: abs(&fe.amplitudes[2]),
+/// Phase `Phi(t_k) = int_0^t Omega dt` from samples of `Omega` (trapezoidal
+/// rule, exact for the linear sweep of the shaker FMU).
+pub fn phase_from_omega(t: &[f64], omega: &[f64]) -> Vec<f64> {
+    let mut phi = Vec::with_capacity(t.len());
+    let mut p = 0.0;
+    for k in 0..t.len() {
+        if k > 0 {
+            p += 0.5 * (omega[k] + omega[k - 1]) * (t[k] - t[k - 1]);
+        }
+        phi.push(p);
     }
+    phi
+}
+
+/// The envelope of a co-simulated time series: the sliding one-period
+/// Fourier projection on the excitation phase of `nlmode::reference`
+/// (the same extractor as the `reference` method), with window centres
+/// every eighth of an excitation period.
+pub fn envelope_of(o: &CosimOutput) -> CosimEnvelope {
+    let phi = phase_from_omega(&o.time_s, &o.omega_rad_s);
+    let mut centers = Vec::new();
+    let mut next = 0.0;
+    for (k, &p) in phi.iter().enumerate() {
+        if p >= next {
+            centers.push(k);
+            next = p + PI / 4.0;
+        }
+    }
+    let amps = |x: &[f64]| fundamental_amplitudes(&phi, x, &centers, 1.0);
+    let (f, tip, x) = (amps(&o.force_n), amps(&o.x_tip_m), amps(&o.x_m));
+    let mut e = CosimEnvelope::default();
+    for (j, &c) in centers.iter().enumerate() {
+        if let (Some(f), Some(tip), Some(x)) = (f[j], tip[j], x[j]) {
+            e.omega_rad_s.push(o.omega_rad_s[c]);
+            e.force_amplitude_n.push(f);
+            e.tip_amplitude_m.push(tip);
+            e.drive_amplitude_m.push(x);
+        }
+    }
+    e
 }
