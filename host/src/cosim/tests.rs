@@ -223,6 +223,36 @@ fn connection_errors_name_the_endpoint() {
     assert!(mk(&[("ax", "b.F")]).contains("unit.variable"));
 }
 
+#[test]
+fn generic_mode_runs_fmus_from_a_connection_list() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = test_fmu(dir.path(), "a.fmu", &test_md(TEST_GUID), true);
+    let b = test_fmu(dir.path(), "b.fmu", &test_md(TEST_GUID), true);
+    let spec = GenericSpec {
+        units: vec![("a".into(), a), ("b".into(), b)],
+        connections: vec![("a.x".into(), "b.F".into()), ("b.x".into(), "a.F".into())],
+        parameters: vec![("a.x0".into(), ParamValue::Real(1.0)), ("b.k".into(), ParamValue::Real(100.0))],
+        options: MasterOptions { algorithm: Algorithm::GaussSeidel, macro_step_s: 1e-3, ..Default::default() },
+        start_time_s: 0.0,
+        stop_time_s: 1.0,
+        record: vec!["a.x".into(), "b.x".into()],
+        record_every: 100,
+    };
+    let rec = run_generic(&spec, &mut |_| {}).unwrap();
+    assert_eq!(rec.time_s.len(), 11);
+    let (w1, w2) = (99f64.sqrt(), 101f64.sqrt());
+    let t = rec.time_s[10];
+    assert!((t - 1.0).abs() < 1e-12);
+    let xb = 0.5 * ((w1 * t).cos() - (w2 * t).cos());
+    assert!((rec.column("b.x").unwrap()[10] - xb).abs() < 1e-3, "{}", rec.column("b.x").unwrap()[10]);
+    let mut bad = spec.clone();
+    bad.parameters.push(("c.k".into(), ParamValue::Real(1.0)));
+    assert!(run_generic(&bad, &mut |_| {}).unwrap_err().to_string().contains("no unit named 'c'"));
+    let mut bad = spec.clone();
+    bad.parameters.push(("a.k".into(), ParamValue::Boolean(true)));
+    assert!(run_generic(&bad, &mut |_| {}).unwrap_err().to_string().contains("does not fit"));
+}
+
 /// Two test oscillators coupled by forces through the generic master:
 /// a.F <- b.x, b.F <- a.x (k_c x of the other): with m = 1, k = 100, the
 /// coupling `F_a = c x_b`, `F_b = c x_a` gives modes at omega^2 = 100 -+ c.
@@ -418,71 +448,6 @@ mod fmus {
             let n = o.envelope.omega_rad_s.len();
             let ef = o.envelope.force_amplitude_n[n - 1] / f.norm() - 1.0;
             assert!(ef.abs() < tol, "{alg:?}: force error {ef}");
-        }
-    }
-
-    #[test]
-    #[ignore]
-    fn explore() {
-        let b = beam();
-        let dir = tempfile::tempdir().unwrap();
-        let (st, sh) = package(dir.path(), &linear_table(&b));
-        let w = b.omega0;
-        let (f, tip) = linear_steady(&b, w, 1.0);
-        for alg in [Algorithm::Jacobi, Algorithm::GaussSeidel, Algorithm::Iterative] {
-            for shaker_first in [false, true] {
-                if shaker_first && alg != Algorithm::GaussSeidel { continue; }
-                for h in [1e-5, 2e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3] {
-                    let mut p = CosimParams::new(b.setup.shakers[0], SweepSpec { u_hat_v: 1.0, omega_start_rad_s: w, omega_end_rad_s: w, rate_rad_s2: 0.0 });
-                    p.stop_time_s = Some(0.5);
-                    p.algorithm = alg;
-                    p.macro_step_s = h;
-                    p.shaker_first = shaker_first;
-                    p.output_interval_s = 1e-4;
-                    let o = run_cosim(&st, &sh, &p, &mut |_| {}).unwrap();
-                    let e = &o.envelope;
-                    let n = e.omega_rad_s.len();
-                    if n == 0 || o.stopped.is_some() { println!("{alg:?} sf {shaker_first} h {h:e}: stopped {:?}", o.stopped.map(|s| s.1.chars().take(200).collect::<String>())); continue; }
-                    println!("{alg:?} sf {shaker_first} h {h:e}: F err {:+.3e} tip err {:+.3e} wall {:.3} stats {:?}", e.force_amplitude_n[n-1]/f.norm()-1.0, e.tip_amplitude_m[n-1]/tip.norm()-1.0, o.wall_time_s, o.stats);
-                }
-            }
-        }
-    }
-
-    #[test]
-    #[ignore]
-    fn explore_structure_alone() {
-        let b = beam();
-        let dir = tempfile::tempdir().unwrap();
-        let (st, _) = package(dir.path(), &linear_table(&b));
-        let w = b.omega0 * 1.0;
-        for h in [1e-5, 2e-5, 5e-5] {
-            let fmu = Fmu::load(&st).unwrap();
-            let mut i = fmu.instantiate("s", true).unwrap();
-            i.setup_experiment(0.0, None, None).unwrap();
-            i.enter_initialization_mode().unwrap();
-            i.exit_initialization_mode().unwrap();
-            let n = (1.5 / h) as usize;
-            let mut x = [0.0; 2];
-            let (mut c, mut s_) = (0.0, 0.0);
-            let mut cnt = 0;
-            for k in 0..n {
-                let t = k as f64 * h;
-                i.set_real(&[0], &[(w * t).cos()]).unwrap();
-                i.set_real_input_derivatives(&[0], &[1], &[((w * (t + h)).cos() - (w * t).cos()) / h]).unwrap();
-                i.do_step(t, h).unwrap();
-                i.get_real(&[3, 1], &mut x).unwrap();
-                let t1 = t + h;
-                if t1 > 1.5 - 2.0 * std::f64::consts::PI / w * 20.0 {
-                    c += x[0] * (w * t1).cos();
-                    s_ += x[0] * (w * t1).sin();
-                    cnt += 1;
-                }
-            }
-            let amp = 2.0 * (c * c + s_ * s_).sqrt() / cnt as f64;
-            let hm = 1.0 / Complex64::new(b.omega0 * b.omega0 - w * w, 2.0 * b.d0 * b.omega0 * w);
-            let exact = (b.phi_tip * b.phi_ex * hm).norm();
-            println!("structure alone h {h:e}: tip amp {amp:.6e} exact {exact:.6e} rel {:+.3e}", amp / exact - 1.0);
         }
     }
 }

@@ -1,0 +1,243 @@
+//! Co-simulation benchmarks (issue 6, performance section).
+//!
+//! * `cosim_overhead/<algorithm>`: one macro step of the master on two test
+//!   FMUs (`csrc/testosc.c` with `substeps = 0`, whose `fmi2DoStep` only
+//!   advances time) coupled both ways: everything measured is the host's own
+//!   work per macro step plus the trivial FMI calls (an upper bound of the
+//!   host overhead).
+//! * With `COSIM_CASE_A=1`: the paper's case (a) (2l/3, 10 V, r = 2 %,
+//!   0.8-1.8 omega0) co-simulated with the repository's FMUs (release
+//!   cdylibs, nonlinear modal table by NMA with H = 3) for every algorithm and
+//!   a ladder of macro steps; prints the envelope errors against
+//!   `nlmode::reference::simulate_sweep` and against the finest co-simulation,
+//!   and the wall times.
+//!
+//! `cargo bench -p host --bench cosim` (add `COSIM_CASE_A=1` for the table).
+#[allow(dead_code, unused_imports)]
+#[path = "../src/cosim/mod.rs"]
+mod cosim;
+
+use cosim::import::Fmu;
+use cosim::master::{run, Algorithm, Master, MasterOptions, ParamValue};
+use cosim::paper::{run_cosim, CosimOutput, CosimParams, SweepSpec};
+use criterion::{criterion_group, Criterion};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+const TEST_MD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="testosc" guid="{host-test-osc-0001}">
+  <CoSimulation modelIdentifier="testosc" canInterpolateInputs="true" canGetAndSetFMUstate="true"/>
+  <ModelVariables>
+    <ScalarVariable name="F" valueReference="3" causality="input"><Real start="0"/></ScalarVariable>
+    <ScalarVariable name="x" valueReference="4" causality="output"><Real/></ScalarVariable>
+    <ScalarVariable name="substeps" valueReference="8" causality="parameter" variability="fixed"><Real start="10"/></ScalarVariable>
+  </ModelVariables>
+  <ModelStructure><Outputs><Unknown index="2" dependencies=""/></Outputs></ModelStructure>
+</fmiModelDescription>
+"#;
+
+fn null_fmu(dir: &Path, name: &str) -> Fmu {
+    let p = dir.join(name);
+    let mut z = zip::ZipWriter::new(std::fs::File::create(&p).unwrap());
+    let o = zip::write::SimpleFileOptions::default();
+    z.start_file("modelDescription.xml", o).unwrap();
+    z.write_all(TEST_MD.as_bytes()).unwrap();
+    z.start_file("binaries/linux64/testosc.so", o).unwrap();
+    z.write_all(&std::fs::read(env!("HOST_TEST_FMU_LIB")).unwrap()).unwrap();
+    z.finish().unwrap();
+    Fmu::load(&p).unwrap()
+}
+
+fn null_master(dir: &Path, alg: Algorithm) -> Master {
+    let c = vec![("a.x".to_string(), "b.F".to_string()), ("b.x".to_string(), "a.F".to_string())];
+    let mut m = Master::new(
+        vec![("a".into(), null_fmu(dir, "a.fmu")), ("b".into(), null_fmu(dir, "b.fmu"))],
+        &c,
+        MasterOptions { algorithm: alg, macro_step_s: 1e-5, ..Default::default() },
+    )
+    .unwrap();
+    for u in 0..2 {
+        m.set_parameter(u, "substeps", &ParamValue::Real(0.0)).unwrap();
+    }
+    m.initialize(0.0, None).unwrap();
+    m
+}
+
+fn overhead(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut g = c.benchmark_group("cosim_overhead");
+    for (name, alg, extrapolate) in [
+        ("jacobi", Algorithm::Jacobi, false),
+        ("jacobi_extrapolated", Algorithm::Jacobi, true),
+        ("gauss_seidel", Algorithm::GaussSeidel, true),
+    ] {
+        let mut m = null_master(dir.path(), alg);
+        let _ = extrapolate;
+        g.bench_function(name, |b| b.iter(|| m.step().unwrap()));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, overhead);
+
+// ---------------------------------------------------------------------------
+// Case (a) table
+
+fn release_fmus(dir: &Path, table: &nlmode::nma::ModalTable) -> (PathBuf, PathBuf) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let st = std::process::Command::new(cargo)
+        .current_dir(&root)
+        .args(["build", "--release", "--lib", "-p", "fmu-shaker", "-p", "fmu-structure"])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let tp = dir.join("modal_table.json");
+    table.write(&tp).unwrap();
+    let mut out = Vec::new();
+    for id in ["structure", "shaker"] {
+        let res = if id == "structure" { vec![(tp.clone(), "modal_table.json".to_string())] } else { vec![] };
+        let spec = fmi2::package::FmuSpec {
+            model_identifier: id.into(),
+            model_description: root.join("modelDescription").join(id).join("modelDescription.xml"),
+            library: root.join("target/release").join(format!("lib{id}.so")),
+            resources: res,
+            documentation: vec![],
+        };
+        let p = dir.join(format!("{id}.fmu"));
+        fmi2::package::write_fmu(&spec, &p).unwrap();
+        out.push(p);
+    }
+    (out[0].clone(), out[1].clone())
+}
+
+/// Linear interpolation of (x, y) at `x0` (x increasing).
+fn interp(x: &[f64], y: &[f64], x0: f64) -> Option<f64> {
+    let k = x.partition_point(|&v| v <= x0);
+    if k == 0 || k >= x.len() {
+        return None;
+    }
+    let w = (x0 - x[k - 1]) / (x[k] - x[k - 1]);
+    Some(y[k - 1] + w * (y[k] - y[k - 1]))
+}
+
+/// (peak tip error, jump-down frequency error, RMS tip difference / peak, RMS force difference / max force)
+fn compare(o: &CosimOutput, r_om: &[f64], r_f: &[f64], r_tip: &[f64]) -> (f64, f64, f64, f64) {
+    let e = &o.envelope;
+    let peak = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
+    let jump = |om: &[f64], tip: &[f64]| {
+        let i = (0..tip.len()).max_by(|&a, &b| tip[a].total_cmp(&tip[b])).unwrap();
+        let w = (om.len() / 400).max(1);
+        let mut best = (0.0, om[i]);
+        for k in i..om.len().saturating_sub(w) {
+            let s = (tip[k + w] - tip[k]) / (om[k + w] - om[k]);
+            if s < best.0 {
+                best = (s, 0.5 * (om[k] + om[k + w]));
+            }
+        }
+        best.1
+    };
+    let (pr, pc) = (peak(r_tip), peak(&e.tip_amplitude_m));
+    let (mut st, mut sf, mut n) = (0.0, 0.0, 0);
+    for (k, &w) in e.omega_rad_s.iter().enumerate() {
+        if let (Some(t), Some(f)) = (interp(r_om, r_tip, w), interp(r_om, r_f, w)) {
+            st += (e.tip_amplitude_m[k] - t).powi(2);
+            sf += (e.force_amplitude_n[k] - f).powi(2);
+            n += 1;
+        }
+    }
+    let n = n.max(1) as f64;
+    (
+        pc / pr - 1.0,
+        jump(&e.omega_rad_s, &e.tip_amplitude_m) / jump(r_om, r_tip) - 1.0,
+        (st / n).sqrt() / pr,
+        (sf / n).sqrt() / peak(r_f),
+    )
+}
+
+fn case_a() {
+    use nlmode::attachment::{LinearAttachment, ShakerParams};
+    use nlmode::excitation::LinearSweep;
+    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, NmaOptions, TablePolicy};
+    use nlmode::reference::{simulate_sweep, ReferenceOptions};
+    use nlmode::structure::{paper_structure, PaperStructureOptions};
+
+    let ps = paper_structure(&PaperStructureOptions::default()).unwrap();
+    let shaker = ShakerParams::paper();
+    let sweep = LinearSweep::per_pseudo_period(ps.omega0_rad_s, 0.8, 1.8, 0.02, 10.0).unwrap();
+    let t0 = Instant::now();
+    let nma = nonlinear_modal_analysis(
+        &ps.model,
+        &NmaOptions {
+            harmonics: 3,
+            amplitude: AmplitudeRange::Point { name: "tip".into(), start_m: 1e-6, end_m: 0.02 },
+            store_coordinates: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let table = nma.to_table(TablePolicy::PrimaryBranch);
+    println!("NMA (H = 3): {} points in {:.2} s", table.amplitude.len(), t0.elapsed().as_secs_f64());
+    let att = LinearAttachment::shaker("shaker", &shaker, "2l3").unwrap();
+    let t0 = Instant::now();
+    let r = simulate_sweep(&ps.model, &[att], &sweep, &ReferenceOptions::default()).unwrap();
+    let ref_wall = t0.elapsed().as_secs_f64();
+    let re = &r.envelope;
+    println!("reference: {} envelope points, wall {ref_wall:.2} s", re.omega_rad_s.len());
+    let dir = tempfile::tempdir().unwrap();
+    let (st, sh) = release_fmus(dir.path(), &table);
+    let base = CosimParams::new(shaker, SweepSpec::from(&sweep));
+    // finest co-simulation as the converged FMU solution
+    let mut pf = base.clone();
+    pf.algorithm = Algorithm::Iterative;
+    pf.macro_step_s = 2e-6;
+    pf.output_interval_s = 2.5e-4;
+    let fine = run_cosim(&st, &sh, &pf, &mut |_| {}).unwrap();
+    assert!(fine.stopped.is_none(), "{:?}", fine.stopped);
+    let fe = &fine.envelope;
+    let e0 = compare(&fine, &re.omega_rad_s, &re.force_amplitude_n, &re.tip_amplitude_m);
+    println!(
+        "finest cosim (iterative, h = 2e-6 s) vs reference: peak tip {:+.2} %, jump-down {:+.2} %, RMS tip {:.2} %, RMS force {:.2} %, wall {:.2} s",
+        100.0 * e0.0, 100.0 * e0.1, 100.0 * e0.2, 100.0 * e0.3, fine.wall_time_s
+    );
+    println!("| algorithm | macro step [s] | vs reference: peak tip / jump-down / RMS tip / RMS force [%] | vs finest cosim: peak tip / RMS tip / RMS force [%] | steps | FMU DoSteps | wall [s] | us per macro step |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (name, alg) in [("jacobi", Algorithm::Jacobi), ("gauss-seidel", Algorithm::GaussSeidel), ("iterative", Algorithm::Iterative)] {
+        for h in [5e-6, 1e-5, 2e-5, 5e-5, 1e-4, 2e-4] {
+            let mut p = base.clone();
+            p.algorithm = alg;
+            p.macro_step_s = h;
+            p.output_interval_s = 2.5e-4;
+            let o = run_cosim(&st, &sh, &p, &mut |_| {}).unwrap();
+            if let Some((t, msg)) = &o.stopped {
+                println!("| {name} | {h:e} | stopped at t = {t:.4} s: {} | | | | {:.2} | |", msg.chars().take(90).collect::<String>(), o.wall_time_s);
+                continue;
+            }
+            let a = compare(&o, &re.omega_rad_s, &re.force_amplitude_n, &re.tip_amplitude_m);
+            let b = compare(&o, &fe.omega_rad_s, &fe.force_amplitude_n, &fe.tip_amplitude_m);
+            println!(
+                "| {name} | {h:e} | {:+.2} / {:+.2} / {:.2} / {:.2} | {:+.2} / {:.2} / {:.2} | {} | {} | {:.3} | {:.2} |",
+                100.0 * a.0, 100.0 * a.1, 100.0 * a.2, 100.0 * a.3,
+                100.0 * b.0, 100.0 * b.2, 100.0 * b.3,
+                o.stats.steps, o.stats.do_steps, o.wall_time_s, 1e6 * o.wall_time_s / o.stats.steps as f64
+            );
+        }
+    }
+    // host overhead inside a real run: a Jacobi run on null FMUs of the same length
+    let nd = tempfile::tempdir().unwrap();
+    let mut m = null_master(nd.path(), Algorithm::GaussSeidel);
+    let n = 1_000_000;
+    let t0 = Instant::now();
+    let rec = run(&mut m, n as f64 * 1e-5, &["a.x".into()], 25, &mut |_| {}).unwrap();
+    let dt = t0.elapsed().as_secs_f64();
+    println!("Gauss-Seidel on null FMUs incl. recording every 25 steps: {:.1} ns per macro step ({} steps)", 1e9 * dt / rec.stats.steps as f64, rec.stats.steps);
+}
+
+fn main() {
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+    if std::env::var("COSIM_CASE_A").is_ok() {
+        case_a();
+    }
+}
