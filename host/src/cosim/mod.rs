@@ -8,6 +8,7 @@
 pub mod import;
 pub mod master;
 pub mod paper;
+pub mod ssp;
 
 #[cfg(test)]
 mod tests;

@@ -133,30 +133,24 @@ pub enum CosimError {
     BadDuration(f64),
 }
 
-/// Build the master for the two FMUs with the parameters set, initialized at t = 0.
-pub fn build_master(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) -> Result<Master, CosimError> {
+/// The connections `structure.x -> shaker.x`, `structure.v -> shaker.v`, `shaker.F -> structure.F`.
+pub fn connections() -> Vec<(String, String)> {
+    [("structure.x", "shaker.x"), ("structure.v", "shaker.v"), ("shaker.F", "structure.F")]
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect()
+}
+
+/// The FMU parameters (`unit.variable`, value) of `p`: shaker constants,
+/// the internal sweep, the structure's frequency error, drive point and
+/// modal table.
+pub fn parameters(p: &CosimParams) -> Result<Vec<(String, ParamValue)>, CosimError> {
     let ks = match p.shaker.stinger {
         Stinger::Elastic { stiffness_n_per_m } => stiffness_n_per_m,
         Stinger::Rigid => return Err(CosimError::RigidStinger),
     };
-    let st = Fmu::load(structure_fmu).map_err(|source| CosimError::Load { what: "structure", path: structure_fmu.into(), source })?;
-    let sh = Fmu::load(shaker_fmu).map_err(|source| CosimError::Load { what: "shaker", path: shaker_fmu.into(), source })?;
-    let conns: Vec<(String, String)> = [("structure.x", "shaker.x"), ("structure.v", "shaker.v"), ("shaker.F", "structure.F")]
-        .iter()
-        .map(|(a, b)| (a.to_string(), b.to_string()))
-        .collect();
-    let opts = MasterOptions {
-        algorithm: p.algorithm,
-        macro_step_s: p.macro_step_s,
-        extrapolate: p.extrapolate,
-        order: if p.shaker_first { Some(vec![1, 0]) } else { Some(vec![0, 1]) },
-        iteration_rtol: p.iteration_rtol,
-        iteration_max: p.iteration_max,
-    };
-    let mut m = Master::new(vec![("structure".into(), st), ("shaker".into(), sh)], &conns, opts)?;
     let s = &p.shaker;
-    let real = |v: f64| ParamValue::Real(v);
-    for (name, v) in [
+    let mut v: Vec<(String, ParamValue)> = [
         ("L", s.inductance_h),
         ("R", s.resistance_ohm),
         ("G", s.force_constant_n_per_a),
@@ -168,14 +162,51 @@ pub fn build_master(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) ->
         ("Omega_start", p.sweep.omega_start_rad_s),
         ("Omega_end", p.sweep.omega_end_rad_s),
         ("Omega_rate", p.sweep.rate_rad_s2),
-    ] {
-        m.set_parameter(1, name, &real(v))?;
-    }
-    m.set_parameter(1, "use_external_voltage", &ParamValue::Boolean(false))?;
-    m.set_parameter(0, "frequency_error", &real(p.frequency_error))?;
-    m.set_parameter(0, "drive_point", &ParamValue::String(p.drive_point.clone()))?;
+    ]
+    .iter()
+    .map(|(n, x)| (format!("shaker.{n}"), ParamValue::Real(*x)))
+    .collect();
+    v.push(("shaker.use_external_voltage".into(), ParamValue::Boolean(false)));
+    v.push(("structure.frequency_error".into(), ParamValue::Real(p.frequency_error)));
+    v.push(("structure.drive_point".into(), ParamValue::String(p.drive_point.clone())));
     if let Some(t) = &p.modal_table {
-        m.set_parameter(0, "modal_table", &ParamValue::String(t.to_string_lossy().into_owned()))?;
+        v.push(("structure.modal_table".into(), ParamValue::String(t.to_string_lossy().into_owned())));
+    }
+    Ok(v)
+}
+
+/// Write the coupled system of `p` as an SSP 1.0 archive (see [`super::ssp`]).
+/// A modal table given as a file path is referenced by that path.
+pub fn export_ssp(out: &Path, structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) -> Result<(), super::ssp::SspError> {
+    let params = parameters(p).map_err(|e| super::ssp::SspError::BadUnit(e.to_string()))?;
+    super::ssp::write_ssp(
+        out,
+        "structure-shaker",
+        &[("structure".into(), structure_fmu.into()), ("shaker".into(), shaker_fmu.into())],
+        &connections(),
+        &params,
+        p.duration_s(),
+    )
+}
+
+/// Build the master for the two FMUs with the parameters set, initialized at t = 0.
+pub fn build_master(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) -> Result<Master, CosimError> {
+    parameters(p)?;
+    let st = Fmu::load(structure_fmu).map_err(|source| CosimError::Load { what: "structure", path: structure_fmu.into(), source })?;
+    let sh = Fmu::load(shaker_fmu).map_err(|source| CosimError::Load { what: "shaker", path: shaker_fmu.into(), source })?;
+    let conns = connections();
+    let opts = MasterOptions {
+        algorithm: p.algorithm,
+        macro_step_s: p.macro_step_s,
+        extrapolate: p.extrapolate,
+        order: if p.shaker_first { Some(vec![1, 0]) } else { Some(vec![0, 1]) },
+        iteration_rtol: p.iteration_rtol,
+        iteration_max: p.iteration_max,
+    };
+    let mut m = Master::new(vec![("structure".into(), st), ("shaker".into(), sh)], &conns, opts)?;
+    for (ep, v) in parameters(p)? {
+        let (u, name) = ep.split_once('.').expect("unit.variable");
+        m.set_parameter(if u == "structure" { 0 } else { 1 }, name, &v)?;
     }
     let dur = p.duration_s();
     if !(dur.is_finite() && dur > 0.0) {

@@ -253,6 +253,63 @@ fn generic_mode_runs_fmus_from_a_connection_list() {
     assert!(run_generic(&bad, &mut |_| {}).unwrap_err().to_string().contains("does not fit"));
 }
 
+/// The SSP archive holds both FMUs byte for byte and an .ssd whose
+/// components, connectors, connections and parameter values are the inputs.
+#[test]
+fn ssp_export_round_trips() {
+    use super::ssp::write_ssp;
+    use quick_xml::events::Event;
+    use std::io::Read;
+    let dir = tempfile::tempdir().unwrap();
+    let a = test_fmu(dir.path(), "a.fmu", &test_md(TEST_GUID), true);
+    let b = test_fmu(dir.path(), "b.fmu", &test_md(TEST_GUID), true);
+    let out = dir.path().join("sys.ssp");
+    let conns = vec![("a.x".to_string(), "b.F".to_string()), ("b.x".to_string(), "a.F".to_string())];
+    let params = vec![("a.x0".to_string(), ParamValue::Real(0.25)), ("b.k".to_string(), ParamValue::Real(400.0))];
+    write_ssp(&out, "two <osc>", &[("a".into(), a.clone()), ("b".into(), b.clone())], &conns, &params, 2.0).unwrap();
+    let mut z = zip::ZipArchive::new(std::fs::File::open(&out).unwrap()).unwrap();
+    for (u, p) in [("a", &a), ("b", &b)] {
+        let mut bytes = Vec::new();
+        z.by_name(&format!("resources/{u}.fmu")).unwrap().read_to_end(&mut bytes).unwrap();
+        assert_eq!(bytes, std::fs::read(p).unwrap());
+    }
+    let mut ssd = String::new();
+    z.by_name("SystemStructure.ssd").unwrap().read_to_string(&mut ssd).unwrap();
+    let mut r = quick_xml::Reader::from_str(&ssd);
+    let (mut comps, mut connections, mut values, mut connectors) = (vec![], vec![], vec![], 0);
+    let mut current_param = String::new();
+    let mut root_name = String::new();
+    loop {
+        match r.read_event().unwrap() {
+            Event::Start(e) | Event::Empty(e) => {
+                let at = |k: &str| e.try_get_attribute(k).unwrap().map(|a| a.unescape_value().unwrap().into_owned());
+                match e.name().as_ref() {
+                    b"ssd:SystemStructureDescription" => root_name = at("name").unwrap(),
+                    b"ssd:Component" => comps.push((at("name").unwrap(), at("source").unwrap())),
+                    b"ssd:Connector" => connectors += 1,
+                    b"ssd:Connection" => connections.push((
+                        format!("{}.{}", at("startElement").unwrap(), at("startConnector").unwrap()),
+                        format!("{}.{}", at("endElement").unwrap(), at("endConnector").unwrap()),
+                    )),
+                    b"ssv:Parameter" => current_param = at("name").unwrap(),
+                    b"ssv:Real" => values.push((current_param.clone(), at("value").unwrap().parse::<f64>().unwrap())),
+                    _ => {}
+                }
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    assert_eq!(root_name, "two <osc>");
+    assert_eq!(comps, vec![("a".to_string(), "resources/a.fmu".to_string()), ("b".to_string(), "resources/b.fmu".to_string())]);
+    assert_eq!(connections, conns);
+    assert_eq!(values, vec![("x0".to_string(), 0.25), ("k".to_string(), 400.0)]);
+    // inputs and outputs (F, x, v) of both, plus one bound parameter each
+    assert_eq!(connectors, 2 * 3 + 2);
+    let e = write_ssp(&out, "s", &[("a".into(), a.clone())], &[("a.x".into(), "c.F".into())], &[], 1.0).unwrap_err();
+    assert!(e.to_string().contains("c.F"), "{e}");
+}
+
 /// Two test oscillators coupled by forces through the generic master:
 /// a.F <- b.x, b.F <- a.x (k_c x of the other): with m = 1, k = 100, the
 /// coupling `F_a = c x_b`, `F_b = c x_a` gives modes at omega^2 = 100 -+ c.
