@@ -360,8 +360,8 @@ fn coupled_oscillators_match_the_modal_solution_for_every_algorithm() {
 mod fmus {
     use super::super::paper::*;
     use super::*;
-    use crate::model::Setup;
-    use crate::scenario::Scenario;
+    use nlmode::attachment::ShakerParams;
+    use nlmode::structure::{paper_structure, PaperStructureOptions};
     use nlmode::nma::ModalTable;
     use nlmode::structure::modal_analysis;
     use nlmode::Complex64;
@@ -390,14 +390,15 @@ mod fmus {
         pub d0: f64,
         pub phi_ex: f64,
         pub phi_tip: f64,
-        pub setup: Setup,
+        pub shaker: ShakerParams,
     }
 
     pub(super) fn beam() -> Beam {
-        let setup = Setup::new(&Scenario::default_scenario()).unwrap();
-        let modes = modal_analysis(&setup.model, 1).unwrap();
-        let phi = |p: &str| modes.deflection(0, &setup.model.point(p).unwrap().direction);
-        Beam { omega0: modes.omega_rad_s[0], d0: setup.d0, phi_ex: phi("2l3"), phi_tip: phi("tip"), setup }
+        let ps = paper_structure(&PaperStructureOptions::default()).unwrap();
+        let modes = modal_analysis(&ps.model, 1).unwrap();
+        let phi = |p: &str| modes.deflection(0, &ps.model.point(p).unwrap().direction);
+        let d0 = PaperStructureOptions::default().d0;
+        Beam { omega0: modes.omega_rad_s[0], d0, phi_ex: phi("2l3"), phi_tip: phi("tip"), shaker: ShakerParams::paper() }
     }
 
     /// Package `structure.fmu` (with `table` as resources/modal_table.json) and `shaker.fmu` into `dir`.
@@ -434,7 +435,7 @@ mod fmus {
 
     /// Linear single-mode structure + shaker, steady state at `w`: (F, x_tip) complex.
     pub(super) fn linear_steady(b: &Beam, w: f64, u_hat: f64) -> (Complex64, Complex64) {
-        let sh = &b.setup.shakers[0];
+        let sh = &b.shaker;
         let hm = 1.0 / Complex64::new(b.omega0 * b.omega0 - w * w, 2.0 * b.d0 * b.omega0 * w);
         let fb = sh.closed_form_blocked_force(w, Complex64::new(u_hat, 0.0));
         let z = sh.closed_form_interface_impedance(w);
@@ -444,7 +445,7 @@ mod fmus {
 
     fn fixed_sine(b: &Beam, eta: f64, alg: Algorithm, h: f64, t_end: f64) -> CosimParams {
         let w = eta * b.omega0;
-        let mut p = CosimParams::new(b.setup.shakers[0], SweepSpec { u_hat_v: 1.0, omega_start_rad_s: w, omega_end_rad_s: w, rate_rad_s2: 0.0 });
+        let mut p = CosimParams::new(b.shaker, SweepSpec { u_hat_v: 1.0, omega_start_rad_s: w, omega_end_rad_s: w, rate_rad_s2: 0.0 });
         p.stop_time_s = Some(t_end);
         p.algorithm = alg;
         p.macro_step_s = h;
@@ -478,7 +479,7 @@ mod fmus {
             assert!(ef.abs() < tol && et.abs() < tol, "eta {eta} {alg:?} h {h}: force {ef:e}, tip {et:e}");
             assert!((e.omega_rad_s[n - 1] - eta * b.omega0).abs() < 1e-9);
             if eta == 1.0 {
-                let blocked = b.setup.shakers[0].closed_form_blocked_force(b.omega0, Complex64::new(1.0, 0.0)).norm();
+                let blocked = b.shaker.closed_form_blocked_force(b.omega0, Complex64::new(1.0, 0.0)).norm();
                 let drop = 1.0 - e.force_amplitude_n[n - 1] / blocked;
                 assert!((drop - 0.97).abs() < 0.01, "force drop {drop}");
             }
