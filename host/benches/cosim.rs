@@ -49,12 +49,12 @@ fn null_fmu(dir: &Path, name: &str) -> Fmu {
     Fmu::load(&p).unwrap()
 }
 
-fn null_master(dir: &Path, alg: Algorithm) -> Master {
+fn null_master(dir: &Path, alg: Algorithm, extrapolate: bool) -> Master {
     let c = vec![("a.x".to_string(), "b.F".to_string()), ("b.x".to_string(), "a.F".to_string())];
     let mut m = Master::new(
         vec![("a".into(), null_fmu(dir, "a.fmu")), ("b".into(), null_fmu(dir, "b.fmu"))],
         &c,
-        MasterOptions { algorithm: alg, macro_step_s: 1e-5, ..Default::default() },
+        MasterOptions { algorithm: alg, macro_step_s: 1e-5, extrapolate, ..Default::default() },
     )
     .unwrap();
     for u in 0..2 {
@@ -72,8 +72,7 @@ fn overhead(c: &mut Criterion) {
         ("jacobi_extrapolated", Algorithm::Jacobi, true),
         ("gauss_seidel", Algorithm::GaussSeidel, true),
     ] {
-        let mut m = null_master(dir.path(), alg);
-        let _ = extrapolate;
+        let mut m = null_master(dir.path(), alg, extrapolate);
         g.bench_function(name, |b| b.iter(|| m.step().unwrap()));
     }
     g.finish();
@@ -226,7 +225,7 @@ fn case_a() {
     }
     // host overhead inside a real run: a Jacobi run on null FMUs of the same length
     let nd = tempfile::tempdir().unwrap();
-    let mut m = null_master(nd.path(), Algorithm::GaussSeidel);
+    let mut m = null_master(nd.path(), Algorithm::GaussSeidel, true);
     let n = 1_000_000;
     let t0 = Instant::now();
     let rec = run(&mut m, n as f64 * 1e-5, &["a.x".into()], 25, &mut |_| {}).unwrap();

@@ -749,6 +749,8 @@ pub fn run_generic(spec: &GenericSpec, progress: &mut dyn FnMut(f64)) -> Result<
         })?;
         m.set_parameter(ui, name, v)?;
     }
-    m.initialize(spec.start_time_s, Some(spec.stop_time_s))?;
+    let h = spec.options.macro_step_s;
+    let n = ((spec.stop_time_s - spec.start_time_s) / h - 1e-9).ceil().max(0.0);
+    m.initialize(spec.start_time_s, Some(spec.start_time_s + n * h))?;
     run(&mut m, spec.stop_time_s, &spec.record, spec.record_every, progress)
 }

@@ -212,7 +212,9 @@ pub fn build_master(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) ->
     if !(dur.is_finite() && dur > 0.0) {
         return Err(CosimError::BadDuration(dur));
     }
-    m.initialize(0.0, Some(dur))?;
+    // the run ends at the first communication point at or after `dur`
+    let n = (dur / p.macro_step_s - 1e-9).ceil().max(1.0);
+    m.initialize(0.0, Some(n * p.macro_step_s))?;
     Ok(m)
 }
 

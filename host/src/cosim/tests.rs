@@ -508,4 +508,18 @@ mod fmus {
             assert!(ef.abs() < tol, "{alg:?}: force error {ef}");
         }
     }
+
+    /// A duration off the macro-step grid ends at the next communication
+    /// point, which is the stop time the FMUs were told.
+    #[test]
+    fn a_duration_off_the_step_grid_ends_on_the_grid() {
+        let b = beam();
+        let dir = tempfile::tempdir().unwrap();
+        let (st, sh) = package(dir.path(), &linear_table(&b));
+        let p = fixed_sine(&b, 1.0, Algorithm::GaussSeidel, 1e-5, 0.0123456);
+        let o = run_cosim(&st, &sh, &p, &mut |_| {}).unwrap();
+        assert!(o.stopped.is_none(), "{:?}", o.stopped);
+        assert_eq!(o.stats.steps, 1235);
+        assert!((o.time_s.last().unwrap() - 0.01235).abs() < 1e-12);
+    }
 }
