@@ -563,16 +563,21 @@ mod fmus {
         )
     }
 
-    /// The paper's case (a) (2l/3, 10 V, r = 2 %, 0.8-1.8 omega0) with the
-    /// nonlinear modal table (NMA, H = 3): co-simulation (Jacobi, h = 1e-5 s)
-    /// against the full-order `reference` and the slow-flow `nlmode` method,
-    /// with the tolerances: peak tip within 3 %, jump-down within 1 %,
-    /// RMS envelope differences within 5 % of the peaks. (Measured in release:
-    /// +0.13 %, -0.01 %, 2.1 % / 2.0 % against the reference; in debug 0.13 %,
-    /// -0.01 %, 2.1 %, 2.0 % against the reference and 1.1 %, 0.4 %, 4.5 %, 3.7 %
-    /// against nlmode.)
+    /// The paper's case (a) (2l/3, 10 V, r = 2 %, 0.8-1.8 omega0) and case (b)
+    /// at 1 V (l/3, r = 1 %) with the nonlinear modal table (NMA, H = 3):
+    /// co-simulation (Jacobi, h = 1e-5 s) against the full-order `reference`
+    /// and the slow-flow `nlmode` method, with the tolerances: peak tip
+    /// within 3 %, jump-down within 1 %, RMS envelope differences within 5 % of
+    /// the peaks. (Case (a), measured: +0.13 %, -0.01 %, 2.1 %, 2.0 % against
+    /// the reference and 1.1 %, 0.4 %, 4.5 %, 3.7 % against nlmode.)
     #[test]
-    fn case_a_agrees_with_reference_and_nlmode() {
+    fn cases_a_and_b_agree_with_reference_and_nlmode() {
+        for (point, volts, r) in [("2l3", 10.0, 0.02), ("l3", 1.0, 0.01)] {
+            case_vs_reference_and_nlmode(point, volts, r);
+        }
+    }
+
+    fn case_vs_reference_and_nlmode(point: &str, volts: f64, rate: f64) {
         use nlmode::attachment::LinearAttachment;
         use nlmode::excitation::LinearSweep;
         use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, NmaOptions, TablePolicy};
@@ -591,10 +596,10 @@ mod fmus {
         .unwrap();
         let table = nma.to_table(TablePolicy::PrimaryBranch);
         let shaker = ShakerParams::paper();
-        let sweep = LinearSweep::per_pseudo_period(ps.omega0_rad_s, 0.8, 1.8, 0.02, 10.0).unwrap();
-        let att = LinearAttachment::shaker("shaker", &shaker, "2l3").unwrap();
+        let sweep = LinearSweep::per_pseudo_period(ps.omega0_rad_s, 0.8, 1.8, rate, volts).unwrap();
+        let att = LinearAttachment::shaker("shaker", &shaker, point).unwrap();
         let r = simulate_sweep(&ps.model, &[att.clone()], &sweep, &ReferenceOptions::default()).unwrap();
-        let nl = ReducedModel::new(&table, "tip", "2l3")
+        let nl = ReducedModel::new(&table, "tip", point)
             .unwrap()
             .with_linear_attachment(&att, &[Complex64::new(1.0, 0.0)])
             .unwrap()
@@ -604,24 +609,27 @@ mod fmus {
         let dir = tempfile::tempdir().unwrap();
         let (st, sh) = package(dir.path(), &table);
         let mut p = CosimParams::new(shaker, SweepSpec::from(&sweep));
+        p.drive_point = point.into();
         p.algorithm = Algorithm::Jacobi;
         p.macro_step_s = 1e-5;
         p.output_interval_s = 2.5e-4;
         let o = run_cosim(&st, &sh, &p, &mut |_| {}).unwrap();
         assert!(o.stopped.is_none(), "{:?}", o.stopped);
-        // the jump-down lies far above omega0 (hardening), as in the paper
         for (name, (om, f, tip)) in [
             ("reference", (&r.envelope.omega_rad_s, &r.envelope.force_amplitude_n, &r.envelope.tip_amplitude_m)),
             ("nlmode", (&nl.omega_rad_s, &nl.force_amplitude_n, &nl.tip_amplitude_m)),
         ] {
             let (peak, jump, rms_tip, rms_f) = compare(&o.envelope, om, f, tip);
-            eprintln!("{name}: peak {peak:e} jump {jump:e} rms tip {rms_tip:e} rms force {rms_f:e}");
-            assert!(peak.abs() < 0.03, "{name}: peak tip {peak:e}");
-            assert!(jump.abs() < 0.01, "{name}: jump-down {jump:e}");
-            assert!(rms_tip < 0.05 && rms_f < 0.05, "{name}: RMS tip {rms_tip:e}, force {rms_f:e}");
+            eprintln!("{point} {volts} V: {name}: peak {peak:e} jump {jump:e} rms tip {rms_tip:e} rms force {rms_f:e}");
+            assert!(peak.abs() < 0.03, "{point}, {name}: peak tip {peak:e}");
+            assert!(jump.abs() < 0.01, "{point}, {name}: jump-down {jump:e}");
+            assert!(rms_tip < 0.05 && rms_f < 0.05, "{point}, {name}: RMS tip {rms_tip:e}, force {rms_f:e}");
         }
-        let e = &o.envelope;
-        let ipk = (0..e.tip_amplitude_m.len()).max_by(|&a, &b| e.tip_amplitude_m[a].total_cmp(&e.tip_amplitude_m[b])).unwrap();
-        assert!(e.omega_rad_s[ipk] > 1.2 * ps.omega0_rad_s, "peak at {} rad/s", e.omega_rad_s[ipk]);
+        if volts == 10.0 {
+            // hardening: the peak lies far above omega0, as in the paper
+            let e = &o.envelope;
+            let ipk = (0..e.tip_amplitude_m.len()).max_by(|&a, &b| e.tip_amplitude_m[a].total_cmp(&e.tip_amplitude_m[b])).unwrap();
+            assert!(e.omega_rad_s[ipk] > 1.2 * ps.omega0_rad_s, "peak at {} rad/s", e.omega_rad_s[ipk]);
+        }
     }
 }
