@@ -13,7 +13,7 @@
 //!   and the wall times.
 //!
 //! `cargo bench -p host --bench cosim` (add `COSIM_CASE_A=1` for the table).
-#[allow(dead_code, unused_imports)]
+#[allow(unused_imports)]
 #[path = "../src/cosim/mod.rs"]
 mod cosim;
 

@@ -164,6 +164,9 @@ pub struct ModelDescription {
     pub outputs: Vec<OutputDependency>,
 }
 
+/// A `<ScalarVariable>` being read: its attributes, line, and type element (type, attributes).
+type PendingVariable = (Vec<(String, String)>, usize, Option<(VarType, Vec<(String, String)>)>);
+
 fn line_of(text: &str, pos: u64) -> usize {
     let end = (pos as usize).min(text.len());
     text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
@@ -223,7 +226,7 @@ impl ModelDescription {
         let mut has_cs = false;
         let mut stack: Vec<String> = Vec::new();
         // The <ScalarVariable> being read: (attributes, line, type child seen).
-        let mut current: Option<(Vec<(String, String)>, usize, Option<(VarType, Vec<(String, String)>)>)> = None;
+        let mut current: Option<PendingVariable> = None;
         loop {
             let pos = reader.buffer_position();
             let ev = reader.read_event().map_err(|e| FmuError::Xml {
@@ -370,7 +373,7 @@ impl ModelDescription {
 
     fn finish_variable(
         &mut self,
-        cur: Option<(Vec<(String, String)>, usize, Option<(VarType, Vec<(String, String)>)>)>,
+        cur: Option<PendingVariable>,
         end_line: usize,
     ) -> Result<()> {
         let Some((a, line, ty)) = cur else { return Ok(()) };
@@ -447,7 +450,10 @@ impl ModelDescription {
     pub fn output_depends_on(&self, output: usize, input: usize) -> bool {
         match self.outputs.iter().find(|o| o.output == output) {
             None => true,
-            Some(o) => o.dependencies.as_ref().map_or(true, |d| d.contains(&input)),
+            Some(o) => match &o.dependencies {
+                None => true,
+                Some(d) => d.contains(&input),
+            },
         }
     }
 }

@@ -124,7 +124,7 @@ pub struct CosimOutput {
 #[derive(Debug, thiserror::Error)]
 pub enum CosimError {
     #[error("{what} FMU {path}: {source}")]
-    Load { what: &'static str, path: PathBuf, source: super::import::FmuError },
+    Load { what: &'static str, path: PathBuf, source: Box<super::import::FmuError> },
     #[error(transparent)]
     Master(#[from] MasterError),
     #[error("the shaker FMU needs an elastic stinger (its force is k_s (q_a - x)); a rigid stinger is not co-simulated")]
@@ -192,8 +192,8 @@ pub fn export_ssp(out: &Path, structure_fmu: &Path, shaker_fmu: &Path, p: &Cosim
 /// Build the master for the two FMUs with the parameters set, initialized at t = 0.
 pub fn build_master(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) -> Result<Master, CosimError> {
     parameters(p)?;
-    let st = Fmu::load(structure_fmu).map_err(|source| CosimError::Load { what: "structure", path: structure_fmu.into(), source })?;
-    let sh = Fmu::load(shaker_fmu).map_err(|source| CosimError::Load { what: "shaker", path: shaker_fmu.into(), source })?;
+    let st = Fmu::load(structure_fmu).map_err(|source| CosimError::Load { what: "structure", path: structure_fmu.into(), source: Box::new(source) })?;
+    let sh = Fmu::load(shaker_fmu).map_err(|source| CosimError::Load { what: "shaker", path: shaker_fmu.into(), source: Box::new(source) })?;
     let conns = connections();
     let opts = MasterOptions {
         algorithm: p.algorithm,

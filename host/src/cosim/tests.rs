@@ -63,7 +63,7 @@ pub(super) fn test_fmu(dir: &Path, name: &str, md: &str, with_binary: bool) -> P
 }
 
 fn fmu_err(p: &Path) -> FmuError {
-    Fmu::load(p).err().expect("import must fail")
+    Fmu::load(p).expect_err("import must fail")
 }
 
 #[test]
@@ -598,7 +598,7 @@ mod fmus {
         let shaker = ShakerParams::paper();
         let sweep = LinearSweep::per_pseudo_period(ps.omega0_rad_s, 0.8, 1.8, rate, volts).unwrap();
         let att = LinearAttachment::shaker("shaker", &shaker, point).unwrap();
-        let r = simulate_sweep(&ps.model, &[att.clone()], &sweep, &ReferenceOptions::default()).unwrap();
+        let r = simulate_sweep(&ps.model, std::slice::from_ref(&att), &sweep, &ReferenceOptions::default()).unwrap();
         let nl = ReducedModel::new(&table, "tip", point)
             .unwrap()
             .with_linear_attachment(&att, &[Complex64::new(1.0, 0.0)])
