@@ -84,31 +84,9 @@ criterion_group!(benches, overhead);
 // Case (a) table
 
 fn release_fmus(dir: &Path, table: &nlmode::nma::ModalTable) -> (PathBuf, PathBuf) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let st = std::process::Command::new(cargo)
-        .current_dir(&root)
-        .args(["build", "--release", "--lib", "-p", "fmu-shaker", "-p", "fmu-structure"])
-        .status()
-        .unwrap();
-    assert!(st.success());
     let tp = dir.join("modal_table.json");
     table.write(&tp).unwrap();
-    let mut out = Vec::new();
-    for id in ["structure", "shaker"] {
-        let res = if id == "structure" { vec![(tp.clone(), "modal_table.json".to_string())] } else { vec![] };
-        let spec = fmi2::package::FmuSpec {
-            model_identifier: id.into(),
-            model_description: root.join("modelDescription").join(id).join("modelDescription.xml"),
-            library: root.join("target/release").join(format!("lib{id}.so")),
-            resources: res,
-            documentation: vec![],
-        };
-        let p = dir.join(format!("{id}.fmu"));
-        fmi2::package::write_fmu(&spec, &p).unwrap();
-        out.push(p);
-    }
-    (out[0].clone(), out[1].clone())
+    cosim::repo::package_repo_fmus(dir, Some(&tp)).unwrap()
 }
 
 /// Linear interpolation of (x, y) at `x0` (x increasing).

@@ -8,6 +8,7 @@
 pub mod import;
 pub mod master;
 pub mod paper;
+pub mod repo;
 pub mod ssp;
 
 #[cfg(test)]

@@ -365,24 +365,8 @@ mod fmus {
     use nlmode::nma::ModalTable;
     use nlmode::structure::modal_analysis;
     use nlmode::Complex64;
-    use std::sync::OnceLock;
-
-    /// Build the two cdylibs once per test process; their paths.
-    fn libs() -> &'static (PathBuf, PathBuf) {
-        static LIBS: OnceLock<(PathBuf, PathBuf)> = OnceLock::new();
-        LIBS.get_or_init(|| {
-            let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let st = std::process::Command::new(cargo)
-                .current_dir(&root)
-                .args(["build", "--lib", "-p", "fmu-shaker", "-p", "fmu-structure"])
-                .status()
-                .expect("cargo runs");
-            assert!(st.success(), "building the FMU libraries failed");
-            let d = root.join("target").join("debug");
-            (d.join("libstructure.so"), d.join("libshaker.so"))
-        })
-    }
+    use super::super::repo::package_repo_fmus;
+    use std::sync::Mutex;
 
     /// The paper's beam (default scenario): omega0, D0, phi at 2l3 and tip.
     pub(super) struct Beam {
@@ -401,26 +385,15 @@ mod fmus {
         Beam { omega0: modes.omega_rad_s[0], d0, phi_ex: phi("2l3"), phi_tip: phi("tip"), shaker: ShakerParams::paper() }
     }
 
-    /// Package `structure.fmu` (with `table` as resources/modal_table.json) and `shaker.fmu` into `dir`.
+    /// Package `structure.fmu` (with `table` as resources/modal_table.json)
+    /// and `shaker.fmu` into `dir` by [`package_repo_fmus`] (a debug build of
+    /// the FMU crates here).
     pub(super) fn package(dir: &Path, table: &ModalTable) -> (PathBuf, PathBuf) {
-        let (st_lib, sh_lib) = libs();
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        static BUILD: Mutex<()> = Mutex::new(());
         let tp = dir.join("modal_table.json");
         table.write(&tp).unwrap();
-        let mut out = Vec::new();
-        for (id, lib, res) in [("structure", st_lib, vec![(tp.clone(), "modal_table.json".to_string())]), ("shaker", sh_lib, vec![])] {
-            let spec = fmi2::package::FmuSpec {
-                model_identifier: id.into(),
-                model_description: root.join("modelDescription").join(id).join("modelDescription.xml"),
-                library: lib.clone(),
-                resources: res,
-                documentation: vec![],
-            };
-            let p = dir.join(format!("{id}.fmu"));
-            fmi2::package::write_fmu(&spec, &p).unwrap();
-            out.push(p);
-        }
-        (out[0].clone(), out[1].clone())
+        let _one_cargo_at_a_time = BUILD.lock().unwrap_or_else(|e| e.into_inner());
+        package_repo_fmus(dir, Some(&tp)).unwrap()
     }
 
     pub(super) fn linear_table(b: &Beam) -> ModalTable {
