@@ -180,10 +180,18 @@ fn case_a() {
     );
     println!("| algorithm | macro step [s] | vs reference: peak tip / jump-down / RMS tip / RMS force [%] | vs finest cosim: peak tip / RMS tip / RMS force [%] | steps | FMU DoSteps | wall [s] | us per macro step |");
     println!("|---|---|---|---|---|---|---|---|");
-    for (name, alg) in [("jacobi", Algorithm::Jacobi), ("gauss-seidel", Algorithm::GaussSeidel), ("iterative", Algorithm::Iterative)] {
+    for (name, alg, extrapolate, shaker_first) in [
+        ("jacobi (ZOH)", Algorithm::Jacobi, false, false),
+        ("jacobi", Algorithm::Jacobi, true, false),
+        ("gauss-seidel", Algorithm::GaussSeidel, true, false),
+        ("gauss-seidel (shaker first)", Algorithm::GaussSeidel, true, true),
+        ("iterative", Algorithm::Iterative, true, false),
+    ] {
         for h in [5e-6, 1e-5, 2e-5, 5e-5, 1e-4, 2e-4] {
             let mut p = base.clone();
             p.algorithm = alg;
+            p.extrapolate = extrapolate;
+            p.shaker_first = shaker_first;
             p.macro_step_s = h;
             p.output_interval_s = 2.5e-4;
             let o = run_cosim(&st, &sh, &p, &mut |_| {}).unwrap();
