@@ -446,4 +446,19 @@ mod tests {
         let e = Scenario::parse("[run]\nmethods = [\"magic\"]\n").unwrap_err();
         assert!(e.contains("run.methods[0]") && e.contains("magic"), "{e}");
     }
+
+    #[test]
+    fn every_example_scenario_parses() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let p = entry.unwrap().path();
+            if p.extension().and_then(|e| e.to_str()) == Some("toml") {
+                let text = std::fs::read_to_string(&p).unwrap();
+                Scenario::parse(&text).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+                n += 1;
+            }
+        }
+        assert!(n >= 9, "only {n} example scenarios");
+    }
 }
