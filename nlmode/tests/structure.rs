@@ -100,12 +100,12 @@ fn craig_bampton_reproduces_the_first_three_frequencies() {
     assert_eq!(p.transform.shape(), (198, 11));
     let full = modal_analysis(&p.beam.model, 3).unwrap();
     let red = modal_analysis(&p.model, 3).unwrap();
-    for j in 0..3 {
-        let (wf, wr) = (full.omega_rad_s[j], red.omega_rad_s[j]);
+    for (j, (&wf, &wr)) in full.omega_rad_s.iter().zip(&red.omega_rad_s).enumerate() {
         assert!(rel(wr, wf) < 1e-3, "mode {j}: CB {wr} vs full {wf}");
-        // a Ritz approximation lies above (up to the eigensolver's rounding, about 1e-7 here)
+        // a Ritz approximation lies above (this needs the refined eigensolver: the
+        // plain dense one is off by about 1e-7 on this mesh)
         assert!(
-            wr >= wf * (1.0 - 1e-7),
+            wr >= wf * (1.0 - 1e-12),
             "CB is a Ritz approximation: from above"
         );
         let exact = p.beam.spec.analytic_omega_rad_s(CLAMPED_FREE[j]);
@@ -193,13 +193,18 @@ fn stiffness_proportional_damping_on_the_paper_model() {
         for j in 0..3 {
             let d = cm[(j, j)] / (2.0 * modes.omega_rad_s[j]);
             let expected = benchmark::D0 * modes.omega_rad_s[j] / p.omega0_rad_s;
-            // C = beta K: D_j = beta omega_j / 2 exactly (up to the eigensolver's rounding)
-            assert!(rel(d, expected) < 1e-6, "mode {j}: D = {d} vs {expected}");
+            // C = beta K: D_j = beta omega_j / 2; measured through Phi^T C Phi, whose
+            // rounding (cancellation in K phi on the 198-DOF mesh) is about 1e-8
+            assert!(rel(d, expected) < 1e-7, "mode {j}: D = {d} vs {expected}");
         }
         let d1 = cm[(0, 0)] / (2.0 * modes.omega_rad_s[0]);
         assert!(rel(d1, 0.004) < 1e-6, "{d1}");
     }
     assert!(rel(p.damping_beta_s, 2.0 * 0.004 / p.omega0_rad_s) < 1e-14);
+    assert_eq!(
+        p.beam.model.damping,
+        &p.beam.model.stiffness * p.damping_beta_s
+    );
 }
 
 #[test]
@@ -352,4 +357,58 @@ fn build_time_of_the_paper_model() {
         red.modal_mass_kg(0, &e("2l3")),
     );
     assert!(dt.as_secs_f64() < 30.0);
+}
+
+#[test]
+fn paper_options_deserialise_with_defaults() {
+    let o: PaperStructureOptions = serde_json::from_str(
+        r#"{"k3_n_per_m3": 0.0, "points": [["exciter", 0.35333333333333333]]}"#,
+    )
+    .unwrap();
+    assert_eq!(o.k3_n_per_m3, 0.0);
+    assert_eq!(o.n_nodes, 100);
+    assert_eq!(o.cb_modes, Some(10));
+    let p = paper_structure(&o).unwrap();
+    assert_eq!(p.beam.node_at(o.points[0].1).unwrap(), 66);
+    let err = serde_json::from_str::<PaperStructureOptions>(r#"{"k3": 1.0}"#)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("k3"), "{err}");
+}
+
+#[test]
+fn other_nonlinear_laws_survive_the_reduction() {
+    use nlmode::structure::{RegularizedFriction, UnilateralSpring};
+    let mut beam = BeamSpec::paper().assemble().unwrap();
+    let l = beam.spec.length_m;
+    let e_tip = beam.translation_vector("contact", l).unwrap();
+    let e_mid = beam.translation_vector("friction", l / 3.0).unwrap();
+    beam.model
+        .add_nonlinear(
+            "contact",
+            e_tip.clone(),
+            UnilateralSpring::new(1e6, 1e-3).unwrap(),
+        )
+        .unwrap();
+    beam.model
+        .add_nonlinear(
+            "friction",
+            e_mid.clone(),
+            RegularizedFriction::new(5.0, 1e-4).unwrap(),
+        )
+        .unwrap();
+    let tip = beam.translation_dof(99).unwrap();
+    let mid = beam.translation_dof(33).unwrap();
+    let cb = craig_bampton(&beam.model, &[tip, mid], 6).unwrap();
+    // a reduced state, its full counterpart: the nonlinear forces agree after projection
+    let q = DVector::from_fn(8, |i, _| 2e-3 * (1.0 + i as f64).recip());
+    let qd = DVector::from_fn(8, |i, _| 0.01 * (i as f64 - 3.0));
+    let (qf, qdf) = (cb.recover(&q), cb.recover(&qd));
+    assert!(qf[tip] > 1e-3, "spring in contact");
+    let g_full = beam.model.nonlinear_force(&qf, &qdf);
+    let g_red = cb.reduced.nonlinear_force(&q, &qd);
+    let projected = cb.transform.transpose() * g_full;
+    assert!((&g_red - &projected).amax() < 1e-12 * projected.amax());
+    assert!((g_red[0] - 1e6 * (qf[tip] - 1e-3)).abs() < 1e-9);
+    assert!((g_red[1] - 5.0 * (qdf[mid] / 1e-4).tanh()).abs() < 1e-12);
 }

@@ -6,7 +6,7 @@
 //! * Rayleigh `C = alpha M + beta K`, `D_k = alpha / (2 omega_k) + beta omega_k / 2`;
 //! * modal `C = M Phi diag(2 D_k omega_k) Phi^T M` over the first modes (mass-normalised
 //!   `Phi`), exactly `D_k` on those modes and no damping on the others.
-use super::modal::modal_analysis;
+use super::modal::{modal_analysis, LinearModes};
 use super::{Result, StructuralModel, StructureError};
 use nalgebra::DMatrix;
 
@@ -36,7 +36,25 @@ pub fn stiffness_proportional_damping(
         });
     }
     let modes = modal_analysis(model, mode_index + 1)?;
-    let omega = modes.omega_rad_s[mode_index];
+    stiffness_proportional_damping_from_modes(model, &modes, mode_index, ratio)
+}
+
+/// As [`stiffness_proportional_damping`] with the linear modes of `model` already
+/// computed (`modes` must come from [`modal_analysis`] of this model).
+pub fn stiffness_proportional_damping_from_modes(
+    model: &mut StructuralModel,
+    modes: &LinearModes,
+    mode_index: usize,
+    ratio: f64,
+) -> Result<f64> {
+    check_ratio("ratio", ratio)?;
+    let omega = *modes
+        .omega_rad_s
+        .get(mode_index)
+        .ok_or(StructureError::ModeIndexOutOfRange {
+            index: mode_index,
+            available: modes.n_modes(),
+        })?;
     if omega == 0.0 {
         return Err(StructureError::ZeroFrequencyMode {
             index: mode_index,
@@ -106,12 +124,11 @@ mod tests {
         let modes = modal_analysis(&m, 4).unwrap();
         assert!((beta - 0.02 / modes.omega_rad_s[1]).abs() < 1e-15);
         let (d, _) = modal_ratios(&m, 4);
-        for j in 0..4 {
-            let expected = 0.01 * modes.omega_rad_s[j] / modes.omega_rad_s[1];
+        for (j, (dj, wj)) in d.iter().zip(&modes.omega_rad_s).enumerate() {
+            let expected = 0.01 * wj / modes.omega_rad_s[1];
             assert!(
-                (d[j] - expected).abs() < 1e-8 * expected,
-                "mode {j}: {} vs {expected}",
-                d[j]
+                (dj - expected).abs() < 1e-10 * expected,
+                "mode {j}: {dj} vs {expected}"
             );
         }
     }
@@ -122,10 +139,9 @@ mod tests {
         rayleigh_damping(&mut m, 3.0, 1e-5).unwrap();
         let modes = modal_analysis(&m, 3).unwrap();
         let (d, _) = modal_ratios(&m, 3);
-        for j in 0..3 {
-            let w = modes.omega_rad_s[j];
+        for (dj, w) in d.iter().zip(&modes.omega_rad_s) {
             let expected = 3.0 / (2.0 * w) + 1e-5 * w / 2.0;
-            assert!((d[j] - expected).abs() < 1e-10 * expected);
+            assert!((dj - expected).abs() < 1e-10 * expected);
         }
         modal_damping(&mut m, &[0.01, 0.02]).unwrap();
         let (d, cm) = modal_ratios(&m, 3);

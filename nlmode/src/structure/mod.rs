@@ -7,10 +7,11 @@
 //! * [`beam`]: Euler-Bernoulli beam finite elements (cubic Hermite shape functions,
 //!   consistent mass), 2 DOF per node, common boundary conditions.
 //! * [`CubicSpring`]: `f = k3 u^3`, the paper's nonlinearity (Section 5). Further laws
-//!   (unilateral spring, regularised friction, ...) are one [`NonlinearLaw`] type each.
+//!   are one [`NonlinearLaw`] type each; [`laws`] has a unilateral spring and
+//!   regularised Coulomb friction.
 //! * [`damping`]: stiffness-proportional (calibrated on a mode), Rayleigh and modal damping.
 //! * [`modal`]: linear modal analysis, `K phi = omega^2 M phi`.
-//! * [`craig_bampton`]: Craig-Bampton reduction with chosen master DOFs and fixed-interface modes.
+//! * [`mod@craig_bampton`]: Craig-Bampton reduction with chosen master DOFs and fixed-interface modes.
 //! * [`paper`]: the benchmark structure of the paper (Section 5).
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
@@ -64,12 +65,17 @@ pub struct StructuralModel {
 pub mod beam;
 pub mod craig_bampton;
 pub mod damping;
+pub mod laws;
 pub mod modal;
 pub mod paper;
 
 pub use beam::{Beam, BeamSpec, BoundaryCondition};
 pub use craig_bampton::{craig_bampton, CraigBampton};
-pub use damping::{modal_damping, rayleigh_damping, stiffness_proportional_damping};
+pub use damping::{
+    modal_damping, rayleigh_damping, stiffness_proportional_damping,
+    stiffness_proportional_damping_from_modes,
+};
+pub use laws::{RegularizedFriction, UnilateralSpring};
 pub use modal::{modal_analysis, LinearModes};
 pub use paper::{paper_structure, PaperStructure, PaperStructureOptions};
 
@@ -90,6 +96,9 @@ pub enum StructureError {
     /// The beam needs at least `min` nodes.
     #[error("`n_nodes` = {n_nodes} is too few: the beam needs at least {min} nodes")]
     TooFewNodes { n_nodes: usize, min: usize },
+    /// An unknown boundary-condition name.
+    #[error("unknown boundary condition `{name}`; expected one of {expected}")]
+    UnknownBoundaryCondition { name: String, expected: String },
     /// A location outside `[0, l]`.
     #[error("location x = {x_m} m lies outside the beam [0, {length_m}] m")]
     LocationOutsideBeam { x_m: f64, length_m: f64 },
@@ -372,7 +381,8 @@ impl StructuralModel {
 }
 
 /// The cubic spring of the paper (Section 5): `f = k3 u^3` [N], `u` [m].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CubicSpring {
     /// Cubic stiffness `k3` [N/m^3] (negative = softening).
     pub k3_n_per_m3: f64,

@@ -9,7 +9,7 @@
 //! `omega0 = 356.2 rad/s` (`1.8751^2 sqrt(EI / (rho A l^4))`); the paper prints
 //! `omega0 = 346 rad/s`. We follow the printed parameters.
 use super::craig_bampton::craig_bampton;
-use super::damping::stiffness_proportional_damping;
+use super::damping::stiffness_proportional_damping_from_modes;
 use super::modal::modal_analysis;
 use super::{Beam, BeamSpec, CubicSpring, Result, StructuralModel, StructureError};
 use crate::benchmark;
@@ -24,8 +24,11 @@ pub const TWO_L3: &str = "2l3";
 /// Name of the cubic spring element.
 pub const CUBIC_SPRING: &str = "cubic_spring";
 
-/// Options of [`paper_structure`]; `Default` is the paper.
-#[derive(Debug, Clone, PartialEq)]
+/// Options of [`paper_structure`]; `Default` is the paper. Serialisable: missing keys
+/// take the paper's values, unknown keys are rejected; `points` is a list of
+/// `[name, x_m]` pairs.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct PaperStructureOptions {
     /// Number of beam nodes (100).
     pub n_nodes: usize,
@@ -109,8 +112,10 @@ pub fn paper_structure(opts: &PaperStructureOptions) -> Result<PaperStructure> {
     let e_tip = beam.translation_vector(CUBIC_SPRING, l)?;
     beam.model
         .add_nonlinear(CUBIC_SPRING, e_tip, CubicSpring::new(opts.k3_n_per_m3)?)?;
-    let damping_beta_s = stiffness_proportional_damping(&mut beam.model, 0, opts.d0)?;
-    let omega0_rad_s = modal_analysis(&beam.model, 1)?.omega_rad_s[0];
+    let modes = modal_analysis(&beam.model, 1)?;
+    let omega0_rad_s = modes.omega_rad_s[0];
+    let damping_beta_s =
+        stiffness_proportional_damping_from_modes(&mut beam.model, &modes, 0, opts.d0)?;
     let (model, transform, interface_omega_rad_s) = match opts.cb_modes {
         Some(n_modes) => {
             let cb = craig_bampton(&beam.model, &[tip_dof], n_modes)?;
