@@ -276,6 +276,10 @@ fn generic_attachments_hand_derived_impedances() {
         let zs = spring.interface_condensation(w).unwrap();
         assert!((zs.z_g[(0, 0)] - Complex64::new(5e4, 2.0 * w)).norm() < 1e-12 * 5e4);
         assert!((zs.t_g[(0, 0)] - c(1.0)).norm() < 1e-15);
+        // ncon = ndim: the `2` blocks are empty and Z_q = Z11.
+        let blk = link.impedance_blocks(&model, w).unwrap();
+        assert_eq!((blk.z22.shape(), blk.z12.shape()), ((0, 0), (2, 0)));
+        assert!(rel_err(&link.condensed(&model, w).unwrap().0, &blk.z11) < 1e-14);
         let zl = link.interface_impedance(w).unwrap();
         let zl_cf = DMatrix::from_row_slice(2, 2, &[c(7e3), c(-7e3), c(-7e3), c(7e3)]);
         assert!(rel_err(&zl, &zl_cf) < 1e-14);

@@ -249,6 +249,7 @@ impl ShakerParams {
     /// F    = k_s (q_a - x)
     /// ```
     ///
+    /// The structure's velocity is not needed (the stinger is a pure spring).
     /// `F` is the stinger force on the structure, positive along positive
     /// structure displacement, so the structure's equation reads
     /// `M q'' + ... = e F`; `F` depends directly on the input `x` (`D[0][1] = -k_s`).
