@@ -98,13 +98,26 @@ pub enum AttachmentError {
     #[error("attachment parameter `{name}` must be non-negative, got {value}")]
     Negative { name: &'static str, value: f64 },
     #[error("attachment `{attachment}`: `{name}` contains a non-finite value ({value})")]
-    NotFinite { attachment: String, name: String, value: f64 },
+    NotFinite {
+        attachment: String,
+        name: String,
+        value: f64,
+    },
     #[error("attachment `{attachment}`: `{what}` has dimension {found}, expected {expected}")]
-    DimensionMismatch { attachment: String, what: String, expected: usize, found: usize },
+    DimensionMismatch {
+        attachment: String,
+        what: String,
+        expected: usize,
+        found: usize,
+    },
     #[error("attachment `{attachment}` has no coefficient matrices A_k (need at least A_0)")]
     NoCoefficients { attachment: String },
     #[error("attachment `{attachment}`: {ncon} interface constraints exceed the {ndim} attachment states (the paper requires ncon <= ndim)")]
-    TooManyConstraints { attachment: String, ncon: usize, ndim: usize },
+    TooManyConstraints {
+        attachment: String,
+        ncon: usize,
+        ndim: usize,
+    },
     #[error("attachment `{attachment}`: B2 has rank {rank} < ncon = {ncon} (redundant or contradictory constraints; singular values {singular_values:?}, tolerance {tolerance:e})")]
     RankDeficientB2 {
         attachment: String,
@@ -114,9 +127,18 @@ pub enum AttachmentError {
         tolerance: f64,
     },
     #[error("attachment `{attachment}`: interface point `{point}` does not exist in the structural model (available: {available:?})")]
-    UnknownPoint { attachment: String, point: String, available: Vec<String> },
+    UnknownPoint {
+        attachment: String,
+        point: String,
+        available: Vec<String>,
+    },
     #[error("attachment `{attachment}`: interface point `{point}` has a direction of length {found}, the structure has {ndof} DOFs")]
-    PointDimension { attachment: String, point: String, found: usize, ndof: usize },
+    PointDimension {
+        attachment: String,
+        point: String,
+        found: usize,
+        ndof: usize,
+    },
     #[error("attachment `{attachment}`: Z22 is singular at Omega = {omega_rad_s} rad/s (condition number {condition_number:e} > {limit:e}): the attachment has an undamped resonance under fixed interface (eq:fc1 requires Z22 regular)")]
     SingularZ22 {
         attachment: String,
@@ -125,11 +147,19 @@ pub enum AttachmentError {
         limit: f64,
     },
     #[error("shaker: the armature damping ratio D_a = {d_a_ratio} is below the electro-mechanical part G^2/(2 R omega_a m_a) = {electrical_ratio}: the mechanical damping d_a = {d_a} N s/m would be negative")]
-    NegativeMechanicalDamping { d_a_ratio: f64, electrical_ratio: f64, d_a: f64 },
+    NegativeMechanicalDamping {
+        d_a_ratio: f64,
+        electrical_ratio: f64,
+        d_a: f64,
+    },
     #[error("shaker: a rigid stinger has no state-space form with the structure displacement as input (the force depends on the structure's acceleration); use an elastic stinger")]
     RigidStingerStateSpace,
     #[error("attachment `{attachment}`: {found} input amplitudes given, the attachment has {expected} inputs")]
-    InputCount { attachment: String, expected: usize, found: usize },
+    InputCount {
+        attachment: String,
+        expected: usize,
+        found: usize,
+    },
 }
 
 /// Result type of this module.
@@ -163,7 +193,11 @@ pub struct InterfaceCondensation {
 impl InterfaceCondensation {
     /// Interface force on the structure `F_G = -Z_G u_G + T_G u_hat` (sign
     /// convention of the module docs).
-    pub fn force(&self, u_g: &DVector<Complex64>, u_hat: &DVector<Complex64>) -> DVector<Complex64> {
+    pub fn force(
+        &self,
+        u_g: &DVector<Complex64>,
+        u_hat: &DVector<Complex64>,
+    ) -> DVector<Complex64> {
         &self.t_g * u_hat - &self.z_g * u_g
     }
 }
@@ -232,7 +266,9 @@ impl LinearAttachment {
         let n = self.ndim();
         let c = self.ncon();
         if self.coefficients.is_empty() {
-            return Err(AttachmentError::NoCoefficients { attachment: self.name.clone() });
+            return Err(AttachmentError::NoCoefficients {
+                attachment: self.name.clone(),
+            });
         }
         if n == 0 {
             return Err(self.dim_err("B2 columns (ndim)", 1, 0));
@@ -316,7 +352,12 @@ impl LinearAttachment {
             }
         }
         debug_assert_eq!(j2, n - c);
-        Ok(Localization { pinv_b2, l2, singular_values: sv[..c].to_vec(), tolerance })
+        Ok(Localization {
+            pinv_b2,
+            l2,
+            singular_values: sv[..c].to_vec(),
+            tolerance,
+        })
     }
 
     /// The interface point vectors `E = [e_1 .. e_C]` (`ndof x ncon`) from the
@@ -325,13 +366,16 @@ impl LinearAttachment {
         let ndof = model.mass.nrows();
         let mut e = DMatrix::<f64>::zeros(ndof, self.interface_points.len());
         for (c, name) in self.interface_points.iter().enumerate() {
-            let p: &NamedPoint = model.points.iter().find(|p| &p.name == name).ok_or_else(|| {
-                AttachmentError::UnknownPoint {
-                    attachment: self.name.clone(),
-                    point: name.clone(),
-                    available: model.points.iter().map(|p| p.name.clone()).collect(),
-                }
-            })?;
+            let p: &NamedPoint =
+                model
+                    .points
+                    .iter()
+                    .find(|p| &p.name == name)
+                    .ok_or_else(|| AttachmentError::UnknownPoint {
+                        attachment: self.name.clone(),
+                        point: name.clone(),
+                        available: model.points.iter().map(|p| p.name.clone()).collect(),
+                    })?;
             if p.direction.len() != ndof {
                 return Err(AttachmentError::PointDimension {
                     attachment: self.name.clone(),
@@ -376,7 +420,11 @@ impl LinearAttachment {
     }
 
     /// Full-size blocks `Z_mn = L_m^T Z L_n` (`eq:assemblyF1`-`eq:assemblyF2`).
-    pub fn impedance_blocks(&self, model: &StructuralModel, omega_rad_s: f64) -> Result<ImpedanceBlocks> {
+    pub fn impedance_blocks(
+        &self,
+        model: &StructuralModel,
+        omega_rad_s: f64,
+    ) -> Result<ImpedanceBlocks> {
         let l1 = to_complex(&self.l1(model)?);
         let l2 = to_complex(&self.l2()?);
         let z = self.impedance(omega_rad_s);
@@ -388,10 +436,10 @@ impl LinearAttachment {
         })
     }
 
-    /// `Z_G` and `T_G` at `Omega` (module docs); computes the SVD once. For many
-    /// frequencies, call [`Localization::condense`] on a stored localization.
+    /// `Z_G` and `T_G` at `Omega` (module docs). For many frequencies build a
+    /// [`Condenser`] once and call [`Condenser::condense`].
     pub fn interface_condensation(&self, omega_rad_s: f64) -> Result<InterfaceCondensation> {
-        self.localization()?.condense(self, omega_rad_s)
+        Condenser::new(self)?.condense(omega_rad_s)
     }
 
     /// Interface impedance `Z_G(Omega)` (`ncon x ncon`), see the module docs.
@@ -443,9 +491,10 @@ impl LinearAttachment {
             let l2 = to_complex(&loc.l2);
             let z = self.impedance(omega_rad_s);
             let z22 = l2.transpose() * &z * &l2;
-            loc.check_z22(self, omega_rad_s, &z22)?;
+            let z22_inv =
+                Condenser::with_localization(self, &loc).checked_inverse(omega_rad_s, z22)?;
             let rhs = l2.transpose() * (to_complex(&self.input_map) * u_hat - &z * &p * u_g);
-            let xr = z22.lu().solve(&rhs).expect("checked regular");
+            let xr = z22_inv * rhs;
             x += l2 * xr;
         }
         Ok(x)
@@ -454,78 +503,165 @@ impl LinearAttachment {
 
 impl Localization {
     /// `Z_G`, `T_G` at `Omega` for `att` (which this localization belongs to).
-    ///
-    /// Errors with [`AttachmentError::SingularZ22`] if `Z22` is numerically
-    /// singular (see there for the condition measure).
-    pub fn condense(&self, att: &LinearAttachment, omega_rad_s: f64) -> Result<InterfaceCondensation> {
-        let z = att.impedance(omega_rad_s);
-        let p = to_complex(&self.pinv_b2);
-        let bu = to_complex(&att.input_map);
-        let pt = p.transpose();
-        let zp = &z * &p;
-        let mut z_g = &pt * &zp;
-        let mut t_g = &pt * &bu;
-        if !self.l2.is_empty() {
-            let l2 = to_complex(&self.l2);
-            let l2t = l2.transpose();
-            let z22 = &l2t * &z * &l2;
-            self.check_z22(att, omega_rad_s, &z22)?;
-            let z12 = &pt * &z * &l2; // P^T Z L2 (ncon x nr)
-            let nc = att.ncon();
-            let ni = att.ninput();
-            let mut rhs = DMatrix::<Complex64>::zeros(z22.nrows(), nc + ni);
-            rhs.columns_mut(0, nc).copy_from(&(&l2t * &zp));
-            rhs.columns_mut(nc, ni).copy_from(&(&l2t * &bu));
-            let sol = z22.lu().solve(&rhs).expect("Z22 checked regular");
-            z_g -= &z12 * sol.columns(0, nc);
-            t_g -= &z12 * sol.columns(nc, ni);
-        }
-        Ok(InterfaceCondensation { omega_rad_s, z_g, t_g })
+    /// For many frequencies build a [`Condenser`] once instead.
+    pub fn condense(
+        &self,
+        att: &LinearAttachment,
+        omega_rad_s: f64,
+    ) -> Result<InterfaceCondensation> {
+        Condenser::with_localization(att, self).condense(omega_rad_s)
+    }
+}
+
+/// The condensation of one attachment prepared for many frequencies: the
+/// coefficient matrices projected once onto the interface (`P`) and internal
+/// (`L2`) directions, `A_k^GG = P^T A_k P`, `A_k^G2 = P^T A_k L2`,
+/// `A_k^2G = L2^T A_k P`, `A_k^22 = L2^T A_k L2`, and the input map
+/// `P^T B_u`, `L2^T B_u`. Per frequency only these small matrices are summed
+/// with `(i Omega)^k` and `Z22` (`(ndim - ncon)`-sized) is factorised.
+#[derive(Debug, Clone)]
+pub struct Condenser {
+    name: String,
+    a_gg: Vec<DMatrix<f64>>,
+    a_g2: Vec<DMatrix<f64>>,
+    a_2g: Vec<DMatrix<f64>>,
+    a_22: Vec<DMatrix<f64>>,
+    abs_22: Vec<DMatrix<f64>>,
+    bu_g: DMatrix<Complex64>,
+    bu_2: DMatrix<Complex64>,
+}
+
+fn poly(mats: &[DMatrix<f64>], omega_rad_s: f64) -> DMatrix<Complex64> {
+    let (r, c) = mats[0].shape();
+    let mut z = DMatrix::<Complex64>::zeros(r, c);
+    let mut factor = Complex64::new(1.0, 0.0);
+    let i_omega = Complex64::new(0.0, omega_rad_s);
+    for a in mats {
+        z.zip_apply(a, |zij, aij| *zij += factor * aij);
+        factor *= i_omega;
+    }
+    z
+}
+
+fn one_norm(m: &DMatrix<Complex64>) -> f64 {
+    m.column_iter()
+        .map(|c| c.iter().map(|v| v.norm()).sum::<f64>())
+        .fold(0.0, f64::max)
+}
+
+impl Condenser {
+    /// Localizes (SVD of `B2`) and projects the coefficients of `att`.
+    pub fn new(att: &LinearAttachment) -> Result<Self> {
+        Ok(Self::with_localization(att, &att.localization()?))
     }
 
-    /// Checks `Z22` for singularity; see [`AttachmentError::SingularZ22`].
+    fn with_localization(att: &LinearAttachment, loc: &Localization) -> Self {
+        let p = &loc.pinv_b2;
+        let l2 = &loc.l2;
+        let proj = |left: &DMatrix<f64>, right: &DMatrix<f64>| -> Vec<DMatrix<f64>> {
+            att.coefficients
+                .iter()
+                .map(|a| left.transpose() * a * right)
+                .collect()
+        };
+        let a_22 = proj(l2, l2);
+        Condenser {
+            name: att.name.clone(),
+            a_gg: proj(p, p),
+            a_g2: proj(p, l2),
+            a_2g: proj(l2, p),
+            abs_22: a_22.iter().map(|a| a.abs()).collect(),
+            a_22,
+            bu_g: to_complex(&(p.transpose() * &att.input_map)),
+            bu_2: to_complex(&(l2.transpose() * &att.input_map)),
+        }
+    }
+
+    /// `Z_G`, `T_G` at `Omega` (module docs). Errors with
+    /// [`AttachmentError::SingularZ22`] if `Z22` is numerically singular.
+    pub fn condense(&self, omega_rad_s: f64) -> Result<InterfaceCondensation> {
+        let mut z_g = poly(&self.a_gg, omega_rad_s);
+        let mut t_g = self.bu_g.clone();
+        let nr = self.a_22[0].nrows();
+        if nr > 0 {
+            let z22 = poly(&self.a_22, omega_rad_s);
+            let z22_inv = self.checked_inverse(omega_rad_s, z22)?;
+            let z_g2 = poly(&self.a_g2, omega_rad_s);
+            let z_2g = poly(&self.a_2g, omega_rad_s);
+            let k = &z_g2 * z22_inv; // P^T Z L2 Z22^{-1}
+            z_g -= &k * z_2g;
+            t_g -= &k * &self.bu_2;
+        }
+        Ok(InterfaceCondensation {
+            omega_rad_s,
+            z_g,
+            t_g,
+        })
+    }
+
+    /// Inverts `Z22` after checking its condition; see
+    /// [`AttachmentError::SingularZ22`].
     ///
     /// Measure: with the term-wise magnitude matrix
-    /// `S = sum_k Omega^k |L2^T A_k L2|` (element-wise absolute values) and
+    /// `S = sum_k Omega^k |L2^T A_k L2|` (element-wise absolute values) and the
     /// diagonal row/column equilibration `D_r`, `D_c` of `S`, the condition
-    /// number is `s_max(D_r S D_c) / s_min(D_r Z22 D_c)`. It is independent of
+    /// number is `||D_r S D_c||_1 ||(D_r Z22 D_c)^{-1}||_1`. It does not depend on
     /// the units of the states (electrical vs. mechanical), and it detects a
-    /// resonance by cancellation even for a 1 x 1 `Z22` (`k - Omega^2 m -> 0`).
-    fn check_z22(&self, att: &LinearAttachment, omega_rad_s: f64, z22: &DMatrix<Complex64>) -> Result<()> {
+    /// resonance by cancellation even for a 1 x 1 `Z22` (`k - Omega^2 m -> 0`
+    /// gives `(k + Omega^2 m)/|k - Omega^2 m|`).
+    fn checked_inverse(
+        &self,
+        omega_rad_s: f64,
+        z22: DMatrix<Complex64>,
+    ) -> Result<DMatrix<Complex64>> {
         let nr = z22.nrows();
         let mut s = DMatrix::<f64>::zeros(nr, nr);
         let mut w = 1.0;
-        for a in &att.coefficients {
-            let a22 = self.l2.transpose() * a * &self.l2;
-            s.zip_apply(&a22, |sij, aij| *sij += w * aij.abs());
+        for a in &self.abs_22 {
+            s.zip_apply(a, |sij, aij| *sij += w * aij);
             w *= omega_rad_s.abs();
         }
         let dr: Vec<f64> = (0..nr)
             .map(|i| {
                 let m = s.row(i).iter().cloned().fold(0.0, f64::max);
-                if m > 0.0 { 1.0 / m } else { 1.0 }
+                if m > 0.0 {
+                    1.0 / m
+                } else {
+                    1.0
+                }
             })
             .collect();
         let dc: Vec<f64> = (0..nr)
             .map(|j| {
                 let m = (0..nr).map(|i| dr[i] * s[(i, j)]).fold(0.0, f64::max);
-                if m > 0.0 { 1.0 / m } else { 1.0 }
+                if m > 0.0 {
+                    1.0 / m
+                } else {
+                    1.0
+                }
             })
             .collect();
-        let s_scaled = DMatrix::from_fn(nr, nr, |i, j| dr[i] * s[(i, j)] * dc[j]);
-        let z_scaled = DMatrix::from_fn(nr, nr, |i, j| z22[(i, j)] * (dr[i] * dc[j]));
-        let smax = s_scaled.svd(false, false).singular_values.max();
-        let zmin = z_scaled.svd(false, false).singular_values.min();
-        let condition_number = if zmin > 0.0 { smax / zmin } else { f64::INFINITY };
-        if !(condition_number <= Z22_CONDITION_LIMIT) {
-            return Err(AttachmentError::SingularZ22 {
-                attachment: att.name.clone(),
+        let s_norm = (0..nr)
+            .map(|j| (0..nr).map(|i| dr[i] * s[(i, j)] * dc[j]).sum::<f64>())
+            .fold(0.0, f64::max);
+        let inv = z22.try_inverse();
+        // (D_r Z D_c)^{-1} = D_c^{-1} Z^{-1} D_r^{-1}.
+        let condition_number = match &inv {
+            Some(zi) => {
+                let scaled = DMatrix::from_fn(nr, nr, |i, j| zi[(i, j)] / (dc[i] * dr[j]));
+                s_norm * one_norm(&scaled)
+            }
+            None => f64::INFINITY,
+        };
+        match inv {
+            Some(zi) if condition_number <= Z22_CONDITION_LIMIT => Ok(zi),
+            _ => Err(AttachmentError::SingularZ22 {
+                attachment: self.name.clone(),
                 omega_rad_s,
                 condition_number,
                 limit: Z22_CONDITION_LIMIT,
-            });
+            }),
         }
-        Ok(())
     }
 }
 
@@ -540,7 +676,11 @@ pub fn condensed_sum(
     inputs: &[DVector<Complex64>],
     omega_rad_s: f64,
 ) -> Result<(DMatrix<Complex64>, DVector<Complex64>)> {
-    assert_eq!(attachments.len(), inputs.len(), "one input vector per attachment");
+    assert_eq!(
+        attachments.len(),
+        inputs.len(),
+        "one input vector per attachment"
+    );
     let ndof = model.mass.nrows();
     let mut zq = DMatrix::<Complex64>::zeros(ndof, ndof);
     let mut f = DVector::<Complex64>::zeros(ndof);

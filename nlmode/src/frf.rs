@@ -15,7 +15,9 @@
 //! structure displacement, see [`crate::attachment`]), and the complex response
 //! `e^T q_hat` at every named point are returned. Amplitudes are complex
 //! fundamental Fourier coefficients: `f(t) = Re(f_hat e^{i Omega t})`.
-use crate::attachment::{AttachmentError, InterfaceCondensation, LinearAttachment, Localization, ShakerParams};
+use crate::attachment::{
+    AttachmentError, Condenser, InterfaceCondensation, LinearAttachment, ShakerParams,
+};
 use crate::structure::StructuralModel;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -32,11 +34,14 @@ pub enum FrfError {
     #[error("the assembled dynamic stiffness is singular at Omega = {omega_rad_s} rad/s (undamped resonance of the assembly)")]
     SingularDynamicStiffness { omega_rad_s: f64 },
     #[error("structure point `{point}` does not exist (available: {available:?})")]
-    UnknownPoint { point: String, available: Vec<String> },
+    UnknownPoint {
+        point: String,
+        available: Vec<String>,
+    },
 }
 
 /// The assembled linear response at one excitation frequency.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrfPoint {
     /// Excitation frequency `Omega` [rad/s].
     pub omega_rad_s: f64,
@@ -66,15 +71,20 @@ pub fn assembled_frf(
     omegas: &[f64],
 ) -> Result<Vec<FrfPoint>, FrfError> {
     if inputs.len() != attachments.len() {
-        return Err(FrfError::AttachmentInputs { expected: attachments.len(), found: inputs.len() });
+        return Err(FrfError::AttachmentInputs {
+            expected: attachments.len(),
+            found: inputs.len(),
+        });
     }
     let ndof = model.mass.nrows();
     assert_eq!(model.stiffness.shape(), (ndof, ndof), "K shape");
     assert_eq!(model.damping.shape(), (ndof, ndof), "C shape");
     struct Prepared<'a> {
-        att: &'a LinearAttachment,
-        loc: Localization,
+        condenser: Condenser,
+        /// `E` (`ndof x ncon`).
         e: DMatrix<Complex64>,
+        /// `e_a e_b^T` for all constraint pairs `(a, b)`, row-major in `(a, b)`.
+        outer: Vec<DMatrix<f64>>,
         u: &'a DVector<Complex64>,
     }
     let mut prepared = Vec::with_capacity(attachments.len());
@@ -87,34 +97,60 @@ pub fn assembled_frf(
             }
             .into());
         }
-        let loc = att.localization()?;
-        let e = complex(&att.interface_vectors(model)?);
-        prepared.push(Prepared { att, loc, e, u });
+        let condenser = Condenser::new(att)?;
+        let e = att.interface_vectors(model)?;
+        let nc = e.ncols();
+        let outer = (0..nc * nc)
+            .map(|ab| e.column(ab / nc) * e.column(ab % nc).transpose())
+            .collect();
+        prepared.push(Prepared {
+            condenser,
+            e: complex(&e),
+            outer,
+            u,
+        });
     }
     let mut observe = DMatrix::<Complex64>::zeros(model.points.len(), ndof);
     for (i, p) in model.points.iter().enumerate() {
-        assert_eq!(p.direction.len(), ndof, "point `{}` direction length", p.name);
-        observe.row_mut(i).copy_from(&p.direction.transpose().map(|v| Complex64::new(v, 0.0)));
+        assert_eq!(
+            p.direction.len(),
+            ndof,
+            "point `{}` direction length",
+            p.name
+        );
+        observe
+            .row_mut(i)
+            .copy_from(&p.direction.transpose().map(|v| Complex64::new(v, 0.0)));
     }
     let (m, c, k) = (&model.mass, &model.damping, &model.stiffness);
     let mut out = Vec::with_capacity(omegas.len());
     let mut conds: Vec<InterfaceCondensation> = Vec::with_capacity(prepared.len());
+    let mut dyn_stiff = DMatrix::<Complex64>::zeros(ndof, ndof);
     for &w in omegas {
         if !w.is_finite() {
             return Err(FrfError::NonFiniteOmega { omega_rad_s: w });
         }
         let w2 = w * w;
-        let mut dyn_stiff =
-            DMatrix::<Complex64>::from_fn(ndof, ndof, |i, j| Complex64::new(k[(i, j)] - w2 * m[(i, j)], w * c[(i, j)]));
+        for (d, ((kij, mij), cij)) in dyn_stiff
+            .iter_mut()
+            .zip(k.iter().zip(m.iter()).zip(c.iter()))
+        {
+            *d = Complex64::new(kij - w2 * mij, w * cij);
+        }
         let mut rhs = DVector::<Complex64>::zeros(ndof);
         conds.clear();
         for p in &prepared {
-            let cond = p.loc.condense(p.att, w)?;
-            dyn_stiff += &p.e * &cond.z_g * p.e.transpose();
+            let cond = p.condenser.condense(w)?;
+            let nc = cond.z_g.nrows();
+            for (ab, outer) in p.outer.iter().enumerate() {
+                let z = cond.z_g[(ab / nc, ab % nc)];
+                dyn_stiff.zip_apply(outer, |d, o| *d += z * o);
+            }
             rhs += &p.e * (&cond.t_g * p.u);
             conds.push(cond);
         }
         let q = dyn_stiff
+            .clone()
             .lu()
             .solve(&rhs)
             .filter(|q| q.iter().all(|v| v.re.is_finite() && v.im.is_finite()))
@@ -124,7 +160,11 @@ pub fn assembled_frf(
             let u_g = p.e.transpose() * &q;
             force_n.extend(cond.force(&u_g, p.u).iter().copied());
         }
-        out.push(FrfPoint { omega_rad_s: w, force_n, points: (&observe * &q).iter().copied().collect() });
+        out.push(FrfPoint {
+            omega_rad_s: w,
+            force_n,
+            points: (&observe * &q).iter().copied().collect(),
+        });
     }
     Ok(out)
 }
@@ -138,13 +178,19 @@ pub fn structure_receptance(
     omegas: &[f64],
 ) -> Result<Vec<Complex64>, FrfError> {
     let find = |name: &str| {
-        model.points.iter().find(|p| p.name == name).ok_or_else(|| FrfError::UnknownPoint {
-            point: name.to_string(),
-            available: model.points.iter().map(|p| p.name.clone()).collect(),
-        })
+        model
+            .points
+            .iter()
+            .find(|p| p.name == name)
+            .ok_or_else(|| FrfError::UnknownPoint {
+                point: name.to_string(),
+                available: model.points.iter().map(|p| p.name.clone()).collect(),
+            })
     };
     let e_in = find(input_point)?.direction.map(|v| Complex64::new(v, 0.0));
-    let e_out = find(output_point)?.direction.map(|v| Complex64::new(v, 0.0));
+    let e_out = find(output_point)?
+        .direction
+        .map(|v| Complex64::new(v, 0.0));
     let ndof = model.mass.nrows();
     let (m, c, k) = (&model.mass, &model.damping, &model.stiffness);
     omegas
@@ -156,7 +202,10 @@ pub fn structure_receptance(
             let d = DMatrix::<Complex64>::from_fn(ndof, ndof, |i, j| {
                 Complex64::new(k[(i, j)] - w * w * m[(i, j)], w * c[(i, j)])
             });
-            let x = d.lu().solve(&e_in).ok_or(FrfError::SingularDynamicStiffness { omega_rad_s: w })?;
+            let x = d
+                .lu()
+                .solve(&e_in)
+                .ok_or(FrfError::SingularDynamicStiffness { omega_rad_s: w })?;
             Ok(e_out.dot(&x))
         })
         .collect()
@@ -185,7 +234,13 @@ pub fn linear_force_drop(
 /// mass ratio `mu = m_a/m_mod`, `omega_a/omega0` and the total armature damping
 /// ratio `d_a` (`2 D_a omega_a m_a = d_a + G^2/R`). Assumes
 /// `omega_c >> omega0` and `k_s >> k_a` (or a rigid stinger).
-pub fn force_ratio_closed_form(eta: f64, d0: f64, mu: f64, omega_a_over_omega0: f64, d_a: f64) -> Complex64 {
+pub fn force_ratio_closed_form(
+    eta: f64,
+    d0: f64,
+    mu: f64,
+    omega_a_over_omega0: f64,
+    d_a: f64,
+) -> Complex64 {
     let i = Complex64::i();
     let r = omega_a_over_omega0;
     let num = -eta * eta + 2.0 * d0 * i * eta + 1.0;

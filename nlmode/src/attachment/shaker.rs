@@ -24,7 +24,7 @@ use num_complex::Complex64;
 /// Armature damping, given either as the total damping ratio `D_a` with
 /// `2 D_a omega_a m_a = d_a + G^2/R` (electro-mechanical damping included, as
 /// in the paper) or as the mechanical viscous coefficient `d_a` [N s/m].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum ArmatureDamping {
     /// Total damping ratio `D_a` [-].
     Ratio(f64),
@@ -33,7 +33,7 @@ pub enum ArmatureDamping {
 }
 
 /// The stinger (push rod) between armature and structure.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Stinger {
     /// Axial spring of stiffness `k_s` [N/m].
     Elastic { stiffness_n_per_m: f64 },
@@ -42,7 +42,7 @@ pub enum Stinger {
 }
 
 /// Physical parameters of the electro-dynamic shaker (paper Section 4).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ShakerParams {
     /// Coil inductance `L` [H].
     pub inductance_h: f64,
@@ -113,7 +113,9 @@ impl ShakerParams {
             armature_mass_kg: benchmark::SHAKER_MA_KG,
             armature_stiffness_n_per_m: benchmark::SHAKER_KA_N_PER_M,
             armature_damping: ArmatureDamping::Ratio(benchmark::SHAKER_DA),
-            stinger: Stinger::Elastic { stiffness_n_per_m: benchmark::STINGER_KS_N_PER_M },
+            stinger: Stinger::Elastic {
+                stiffness_n_per_m: benchmark::STINGER_KS_N_PER_M,
+            },
         }
     }
 
@@ -131,7 +133,10 @@ impl ShakerParams {
         positive("resistance_ohm", self.resistance_ohm)?;
         positive("force_constant_n_per_a", self.force_constant_n_per_a)?;
         positive("armature_mass_kg", self.armature_mass_kg)?;
-        positive("armature_stiffness_n_per_m", self.armature_stiffness_n_per_m)?;
+        positive(
+            "armature_stiffness_n_per_m",
+            self.armature_stiffness_n_per_m,
+        )?;
         if let Stinger::Elastic { stiffness_n_per_m } = self.stinger {
             positive("stinger_stiffness_n_per_m", stiffness_n_per_m)?;
         }
@@ -199,7 +204,9 @@ impl ShakerParams {
         let i = Complex64::i();
         let g = self.force_constant_n_per_a;
         let coil = Complex64::new(self.resistance_ohm, w * self.inductance_h);
-        -w * w * self.armature_mass_kg + i * w * self.d_a() + self.armature_stiffness_n_per_m
+        -w * w * self.armature_mass_kg
+            + i * w * self.d_a()
+            + self.armature_stiffness_n_per_m
             + i * w * g * g / coil
     }
 
@@ -208,7 +215,9 @@ impl ShakerParams {
     pub fn closed_form_interface_impedance(&self, omega_rad_s: f64) -> Complex64 {
         let za = self.armature_impedance(omega_rad_s);
         match self.stinger {
-            Stinger::Elastic { stiffness_n_per_m: ks } => ks * za / (za + ks),
+            Stinger::Elastic {
+                stiffness_n_per_m: ks,
+            } => ks * za / (za + ks),
             Stinger::Rigid => za,
         }
     }
@@ -220,9 +229,9 @@ impl ShakerParams {
         let coil = Complex64::new(self.resistance_ohm, omega_rad_s * self.inductance_h);
         let f = self.force_constant_n_per_a * u_hat / coil;
         match self.stinger {
-            Stinger::Elastic { stiffness_n_per_m: ks } => {
-                ks / (self.armature_impedance(omega_rad_s) + ks) * f
-            }
+            Stinger::Elastic {
+                stiffness_n_per_m: ks,
+            } => ks / (self.armature_impedance(omega_rad_s) + ks) * f,
             Stinger::Rigid => f,
         }
     }
@@ -240,6 +249,7 @@ impl ShakerParams {
     /// F    = k_s (q_a - x)
     /// ```
     ///
+    /// The structure's velocity is not needed (the stinger is a pure spring).
     /// `F` is the stinger force on the structure, positive along positive
     /// structure displacement, so the structure's equation reads
     /// `M q'' + ... = e F`; `F` depends directly on the input `x` (`D[0][1] = -k_s`).
@@ -252,8 +262,16 @@ impl ShakerParams {
             Stinger::Elastic { stiffness_n_per_m } => stiffness_n_per_m,
             Stinger::Rigid => return Err(AttachmentError::RigidStingerStateSpace),
         };
-        let (l, r, g) = (self.inductance_h, self.resistance_ohm, self.force_constant_n_per_a);
-        let (m, k, d) = (self.armature_mass_kg, self.armature_stiffness_n_per_m, self.d_a());
+        let (l, r, g) = (
+            self.inductance_h,
+            self.resistance_ohm,
+            self.force_constant_n_per_a,
+        );
+        let (m, k, d) = (
+            self.armature_mass_kg,
+            self.armature_stiffness_n_per_m,
+            self.d_a(),
+        );
         #[rustfmt::skip]
         let a = DMatrix::from_row_slice(3, 3, &[
             -r / l, 0.0,           -g / l,
@@ -303,10 +321,20 @@ impl LinearAttachment {
     /// `input_map = [1 0]^T`.
     pub fn shaker(name: &str, params: &ShakerParams, point_name: &str) -> Result<LinearAttachment> {
         params.validate()?;
-        let (l, r, g) = (params.inductance_h, params.resistance_ohm, params.force_constant_n_per_a);
-        let (m, k, d) = (params.armature_mass_kg, params.armature_stiffness_n_per_m, params.d_a());
+        let (l, r, g) = (
+            params.inductance_h,
+            params.resistance_ohm,
+            params.force_constant_n_per_a,
+        );
+        let (m, k, d) = (
+            params.armature_mass_kg,
+            params.armature_stiffness_n_per_m,
+            params.d_a(),
+        );
         let att = match params.stinger {
-            Stinger::Elastic { stiffness_n_per_m: ks } => {
+            Stinger::Elastic {
+                stiffness_n_per_m: ks,
+            } => {
                 #[rustfmt::skip]
                 let a0 = DMatrix::from_row_slice(3, 3, &[
                     r,   0.0,     0.0,
