@@ -3,8 +3,14 @@
 //! `M q'' - 2 D omega M q' + g(q, q') = 0`), arc-length continuation, and the
 //! modal table that every consumer of the nonlinear mode reads.
 //!
-//! (skeleton: the modal-table type; HB, EPMC and continuation are filled in by
-//! the NMA work.)
+//! - [`hb`]: Fourier layout and AFT with analytic Jacobians,
+//! - [`epmc`]: the EPMC and forced-response Harmonic Balance residuals in modal
+//!   coordinates and their condensed (Schur-complement) Newton solver,
+//! - [`continuation`]: pseudo-arc-length continuation over any residual,
+//! - this module: the drivers [`nonlinear_modal_analysis`] and
+//!   [`forced_response`], the branch result and its conversion to a
+//!   [`ModalTable`], and tables from measured modal data
+//!   ([`table_from_measured_csv`]).
 use serde::{Deserialize, Serialize};
 
 /// Identifier written into every modal-table file.
@@ -53,3 +59,12 @@ pub struct ModalTable {
     #[serde(default)]
     pub truncated_at_fold: Option<f64>,
 }
+
+pub mod continuation;
+mod driver;
+pub mod epmc;
+pub mod hb;
+pub mod problems;
+
+pub use continuation::{ContinuationOptions, StopReason};
+pub use driver::*;

@@ -1,0 +1,396 @@
+//! Pseudo-arc-length predictor-corrector continuation over any [`Residual`]
+//! (the NLvib pattern: one residual function returning `(R, dR/dX)` together,
+//! one continuation routine for nonlinear modes and frequency responses alike).
+//!
+//! The unknowns `X` (length `n`) carry the continuation parameter `lambda` as
+//! their last entry; the residual has `n - 1` equations. Continuation works on
+//! scaled unknowns `X~ = X / s` (`s` given by the caller) so that the arc
+//! length mixes quantities of different units sensibly. One step:
+//!
+//! 1. predictor `X~_p = X~_i + ds t~_i` along the unit tangent `t~_i`,
+//! 2. corrector: Newton on `[R(X); t~_i . (X~ - X~_p)] = 0` (pseudo-arc-length),
+//! 3. new tangent from `[dR/dX; t~_i^T] t = [0; 1]`, normalized (this keeps the
+//!    orientation, so turning points in `lambda` are passed without special
+//!    treatment and are detected as a sign change of `t_lambda`),
+//! 4. step adaptation `ds <- ds * clamp(n_opt / n_iter, 1/2, 2)` within
+//!    `[dsmin, dsmax]`; a failed corrector halves `ds`; below `dsmin` the
+//!    continuation stops with [`ContinuationFailure::StepSizeCollapse`].
+use nalgebra::DVector;
+
+/// A Jacobian that can solve the square system obtained by appending one
+/// dense row: `[J; c^T] y = rhs`, where `J` is `(n-1) x n`.
+pub trait BorderedSolve {
+    /// Solution `y`, or `None` if the bordered matrix is (numerically) singular.
+    fn solve_bordered(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>>;
+}
+
+impl BorderedSolve for nalgebra::DMatrix<f64> {
+    fn solve_bordered(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        let n = self.ncols();
+        assert_eq!(self.nrows() + 1, n, "bordered solve needs an (n-1) x n Jacobian");
+        let mut a = self.clone().insert_row(n - 1, 0.0);
+        a.row_mut(n - 1).copy_from(&row.transpose());
+        let y = a.lu().solve(rhs)?;
+        y.iter().all(|v| v.is_finite()).then_some(y)
+    }
+}
+
+/// An underdetermined system `R(X) = 0` (`n - 1` equations, `n` unknowns, the
+/// last unknown being the continuation parameter) whose evaluation returns the
+/// residual and its Jacobian together.
+pub trait Residual {
+    type Jacobian: BorderedSolve;
+    /// Number of unknowns `n` including the continuation parameter.
+    fn n_unknowns(&self) -> usize;
+    /// Residual `R(X)` (length `n - 1`) and Jacobian `dR/dX`.
+    fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, Self::Jacobian);
+}
+
+/// Options of the continuation (defaults as in NLvib: `dsmin = ds/5`,
+/// `dsmax = 5 ds`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContinuationOptions {
+    /// Initial step length in the scaled arc length.
+    pub ds: f64,
+    /// Smallest step; default `ds / 5`.
+    pub dsmin: Option<f64>,
+    /// Largest step; default `5 ds`.
+    pub dsmax: Option<f64>,
+    /// Adapt the step to the number of Newton iterations.
+    pub step_adaptation: bool,
+    /// Desired number of Newton iterations per step (`n_opt`).
+    pub target_iterations: usize,
+    /// Newton iterations before a corrector counts as failed.
+    pub max_iterations: usize,
+    /// Convergence: Euclidean norm of the (scaled) residual, including the
+    /// arc-length equation.
+    pub tolerance: f64,
+    /// Maximum number of branch points (including the start point).
+    pub max_points: usize,
+}
+
+impl Default for ContinuationOptions {
+    fn default() -> Self {
+        Self {
+            ds: 0.05,
+            dsmin: None,
+            dsmax: None,
+            step_adaptation: true,
+            target_iterations: 3,
+            max_iterations: 12,
+            tolerance: 1e-10,
+            max_points: 2000,
+        }
+    }
+}
+
+impl ContinuationOptions {
+    pub fn dsmin(&self) -> f64 {
+        self.dsmin.unwrap_or(self.ds / 5.0)
+    }
+    pub fn dsmax(&self) -> f64 {
+        self.dsmax.unwrap_or(self.ds * 5.0)
+    }
+}
+
+/// Why a continuation ended normally.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StopReason {
+    /// The parameter reached the end of its range.
+    ReachedEnd,
+    /// The branch turned back and left the parameter range at its start.
+    LeftRange,
+    /// `max_points` were computed.
+    MaxPoints,
+    /// The point callback asked to stop.
+    Callback,
+}
+
+/// Failure of a continuation; the points computed so far have been reported
+/// through the callback already.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ContinuationFailure {
+    /// Newton did not converge for the start point.
+    StartNotConverged { parameter: f64, residual_norm: f64, iterations: usize },
+    /// The corrector kept failing until `ds < dsmin`.
+    StepSizeCollapse { parameter: f64, residual_norm: f64, step_size: f64, dsmin: f64 },
+    /// A bordered Jacobian was singular (e.g. at a branch point).
+    SingularJacobian { parameter: f64 },
+}
+
+/// Summary of a continuation run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContinuationSummary {
+    pub points: usize,
+    pub newton_iterations: usize,
+    /// Indices `i` of branch points such that a turning point of the parameter
+    /// lies between points `i - 1` and `i`.
+    pub turning_points: Vec<usize>,
+    pub stop: StopReason,
+}
+
+/// A converged branch point as handed to the callback.
+#[derive(Debug)]
+pub struct BranchState<'a> {
+    pub index: usize,
+    pub x: &'a DVector<f64>,
+    /// Unit tangent in scaled unknowns.
+    pub tangent: &'a DVector<f64>,
+    pub newton_iterations: usize,
+    /// Arc-length step that led to this point (0 for the start point).
+    pub step: f64,
+}
+
+/// Newton iterations on `[R(X); c.X - target] = 0`. Returns the solution, the
+/// Jacobian at it and the iteration count, or the last residual norm.
+fn newton<R: Residual>(
+    res: &R,
+    mut x: DVector<f64>,
+    row: &DVector<f64>,
+    target: f64,
+    opts: &ContinuationOptions,
+) -> Result<(DVector<f64>, R::Jacobian, usize), (f64, usize)> {
+    let mut first_norm = None;
+    for it in 0..=opts.max_iterations {
+        let (r, jac) = res.eval(&x);
+        let extra = row.dot(&x) - target;
+        let norm = (r.norm_squared() + extra * extra).sqrt();
+        if !norm.is_finite() {
+            return Err((norm, it));
+        }
+        if norm <= opts.tolerance {
+            return Ok((x, jac, it));
+        }
+        let f0 = *first_norm.get_or_insert(norm);
+        if it == opts.max_iterations || norm > 1e6 * f0.max(opts.tolerance) {
+            return Err((norm, it));
+        }
+        let mut rhs = -r;
+        rhs = rhs.push(-extra);
+        match jac.solve_bordered(row, &rhs) {
+            Some(dx) => x += dx,
+            None => return Err((norm, it)),
+        }
+    }
+    unreachable!()
+}
+
+/// Solve `R(X) = 0` with the parameter fixed, `X[n-1] = lambda` (no scaling
+/// needed: the parameter equation is exact after one step).
+pub fn solve_fixed_parameter<R: Residual>(
+    res: &R,
+    x0: DVector<f64>,
+    opts: &ContinuationOptions,
+) -> Result<(DVector<f64>, R::Jacobian, usize), (f64, usize)> {
+    let n = res.n_unknowns();
+    let mut row = DVector::zeros(n);
+    row[n - 1] = 1.0;
+    let lambda = x0[n - 1];
+    newton(res, x0, &row, lambda, opts)
+}
+
+/// Unit tangent in scaled unknowns from `[J; c^T] t = [0; 1]`, `c` in scaled
+/// unknowns; returns `None` if singular.
+fn tangent<J: BorderedSolve>(jac: &J, c_scaled: &DVector<f64>, scale: &DVector<f64>) -> Option<DVector<f64>> {
+    let n = scale.len();
+    let row = c_scaled.component_div(scale);
+    let mut rhs = DVector::zeros(n);
+    rhs[n - 1] = 1.0;
+    let t = jac.solve_bordered(&row, &rhs)?.component_div(scale);
+    let norm = t.norm();
+    (norm.is_finite() && norm > 0.0).then(|| t / norm)
+}
+
+/// Continue the solution branch of `res` from `x0` (solved first with its
+/// parameter fixed) until the parameter `X[n-1]` reaches `lambda_end`.
+///
+/// `scale` (length `n`, positive) scales the unknowns for the arc length. The
+/// callback receives every converged point (including the start) and returns
+/// `false` to stop. On failure the points already passed to the callback are
+/// the computed part of the branch.
+pub fn continuation<R: Residual>(
+    res: &R,
+    x0: DVector<f64>,
+    lambda_end: f64,
+    scale: &DVector<f64>,
+    opts: &ContinuationOptions,
+    mut on_point: impl FnMut(&BranchState) -> bool,
+) -> Result<ContinuationSummary, (ContinuationFailure, ContinuationSummary)> {
+    let n = res.n_unknowns();
+    assert_eq!(x0.len(), n);
+    assert_eq!(scale.len(), n);
+    let lambda_start = x0[n - 1];
+    let dir = if lambda_end >= lambda_start { 1.0 } else { -1.0 };
+    let mut summary =
+        ContinuationSummary { points: 0, newton_iterations: 0, turning_points: vec![], stop: StopReason::ReachedEnd };
+
+    let (mut x, mut jac, iters) = match solve_fixed_parameter(res, x0, opts) {
+        Ok(v) => v,
+        Err((norm, it)) => {
+            return Err((
+                ContinuationFailure::StartNotConverged { parameter: lambda_start, residual_norm: norm, iterations: it },
+                summary,
+            ))
+        }
+    };
+    summary.newton_iterations += iters;
+    let mut e = DVector::zeros(n);
+    e[n - 1] = dir;
+    let mut t = match tangent(&jac, &e.component_mul(scale), scale) {
+        Some(t) => t,
+        None => return Err((ContinuationFailure::SingularJacobian { parameter: lambda_start }, summary)),
+    };
+    if t[n - 1] * dir < 0.0 {
+        t = -t;
+    }
+    summary.points = 1;
+    if !on_point(&BranchState { index: 0, x: &x, tangent: &t, newton_iterations: iters, step: 0.0 }) {
+        summary.stop = StopReason::Callback;
+        return Ok(summary);
+    }
+    let (dsmin, dsmax) = (opts.dsmin(), opts.dsmax());
+    let mut ds = opts.ds.clamp(dsmin, dsmax);
+    let lo = lambda_start.min(lambda_end);
+    let hi = lambda_start.max(lambda_end);
+    let margin = 1e-12 * (hi - lo).abs().max(1.0);
+    loop {
+        if summary.points >= opts.max_points {
+            summary.stop = StopReason::MaxPoints;
+            return Ok(summary);
+        }
+        // corrector with step halving
+        let (x_new, jac_new, it) = loop {
+            let xs = x.component_div(scale);
+            let xp = (&xs + &t * ds).component_mul(scale);
+            let row = t.component_div(scale);
+            let target = row.dot(&xp);
+            match newton(res, xp, &row, target, opts) {
+                Ok(v) => break v,
+                Err((norm, _)) => {
+                    ds /= 2.0;
+                    if ds < dsmin {
+                        return Err((
+                            ContinuationFailure::StepSizeCollapse {
+                                parameter: x[n - 1],
+                                residual_norm: norm,
+                                step_size: ds,
+                                dsmin,
+                            },
+                            summary,
+                        ));
+                    }
+                }
+            }
+        };
+        let t_new = match tangent(&jac_new, &t, scale) {
+            Some(tn) => tn,
+            None => return Err((ContinuationFailure::SingularJacobian { parameter: x_new[n - 1] }, summary)),
+        };
+        if t_new[n - 1] * t[n - 1] < 0.0 {
+            summary.turning_points.push(summary.points);
+        }
+        summary.newton_iterations += it;
+        let step = ds;
+        x = x_new;
+        jac = jac_new;
+        t = t_new;
+        let _ = &jac;
+        let state = BranchState { index: summary.points, x: &x, tangent: &t, newton_iterations: it, step };
+        summary.points += 1;
+        if !on_point(&state) {
+            summary.stop = StopReason::Callback;
+            return Ok(summary);
+        }
+        let lambda = x[n - 1];
+        if lambda > hi - margin && dir > 0.0 || lambda < lo + margin && dir < 0.0 {
+            summary.stop = StopReason::ReachedEnd;
+            return Ok(summary);
+        }
+        if lambda < lo - margin && dir > 0.0 || lambda > hi + margin && dir < 0.0 {
+            summary.stop = StopReason::LeftRange;
+            return Ok(summary);
+        }
+        if opts.step_adaptation {
+            let factor = (opts.target_iterations.max(1) as f64 / it.max(1) as f64).clamp(0.5, 2.0);
+            ds = (ds * factor).clamp(dsmin, dsmax);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    /// The unit circle x^2 + y^2 = 1 parametrized by y: two turning points in y.
+    struct Circle;
+    impl Residual for Circle {
+        type Jacobian = DMatrix<f64>;
+        fn n_unknowns(&self) -> usize {
+            2
+        }
+        fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+            (
+                DVector::from_element(1, x[0] * x[0] + x[1] * x[1] - 1.0),
+                DMatrix::from_row_slice(1, 2, &[2.0 * x[0], 2.0 * x[1]]),
+            )
+        }
+    }
+
+    #[test]
+    fn circle_passes_its_turning_point() {
+        let opts = ContinuationOptions { ds: 0.1, ..Default::default() };
+        let scale = DVector::from_element(2, 1.0);
+        let mut pts = vec![];
+        // start at y = -0.5 on the right half, continue towards y = 2 (never
+        // reached): the branch turns at y = 1 and comes back below the start.
+        let s = continuation(&Circle, DVector::from_vec(vec![0.8, -0.5]), 2.0, &scale, &opts, |b| {
+            pts.push(b.x.clone());
+            true
+        })
+        .unwrap();
+        for p in &pts {
+            assert!((p.norm() - 1.0).abs() < 1e-10);
+        }
+        assert_eq!(s.turning_points.len(), 1, "{:?}", s.turning_points);
+        assert_eq!(s.stop, StopReason::LeftRange);
+        let i = s.turning_points[0];
+        // the turning point is at (0, 1): x changes sign there
+        assert!(pts[i - 1][0] > 0.0 && pts[i][0] < 0.0, "{:?} {:?}", pts[i - 1], pts[i]);
+        assert!(pts[i][1] > 0.8);
+        assert!(pts.last().unwrap()[1] < -0.5);
+    }
+
+    #[test]
+    fn step_collapse_is_reported() {
+        /// R = x - y^2, not evaluable (NaN) for y > 0.5.
+        struct Wall;
+        impl Residual for Wall {
+            type Jacobian = DMatrix<f64>;
+            fn n_unknowns(&self) -> usize {
+                2
+            }
+            fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+                let r = if x[1] <= 0.5 { x[0] - x[1] * x[1] } else { f64::NAN };
+                (DVector::from_element(1, r), DMatrix::from_row_slice(1, 2, &[1.0, -2.0 * x[1]]))
+            }
+        }
+        let opts = ContinuationOptions { ds: 0.1, ..Default::default() };
+        let scale = DVector::from_element(2, 1.0);
+        let mut last = 0.0;
+        let err = continuation(&Wall, DVector::from_vec(vec![0.0, 0.0]), 1.0, &scale, &opts, |b| {
+            last = b.x[1];
+            true
+        })
+        .unwrap_err();
+        match err.0 {
+            ContinuationFailure::StepSizeCollapse { parameter, step_size, dsmin, .. } => {
+                assert_eq!(parameter, last);
+                assert!(parameter < 0.5 && parameter > 0.3, "{parameter}");
+                assert!(step_size < dsmin);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(err.1.points > 3);
+    }
+}

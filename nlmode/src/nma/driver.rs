@@ -1,0 +1,670 @@
+//! Drivers: nonlinear modal analysis (EPMC branch) and forced Harmonic Balance
+//! frequency responses, branch results, modal tables.
+use super::continuation::{
+    continuation, BranchState, ContinuationFailure, ContinuationOptions, ContinuationSummary, StopReason,
+};
+use super::epmc::{EpmcResidual, ForcedResidual, ModalBasis};
+use super::hb::default_samples;
+use super::{ModalTable, PointShape, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
+use crate::structure::StructuralModel;
+use crate::Complex64;
+use nalgebra::DVector;
+use std::sync::Arc;
+
+/// Errors of the nonlinear modal analysis. Failures during continuation carry
+/// the part of the branch computed before the failure (`partial`).
+#[derive(Debug, thiserror::Error)]
+pub enum NmaError {
+    #[error("mode index {mode_index} does not exist: the model has {n_modes} modes (indices 0..{n_modes})")]
+    ModeIndexOutOfRange { mode_index: usize, n_modes: usize },
+    #[error("harmonics must be at least 1, got {harmonics}")]
+    NoHarmonics { harmonics: usize },
+    #[error("{samples} AFT samples are too few for H = {harmonics} harmonics (need at least 4H+1 = {minimum})")]
+    TooFewSamples { samples: usize, harmonics: usize, minimum: usize },
+    #[error("invalid amplitude range: start {start}, end {end} ({reason})")]
+    InvalidAmplitudeRange { start: f64, end: f64, reason: &'static str },
+    #[error("invalid frequency range: start {start} rad/s, end {end} rad/s")]
+    InvalidFrequencyRange { start: f64, end: f64 },
+    #[error("unknown named point '{name}' (the model has: {available})")]
+    UnknownPoint { name: String, available: String },
+    #[error("named point '{name}' does not move in mode {mode_index} (|phi| = {value:e}), cannot convert its amplitude")]
+    PointAtNode { name: String, mode_index: usize, value: f64 },
+    #[error("the mass matrix is not positive definite")]
+    MassNotPositiveDefinite,
+    #[error("force vector has length {got}, the model has {expected} coordinates")]
+    ForceLength { got: usize, expected: usize },
+    #[error("Newton did not converge at the start point a = {amplitude:e} (residual norm {residual_norm:e} after {iterations} iterations)")]
+    StartNotConverged { amplitude: f64, residual_norm: f64, iterations: usize, partial: Box<NmaResult> },
+    #[error("continuation step size collapsed after a = {amplitude:e}, omega = {omega_rad_s} rad/s: step {step_size:e} < dsmin {dsmin:e} (last residual norm {residual_norm:e}); {} points computed", partial.branch.len())]
+    StepSizeCollapse {
+        amplitude: f64,
+        omega_rad_s: f64,
+        residual_norm: f64,
+        step_size: f64,
+        dsmin: f64,
+        partial: Box<NmaResult>,
+    },
+    #[error("singular Jacobian (bifurcation point?) after a = {amplitude:e}; {} points computed", partial.branch.len())]
+    SingularJacobian { amplitude: f64, partial: Box<NmaResult> },
+    #[error("forced response failed after Omega = {omega_rad_s} rad/s: {reason}; {} points computed", partial.points.len())]
+    ForcedResponseFailed { omega_rad_s: f64, reason: String, partial: Box<ForcedResponse> },
+    #[error("measured modal data, line {line}: {message}")]
+    MeasuredData { line: usize, message: String },
+}
+
+impl NmaError {
+    /// The part of the branch computed before a continuation failure.
+    pub fn partial(&self) -> Option<&NmaResult> {
+        match self {
+            NmaError::StartNotConverged { partial, .. }
+            | NmaError::StepSizeCollapse { partial, .. }
+            | NmaError::SingularJacobian { partial, .. } => Some(partial),
+            _ => None,
+        }
+    }
+}
+
+/// Non-fatal findings of the analysis (also printed by the host).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NmaWarning {
+    #[error("the amplitude range never left the linear regime: up to a = {max_amplitude:e} the modal frequency changed by {omega_shift_rel:e} (relative) and the damping ratio by {damping_shift:e}")]
+    LinearRegimeOnly { max_amplitude: f64, omega_shift_rel: f64, damping_shift: f64 },
+    #[error("continuation stopped after the maximum of {points} points at a = {amplitude:e} before reaching the end of the range")]
+    MaxPointsReached { points: usize, amplitude: f64 },
+    #[error("the branch turned back below the start amplitude (a = {amplitude:e}) and was stopped")]
+    LeftRange { amplitude: f64 },
+}
+
+/// Amplitude range of the continuation.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AmplitudeRange {
+    /// Modal amplitude `a = sqrt(q1^H M q1)` [sqrt(kg) m], as `log10 a` bounds.
+    Modal { log10_start: f64, log10_end: f64 },
+    /// Magnitude of the fundamental harmonic at a named point [m]: the start is
+    /// converted with the linear mode; the analysis stops once the point's
+    /// amplitude reaches `end_m` (modal amplitude capped at 1000x the linear
+    /// estimate of `end_m`).
+    Point { name: String, start_m: f64, end_m: f64 },
+}
+
+/// Options of [`nonlinear_modal_analysis`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct NmaOptions {
+    /// Harmonic truncation order `H` (`eq:fourier`); the paper uses 13.
+    pub harmonics: usize,
+    /// AFT time samples per period; default `4H+1` (exact for cubic laws).
+    pub samples: Option<usize>,
+    /// Which linear mode to continue, 0-based in ascending frequency (0 = the
+    /// paper's "mode 1").
+    pub mode_index: usize,
+    pub amplitude: AmplitudeRange,
+    /// Drop the linear damping `C` (the underlying conservative system; `D`
+    /// then comes out zero).
+    pub conservative: bool,
+    pub continuation: ContinuationOptions,
+    /// Named points whose shape harmonics are stored; empty = all named points.
+    pub points: Vec<String>,
+    /// Store the shape harmonics of all generalized coordinates at every point.
+    pub store_coordinates: bool,
+}
+
+impl Default for NmaOptions {
+    fn default() -> Self {
+        Self {
+            harmonics: 13,
+            samples: None,
+            mode_index: 0,
+            amplitude: AmplitudeRange::Modal { log10_start: -6.0, log10_end: -1.0 },
+            conservative: false,
+            continuation: ContinuationOptions { ds: 0.1, ..Default::default() },
+            points: vec![],
+            store_coordinates: true,
+        }
+    }
+}
+
+/// One converged point of the nonlinear-mode branch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BranchPoint {
+    /// Modal amplitude `a` [sqrt(kg) m].
+    pub amplitude: f64,
+    /// Modal frequency `omega` [rad/s].
+    pub omega_rad_s: f64,
+    /// Modal damping ratio `D` [-].
+    pub damping_ratio: f64,
+    pub newton_iterations: usize,
+    /// `points[p][n]`: harmonic `phi_n` (`n = 0..=H`) at stored named point `p`
+    /// [m / (sqrt(kg) m)], so the point moves as `Re(a sum_n phi_n e^{i n psi})`.
+    pub points: Vec<Vec<Complex64>>,
+    /// `coordinates[i][n]`: harmonic `phi_n` of generalized coordinate `i` (if stored).
+    pub coordinates: Vec<Vec<Complex64>>,
+}
+
+/// Direction of the amplitude at a fold of the branch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FoldKind {
+    /// `a` stops increasing (the start of a loop).
+    AmplitudeMaximum,
+    /// `a` stops decreasing.
+    AmplitudeMinimum,
+}
+
+/// A turning point of `a` along the branch (loops from internal resonances).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fold {
+    /// Index of the branch point nearest to the fold.
+    pub index: usize,
+    pub kind: FoldKind,
+    pub amplitude: f64,
+    pub omega_rad_s: f64,
+}
+
+/// Full nonlinear-mode branch including loops/folds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NmaResult {
+    pub harmonics: usize,
+    pub samples: usize,
+    pub mode_index: usize,
+    pub conservative: bool,
+    /// Linear natural frequency of the continued mode [rad/s].
+    pub linear_omega_rad_s: f64,
+    /// Linear modal damping ratio of the continued mode (0 if conservative).
+    pub linear_damping_ratio: f64,
+    /// Names of the stored points (order of [`BranchPoint::points`]).
+    pub point_names: Vec<String>,
+    pub branch: Vec<BranchPoint>,
+    pub folds: Vec<Fold>,
+    /// Total Newton iterations (including the start point).
+    pub newton_iterations: usize,
+    /// Why the continuation stopped (`None` if it failed).
+    pub stop: Option<StopReason>,
+    pub warnings: Vec<NmaWarning>,
+}
+
+/// Which part of the branch goes into a [`ModalTable`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TablePolicy {
+    /// The primary branch up to the first turning point of `a` (default).
+    #[default]
+    PrimaryBranch,
+    /// All points whose `a` exceeds every earlier one: steps over loops and
+    /// continues on the branch beyond them (a jump in the table at each loop).
+    SkipLoops,
+}
+
+impl NmaResult {
+    pub fn n_points(&self) -> usize {
+        self.branch.len()
+    }
+
+    /// Index of a stored named point.
+    pub fn point_index(&self, name: &str) -> Option<usize> {
+        self.point_names.iter().position(|p| p == name)
+    }
+
+    /// `|q_{point,1}| = a |phi_1(point)|` [m] along the branch, e.g. `|q_tip,1|`
+    /// of the paper's backbone figure.
+    pub fn point_fundamental_amplitude(&self, name: &str) -> Option<Vec<f64>> {
+        let p = self.point_index(name)?;
+        Some(self.branch.iter().map(|b| b.amplitude * b.points[p][1].norm()).collect())
+    }
+
+    /// First fold of the amplitude (where the default table is truncated).
+    pub fn first_fold(&self) -> Option<&Fold> {
+        self.folds.first()
+    }
+
+    /// Indices of the branch points that go into the table under `policy`.
+    pub fn table_indices(&self, policy: TablePolicy) -> (Vec<usize>, Option<f64>) {
+        let mut idx = Vec::new();
+        let mut amax = f64::NEG_INFINITY;
+        let mut truncated = None;
+        for (i, b) in self.branch.iter().enumerate() {
+            if b.amplitude > amax {
+                idx.push(i);
+                amax = b.amplitude;
+            } else {
+                match policy {
+                    TablePolicy::PrimaryBranch => {
+                        truncated = Some(amax);
+                        break;
+                    }
+                    TablePolicy::SkipLoops => {
+                        truncated.get_or_insert(amax);
+                    }
+                }
+            }
+        }
+        (idx, truncated)
+    }
+
+    /// The modal table (`a` strictly increasing) with the shape harmonics at
+    /// every stored point and of all generalized coordinates (if stored).
+    pub fn to_table(&self, policy: TablePolicy) -> ModalTable {
+        let (idx, truncated) = self.table_indices(policy);
+        let shape = |name: String, get: &dyn Fn(&BranchPoint) -> &Vec<Complex64>| PointShape {
+            name,
+            re: idx.iter().map(|&i| get(&self.branch[i]).iter().map(|c| c.re).collect()).collect(),
+            im: idx.iter().map(|&i| get(&self.branch[i]).iter().map(|c| c.im).collect()).collect(),
+        };
+        let points = (0..self.point_names.len())
+            .map(|p| shape(self.point_names[p].clone(), &|b: &BranchPoint| &b.points[p]))
+            .collect();
+        let ncoord = self.branch.first().map(|b| b.coordinates.len()).unwrap_or(0);
+        let coordinates =
+            (0..ncoord).map(|i| shape(format!("q{i}"), &|b: &BranchPoint| &b.coordinates[i])).collect();
+        let mut description = format!(
+            "EPMC nonlinear mode {} (0-based) by Harmonic Balance, H = {}, {} AFT samples, {}; linear omega = {} rad/s, D = {}; {} of {} branch points",
+            self.mode_index,
+            self.harmonics,
+            self.samples,
+            if self.conservative { "conservative" } else { "damped" },
+            self.linear_omega_rad_s,
+            self.linear_damping_ratio,
+            idx.len(),
+            self.branch.len()
+        );
+        if let Some(a) = truncated {
+            description += &match policy {
+                TablePolicy::PrimaryBranch => format!("; primary branch truncated at the first fold of a = {a:e}"),
+                TablePolicy::SkipLoops => format!("; loops skipped, first fold at a = {a:e}"),
+            };
+        }
+        ModalTable {
+            format: MODAL_TABLE_FORMAT.to_string(),
+            version: MODAL_TABLE_VERSION,
+            description,
+            harmonics: self.harmonics,
+            amplitude: idx.iter().map(|&i| self.branch[i].amplitude).collect(),
+            omega_rad_s: idx.iter().map(|&i| self.branch[i].omega_rad_s).collect(),
+            damping_ratio: idx.iter().map(|&i| self.branch[i].damping_ratio).collect(),
+            points,
+            coordinates,
+            truncated_at_fold: truncated,
+        }
+    }
+}
+
+fn check_harmonics(harmonics: usize, samples: Option<usize>) -> Result<usize, NmaError> {
+    if harmonics == 0 {
+        return Err(NmaError::NoHarmonics { harmonics });
+    }
+    let minimum = default_samples(harmonics);
+    let samples = samples.unwrap_or(minimum);
+    if samples < minimum {
+        return Err(NmaError::TooFewSamples { samples, harmonics, minimum });
+    }
+    Ok(samples)
+}
+
+fn find_point(model: &StructuralModel, name: &str) -> Result<usize, NmaError> {
+    model.points.iter().position(|p| p.name == name).ok_or_else(|| NmaError::UnknownPoint {
+        name: name.to_string(),
+        available: model.points.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
+    })
+}
+
+/// Nonlinear modal analysis by the EPMC (`eq:EPMC`) with Harmonic Balance and
+/// arc-length continuation in `log10 a`, starting from the linear mode.
+///
+/// Returns the full branch (loops included, folds of `a` reported); use
+/// [`NmaResult::to_table`] for the modal table. On a continuation failure the
+/// error carries the computed part of the branch.
+pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> Result<NmaResult, NmaError> {
+    let samples = check_harmonics(opts.harmonics, opts.samples)?;
+    let n = model.mass.nrows();
+    if opts.mode_index >= n {
+        return Err(NmaError::ModeIndexOutOfRange { mode_index: opts.mode_index, n_modes: n });
+    }
+    let point_ids: Vec<usize> = if opts.points.is_empty() {
+        (0..model.points.len()).collect()
+    } else {
+        opts.points.iter().map(|p| find_point(model, p)).collect::<Result<_, _>>()?
+    };
+    let basis = Arc::new(ModalBasis::new(model, opts.conservative)?);
+    let j = opts.mode_index;
+    let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, j);
+    let point_modal: Vec<DVector<f64>> =
+        point_ids.iter().map(|&p| basis.phi.transpose() * &model.points[p].direction).collect();
+
+    // amplitude range in log10 a
+    let (lg_start, lg_end, stop_point) = match &opts.amplitude {
+        AmplitudeRange::Modal { log10_start, log10_end } => {
+            if !(log10_start.is_finite() && log10_end.is_finite()) || log10_end <= log10_start {
+                return Err(NmaError::InvalidAmplitudeRange {
+                    start: *log10_start,
+                    end: *log10_end,
+                    reason: "need finite log10 bounds with end > start",
+                });
+            }
+            (*log10_start, *log10_end, None)
+        }
+        AmplitudeRange::Point { name, start_m, end_m } => {
+            if !(*start_m > 0.0 && end_m > start_m && end_m.is_finite()) {
+                return Err(NmaError::InvalidAmplitudeRange {
+                    start: *start_m,
+                    end: *end_m,
+                    reason: "need 0 < start_m < end_m",
+                });
+            }
+            let pid = find_point(model, name)?;
+            let c = (basis.phi.column(j).dot(&model.points[pid].direction)).abs();
+            if c <= 1e-12 * basis.phi.column(j).amax() * model.points[pid].direction.norm() {
+                return Err(NmaError::PointAtNode { name: name.clone(), mode_index: j, value: c });
+            }
+            let em = basis.phi.transpose() * &model.points[pid].direction;
+            ((start_m / c).log10(), (end_m / c).log10() + 3.0, Some((em, *end_m)))
+        }
+    };
+
+    let omega0 = basis.omega(j);
+    let d0 = basis.damping_ratio(j);
+    let m = res.n_coeffs();
+    let mut scale = DVector::from_element(m + 3, 1.0);
+    scale[m] = omega0.abs().max(1e-12);
+    scale[m + 1] = d0.abs().max(1e-3);
+    scale[m + 2] = 1.0;
+
+    let mut result = NmaResult {
+        harmonics: opts.harmonics,
+        samples,
+        mode_index: j,
+        conservative: opts.conservative,
+        linear_omega_rad_s: omega0,
+        linear_damping_ratio: d0,
+        point_names: point_ids.iter().map(|&p| model.points[p].name.clone()).collect(),
+        branch: vec![],
+        folds: vec![],
+        newton_iterations: 0,
+        stop: None,
+        warnings: vec![],
+    };
+    let mut stop_reached = false;
+    let on_point = |s: &BranchState| -> bool {
+        let x = s.x;
+        let bp = BranchPoint {
+            amplitude: 10f64.powf(x[m + 2]),
+            omega_rad_s: x[m],
+            damping_ratio: x[m + 1],
+            newton_iterations: s.newton_iterations,
+            points: point_modal.iter().map(|e| res.observe(x, e)).collect(),
+            coordinates: if opts.store_coordinates {
+                let h = res.shape_harmonics(x);
+                (0..n).map(|i| h.iter().map(|hn| hn[i]).collect()).collect()
+            } else {
+                vec![]
+            },
+        };
+        result.branch.push(bp);
+        if let Some((em, end_m)) = &stop_point {
+            let amp = 10f64.powf(x[m + 2]) * res.observe(x, em)[1].norm();
+            if amp >= *end_m {
+                stop_reached = true;
+                return false;
+            }
+        }
+        true
+    };
+    let outcome = continuation(&res, res.linear_guess(lg_start), lg_end, &scale, &opts.continuation, on_point);
+    let summary = match &outcome {
+        Ok(s) => s.clone(),
+        Err((_, s)) => s.clone(),
+    };
+    finish(&mut result, &summary);
+    match outcome {
+        Ok(s) => {
+            result.stop = Some(s.stop);
+            let last_a = result.branch.last().map(|b| b.amplitude).unwrap_or(f64::NAN);
+            match s.stop {
+                StopReason::MaxPoints => {
+                    result.warnings.push(NmaWarning::MaxPointsReached { points: s.points, amplitude: last_a })
+                }
+                StopReason::LeftRange => result.warnings.push(NmaWarning::LeftRange { amplitude: last_a }),
+                StopReason::ReachedEnd | StopReason::Callback => {}
+            }
+            let _ = stop_reached;
+            Ok(result)
+        }
+        Err((failure, _)) => {
+            let last = result.branch.last().map(|b| (b.amplitude, b.omega_rad_s)).unwrap_or((f64::NAN, f64::NAN));
+            let partial = Box::new(result);
+            Err(match failure {
+                ContinuationFailure::StartNotConverged { parameter, residual_norm, iterations } => {
+                    NmaError::StartNotConverged { amplitude: 10f64.powf(parameter), residual_norm, iterations, partial }
+                }
+                ContinuationFailure::StepSizeCollapse { residual_norm, step_size, dsmin, .. } => {
+                    NmaError::StepSizeCollapse {
+                        amplitude: last.0,
+                        omega_rad_s: last.1,
+                        residual_norm,
+                        step_size,
+                        dsmin,
+                        partial,
+                    }
+                }
+                ContinuationFailure::SingularJacobian { .. } => {
+                    NmaError::SingularJacobian { amplitude: last.0, partial }
+                }
+            })
+        }
+    }
+}
+
+/// Folds, iteration count and the linear-regime warning from the summary.
+fn finish(result: &mut NmaResult, summary: &ContinuationSummary) {
+    result.newton_iterations = summary.newton_iterations;
+    for &i in &summary.turning_points {
+        if i == 0 || i >= result.branch.len() {
+            continue;
+        }
+        let (p, q) = (&result.branch[i - 1], &result.branch[i]);
+        let kind = if i >= 2 && result.branch[i - 2].amplitude < p.amplitude || q.amplitude < p.amplitude {
+            FoldKind::AmplitudeMaximum
+        } else {
+            FoldKind::AmplitudeMinimum
+        };
+        let index = match kind {
+            FoldKind::AmplitudeMaximum if p.amplitude >= q.amplitude => i - 1,
+            FoldKind::AmplitudeMinimum if p.amplitude <= q.amplitude => i - 1,
+            _ => i,
+        };
+        let b = &result.branch[index];
+        result.folds.push(Fold { index, kind, amplitude: b.amplitude, omega_rad_s: b.omega_rad_s });
+    }
+    if let (Some(first), Some(_)) = (result.branch.first(), result.branch.last()) {
+        let mut omega_shift_rel: f64 = 0.0;
+        let mut damping_shift: f64 = 0.0;
+        let mut max_amplitude: f64 = 0.0;
+        for b in &result.branch {
+            omega_shift_rel = omega_shift_rel.max((b.omega_rad_s / first.omega_rad_s - 1.0).abs());
+            damping_shift = damping_shift.max((b.damping_ratio - first.damping_ratio).abs());
+            max_amplitude = max_amplitude.max(b.amplitude);
+        }
+        let d_ref = first.damping_ratio.abs().max(1e-6);
+        if result.branch.len() > 1 && omega_shift_rel < 1e-4 && damping_shift < 1e-3 * d_ref {
+            result.warnings.push(NmaWarning::LinearRegimeOnly { max_amplitude, omega_shift_rel, damping_shift });
+        }
+    }
+}
+
+/// Options of [`forced_response`]: `M q'' + g(q, q') = f cos(Omega t)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForcedResponseOptions {
+    pub harmonics: usize,
+    pub samples: Option<usize>,
+    /// Force amplitude vector `f` [N] in generalized coordinates.
+    pub force: DVector<f64>,
+    /// Excitation frequency range [rad/s] (either direction).
+    pub omega_start: f64,
+    pub omega_end: f64,
+    pub continuation: ContinuationOptions,
+    /// Named points whose response harmonics are stored; empty = all.
+    pub points: Vec<String>,
+}
+
+/// One point of a forced frequency response.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForcedResponsePoint {
+    pub omega_rad_s: f64,
+    /// `points[p][n]`: complex harmonic `n` [m] at stored point `p`
+    /// (`u(t) = Re(sum_n u_n e^{i n Omega t})`).
+    pub points: Vec<Vec<Complex64>>,
+    pub newton_iterations: usize,
+}
+
+/// A forced Harmonic Balance frequency response (turning points included).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForcedResponse {
+    pub harmonics: usize,
+    pub point_names: Vec<String>,
+    pub points: Vec<ForcedResponsePoint>,
+    /// Indices `i` with a turning point in `Omega` between points `i-1` and `i`.
+    pub turning_points: Vec<usize>,
+    pub newton_iterations: usize,
+    pub stop: Option<StopReason>,
+}
+
+/// Harmonic Balance frequency response of the forced full model (for
+/// validation of the single-nonlinear-mode model), by the same continuation.
+pub fn forced_response(model: &StructuralModel, opts: &ForcedResponseOptions) -> Result<ForcedResponse, NmaError> {
+    let samples = check_harmonics(opts.harmonics, opts.samples)?;
+    let n = model.mass.nrows();
+    if opts.force.len() != n {
+        return Err(NmaError::ForceLength { got: opts.force.len(), expected: n });
+    }
+    if !(opts.omega_start > 0.0 && opts.omega_end > 0.0 && opts.omega_start != opts.omega_end)
+        || !(opts.omega_start.is_finite() && opts.omega_end.is_finite())
+    {
+        return Err(NmaError::InvalidFrequencyRange { start: opts.omega_start, end: opts.omega_end });
+    }
+    let point_ids: Vec<usize> = if opts.points.is_empty() {
+        (0..model.points.len()).collect()
+    } else {
+        opts.points.iter().map(|p| find_point(model, p)).collect::<Result<_, _>>()?
+    };
+    let basis = Arc::new(ModalBasis::new(model, false)?);
+    let res = ForcedResidual::new(basis, opts.harmonics, samples, &opts.force, opts.omega_start);
+    let m = res.n_coeffs();
+    // scale: largest linear response norm over the range, and the range width
+    let mut eta_scale: f64 = 0.0;
+    for i in 0..=200 {
+        let om = opts.omega_start + (opts.omega_end - opts.omega_start) * i as f64 / 200.0;
+        eta_scale = eta_scale.max(res.linear_guess(om).rows(0, m).amax());
+    }
+    let mut scale = DVector::from_element(m + 1, eta_scale.max(1e-300));
+    scale[m] = (opts.omega_end - opts.omega_start).abs();
+    let mut out = ForcedResponse {
+        harmonics: opts.harmonics,
+        point_names: point_ids.iter().map(|&p| model.points[p].name.clone()).collect(),
+        points: vec![],
+        turning_points: vec![],
+        newton_iterations: 0,
+        stop: None,
+    };
+    let outcome = continuation(&res, res.linear_guess(opts.omega_start), opts.omega_end, &scale, &opts.continuation, |s| {
+        out.points.push(ForcedResponsePoint {
+            omega_rad_s: s.x[m],
+            points: point_ids.iter().map(|&p| res.observe(s.x, &model.points[p].direction)).collect(),
+            newton_iterations: s.newton_iterations,
+        });
+        true
+    });
+    match outcome {
+        Ok(s) => {
+            out.turning_points = s.turning_points;
+            out.newton_iterations = s.newton_iterations;
+            out.stop = Some(s.stop);
+            Ok(out)
+        }
+        Err((failure, s)) => {
+            out.turning_points = s.turning_points;
+            out.newton_iterations = s.newton_iterations;
+            let omega = out.points.last().map(|p| p.omega_rad_s).unwrap_or(opts.omega_start);
+            Err(NmaError::ForcedResponseFailed {
+                omega_rad_s: omega,
+                reason: format!("{failure:?}"),
+                partial: Box::new(out),
+            })
+        }
+    }
+}
+
+/// A modal table from measured nonlinear modal data (e.g. phase-resonant
+/// testing), as the paper suggests at the end of Section 3.2.
+///
+/// CSV with a header row; `#` starts a comment line. Columns (any order, names
+/// case-insensitive): `a` or `amplitude` [sqrt(kg) m], `omega` or `omega_rad_s`
+/// [rad/s], `D` or `damping_ratio` [-], and the drive-point shape
+/// `phi_re`/`phi_im` or `<point>_re`/`<point>_im` (fundamental harmonic
+/// `phi_1` at `point_name`). Rows must have strictly increasing `a > 0`.
+/// The table has `H = 1` and `phi_0 = 0` (not measured).
+pub fn table_from_measured_csv(text: &str, point_name: &str) -> Result<ModalTable, NmaError> {
+    let err = |line: usize, message: String| NmaError::MeasuredData { line, message };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let (hline, header) = lines.next().ok_or_else(|| err(0, "no header row".into()))?;
+    let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
+    let pn = point_name.to_ascii_lowercase();
+    let find = |names: &[&str]| -> Result<usize, NmaError> {
+        cols.iter().position(|c| names.contains(&c.as_str())).ok_or_else(|| {
+            err(hline, format!("missing column {} (header: {header})", names.join(" or ")))
+        })
+    };
+    let re_name = format!("{pn}_re");
+    let im_name = format!("{pn}_im");
+    let ia = find(&["a", "amplitude"])?;
+    let io = find(&["omega", "omega_rad_s"])?;
+    let id = find(&["d", "damping_ratio"])?;
+    let ir = find(&["phi_re", &re_name])?;
+    let ii = find(&["phi_im", &im_name])?;
+    let mut t = ModalTable {
+        format: MODAL_TABLE_FORMAT.to_string(),
+        version: MODAL_TABLE_VERSION,
+        description: format!("measured nonlinear modal data, drive point '{point_name}'"),
+        harmonics: 1,
+        amplitude: vec![],
+        omega_rad_s: vec![],
+        damping_ratio: vec![],
+        points: vec![PointShape { name: point_name.to_string(), re: vec![], im: vec![] }],
+        coordinates: vec![],
+        truncated_at_fold: None,
+    };
+    for (ln, line) in lines {
+        let vals: Vec<&str> = line.split(',').map(|v| v.trim()).collect();
+        if vals.len() != cols.len() {
+            return Err(err(ln, format!("{} fields, the header has {}", vals.len(), cols.len())));
+        }
+        let get = |i: usize| -> Result<f64, NmaError> {
+            let v: f64 = vals[i].parse().map_err(|_| err(ln, format!("'{}' in column '{}' is not a number", vals[i], cols[i])))?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(err(ln, format!("non-finite value {v} in column '{}'", cols[i])))
+            }
+        };
+        let (a, om, d, re, im) = (get(ia)?, get(io)?, get(id)?, get(ir)?, get(ii)?);
+        if a <= 0.0 {
+            return Err(err(ln, format!("amplitude a = {a} must be positive")));
+        }
+        if let Some(&prev) = t.amplitude.last() {
+            if a <= prev {
+                return Err(err(ln, format!("amplitude a = {a} is not larger than the previous {prev}")));
+            }
+        }
+        if om <= 0.0 {
+            return Err(err(ln, format!("modal frequency omega = {om} rad/s must be positive")));
+        }
+        t.amplitude.push(a);
+        t.omega_rad_s.push(om);
+        t.damping_ratio.push(d);
+        t.points[0].re.push(vec![0.0, re]);
+        t.points[0].im.push(vec![0.0, im]);
+    }
+    if t.amplitude.len() < 2 {
+        return Err(err(hline, format!("need at least 2 data rows, got {}", t.amplitude.len())));
+    }
+    Ok(t)
+}

@@ -1,0 +1,830 @@
+//! Harmonic Balance residuals in modal coordinates and their condensed
+//! (Schur-complement) linear solver.
+//!
+//! The generalized coordinates are expanded in all mass-normalized linear modes
+//! of the underlying undamped structure, `q = Phi eta` (`Phi^T M Phi = I`,
+//! `Phi^T K Phi = diag(omega_k^2)`); this is exact (no truncation). The
+//! Fourier coefficients of `eta` are stored harmonic-component major,
+//! `X[h n + k]` = coefficient `h` (layout of [`super::hb::cos_index`]) of mode `k`.
+//!
+//! **EPMC** (`eq:EPMC`, `M q'' - 2 D omega M q' + C q' + K q + f_nl(q, q') = 0`)
+//! with `q = a Psi`: per harmonic `n` and mode `k`, with `A = omega_k^2 - (n omega)^2`
+//! and `B = n omega (C_m - 2 D omega I)` (`C_m = Phi^T C Phi`),
+//!
+//! ```text
+//! R_c = A Psi_c + B Psi_s + (1/a) W F_c(a W^T Psi),
+//! R_s = -B Psi_c + A Psi_s + (1/a) W F_s(a W^T Psi),
+//! ```
+//!
+//! (the complex form `(K - (n omega)^2 M + i n omega (C - 2 D omega M)) q_n + f_n = 0`),
+//! closed by the amplitude normalization `Psi_1^H Psi_1 = 1`, i.e.
+//! `a = sqrt(q_1^H M q_1)` (Section 3.1), and the phase normalization
+//! `Im(Psi_{1,j}) = 0` on the continued mode `j`. Unknowns
+//! `X = [Psi; omega; D; log10 a]`; `log10 a` is the continuation parameter.
+//! Here `W = Phi^T [w_1 ... w_E]` holds the nonlinear elements' directions.
+//!
+//! **Forced response** `M q'' + C q' + K q + f_nl = f cos(Omega t)` with
+//! unknowns `X = [eta; Omega]`.
+//!
+//! **Condensation.** The linear part is block diagonal (2x2 per mode and
+//! harmonic when `C_m` is diagonal, e.g. Rayleigh damping); the nonlinear part
+//! is `P G P^T` with `P = I (x) W`. Newton systems bordered with the extra
+//! unknowns and rows are solved by eliminating all well-conditioned modal
+//! blocks (`|A + iB|` not small) and keeping explicitly the nonlinear
+//! coordinates `z = G P^T y` (`E (2H+1)` of them), the near-resonant modal
+//! blocks (always the continued mode's fundamental, plus any `n omega ~ omega_k`
+//! internal resonance) and the bordered unknowns. The dense system left has
+//! size `E(2H+1) + #near-resonant + #border`, independent of the model size;
+//! forming it costs `O(n H (E^2 + #border))`. Non-diagonal modal damping falls
+//! back to a dense solve of the full system.
+use super::hb::{cos_index, harmonic_of, sin_index, Aft};
+use super::NmaError;
+use crate::structure::{NonlinearLaw, StructuralModel};
+use nalgebra::{DMatrix, DVector};
+use std::f64::consts::LN_10;
+use std::sync::Arc;
+
+/// Relative size of `|A + iB|` below which a modal block is kept explicitly.
+const EXPLICIT_THRESHOLD: f64 = 0.05;
+
+/// Linear modes of the structure and the nonlinear directions in modal coordinates.
+#[derive(Debug, Clone)]
+pub struct ModalBasis {
+    /// Mass-normalized mode shapes (columns), ascending frequency.
+    pub phi: DMatrix<f64>,
+    /// Squared natural frequencies `omega_k^2` [rad^2/s^2].
+    pub omega2: DVector<f64>,
+    /// Modal damping matrix `Phi^T C Phi` [1/s] (zero if conservative).
+    pub cm: DMatrix<f64>,
+    /// Whether `cm` is diagonal (the condensed solver applies).
+    pub diagonal_damping: bool,
+    /// Nonlinear directions in modal coordinates, `n x E`.
+    pub w: DMatrix<f64>,
+    /// Nonlinear force laws, one per column of `w`.
+    pub laws: Vec<Arc<dyn NonlinearLaw>>,
+}
+
+impl ModalBasis {
+    /// All linear modes of `(M, K)`; `C` projected (or dropped if `conservative`).
+    ///
+    /// Mode signs: the first named point (else the first nonlinear direction,
+    /// else the largest entry) moves in the positive direction.
+    pub fn new(model: &StructuralModel, conservative: bool) -> Result<Self, NmaError> {
+        let n = model.mass.nrows();
+        assert_eq!(model.mass.shape(), (n, n), "mass matrix must be square");
+        assert_eq!(model.stiffness.shape(), (n, n), "stiffness matrix must be n x n");
+        assert_eq!(model.damping.shape(), (n, n), "damping matrix must be n x n");
+        let chol = nalgebra::Cholesky::new(model.mass.clone()).ok_or(NmaError::MassNotPositiveDefinite)?;
+        let l = chol.l();
+        // A = L^-1 K L^-T
+        let linv_k = l.solve_lower_triangular(&model.stiffness).expect("Cholesky factor is regular");
+        let a = l.solve_lower_triangular(&linv_k.transpose()).expect("Cholesky factor is regular");
+        let a = (&a + a.transpose()) * 0.5;
+        let eig = nalgebra::SymmetricEigen::new(a);
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
+        let mut v = DMatrix::zeros(n, n);
+        let mut omega2 = DVector::zeros(n);
+        for (c, &i) in order.iter().enumerate() {
+            v.set_column(c, &eig.eigenvectors.column(i));
+            omega2[c] = eig.eigenvalues[i];
+        }
+        let mut phi = l.transpose().solve_upper_triangular(&v).expect("Cholesky factor is regular");
+        let reference: Option<&DVector<f64>> = model
+            .points
+            .first()
+            .map(|p| &p.direction)
+            .or_else(|| model.nonlinear.first().map(|e| &e.direction));
+        for k in 0..n {
+            let col = phi.column(k).clone_owned();
+            let mut s = reference.map(|e| e.dot(&col)).unwrap_or(0.0);
+            let tol = 1e-9 * col.amax() * reference.map(|e| e.norm()).unwrap_or(0.0);
+            if s.abs() <= tol {
+                let imax = col.iamax();
+                s = col[imax];
+            }
+            if s < 0.0 {
+                phi.column_mut(k).neg_mut();
+            }
+        }
+        let cm = if conservative {
+            DMatrix::zeros(n, n)
+        } else {
+            let cm = phi.transpose() * &model.damping * &phi;
+            (&cm + cm.transpose()) * 0.5
+        };
+        let mut diagonal_damping = true;
+        for i in 0..n {
+            for j in 0..n {
+                if i != j {
+                    let bound = 1e-9 * (cm[(i, i)].abs() * cm[(j, j)].abs()).sqrt() + 1e-14 * cm.amax();
+                    if cm[(i, j)].abs() > bound {
+                        diagonal_damping = false;
+                    }
+                }
+            }
+        }
+        let ne = model.nonlinear.len();
+        let mut w = DMatrix::zeros(n, ne);
+        for (e, el) in model.nonlinear.iter().enumerate() {
+            assert_eq!(el.direction.len(), n, "nonlinear direction '{}' has wrong length", el.name);
+            w.set_column(e, &(phi.transpose() * &el.direction));
+        }
+        let laws = model.nonlinear.iter().map(|e| e.law.clone()).collect();
+        Ok(Self { phi, omega2, cm, diagonal_damping, w, laws })
+    }
+
+    pub fn n_modes(&self) -> usize {
+        self.omega2.len()
+    }
+
+    /// Natural frequency of mode `k` [rad/s].
+    pub fn omega(&self, k: usize) -> f64 {
+        self.omega2[k].max(0.0).sqrt()
+    }
+
+    /// Linear modal damping ratio of mode `k`, `c_kk / (2 omega_k)`.
+    pub fn damping_ratio(&self, k: usize) -> f64 {
+        self.cm[(k, k)] / (2.0 * self.omega(k))
+    }
+
+    /// Row scales of the harmonic residual: `max(omega_k^2, (n omega_ref)^2)`.
+    fn row_scale(&self, harmonics: usize, omega_ref: f64) -> DVector<f64> {
+        let n = self.n_modes();
+        let nh = 2 * harmonics + 1;
+        let mut s = DVector::zeros(n * nh);
+        for h in 0..nh {
+            let nn = harmonic_of(h) as f64;
+            for k in 0..n {
+                s[h * n + k] = self.omega2[k].abs().max((nn * omega_ref).powi(2)).max(1e-300);
+            }
+        }
+        s
+    }
+
+    /// `Y = B_n X` per mode for `B_n = n omega (C_m - 2 D omega I)`, `x` one component block.
+    fn apply_b(&self, nn: f64, omega: f64, d: f64, x: &[f64], out: &mut [f64]) {
+        let n = self.n_modes();
+        if self.diagonal_damping {
+            for k in 0..n {
+                out[k] = nn * omega * (self.cm[(k, k)] - 2.0 * d * omega) * x[k];
+            }
+        } else {
+            let xv = DVector::from_column_slice(x);
+            let cx = &self.cm * xv;
+            for k in 0..n {
+                out[k] = nn * omega * (cx[k] - 2.0 * d * omega * x[k]);
+            }
+        }
+    }
+
+    /// Relative displacement harmonics `U_e = scale * W_e^T X` of every element.
+    fn element_coeffs(&self, x: &[f64], nh: usize, scale: f64) -> Vec<DVector<f64>> {
+        let n = self.n_modes();
+        (0..self.w.ncols())
+            .map(|e| {
+                let we = self.w.column(e);
+                DVector::from_fn(nh, |h, _| scale * (0..n).map(|k| we[k] * x[h * n + k]).sum::<f64>())
+            })
+            .collect()
+    }
+}
+
+/// Structured Jacobian of a modal Harmonic Balance residual (see module doc):
+/// rows `0..m` (scaled by `1/row_scale`) are the harmonic equations, then `r`
+/// extra residual rows; columns are the `m` modal coefficients and `p = r + 1`
+/// extra unknowns.
+#[derive(Debug, Clone)]
+pub struct HbJacobian {
+    basis: Arc<ModalBasis>,
+    harmonics: usize,
+    omega: f64,
+    d: f64,
+    /// `dF_e/dU_e` of each element.
+    g: Vec<DMatrix<f64>>,
+    row_scale: Arc<DVector<f64>>,
+    /// Unscaled derivatives of the harmonic rows w.r.t. the extra unknowns, `m x p`.
+    border_cols: DMatrix<f64>,
+    /// Extra residual rows, `r x (m + p)`.
+    border_rows: DMatrix<f64>,
+    /// Modal blocks `(k, n)` always kept explicit.
+    explicit: Vec<(usize, usize)>,
+}
+
+impl HbJacobian {
+    fn m(&self) -> usize {
+        self.basis.n_modes() * (2 * self.harmonics + 1)
+    }
+
+    /// `A`, `B` of the diagonal modal block `(k, nn)`.
+    fn block(&self, k: usize, nn: usize) -> (f64, f64) {
+        let nf = nn as f64;
+        let a = self.basis.omega2[k] - (nf * self.omega).powi(2);
+        let b = nf * self.omega * (self.basis.cm[(k, k)] - 2.0 * self.d * self.omega);
+        (a, b)
+    }
+
+    /// The full (scaled) Jacobian as a dense matrix, `(m + r) x (m + p)`.
+    pub fn to_dense(&self) -> DMatrix<f64> {
+        let ju = self.dense_unscaled_harmonic_rows();
+        let m = self.m();
+        let (r, p) = (self.border_rows.nrows(), self.border_cols.ncols());
+        let mut j = DMatrix::zeros(m + r, m + p);
+        for i in 0..m {
+            for c in 0..m + p {
+                j[(i, c)] = ju[(i, c)] / self.row_scale[i];
+            }
+        }
+        j.view_mut((m, 0), (r, m + p)).copy_from(&self.border_rows);
+        j
+    }
+
+    /// Unscaled harmonic rows `m x (m + p)`.
+    fn dense_unscaled_harmonic_rows(&self) -> DMatrix<f64> {
+        let n = self.basis.n_modes();
+        let nh = 2 * self.harmonics + 1;
+        let m = n * nh;
+        let p = self.border_cols.ncols();
+        let mut j = DMatrix::zeros(m, m + p);
+        let mut col = vec![0.0; n];
+        let mut out = vec![0.0; n];
+        for nn in 0..=self.harmonics {
+            let nf = nn as f64;
+            let hc = cos_index(nn);
+            for k in 0..n {
+                j[(hc * n + k, hc * n + k)] = self.basis.omega2[k] - (nf * self.omega).powi(2);
+            }
+            if nn == 0 {
+                continue;
+            }
+            let hs = sin_index(nn);
+            for k in 0..n {
+                j[(hs * n + k, hs * n + k)] = self.basis.omega2[k] - (nf * self.omega).powi(2);
+            }
+            for kk in 0..n {
+                col.iter_mut().for_each(|v| *v = 0.0);
+                col[kk] = 1.0;
+                self.basis.apply_b(nf, self.omega, self.d, &col, &mut out);
+                for k in 0..n {
+                    j[(hc * n + k, hs * n + kk)] += out[k];
+                    j[(hs * n + k, hc * n + kk)] -= out[k];
+                }
+            }
+        }
+        for (e, g) in self.g.iter().enumerate() {
+            let we = self.basis.w.column(e);
+            for h in 0..nh {
+                for h2 in 0..nh {
+                    let gv = g[(h, h2)];
+                    if gv == 0.0 {
+                        continue;
+                    }
+                    for k in 0..n {
+                        for k2 in 0..n {
+                            j[(h * n + k, h2 * n + k2)] += we[k] * gv * we[k2];
+                        }
+                    }
+                }
+            }
+        }
+        j.view_mut((0, m), (m, p)).copy_from(&self.border_cols);
+        j
+    }
+
+    fn solve_dense(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        let m = self.m();
+        let (r, p) = (self.border_rows.nrows(), self.border_cols.ncols());
+        let mut a = DMatrix::zeros(m + p, m + p);
+        a.view_mut((0, 0), (m, m + p)).copy_from(&self.dense_unscaled_harmonic_rows());
+        a.view_mut((m, 0), (r, m + p)).copy_from(&self.border_rows);
+        a.row_mut(m + r).copy_from(&row.transpose());
+        let mut b = rhs.clone();
+        for i in 0..m {
+            b[i] *= self.row_scale[i];
+        }
+        let y = a.lu().solve(&b)?;
+        y.iter().all(|v| v.is_finite()).then_some(y)
+    }
+
+    /// The condensed solve (diagonal modal damping).
+    fn solve_condensed(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        let basis = &*self.basis;
+        let n = basis.n_modes();
+        let hmax = self.harmonics;
+        let nh = 2 * hmax + 1;
+        let m = n * nh;
+        let ne = basis.w.ncols();
+        let s = ne * nh;
+        let (r, p) = (self.border_rows.nrows(), self.border_cols.ncols());
+        debug_assert_eq!(r + 1, p);
+        let w = &basis.w;
+        // border rows incl. the continuation row: p x (m + p)
+        let mut cfull = DMatrix::zeros(p, m + p);
+        cfull.view_mut((0, 0), (r, m + p)).copy_from(&self.border_rows);
+        cfull.row_mut(r).copy_from(&row.transpose());
+        let f: DVector<f64> = DVector::from_fn(m, |i, _| rhs[i] * self.row_scale[i]);
+        let fb = rhs.rows(m, p).clone_owned();
+
+        // classify modal blocks; explicit components in order
+        let mut is_explicit = vec![false; m];
+        let mut e_list: Vec<usize> = Vec::new(); // global component indices
+        for nn in 0..=hmax {
+            for k in 0..n {
+                let (a, b) = self.block(k, nn);
+                let scale = self.row_scale[cos_index(nn) * n + k];
+                let forced = self.explicit.contains(&(k, nn));
+                if forced || a.hypot(b) < EXPLICIT_THRESHOLD * scale {
+                    let comps: &[usize] = if nn == 0 { &[0] } else { &[cos_index(nn), sin_index(nn)] };
+                    for &h in comps {
+                        is_explicit[h * n + k] = true;
+                        e_list.push(h * n + k);
+                    }
+                }
+            }
+        }
+        let ne_e = e_list.len();
+        // V = Lambda_II^-1 [f_I, B_I]  (m x (1+p)), Q, CLP
+        let mut v: DMatrix<f64> = DMatrix::zeros(m, 1 + p);
+        let mut q: DMatrix<f64> = DMatrix::zeros(s, s);
+        let mut clp: DMatrix<f64> = DMatrix::zeros(p, s);
+        let mut src = DMatrix::zeros(m, 1 + p);
+        src.set_column(0, &f);
+        src.view_mut((0, 1), (m, p)).copy_from(&self.border_cols);
+        for nn in 0..=hmax {
+            let comps: Vec<usize> = if nn == 0 { vec![0] } else { vec![cos_index(nn), sin_index(nn)] };
+            for k in 0..n {
+                if is_explicit[comps[0] * n + k] {
+                    continue;
+                }
+                let (a, b) = self.block(k, nn);
+                let linv: [[f64; 2]; 2] = if nn == 0 {
+                    [[1.0 / a, 0.0], [0.0, 0.0]]
+                } else {
+                    let det = a * a + b * b;
+                    [[a / det, -b / det], [b / det, a / det]]
+                };
+                let nc = comps.len();
+                for col in 0..1 + p {
+                    for (ia, &ha) in comps.iter().enumerate() {
+                        let mut acc = 0.0;
+                        for (ib, &hb) in comps.iter().enumerate() {
+                            acc += linv[ia][ib] * src[(hb * n + k, col)];
+                        }
+                        v[(ha * n + k, col)] = acc;
+                    }
+                }
+                for ia in 0..nc {
+                    for ib in 0..nc {
+                        let l = linv[ia][ib];
+                        for e in 0..ne {
+                            let wl = w[(k, e)] * l;
+                            for e2 in 0..ne {
+                                q[(e * nh + comps[ia], e2 * nh + comps[ib])] += wl * w[(k, e2)];
+                            }
+                        }
+                        for rr in 0..p {
+                            let cl = cfull[(rr, comps[ia] * n + k)] * l;
+                            if cl != 0.0 {
+                                for e2 in 0..ne {
+                                    clp[(rr, e2 * nh + comps[ib])] += cl * w[(k, e2)];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // P^T V (s x (1+p)) and C V (p x (1+p)), V is zero on explicit rows
+        let mut ptv: DMatrix<f64> = DMatrix::zeros(s, 1 + p);
+        for e in 0..ne {
+            for h in 0..nh {
+                for col in 0..1 + p {
+                    let mut acc = 0.0;
+                    for k in 0..n {
+                        acc += w[(k, e)] * v[(h * n + k, col)];
+                    }
+                    ptv[(e * nh + h, col)] = acc;
+                }
+            }
+        }
+        let cv = cfull.columns(0, m) * &v;
+
+        // reduced system [y_E; z; y_b]
+        let dim = ne_e + s + p;
+        let mut a: DMatrix<f64> = DMatrix::zeros(dim, dim);
+        let mut b = DVector::zeros(dim);
+        let mut e_pos = vec![usize::MAX; m];
+        for (i, &gi) in e_list.iter().enumerate() {
+            e_pos[gi] = i;
+        }
+        for (i, &gi) in e_list.iter().enumerate() {
+            let h = gi / n;
+            let k = gi % n;
+            let nn = harmonic_of(h);
+            let (la, lb) = self.block(k, nn);
+            a[(i, i)] = la;
+            if nn > 0 {
+                if h == cos_index(nn) {
+                    a[(i, e_pos[sin_index(nn) * n + k])] = lb;
+                } else {
+                    a[(i, e_pos[cos_index(nn) * n + k])] = -lb;
+                }
+            }
+            for e in 0..ne {
+                a[(i, ne_e + e * nh + h)] = w[(k, e)];
+            }
+            for c in 0..p {
+                a[(i, ne_e + s + c)] = self.border_cols[(gi, c)];
+            }
+            b[i] = f[gi];
+        }
+        for (e, g) in self.g.iter().enumerate() {
+            for h in 0..nh {
+                let ri = ne_e + e * nh + h;
+                a[(ri, ri)] += 1.0;
+                for h2 in 0..nh {
+                    let gv = g[(h, h2)];
+                    if gv == 0.0 {
+                        continue;
+                    }
+                    for cz in 0..s {
+                        a[(ri, ne_e + cz)] += gv * q[(e * nh + h2, cz)];
+                    }
+                    for (i, &gi) in e_list.iter().enumerate() {
+                        if gi / n == h2 {
+                            a[(ri, i)] -= gv * w[(gi % n, e)];
+                        }
+                    }
+                    for c in 0..p {
+                        a[(ri, ne_e + s + c)] += gv * ptv[(e * nh + h2, 1 + c)];
+                    }
+                    b[ri] += gv * ptv[(e * nh + h2, 0)];
+                }
+            }
+        }
+        for rr in 0..p {
+            let ri = ne_e + s + rr;
+            for (i, &gi) in e_list.iter().enumerate() {
+                a[(ri, i)] = cfull[(rr, gi)];
+            }
+            for cz in 0..s {
+                a[(ri, ne_e + cz)] = -clp[(rr, cz)];
+            }
+            for c in 0..p {
+                a[(ri, ne_e + s + c)] = cfull[(rr, m + c)] - cv[(rr, 1 + c)];
+            }
+            b[ri] = fb[rr] - cv[(rr, 0)];
+        }
+        let sol = a.lu().solve(&b)?;
+        if !sol.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let z = sol.rows(ne_e, s);
+        let yb = sol.rows(ne_e + s, p);
+        // recover y_I = V_f - Lambda^-1 P_I z - V_B y_b
+        let mut y = DVector::zeros(m + p);
+        let vb_yb = v.columns(1, p) * yb;
+        for i in 0..m {
+            y[i] = v[(i, 0)] - vb_yb[i];
+        }
+        for nn in 0..=hmax {
+            let comps: Vec<usize> = if nn == 0 { vec![0] } else { vec![cos_index(nn), sin_index(nn)] };
+            for k in 0..n {
+                if is_explicit[comps[0] * n + k] {
+                    continue;
+                }
+                let (la, lb) = self.block(k, nn);
+                let pz: Vec<f64> =
+                    comps.iter().map(|&h| (0..ne).map(|e| w[(k, e)] * z[e * nh + h]).sum::<f64>()).collect();
+                if nn == 0 {
+                    y[k] -= pz[0] / la;
+                } else {
+                    let det = la * la + lb * lb;
+                    y[comps[0] * n + k] -= (la * pz[0] - lb * pz[1]) / det;
+                    y[comps[1] * n + k] -= (lb * pz[0] + la * pz[1]) / det;
+                }
+            }
+        }
+        for (i, &gi) in e_list.iter().enumerate() {
+            y[gi] = sol[i];
+        }
+        for c in 0..p {
+            y[m + c] = yb[c];
+        }
+        Some(y)
+    }
+
+    /// Solve with the dense fallback even when the condensed solver applies
+    /// (for cross-checks and benchmarks).
+    pub fn solve_bordered_dense(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        self.solve_dense(row, rhs)
+    }
+}
+
+impl super::continuation::BorderedSolve for HbJacobian {
+    fn solve_bordered(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        if self.basis.diagonal_damping {
+            self.solve_condensed(row, rhs)
+        } else {
+            self.solve_dense(row, rhs)
+        }
+    }
+}
+
+/// Linear harmonic rows `Lambda(omega, D) X` (unscaled) and their derivatives
+/// w.r.t. `omega` and `D`.
+fn linear_rows(
+    basis: &ModalBasis,
+    harmonics: usize,
+    omega: f64,
+    d: f64,
+    x: &[f64],
+) -> (DVector<f64>, DVector<f64>, DVector<f64>) {
+    let n = basis.n_modes();
+    let m = n * (2 * harmonics + 1);
+    let mut r = DVector::zeros(m);
+    let mut dr_dom = DVector::zeros(m);
+    let mut dr_dd = DVector::zeros(m);
+    for k in 0..n {
+        r[k] = basis.omega2[k] * x[k];
+    }
+    let mut bs = vec![0.0; n];
+    let mut bc = vec![0.0; n];
+    let mut cs = vec![0.0; n];
+    let mut cc = vec![0.0; n];
+    for nn in 1..=harmonics {
+        let nf = nn as f64;
+        let (hc, hs) = (cos_index(nn), sin_index(nn));
+        let xc = &x[hc * n..(hc + 1) * n];
+        let xs = &x[hs * n..(hs + 1) * n];
+        basis.apply_b(nf, omega, d, xs, &mut bs);
+        basis.apply_b(nf, omega, d, xc, &mut bc);
+        // d B / d omega = n (C_m - 4 D omega I): apply via B(omega, 2D) / omega
+        basis.apply_b(nf, omega, 2.0 * d, xs, &mut cs);
+        basis.apply_b(nf, omega, 2.0 * d, xc, &mut cc);
+        for k in 0..n {
+            let a = basis.omega2[k] - (nf * omega).powi(2);
+            let da = -2.0 * nf * nf * omega;
+            r[hc * n + k] = a * xc[k] + bs[k];
+            r[hs * n + k] = -bc[k] + a * xs[k];
+            dr_dom[hc * n + k] = da * xc[k] + cs[k] / omega;
+            dr_dom[hs * n + k] = -cc[k] / omega + da * xs[k];
+            dr_dd[hc * n + k] = -2.0 * nf * omega * omega * xs[k];
+            dr_dd[hs * n + k] = 2.0 * nf * omega * omega * xc[k];
+        }
+    }
+    (r, dr_dom, dr_dd)
+}
+
+/// The EPMC residual (`eq:EPMC`) in modal Harmonic Balance form; unknowns
+/// `X = [Psi; omega; D; log10 a]` (see module doc).
+#[derive(Debug, Clone)]
+pub struct EpmcResidual {
+    basis: Arc<ModalBasis>,
+    aft: Aft,
+    mode: usize,
+    row_scale: Arc<DVector<f64>>,
+}
+
+impl EpmcResidual {
+    /// Residual for the nonlinear mode continuing linear mode `mode` (0-based).
+    pub fn new(basis: Arc<ModalBasis>, harmonics: usize, samples: usize, mode: usize) -> Self {
+        assert!(harmonics >= 1, "EPMC needs at least one harmonic");
+        assert!(mode < basis.n_modes());
+        let row_scale = Arc::new(basis.row_scale(harmonics, basis.omega(mode)));
+        Self { aft: Aft::new(harmonics, samples), basis, mode, row_scale }
+    }
+
+    pub fn basis(&self) -> &ModalBasis {
+        &self.basis
+    }
+
+    pub fn harmonics(&self) -> usize {
+        self.aft.harmonics()
+    }
+
+    /// Number of modal Fourier coefficients `m = n (2H+1)`.
+    pub fn n_coeffs(&self) -> usize {
+        self.basis.n_modes() * self.aft.n_coeffs()
+    }
+
+    /// The linear mode as start vector at `log10 a`.
+    pub fn linear_guess(&self, log10_a: f64) -> DVector<f64> {
+        let m = self.n_coeffs();
+        let n = self.basis.n_modes();
+        let mut x = DVector::zeros(m + 3);
+        x[cos_index(1) * n + self.mode] = 1.0;
+        x[m] = self.basis.omega(self.mode);
+        x[m + 1] = self.basis.damping_ratio(self.mode);
+        x[m + 2] = log10_a;
+        x
+    }
+
+    /// Complex harmonics `phi_n`, `n = 0..=H`, of the generalized coordinates
+    /// (`q = Re(a sum phi_n e^{i n omega t})`), from a solution `x`.
+    pub fn shape_harmonics(&self, x: &DVector<f64>) -> Vec<nalgebra::DVector<num_complex::Complex64>> {
+        let n = self.basis.n_modes();
+        (0..=self.harmonics())
+            .map(|nn| {
+                let c = DVector::from_column_slice(&x.as_slice()[cos_index(nn) * n..(cos_index(nn) + 1) * n]);
+                let pc = &self.basis.phi * c;
+                if nn == 0 {
+                    pc.map(|v| num_complex::Complex64::new(v, 0.0))
+                } else {
+                    let s = DVector::from_column_slice(&x.as_slice()[sin_index(nn) * n..(sin_index(nn) + 1) * n]);
+                    let ps = &self.basis.phi * s;
+                    DVector::from_fn(n, |i, _| num_complex::Complex64::new(pc[i], -ps[i]))
+                }
+            })
+            .collect()
+    }
+
+    /// Complex harmonics `e^T phi_n` of an observation direction `e` (physical).
+    pub fn observe(&self, x: &DVector<f64>, e_modal: &DVector<f64>) -> Vec<num_complex::Complex64> {
+        let n = self.basis.n_modes();
+        (0..=self.harmonics())
+            .map(|nn| {
+                let c: f64 = (0..n).map(|k| e_modal[k] * x[cos_index(nn) * n + k]).sum();
+                if nn == 0 {
+                    num_complex::Complex64::new(c, 0.0)
+                } else {
+                    let s: f64 = (0..n).map(|k| e_modal[k] * x[sin_index(nn) * n + k]).sum();
+                    num_complex::Complex64::new(c, -s)
+                }
+            })
+            .collect()
+    }
+}
+
+impl super::continuation::Residual for EpmcResidual {
+    type Jacobian = HbJacobian;
+
+    fn n_unknowns(&self) -> usize {
+        self.n_coeffs() + 3
+    }
+
+    fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, HbJacobian) {
+        let basis = &*self.basis;
+        let n = basis.n_modes();
+        let nh = self.aft.n_coeffs();
+        let m = n * nh;
+        let (omega, d, lg) = (x[m], x[m + 1], x[m + 2]);
+        let amp = 10f64.powf(lg);
+        let psi = &x.as_slice()[..m];
+        let (mut r, mut dr_dom, dr_dd) = linear_rows(basis, self.harmonics(), omega, d, psi);
+        let mut dr_dlg = DVector::zeros(m);
+        let u = basis.element_coeffs(psi, nh, amp);
+        let mut g = Vec::with_capacity(u.len());
+        for (e, ue) in u.iter().enumerate() {
+            let out = self.aft.eval(&*basis.laws[e], ue, omega);
+            let we = basis.w.column(e);
+            let gu_minus_f = &out.jac_u * ue - &out.force;
+            for h in 0..nh {
+                let (fh, fwh, glh) = (out.force[h] / amp, out.jac_omega[h] / amp, LN_10 * gu_minus_f[h] / amp);
+                for k in 0..n {
+                    r[h * n + k] += we[k] * fh;
+                    dr_dom[h * n + k] += we[k] * fwh;
+                    dr_dlg[h * n + k] += we[k] * glh;
+                }
+            }
+            g.push(out.jac_u);
+        }
+        let mut res = DVector::zeros(m + 2);
+        for i in 0..m {
+            res[i] = r[i] / self.row_scale[i];
+        }
+        let (ic, is) = (cos_index(1) * n, sin_index(1) * n);
+        res[m] = psi[is + self.mode];
+        res[m + 1] = (0..n).map(|k| psi[ic + k].powi(2) + psi[is + k].powi(2)).sum::<f64>() - 1.0;
+        let mut border_cols = DMatrix::zeros(m, 3);
+        border_cols.set_column(0, &dr_dom);
+        border_cols.set_column(1, &dr_dd);
+        border_cols.set_column(2, &dr_dlg);
+        let mut border_rows = DMatrix::zeros(2, m + 3);
+        border_rows[(0, is + self.mode)] = 1.0;
+        for k in 0..n {
+            border_rows[(1, ic + k)] = 2.0 * psi[ic + k];
+            border_rows[(1, is + k)] = 2.0 * psi[is + k];
+        }
+        let jac = HbJacobian {
+            basis: self.basis.clone(),
+            harmonics: self.harmonics(),
+            omega,
+            d,
+            g,
+            row_scale: self.row_scale.clone(),
+            border_cols,
+            border_rows,
+            explicit: vec![(self.mode, 1)],
+        };
+        (res, jac)
+    }
+}
+
+/// Harmonic Balance residual of the forced response
+/// `M q'' + C q' + K q + f_nl(q, q') = f cos(Omega t)`; unknowns
+/// `X = [eta; Omega]` (modal Fourier coefficients, excitation frequency
+/// [rad/s] as continuation parameter).
+#[derive(Debug, Clone)]
+pub struct ForcedResidual {
+    basis: Arc<ModalBasis>,
+    aft: Aft,
+    force_modal: DVector<f64>,
+    row_scale: Arc<DVector<f64>>,
+}
+
+impl ForcedResidual {
+    /// `force` [N] in generalized coordinates (length `n`); `omega_ref` sets the
+    /// row scaling (any frequency of the range of interest).
+    pub fn new(basis: Arc<ModalBasis>, harmonics: usize, samples: usize, force: &DVector<f64>, omega_ref: f64) -> Self {
+        assert_eq!(force.len(), basis.n_modes());
+        let force_modal = basis.phi.transpose() * force;
+        let row_scale = Arc::new(basis.row_scale(harmonics, omega_ref));
+        Self { aft: Aft::new(harmonics, samples), basis, force_modal, row_scale }
+    }
+
+    pub fn n_coeffs(&self) -> usize {
+        self.basis.n_modes() * self.aft.n_coeffs()
+    }
+
+    /// Linear (harmonic-1, nonlinearity ignored) response at `omega` as start vector.
+    pub fn linear_guess(&self, omega: f64) -> DVector<f64> {
+        let n = self.basis.n_modes();
+        let m = self.n_coeffs();
+        let mut x = DVector::zeros(m + 1);
+        for k in 0..n {
+            let a = self.basis.omega2[k] - omega * omega;
+            let b = omega * self.basis.cm[(k, k)];
+            let det = a * a + b * b;
+            // [[a, b], [-b, a]] (c, s) = (f, 0)
+            x[cos_index(1) * n + k] = a * self.force_modal[k] / det;
+            x[sin_index(1) * n + k] = b * self.force_modal[k] / det;
+        }
+        x[m] = omega;
+        x
+    }
+
+    /// Complex harmonics `e^T q_n` [m] of a physical observation direction `e`.
+    pub fn observe(&self, x: &DVector<f64>, e: &DVector<f64>) -> Vec<num_complex::Complex64> {
+        let em = self.basis.phi.transpose() * e;
+        let n = self.basis.n_modes();
+        (0..=self.aft.harmonics())
+            .map(|nn| {
+                let c: f64 = (0..n).map(|k| em[k] * x[cos_index(nn) * n + k]).sum();
+                if nn == 0 {
+                    num_complex::Complex64::new(c, 0.0)
+                } else {
+                    let s: f64 = (0..n).map(|k| em[k] * x[sin_index(nn) * n + k]).sum();
+                    num_complex::Complex64::new(c, -s)
+                }
+            })
+            .collect()
+    }
+}
+
+impl super::continuation::Residual for ForcedResidual {
+    type Jacobian = HbJacobian;
+
+    fn n_unknowns(&self) -> usize {
+        self.n_coeffs() + 1
+    }
+
+    fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, HbJacobian) {
+        let basis = &*self.basis;
+        let n = basis.n_modes();
+        let nh = self.aft.n_coeffs();
+        let m = n * nh;
+        let omega = x[m];
+        let eta = &x.as_slice()[..m];
+        let (mut r, mut dr_dom, _) = linear_rows(basis, self.aft.harmonics(), omega, 0.0, eta);
+        for k in 0..n {
+            r[cos_index(1) * n + k] -= self.force_modal[k];
+        }
+        let u = basis.element_coeffs(eta, nh, 1.0);
+        let mut g = Vec::with_capacity(u.len());
+        for (e, ue) in u.iter().enumerate() {
+            let out = self.aft.eval(&*basis.laws[e], ue, omega);
+            let we = basis.w.column(e);
+            for h in 0..nh {
+                for k in 0..n {
+                    r[h * n + k] += we[k] * out.force[h];
+                    dr_dom[h * n + k] += we[k] * out.jac_omega[h];
+                }
+            }
+            g.push(out.jac_u);
+        }
+        let res = r.component_div(&self.row_scale);
+        let jac = HbJacobian {
+            basis: self.basis.clone(),
+            harmonics: self.aft.harmonics(),
+            omega,
+            d: 0.0,
+            g,
+            row_scale: self.row_scale.clone(),
+            border_cols: DMatrix::from_column_slice(m, 1, dr_dom.as_slice()),
+            border_rows: DMatrix::zeros(0, m + 1),
+            explicit: vec![],
+        };
+        (res, jac)
+    }
+}

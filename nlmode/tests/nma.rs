@@ -1,0 +1,445 @@
+//! Nonlinear modal analysis: Harmonic Balance (AFT), EPMC, continuation,
+//! forced responses and modal tables, against analytic results.
+use nalgebra::{DMatrix, DVector};
+use nlmode::nma::continuation::{solve_fixed_parameter, BorderedSolve, Residual};
+use nlmode::nma::epmc::{EpmcResidual, ForcedResidual, ModalBasis};
+use nlmode::nma::problems::{chain, duffing, duffing_backbone_h1, duffing_exact_backbone, CubicLaw};
+use nlmode::nma::*;
+use nlmode::structure::{NonlinearElement, NonlinearLaw, StructuralModel};
+use std::sync::Arc;
+
+fn fd_jacobian<R: Residual>(res: &R, x: &DVector<f64>) -> DMatrix<f64> {
+    let (r0, _) = res.eval(x);
+    let mut j = DMatrix::zeros(r0.len(), x.len());
+    for c in 0..x.len() {
+        let h = 1e-6 * x[c].abs().max(1e-3);
+        let mut xp = x.clone();
+        xp[c] += h;
+        let mut xm = x.clone();
+        xm[c] -= h;
+        j.set_column(c, &((res.eval(&xp).0 - res.eval(&xm).0) / (2.0 * h)));
+    }
+    j
+}
+
+fn pseudo_random(n: usize, seed: u64) -> DVector<f64> {
+    let mut s = seed;
+    DVector::from_fn(n, |_, _| {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    })
+}
+
+/// A 3-mass chain with a cubic spring and a cubic damper at the end.
+fn test_chain(extra_damper: f64) -> StructuralModel {
+    chain(3, 1.3, 1000.0, 0.5, 1e-4, CubicLaw { k3: 4e5, c3: 30.0 }, extra_damper)
+}
+
+#[test]
+fn epmc_jacobian_matches_finite_differences() {
+    for extra in [0.0, 2.0] {
+        let model = test_chain(extra);
+        let basis = Arc::new(ModalBasis::new(&model, false).unwrap());
+        assert_eq!(basis.diagonal_damping, extra == 0.0);
+        let res = EpmcResidual::new(basis, 3, 13, 0);
+        let m = res.n_coeffs();
+        let mut x = res.linear_guess(-1.0) + pseudo_random(m + 3, 7) * 0.3;
+        x[m] = 15.0;
+        x[m + 1] = 0.02;
+        x[m + 2] = -1.0;
+        let (_, jac) = res.eval(&x);
+        let fd = fd_jacobian(&res, &x);
+        let err = (&fd - jac.to_dense()).amax();
+        assert!(err < 1e-6 * fd.amax(), "extra damper {extra}: {err} vs {}", fd.amax());
+    }
+}
+
+#[test]
+fn forced_jacobian_matches_finite_differences() {
+    let model = test_chain(0.0);
+    let basis = Arc::new(ModalBasis::new(&model, false).unwrap());
+    let f = DVector::from_vec(vec![0.0, 0.0, 1.0]);
+    let res = ForcedResidual::new(basis, 2, 9, &f, 10.0);
+    let m = res.n_coeffs();
+    let mut x = pseudo_random(m + 1, 3) * 0.05;
+    x[m] = 12.0;
+    let (_, jac) = res.eval(&x);
+    let fd = fd_jacobian(&res, &x);
+    let err = (&fd - jac.to_dense()).amax();
+    assert!(err < 1e-6 * fd.amax(), "{err}");
+}
+
+#[test]
+fn condensed_solve_equals_dense_solve() {
+    let model = test_chain(0.0);
+    let basis = Arc::new(ModalBasis::new(&model, false).unwrap());
+    let om: Vec<f64> = (0..3).map(|k| basis.omega(k)).collect();
+    let res = EpmcResidual::new(basis.clone(), 5, 21, 0);
+    let m = res.n_coeffs();
+    // generic point, and points with an internal resonance n omega ~ omega_k
+    // (near-singular modal blocks that must be kept explicit)
+    for (omega, d) in [(om[0] * 1.1, 0.01), (om[1] / 3.0 * 1.001, 0.0), (om[2] / 5.0, 0.0)] {
+        let mut x = res.linear_guess(-0.5) + pseudo_random(m + 3, 11) * 0.2;
+        x[m] = omega;
+        x[m + 1] = d;
+        let (_, jac) = res.eval(&x);
+        let row = pseudo_random(m + 3, 5);
+        let rhs = pseudo_random(m + 3, 9);
+        let y1 = jac.solve_bordered(&row, &rhs).unwrap();
+        let y2 = jac.solve_bordered_dense(&row, &rhs).unwrap();
+        assert!((&y1 - &y2).amax() < 1e-9 * y2.amax(), "omega {omega}: {}", (&y1 - &y2).amax());
+        // and it solves the scaled system given by to_dense()
+        let mut a = jac.to_dense().insert_row(m + 2, 0.0);
+        a.row_mut(m + 2).copy_from(&row.transpose());
+        assert!((a * &y1 - &rhs).amax() < 1e-9 * rhs.amax().max(1.0));
+    }
+    // forced residual at resonance of mode 2 (undamped block nearly singular)
+    let f = DVector::from_vec(vec![1.0, 0.0, 0.0]);
+    let res = ForcedResidual::new(basis, 3, 13, &f, om[1]);
+    let m = res.n_coeffs();
+    let mut x = pseudo_random(m + 1, 1) * 0.01;
+    x[m] = om[1];
+    let (_, jac) = res.eval(&x);
+    let row = pseudo_random(m + 1, 2);
+    let rhs = pseudo_random(m + 1, 4);
+    let y1 = jac.solve_bordered(&row, &rhs).unwrap();
+    let y2 = jac.solve_bordered_dense(&row, &rhs).unwrap();
+    assert!((&y1 - &y2).amax() < 1e-9 * y2.amax());
+}
+
+#[test]
+fn duffing_h1_backbone_is_analytic() {
+    let (omega0, k3) = (2.0, 0.5);
+    let model = duffing(1.0, 0.0, omega0 * omega0, k3);
+    let opts = NmaOptions {
+        harmonics: 1,
+        amplitude: AmplitudeRange::Modal { log10_start: -3.0, log10_end: 1.0 },
+        ..Default::default()
+    };
+    let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    assert_eq!(r.stop, Some(StopReason::ReachedEnd));
+    assert!(r.n_points() > 10, "{}", r.n_points());
+    let last = r.branch.last().unwrap();
+    assert!(last.amplitude >= 10.0);
+    // strongly nonlinear at the end: omega more than doubled
+    assert!(last.omega_rad_s > 2.0 * omega0);
+    for b in &r.branch {
+        let exact = duffing_backbone_h1(omega0, k3, b.amplitude);
+        assert!((b.omega_rad_s / exact - 1.0).abs() < 1e-8, "a = {}: {} vs {exact}", b.amplitude, b.omega_rad_s);
+        assert!(b.damping_ratio.abs() < 1e-10);
+        // unit mass: |x_1| = a, phase normalized to a real positive fundamental
+        assert!((b.points[0][1].re - 1.0).abs() < 1e-10 && b.points[0][1].im.abs() < 1e-12);
+    }
+    assert!(r.folds.is_empty());
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+}
+
+#[test]
+fn duffing_converges_to_the_exact_backbone() {
+    let (omega0, k3) = (1.0, 1.0);
+    let model = duffing(1.0, 0.0, omega0 * omega0, k3);
+    let basis = Arc::new(ModalBasis::new(&model, true).unwrap());
+    let copts = ContinuationOptions::default();
+    for x_max in [0.5, 1.0, 2.0] {
+        let (omega_ex, a_ex) = duffing_exact_backbone(omega0, k3, x_max);
+        let mut errs = vec![];
+        for h in [1, 3, 7] {
+            let res = EpmcResidual::new(basis.clone(), h, 4 * h + 1, 0);
+            let mut x0 = res.linear_guess(a_ex.log10());
+            let m = res.n_coeffs();
+            x0[m] = duffing_backbone_h1(omega0, k3, a_ex);
+            let (x, _, _) = solve_fixed_parameter(&res, x0, &copts).unwrap();
+            errs.push((x[m] / omega_ex - 1.0).abs());
+        }
+        // monotone convergence, H = 7 close to the exact value
+        assert!(errs[1] < 0.1 * errs[0] && errs[2] < 0.1 * errs[1], "x_max {x_max}: {errs:?}");
+        assert!(errs[2] < 1e-8, "x_max {x_max}: {errs:?}");
+    }
+}
+
+#[test]
+fn epmc_damping_of_a_linear_viscous_oscillator_is_its_damping_ratio() {
+    let (m, c, k) = (2.5, 0.7, 400.0);
+    let model = duffing(m, c, k, 0.0);
+    let zeta = c / (2.0 * (k * m).sqrt());
+    let opts = NmaOptions {
+        harmonics: 3,
+        amplitude: AmplitudeRange::Modal { log10_start: -4.0, log10_end: 0.0 },
+        ..Default::default()
+    };
+    let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    for b in &r.branch {
+        assert!((b.damping_ratio / zeta - 1.0).abs() < 1e-10, "{} vs {zeta}", b.damping_ratio);
+        assert!((b.omega_rad_s / (k / m).sqrt() - 1.0).abs() < 1e-12);
+        // a = sqrt(m) |x_1|
+        assert!((b.points[0][1].norm() - 1.0 / m.sqrt()).abs() < 1e-12);
+    }
+    assert!(matches!(r.warnings.as_slice(), [NmaWarning::LinearRegimeOnly { .. }]), "{:?}", r.warnings);
+}
+
+/// EPMC energy balance: the work of the linear damping over a period equals
+/// that of the artificial negative damping,
+/// `D = sum n^2 phi_n^H C phi_n / (2 omega sum n^2 phi_n^H M phi_n)`.
+fn energy_balance_damping(model: &StructuralModel, b: &BranchPoint) -> f64 {
+    let nh = b.coordinates[0].len();
+    let (mut num, mut den) = (0.0, 0.0);
+    for nn in 1..nh {
+        let phi = DVector::from_fn(b.coordinates.len(), |i, _| b.coordinates[i][nn]);
+        let cphi = model.damping.map(|v| nlmode::Complex64::new(v, 0.0)) * &phi;
+        let mphi = model.mass.map(|v| nlmode::Complex64::new(v, 0.0)) * &phi;
+        num += (nn * nn) as f64 * phi.dotc(&cphi).re;
+        den += (nn * nn) as f64 * phi.dotc(&mphi).re;
+    }
+    num / (2.0 * b.omega_rad_s * den)
+}
+
+#[test]
+fn damped_chain_satisfies_the_energy_balance_and_mass_normalization() {
+    // proportional (condensed solver) and non-proportional (dense fallback)
+    for extra in [0.0, 3.0] {
+        let mut model = test_chain(extra);
+        model.nonlinear[0].law = Arc::new(CubicLaw { k3: 4e5, c3: 0.0 });
+        let opts = NmaOptions {
+            harmonics: 5,
+            amplitude: AmplitudeRange::Modal { log10_start: -3.0, log10_end: -0.5 },
+            ..Default::default()
+        };
+        let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+        let first = &r.branch[0];
+        let last = r.branch.last().unwrap();
+        assert!(last.omega_rad_s > 1.05 * first.omega_rad_s, "hardening");
+        for b in &r.branch {
+            let d = energy_balance_damping(&model, b);
+            assert!((b.damping_ratio - d).abs() < 1e-9 * d.abs().max(1e-3), "extra {extra}: {} vs {d}", b.damping_ratio);
+            let phi1 = DVector::from_fn(3, |i, _| b.coordinates[i][1]);
+            let mm = model.mass.map(|v| nlmode::Complex64::new(v, 0.0));
+            assert!((phi1.dotc(&(&mm * &phi1)).re - 1.0).abs() < 1e-10);
+        }
+    }
+}
+
+#[test]
+fn cubic_damper_gives_the_equivalent_linearization_damping() {
+    // x'' + c x' + k x + c3 x'^3 = 0 with H = 1: the fundamental of c3 v^3 for
+    // v = -omega a sin is that of a viscous damper 3/4 c3 omega^2 a^2, so
+    // omega = sqrt(k) and D = (c + 3/4 c3 k a^2) / (2 sqrt(k)).
+    let (c, k, c3) = (0.1, 9.0, 0.4);
+    let mut model = duffing(1.0, c, k, 0.0);
+    model.nonlinear[0].law = Arc::new(CubicLaw { k3: 0.0, c3 });
+    let opts = NmaOptions {
+        harmonics: 1,
+        amplitude: AmplitudeRange::Modal { log10_start: -2.0, log10_end: 0.5 },
+        ..Default::default()
+    };
+    let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    let last = r.branch.last().unwrap();
+    assert!(last.damping_ratio > 10.0 * r.branch[0].damping_ratio);
+    for b in &r.branch {
+        let d = (c + 0.75 * c3 * k * b.amplitude.powi(2)) / (2.0 * k.sqrt());
+        assert!((b.damping_ratio / d - 1.0).abs() < 1e-8, "a {}: {} vs {d}", b.amplitude, b.damping_ratio);
+        assert!((b.omega_rad_s / k.sqrt() - 1.0).abs() < 1e-10);
+    }
+}
+
+#[test]
+fn forced_duffing_h1_satisfies_the_amplitude_frequency_relation() {
+    let (omega0, c, k3, f) = (1.0, 0.02, 0.5, 0.05);
+    let model = duffing(1.0, c, omega0 * omega0, k3);
+    let opts = ForcedResponseOptions {
+        harmonics: 1,
+        samples: None,
+        force: DVector::from_element(1, f),
+        omega_start: 0.5,
+        omega_end: 2.0,
+        continuation: ContinuationOptions { ds: 0.02, ..Default::default() },
+        points: vec![],
+    };
+    let r = forced_response(&model, &opts).unwrap();
+    assert_eq!(r.stop, Some(StopReason::ReachedEnd));
+    let mut amax: f64 = 0.0;
+    for p in &r.points {
+        let a = p.points[0][1].norm();
+        amax = amax.max(a);
+        let om = p.omega_rad_s;
+        let lhs = a * a * ((omega0 * omega0 - om * om + 0.75 * k3 * a * a).powi(2) + (c * om).powi(2));
+        assert!((lhs / (f * f) - 1.0).abs() < 1e-8, "Omega {om}: {lhs} vs {}", f * f);
+    }
+    // hardening with two folds (jump-up and jump-down frequencies)
+    assert_eq!(r.turning_points.len(), 2, "{:?}", r.turning_points);
+    let t0 = r.points[r.turning_points[0]].omega_rad_s;
+    let t1 = r.points[r.turning_points[1]].omega_rad_s;
+    assert!(t0 > t1 && t0 > 1.2, "{t0} {t1}");
+    // the peak lies on the H = 1 backbone: a_max ~ f / (c omega)
+    let om_peak = duffing_backbone_h1(omega0, k3, amax);
+    assert!((amax * c * om_peak / f - 1.0).abs() < 1e-3, "{amax}");
+}
+
+#[test]
+fn forced_response_higher_harmonics_match_epmc_backbone_at_the_peak() {
+    // forced H = 5 peak of the damped Duffing oscillator lies on the EPMC
+    // backbone: at phase resonance the EPMC force balance is the forced one.
+    let (omega0, c, k3, f) = (1.0, 0.01, 1.0, 0.02);
+    let model = duffing(1.0, c, omega0 * omega0, k3);
+    let opts = ForcedResponseOptions {
+        harmonics: 5,
+        samples: None,
+        force: DVector::from_element(1, f),
+        omega_start: 0.8,
+        omega_end: 2.0,
+        continuation: ContinuationOptions { ds: 0.02, ..Default::default() },
+        points: vec![],
+    };
+    let r = forced_response(&model, &opts).unwrap();
+    let peak = r.points.iter().max_by(|a, b| a.points[0][1].norm().total_cmp(&b.points[0][1].norm())).unwrap();
+    let a_peak = peak.points[0][1].norm();
+    let basis = Arc::new(ModalBasis::new(&model, false).unwrap());
+    let res = EpmcResidual::new(basis, 5, 21, 0);
+    let mut x0 = res.linear_guess(a_peak.log10());
+    let m = res.n_coeffs();
+    x0[m] = duffing_backbone_h1(omega0, k3, a_peak);
+    let (x, _, _) = solve_fixed_parameter(&res, x0, &ContinuationOptions::default()).unwrap();
+    // discrete points: the peak is within one step of the maximum
+    assert!((peak.omega_rad_s / x[m] - 1.0).abs() < 2e-3, "{} vs {}", peak.omega_rad_s, x[m]);
+    assert!((x[m + 1] - c / (2.0 * x[m])).abs() < 0.05 * c / (2.0 * x[m]), "D {}", x[m + 1]);
+}
+
+#[test]
+fn table_keeps_the_primary_branch_and_is_monotone() {
+    let model = duffing(1.0, 0.0, 4.0, 0.5);
+    let opts = NmaOptions {
+        harmonics: 3,
+        amplitude: AmplitudeRange::Modal { log10_start: -2.0, log10_end: 0.5 },
+        ..Default::default()
+    };
+    let mut r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    let t = r.to_table(TablePolicy::PrimaryBranch);
+    assert_eq!(t.amplitude.len(), r.n_points());
+    assert_eq!(t.truncated_at_fold, None);
+    assert!(t.amplitude.windows(2).all(|w| w[1] > w[0]));
+    assert_eq!(t.points[0].re[0].len(), 4);
+    assert_eq!(t.coordinates.len(), 1);
+    assert_eq!(t.coordinates[0].name, "q0");
+    assert_eq!(t.format, MODAL_TABLE_FORMAT);
+    // fake a loop: a decreases then increases again
+    let n = r.branch.len();
+    let k = n / 2;
+    let mut bent = r.branch[k].clone();
+    bent.amplitude = r.branch[k - 1].amplitude;
+    r.branch.insert(k, bent);
+    let t = r.to_table(TablePolicy::PrimaryBranch);
+    assert_eq!(t.amplitude.len(), k);
+    assert_eq!(t.truncated_at_fold, Some(r.branch[k - 1].amplitude));
+    assert!(t.description.contains("first fold"));
+    let t = r.to_table(TablePolicy::SkipLoops);
+    assert_eq!(t.amplitude.len(), n);
+    assert!(t.amplitude.windows(2).all(|w| w[1] > w[0]));
+}
+
+#[test]
+fn point_amplitude_range_stops_at_the_point_amplitude() {
+    let model = chain(3, 1.0, 1000.0, 0.0, 1e-4, CubicLaw { k3: 1e5, c3: 0.0 }, 0.0);
+    let opts = NmaOptions {
+        harmonics: 3,
+        amplitude: AmplitudeRange::Point { name: "last".into(), start_m: 1e-4, end_m: 0.05 },
+        ..Default::default()
+    };
+    let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    let amp = r.point_fundamental_amplitude("last").unwrap();
+    assert!((amp[0] / 1e-4 - 1.0).abs() < 1e-6, "{}", amp[0]);
+    assert!(*amp.last().unwrap() >= 0.05 && amp[amp.len() - 2] < 0.05);
+    assert_eq!(r.stop, Some(StopReason::Callback));
+}
+
+#[derive(Debug)]
+struct BreakingSpring;
+impl NonlinearLaw for BreakingSpring {
+    fn name(&self) -> &str {
+        "breaking"
+    }
+    fn eval(&self, u: f64, _v: f64) -> (f64, f64, f64) {
+        if u.abs() > 0.1 {
+            (f64::NAN, f64::NAN, f64::NAN)
+        } else {
+            (100.0 * u.powi(3), 300.0 * u * u, 0.0)
+        }
+    }
+}
+
+#[test]
+fn bad_input_is_reported_with_numbers() {
+    let model = duffing(1.0, 0.1, 4.0, 1.0);
+    let e = nonlinear_modal_analysis(&model, &NmaOptions { mode_index: 1, ..Default::default() }).unwrap_err();
+    assert!(matches!(e, NmaError::ModeIndexOutOfRange { mode_index: 1, n_modes: 1 }));
+    assert!(e.to_string().contains("mode index 1") && e.to_string().contains("1 modes"), "{e}");
+    let e = nonlinear_modal_analysis(&model, &NmaOptions { harmonics: 3, samples: Some(12), ..Default::default() })
+        .unwrap_err();
+    assert!(e.to_string().contains("12") && e.to_string().contains("13"), "{e}");
+    let e = nonlinear_modal_analysis(
+        &model,
+        &NmaOptions { amplitude: AmplitudeRange::Modal { log10_start: -1.0, log10_end: -2.0 }, ..Default::default() },
+    )
+    .unwrap_err();
+    assert!(matches!(e, NmaError::InvalidAmplitudeRange { .. }));
+    let e = nonlinear_modal_analysis(
+        &model,
+        &NmaOptions {
+            amplitude: AmplitudeRange::Point { name: "tip".into(), start_m: 1e-3, end_m: 1e-2 },
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("'tip'") && e.to_string().contains("x"), "{e}");
+
+    // the spring breaks at |u| = 0.1: step size collapse with the branch so far
+    let mut broken = model.clone();
+    broken.nonlinear = vec![NonlinearElement {
+        name: "breaking".into(),
+        direction: DVector::from_element(1, 1.0),
+        law: Arc::new(BreakingSpring),
+    }];
+    let opts = NmaOptions {
+        harmonics: 3,
+        amplitude: AmplitudeRange::Modal { log10_start: -3.0, log10_end: 0.0 },
+        ..Default::default()
+    };
+    let e = nonlinear_modal_analysis(&broken, &opts).unwrap_err();
+    match &e {
+        NmaError::StepSizeCollapse { amplitude, step_size, dsmin, partial, .. } => {
+            assert!(*amplitude < 0.1 && *amplitude > 0.03, "{amplitude}");
+            assert!(step_size < dsmin);
+            assert!(partial.branch.len() > 5);
+            assert_eq!(partial.branch.last().unwrap().amplitude, *amplitude);
+        }
+        other => panic!("{other}"),
+    }
+    assert!(e.partial().is_some());
+    assert!(e.to_string().contains("step"), "{e}");
+
+    // Newton cannot converge with a zero iteration budget
+    let mut opts2 = opts.clone();
+    opts2.continuation.max_iterations = 0;
+    opts2.continuation.tolerance = 1e-300;
+    let e = nonlinear_modal_analysis(&model, &opts2).unwrap_err();
+    assert!(matches!(e, NmaError::StartNotConverged { .. }), "{e}");
+    assert!(e.to_string().contains("1e-3"), "{e}");
+}
+
+#[test]
+fn measured_csv_becomes_a_table() {
+    let csv = "# phase-resonant test\na, omega_rad_s, D, tip_re, tip_im\n1e-4, 356.0, 0.004, 1.9, 0.01\n2e-4, 357.5, 0.0041, 1.89, 0.012\n5e-4, 365.0, 0.0045, 1.85, 0.02\n";
+    let t = table_from_measured_csv(csv, "tip").unwrap();
+    assert_eq!(t.amplitude, vec![1e-4, 2e-4, 5e-4]);
+    assert_eq!(t.omega_rad_s, vec![356.0, 357.5, 365.0]);
+    assert_eq!(t.damping_ratio, vec![0.004, 0.0041, 0.0045]);
+    assert_eq!(t.harmonics, 1);
+    assert_eq!(t.points[0].name, "tip");
+    assert_eq!(t.points[0].re[1], vec![0.0, 1.89]);
+    assert_eq!(t.points[0].im[2], vec![0.0, 0.02]);
+    let bad = csv.replace("2e-4, 357.5", "1e-4, 357.5");
+    let e = table_from_measured_csv(&bad, "tip").unwrap_err();
+    assert!(e.to_string().contains("line 4"), "{e}");
+    let e = table_from_measured_csv(csv, "l3").unwrap_err();
+    assert!(e.to_string().contains("phi_re or l3_re"), "{e}");
+    let bad = csv.replace("365.0", "abc");
+    assert!(table_from_measured_csv(&bad, "tip").unwrap_err().to_string().contains("'abc'"));
+}
