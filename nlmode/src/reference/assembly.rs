@@ -1,0 +1,613 @@
+//! Primal assembly (`eq:primal`, `eq:finalassembly1`-`eq:finalassembly2`) of a
+//! structure and any number of linear attachments, and its reduction to one
+//! explicit first-order system.
+//!
+//! # Primal variables and assembled coefficients
+//!
+//! The primal variables are `y = [q; x_r^(1); x_r^(2); ...]`, one block `x_r` per
+//! attachment, with `x = L1 q + L2 x_r` (`eq:primal`). Writing `T_a` for the
+//! `ndim_a x N` matrix with `L1` in the `q` columns and `L2` in the attachment's
+//! `x_r` columns (`x_a = T_a y`), `eq:finalassembly1`-`eq:finalassembly2` read
+//!
+//! ```text
+//! sum_k A_k^asm y^(k) + W f(W^T q, W^T q') = b u(t),
+//! A_2^asm = [M 0; 0 0] + sum_a T_a^T A_2^a T_a,  A_1^asm = [C 0; 0 0] + ...,
+//! A_0^asm = [K 0; 0 0] + ...,                    A_k^asm = sum_a T_a^T A_k^a T_a (k > 2),
+//! b = sum_a T_a^T (input_map_a 1),
+//! ```
+//!
+//! where `W` holds the directions of the structure's nonlinear elements (zero in
+//! the `x_r` rows). Every input of every attachment receives the same excitation
+//! signal `u(t)` (the sweep).
+//!
+//! `L1 = -pinv(B2) B1 = pinv(B2) E^T` (`eq:L1L2`, with `B1 = -E^T` and `E` the
+//! interface points' directions) uses `pinv(B2) = B2^T (B2 B2^T)^-1`, exact for
+//! the full row rank `B2` the paper requires. `L2` may be *any* basis of
+//! `null(B2)`: the physical states `x = L1 q + L2 x_r` do not depend on it. We take
+//! the basis read off the reduced row-echelon form of `B2` (one column per free
+//! attachment state, e.g. `x_r = [I, q_a]` for the shaker, the paper's `L2`),
+//! not the orthonormal SVD basis: an SVD basis may mix states of different
+//! differential order (current and armature displacement), which would make the
+//! leading-coefficient matrix below singular for a perfectly regular attachment.
+//!
+//! # Reduction to first order
+//!
+//! Each primal variable `y_j` gets its differential order `k_j`, the highest `k`
+//! for which column `j` of `A_k^asm` is non-zero. The states are
+//! `z = [y_j^(d)]` for `d = 0..k_j-1` (variables with `k_j = 0` are algebraic and
+//! carry no state). The *leading matrix* has column `j` equal to column `j` of
+//! `A_{k_j}^asm`; the remaining terms only involve lower derivatives, i.e. states:
+//!
+//! ```text
+//! Lead w + Lower z + W f = b u,   w_j = y_j^(k_j).
+//! ```
+//!
+//! When `Lead` is regular, `w = Lead^-1 (b u - W f - Lower z)` and the system is the
+//! explicit ODE `z' = A z + b_z u(t) + G f(P z)` (the shaker with elastic or rigid
+//! stinger is of this kind: `I` is first order, `q_a` and `q` second order; an
+//! index-1 DAE with algebraic variables whose columns are regular is covered as
+//! well). A singular `Lead` means a higher-index DAE (e.g. an algebraic
+//! constraint between states, or a variable that enters no equation); it is
+//! rejected with [`ReferenceError::SingularLeadingMatrix`] naming the variables in
+//! the offending null vector, since index reduction is out of scope.
+use super::ReferenceError;
+use crate::attachment::LinearAttachment;
+use crate::structure::{NonlinearLaw, StructuralModel};
+use nalgebra::{DMatrix, DVector, RowDVector};
+use std::sync::Arc;
+
+/// Relative threshold below which a column of `A_k^asm` counts as zero.
+const ZERO_COLUMN_RTOL: f64 = 1e-14;
+/// Reciprocal condition number (after equilibration) below which the leading
+/// matrix is taken as singular.
+const SINGULAR_RCOND: f64 = 1e-12;
+
+/// Localization of one attachment (`eq:primal`, `eq:L1L2`).
+#[derive(Debug, Clone)]
+pub struct AttachmentLocalization {
+    pub name: String,
+    /// Interface point names (one per constraint).
+    pub interface_points: Vec<String>,
+    /// `E` (`ndof x ncon`): directions of the interface points, `B1 = -E^T`.
+    pub interface_directions: DMatrix<f64>,
+    /// `pinv(B2)` (`ndim x ncon`).
+    pub pinv_b2: DMatrix<f64>,
+    /// `L1 = pinv(B2) E^T` (`ndim x ndof`).
+    pub l1: DMatrix<f64>,
+    /// `L2`, a basis of `null(B2)` (`ndim x nr`), see the module docs.
+    pub l2: DMatrix<f64>,
+    /// Index of this attachment's first `x_r` variable in `y`.
+    pub offset: usize,
+    /// `T_a` (`ndim x N`): `x = T_a y`.
+    pub t: DMatrix<f64>,
+}
+
+/// The explicit first-order form `z' = A z + b u(t) + G f`, with the nonlinear
+/// forces `f_e = law_e(c_e^T z, d_e^T z)` (`c_e`, `d_e` pick `w_e^T q`, `w_e^T q'`).
+#[derive(Debug, Clone)]
+pub struct FirstOrderSystem {
+    /// `A` (`nz x nz`).
+    pub a: DMatrix<f64>,
+    /// `b` (`nz`): response of `z'` to the input `u`.
+    pub b: DVector<f64>,
+    /// `G` (`nz x m`): response of `z'` to the nonlinear forces.
+    pub g: DMatrix<f64>,
+    /// `P` (`2m x nz`): rows `c_e^T` (displacements of the elements) then `d_e^T`
+    /// (velocities).
+    pub proj: DMatrix<f64>,
+    /// The nonlinear force laws.
+    pub laws: Vec<Arc<dyn NonlinearLaw>>,
+}
+
+impl FirstOrderSystem {
+    /// Number of states.
+    pub fn nz(&self) -> usize {
+        self.a.nrows()
+    }
+    /// Number of nonlinear elements.
+    pub fn m(&self) -> usize {
+        self.laws.len()
+    }
+    /// Nonlinear forces `f_e` [N] at state `z`.
+    pub fn forces(&self, z: &DVector<f64>, f: &mut [f64]) {
+        let m = self.m();
+        for e in 0..m {
+            let u = self.proj.row(e).dot(&z.transpose());
+            let v = self.proj.row(m + e).dot(&z.transpose());
+            f[e] = self.laws[e].eval(u, v).0;
+        }
+    }
+    /// `z' = A z + b u + G f(z)`; `f` is scratch of length `m`.
+    pub fn rhs(&self, u: f64, z: &DVector<f64>, f: &mut [f64], out: &mut DVector<f64>) {
+        self.forces(z, f);
+        out.gemv(1.0, &self.a, z, 0.0);
+        out.axpy(u, &self.b, 1.0);
+        for (e, fe) in f.iter().enumerate() {
+            out.axpy(*fe, &self.g.column(e), 1.0);
+        }
+    }
+}
+
+/// A linear map `(z, u, f) -> value` for observed quantities.
+#[derive(Debug, Clone)]
+struct LinearMap {
+    z: DMatrix<f64>,
+    u: DVector<f64>,
+    f: DMatrix<f64>,
+}
+
+impl LinearMap {
+    fn zeros(rows: usize, nz: usize, m: usize) -> Self {
+        Self { z: DMatrix::zeros(rows, nz), u: DVector::zeros(rows), f: DMatrix::zeros(rows, m) }
+    }
+}
+
+/// Layout of the observation vector (see [`AssembledSystem::observe`]).
+#[derive(Debug, Clone)]
+pub struct AttachmentObservation {
+    pub name: String,
+    pub interface_points: Vec<String>,
+    pub state_names: Vec<String>,
+    /// Index of the first interface displacement `e_c^T q` [m] (`ncon` entries).
+    pub drive_index: usize,
+    /// Index of the first interface force `lambda_c` [N] on the structure
+    /// (`ncon` entries), `f_c1 = E lambda`.
+    pub force_index: usize,
+    /// Index of the first attachment state `x` (`ndim` entries).
+    pub state_index: usize,
+}
+
+/// Structure and attachments assembled (`eq:finalassembly1`-`eq:finalassembly2`)
+/// and reduced to first order.
+#[derive(Debug, Clone)]
+pub struct AssembledSystem {
+    /// Names of the primal variables `y` (`q[i]`, then `<attachment>.<state>`).
+    pub variable_names: Vec<String>,
+    /// Number of structural coordinates `ndof`.
+    pub ndof: usize,
+    /// `A_k^asm`, `k = 0..=K` (`N x N`).
+    pub coefficients: Vec<DMatrix<f64>>,
+    /// `b` (`N`): the assembled input vector.
+    pub input: DVector<f64>,
+    /// `W` (`N x m`): nonlinear element directions.
+    pub nonlinear_directions: DMatrix<f64>,
+    /// Differential order `k_j` of each primal variable.
+    pub orders: Vec<usize>,
+    /// `state_of[j][d]`: index in `z` of `y_j^(d)`, `d < k_j`.
+    pub state_of: Vec<Vec<usize>>,
+    /// The localizations, one per attachment.
+    pub localizations: Vec<AttachmentLocalization>,
+    /// The explicit first-order form.
+    pub first_order: FirstOrderSystem,
+    /// Observation layout per attachment; index 0 of the observation is the tip.
+    pub observations: Vec<AttachmentObservation>,
+    /// Direction of the tip point in `q`.
+    pub tip_direction: DVector<f64>,
+    obs: LinearMap,
+    /// `Lead^-1` and `Lower`, for derivatives of order `k_j`.
+    lead_inv: DMatrix<f64>,
+    lower: DMatrix<f64>,
+}
+
+fn point_direction<'a>(
+    model: &'a StructuralModel,
+    owner: &str,
+    name: &str,
+) -> Result<&'a DVector<f64>, ReferenceError> {
+    model.points.iter().find(|p| p.name == name).map(|p| &p.direction).ok_or_else(|| {
+        ReferenceError::UnknownPoint {
+            owner: owner.to_string(),
+            point: name.to_string(),
+            known: model.points.iter().map(|p| p.name.clone()).collect(),
+        }
+    })
+}
+
+/// Basis of `null(B)` from the reduced row-echelon form (partial pivoting), and
+/// the rank. Free columns get unit entries, so a signed-Boolean `B` gives an
+/// exact, sparse basis.
+fn rref_null_space(b: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
+    let (rows, cols) = b.shape();
+    let mut r = b.clone();
+    let scale = b.amax().max(f64::MIN_POSITIVE);
+    let tol = 1e-12 * scale * (rows.max(cols) as f64);
+    let mut pivots: Vec<usize> = Vec::new();
+    let mut row = 0;
+    for col in 0..cols {
+        if row == rows {
+            break;
+        }
+        let (mut best, mut best_val) = (row, r[(row, col)].abs());
+        for i in row + 1..rows {
+            if r[(i, col)].abs() > best_val {
+                best = i;
+                best_val = r[(i, col)].abs();
+            }
+        }
+        if best_val <= tol {
+            continue;
+        }
+        r.swap_rows(row, best);
+        let p = r[(row, col)];
+        for j in 0..cols {
+            r[(row, j)] /= p;
+        }
+        for i in 0..rows {
+            if i != row {
+                let fct = r[(i, col)];
+                if fct != 0.0 {
+                    for j in 0..cols {
+                        r[(i, j)] -= fct * r[(row, j)];
+                    }
+                }
+            }
+        }
+        pivots.push(col);
+        row += 1;
+    }
+    let free: Vec<usize> = (0..cols).filter(|c| !pivots.contains(c)).collect();
+    let mut null = DMatrix::zeros(cols, free.len());
+    for (k, &fc) in free.iter().enumerate() {
+        null[(fc, k)] = 1.0;
+        for (pr, &pc) in pivots.iter().enumerate() {
+            null[(pc, k)] = -r[(pr, fc)];
+        }
+    }
+    (null, pivots.len())
+}
+
+impl AssembledSystem {
+    /// Assemble `model` and `attachments`; `tip_point` names the structure point
+    /// reported as the tip.
+    pub fn new(
+        model: &StructuralModel,
+        attachments: &[LinearAttachment],
+        tip_point: &str,
+    ) -> Result<Self, ReferenceError> {
+        let ndof = model.mass.nrows();
+        assert_eq!(model.mass.shape(), (ndof, ndof), "mass matrix must be square");
+        assert_eq!(model.stiffness.shape(), (ndof, ndof), "stiffness vs mass dimensions");
+        assert_eq!(model.damping.shape(), (ndof, ndof), "damping vs mass dimensions");
+        let tip_direction = point_direction(model, "options.tip_point", tip_point)?.clone();
+        assert_eq!(tip_direction.len(), ndof, "tip direction length");
+
+        // --- localizations (eq:primal, eq:L1L2)
+        let mut locs = Vec::new();
+        let mut names: Vec<String> = (0..ndof).map(|i| format!("q[{i}]")).collect();
+        let mut offset = ndof;
+        for att in attachments {
+            let ndim = att.coefficients.first().map(|a| a.nrows()).unwrap_or(0);
+            if att.coefficients.is_empty() || ndim == 0 {
+                return Err(ReferenceError::EmptyAttachment { attachment: att.name.clone() });
+            }
+            for a in &att.coefficients {
+                assert_eq!(a.shape(), (ndim, ndim), "attachment '{}': A_k dimensions", att.name);
+            }
+            let ncon = att.b2.nrows();
+            assert_eq!(att.b2.ncols(), ndim, "attachment '{}': B2 columns", att.name);
+            assert_eq!(att.interface_points.len(), ncon, "attachment '{}': interface points", att.name);
+            assert_eq!(att.input_map.nrows(), ndim, "attachment '{}': input map rows", att.name);
+            let mut e = DMatrix::zeros(ndof, ncon);
+            for (c, p) in att.interface_points.iter().enumerate() {
+                let dir = point_direction(model, &att.name, p)?;
+                assert_eq!(dir.len(), ndof, "point '{p}' direction length");
+                e.set_column(c, dir);
+            }
+            let (l2, rank) = rref_null_space(&att.b2);
+            if rank != ncon {
+                return Err(ReferenceError::CompatibilityRank {
+                    attachment: att.name.clone(),
+                    rank,
+                    constraints: ncon,
+                });
+            }
+            let gram = &att.b2 * att.b2.transpose();
+            let gram_inv = gram.try_inverse().ok_or_else(|| ReferenceError::CompatibilityRank {
+                attachment: att.name.clone(),
+                rank,
+                constraints: ncon,
+            })?;
+            let pinv_b2 = att.b2.transpose() * gram_inv;
+            let l1 = &pinv_b2 * e.transpose();
+            let nr = l2.ncols();
+            for r in 0..nr {
+                let col = l2.column(r);
+                let nonzero: Vec<usize> = (0..ndim).filter(|&i| col[i] != 0.0).collect();
+                let state = if nonzero.len() == 1 && col[nonzero[0]] == 1.0 {
+                    att.state_names.get(nonzero[0]).cloned().unwrap_or_else(|| format!("x[{}]", nonzero[0]))
+                } else {
+                    format!("x_r[{r}]")
+                };
+                names.push(format!("{}.{}", att.name, state));
+            }
+            locs.push((att, e, pinv_b2, l1, l2, offset));
+            offset += nr;
+        }
+        let n = offset;
+        let locs: Vec<AttachmentLocalization> = locs
+            .into_iter()
+            .map(|(att, e, pinv_b2, l1, l2, off)| {
+                let ndim = l1.nrows();
+                let mut t = DMatrix::zeros(ndim, n);
+                t.view_mut((0, 0), (ndim, ndof)).copy_from(&l1);
+                t.view_mut((0, off), (ndim, l2.ncols())).copy_from(&l2);
+                AttachmentLocalization {
+                    name: att.name.clone(),
+                    interface_points: att.interface_points.clone(),
+                    interface_directions: e,
+                    pinv_b2,
+                    l1,
+                    l2,
+                    offset: off,
+                    t,
+                }
+            })
+            .collect();
+
+        // --- assembled coefficients (eq:finalassembly1-2)
+        let kmax = attachments.iter().map(|a| a.coefficients.len() - 1).max().unwrap_or(0).max(2);
+        let mut coeffs = vec![DMatrix::<f64>::zeros(n, n); kmax + 1];
+        coeffs[0].view_mut((0, 0), (ndof, ndof)).copy_from(&model.stiffness);
+        coeffs[1].view_mut((0, 0), (ndof, ndof)).copy_from(&model.damping);
+        coeffs[2].view_mut((0, 0), (ndof, ndof)).copy_from(&model.mass);
+        let mut input = DVector::zeros(n);
+        for (att, loc) in attachments.iter().zip(&locs) {
+            for (k, a) in att.coefficients.iter().enumerate() {
+                coeffs[k] += loc.t.transpose() * a * &loc.t;
+            }
+            let ones = DVector::from_element(att.input_map.ncols(), 1.0);
+            input += loc.t.transpose() * (&att.input_map * ones);
+        }
+        let m = model.nonlinear.len();
+        let mut w = DMatrix::zeros(n, m);
+        for (e, el) in model.nonlinear.iter().enumerate() {
+            assert_eq!(el.direction.len(), ndof, "nonlinear element '{}' direction", el.name);
+            w.view_mut((0, e), (ndof, 1)).copy_from(&el.direction);
+        }
+
+        // --- differential orders and states
+        let col_norm = |k: usize, j: usize| coeffs[k].column(j).amax();
+        let mut orders = vec![0usize; n];
+        for j in 0..n {
+            let big = (0..=kmax).map(|k| col_norm(k, j)).fold(0.0, f64::max);
+            orders[j] = (0..=kmax).rev().find(|&k| col_norm(k, j) > ZERO_COLUMN_RTOL * big).unwrap_or(0);
+        }
+        for i in 0..ndof {
+            assert!(orders[i] >= 2, "structural coordinate {i} has no mass (M must be positive definite)");
+        }
+        let mut state_of = vec![Vec::new(); n];
+        let mut nz = 0;
+        for j in 0..n {
+            for _ in 0..orders[j] {
+                state_of[j].push(nz);
+                nz += 1;
+            }
+        }
+        let mut lead = DMatrix::zeros(n, n);
+        let mut lower = DMatrix::zeros(n, nz);
+        for j in 0..n {
+            lead.set_column(j, &coeffs[orders[j]].column(j));
+            for k in 0..orders[j] {
+                lower.set_column(state_of[j][k], &coeffs[k].column(j));
+            }
+        }
+        let lead_inv = Self::check_and_invert_lead(&lead, &names)?;
+
+        // --- explicit first-order form
+        let pl = &lead_inv * &lower;
+        let pb = &lead_inv * &input;
+        let pw = &lead_inv * &w;
+        let mut a = DMatrix::zeros(nz, nz);
+        let mut bz = DVector::zeros(nz);
+        let mut g = DMatrix::zeros(nz, m);
+        for j in 0..n {
+            let kj = orders[j];
+            if kj == 0 {
+                continue;
+            }
+            for d in 0..kj - 1 {
+                a[(state_of[j][d], state_of[j][d + 1])] = 1.0;
+            }
+            let row = state_of[j][kj - 1];
+            a.set_row(row, &(-pl.row(j)));
+            bz[row] = pb[j];
+            g.set_row(row, &(-pw.row(j)));
+        }
+        let mut proj = DMatrix::zeros(2 * m, nz);
+        for (e, el) in model.nonlinear.iter().enumerate() {
+            for i in 0..ndof {
+                proj[(e, state_of[i][0])] = el.direction[i];
+                proj[(m + e, state_of[i][1])] = el.direction[i];
+            }
+        }
+        let first_order = FirstOrderSystem {
+            a,
+            b: bz,
+            g,
+            proj,
+            laws: model.nonlinear.iter().map(|e| e.law.clone()).collect(),
+        };
+
+        let mut sys = AssembledSystem {
+            variable_names: names,
+            ndof,
+            coefficients: coeffs,
+            input,
+            nonlinear_directions: w,
+            orders,
+            state_of,
+            localizations: locs,
+            first_order,
+            observations: Vec::new(),
+            tip_direction,
+            obs: LinearMap::zeros(0, nz, m),
+            lead_inv,
+            lower,
+        };
+        sys.build_observations(attachments)?;
+        Ok(sys)
+    }
+
+    /// Equilibrate the leading matrix, check its reciprocal condition number and
+    /// invert it.
+    fn check_and_invert_lead(lead: &DMatrix<f64>, names: &[String]) -> Result<DMatrix<f64>, ReferenceError> {
+        let n = lead.nrows();
+        let mut scaled = lead.clone();
+        let mut col_scale = DVector::from_element(n, 1.0);
+        for j in 0..n {
+            let s = scaled.column(j).amax();
+            if s > 0.0 {
+                col_scale[j] = 1.0 / s;
+                scaled.column_mut(j).scale_mut(1.0 / s);
+            }
+        }
+        for i in 0..n {
+            let s = scaled.row(i).amax();
+            if s > 0.0 {
+                scaled.row_mut(i).scale_mut(1.0 / s);
+            }
+        }
+        let svd = scaled.clone().svd(false, true);
+        let (imin, smin) = svd.singular_values.argmin();
+        let smax = svd.singular_values.max();
+        let rcond = if smax > 0.0 { smin / smax } else { 0.0 };
+        if !(rcond > SINGULAR_RCOND) {
+            let v = svd.v_t.as_ref().expect("requested V^T").row(imin).transpose();
+            // null vector in unscaled variables
+            let v = v.component_mul(&col_scale);
+            let vmax = v.amax();
+            let variables = (0..n).filter(|&j| v[j].abs() > 0.1 * vmax).map(|j| names[j].clone()).collect();
+            return Err(ReferenceError::SingularLeadingMatrix { rcond, variables });
+        }
+        Ok(lead.clone().lu().try_inverse().expect("leading matrix checked regular"))
+    }
+
+    /// Linear map of `y_j^(k)` in terms of `(z, u, f)`, or `None` when `k > k_j`.
+    fn derivative_map(&self, j: usize, k: usize) -> Option<(RowDVector<f64>, f64, RowDVector<f64>)> {
+        let nz = self.first_order.nz();
+        let m = self.first_order.m();
+        let kj = self.orders[j];
+        if k < kj {
+            let mut r = RowDVector::zeros(nz);
+            r[self.state_of[j][k]] = 1.0;
+            Some((r, 0.0, RowDVector::zeros(m)))
+        } else if k == kj {
+            let p = self.lead_inv.row(j);
+            Some((-(p * &self.lower), (p * &self.input)[0], -(p * &self.nonlinear_directions)))
+        } else {
+            None
+        }
+    }
+
+    /// The map of `sum_k R_k y^(k)` (`R_k`: `rows x N`).
+    fn combine(&self, r: &[DMatrix<f64>], owner: &str) -> Result<LinearMap, ReferenceError> {
+        let rows = r[0].nrows();
+        let mut out = LinearMap::zeros(rows, self.first_order.nz(), self.first_order.m());
+        for (k, rk) in r.iter().enumerate() {
+            for j in 0..rk.ncols() {
+                let col = rk.column(j);
+                if col.amax() == 0.0 {
+                    continue;
+                }
+                let (dz, du, df) = self.derivative_map(j, k).ok_or_else(|| ReferenceError::InterfaceForceOrder {
+                    attachment: owner.to_string(),
+                    variable: self.variable_names[j].clone(),
+                    order: k,
+                    available: self.orders[j],
+                })?;
+                out.z += &col * dz;
+                out.u.axpy(du, &col, 1.0);
+                out.f += &col * df;
+            }
+        }
+        Ok(out)
+    }
+
+    fn build_observations(&mut self, attachments: &[LinearAttachment]) -> Result<(), ReferenceError> {
+        let n = self.variable_names.len();
+        let mut blocks: Vec<LinearMap> = Vec::new();
+        let sel_q = |dirs: &DMatrix<f64>| -> DMatrix<f64> {
+            let mut r = DMatrix::zeros(dirs.ncols(), n);
+            r.view_mut((0, 0), (dirs.ncols(), self.ndof)).copy_from(&dirs.transpose());
+            r
+        };
+        let tip = sel_q(&DMatrix::from_column_slice(self.ndof, 1, self.tip_direction.as_slice()));
+        let tip_map = self.combine(&[tip], "tip")?;
+        blocks.push(tip_map);
+        let mut index = 1;
+        let mut observations = Vec::new();
+        for (att, loc) in attachments.iter().zip(self.localizations.clone()) {
+            let ncon = loc.interface_points.len();
+            let ndim = loc.l1.nrows();
+            let drive = self.combine(&[sel_q(&loc.interface_directions)], &att.name)?;
+            // lambda = pinv(B2)^T (input_map 1 u - sum_k A_k T y^(k))
+            let rk: Vec<DMatrix<f64>> =
+                att.coefficients.iter().map(|a| -(loc.pinv_b2.transpose() * a * &loc.t)).collect();
+            let mut force = self.combine(&rk, &att.name)?;
+            let ones = DVector::from_element(att.input_map.ncols(), 1.0);
+            force.u += loc.pinv_b2.transpose() * (&att.input_map * ones);
+            let states = self.combine(&[loc.t.clone()], &att.name)?;
+            observations.push(AttachmentObservation {
+                name: att.name.clone(),
+                interface_points: loc.interface_points.clone(),
+                state_names: (0..ndim)
+                    .map(|i| att.state_names.get(i).cloned().unwrap_or_else(|| format!("x[{i}]")))
+                    .collect(),
+                drive_index: index,
+                force_index: index + ncon,
+                state_index: index + 2 * ncon,
+            });
+            index += 2 * ncon + ndim;
+            blocks.extend([drive, force, states]);
+        }
+        let nz = self.first_order.nz();
+        let m = self.first_order.m();
+        let mut obs = LinearMap::zeros(index, nz, m);
+        let mut row = 0;
+        for b in blocks {
+            let r = b.z.nrows();
+            obs.z.view_mut((row, 0), (r, nz)).copy_from(&b.z);
+            obs.u.rows_mut(row, r).copy_from(&b.u);
+            obs.f.view_mut((row, 0), (r, m)).copy_from(&b.f);
+            row += r;
+        }
+        self.obs = obs;
+        self.observations = observations;
+        Ok(())
+    }
+
+    /// Number of observed quantities (see [`Self::observe`]).
+    pub fn n_observed(&self) -> usize {
+        self.obs.z.nrows()
+    }
+
+    /// Observed quantities at state `z`, input `u` and nonlinear forces `f`:
+    /// `[tip displacement [m], then per attachment: interface displacements [m],
+    /// interface forces on the structure [N], attachment states x]` (indices in
+    /// [`Self::observations`]).
+    pub fn observe(&self, z: &DVector<f64>, u: f64, f: &[f64], out: &mut DVector<f64>) {
+        out.gemv(1.0, &self.obs.z, z, 0.0);
+        out.axpy(u, &self.obs.u, 1.0);
+        for (e, fe) in f.iter().enumerate() {
+            out.axpy(*fe, &self.obs.f.column(e), 1.0);
+        }
+    }
+
+    /// First-order state for structural displacements `q0` [m] and velocities
+    /// `qd0` [m/s]; all attachment states zero.
+    pub fn state_from_structure(&self, q0: &DVector<f64>, qd0: &DVector<f64>) -> DVector<f64> {
+        let mut z = DVector::zeros(self.first_order.nz());
+        for i in 0..self.ndof {
+            z[self.state_of[i][0]] = q0[i];
+            z[self.state_of[i][1]] = qd0[i];
+        }
+        z
+    }
+
+    /// Structural displacements `q` [m] and velocities `q'` [m/s] of state `z`.
+    pub fn structure_state(&self, z: &DVector<f64>) -> (DVector<f64>, DVector<f64>) {
+        let q = DVector::from_fn(self.ndof, |i, _| z[self.state_of[i][0]]);
+        let qd = DVector::from_fn(self.ndof, |i, _| z[self.state_of[i][1]]);
+        (q, qd)
+    }
+}

@@ -1,0 +1,356 @@
+//! Tests of the full-order reference (`nlmode::reference`): primal assembly,
+//! both integrators, envelopes, error paths.
+use nalgebra::{DMatrix, DVector};
+use nlmode::attachment::LinearAttachment;
+use nlmode::excitation::LinearSweep;
+use nlmode::reference::{
+    integrate, simulate_sweep, AssembledSystem, Integrator, ReferenceError, ReferenceOptions,
+};
+use nlmode::structure::{NamedPoint, NonlinearElement, NonlinearLaw, StructuralModel};
+use nlmode::Complex64;
+use std::sync::Arc;
+
+/// `f = k3 u^3` (test-local, independent of the structure module's laws).
+#[derive(Debug)]
+struct Cubic(f64);
+impl NonlinearLaw for Cubic {
+    fn name(&self) -> &str {
+        "cubic"
+    }
+    fn eval(&self, u: f64, _v: f64) -> (f64, f64, f64) {
+        (self.0 * u * u * u, 3.0 * self.0 * u * u, 0.0)
+    }
+}
+
+fn unit(n: usize, i: usize) -> DVector<f64> {
+    let mut e = DVector::zeros(n);
+    e[i] = 1.0;
+    e
+}
+
+/// Fixed-free chain of `n` masses `m` [kg] and springs `k` [N/m], stiffness-
+/// proportional damping `C = beta K`, cubic spring `k3` [N/m^3] at the last mass;
+/// points `tip` (last mass) and `drive` (mass `n-2`).
+fn chain(n: usize, m: f64, k: f64, beta: f64, k3: f64) -> StructuralModel {
+    let mass = DMatrix::from_diagonal_element(n, n, m);
+    let mut stiffness = DMatrix::zeros(n, n);
+    for i in 0..n {
+        stiffness[(i, i)] += k;
+        if i + 1 < n {
+            stiffness[(i, i)] += k;
+            stiffness[(i, i + 1)] -= k;
+            stiffness[(i + 1, i)] -= k;
+        }
+    }
+    let damping = &stiffness * beta;
+    let nonlinear = if k3 != 0.0 {
+        vec![NonlinearElement { name: "k3".into(), direction: unit(n, n - 1), law: Arc::new(Cubic(k3)) }]
+    } else {
+        Vec::new()
+    };
+    StructuralModel {
+        mass,
+        stiffness,
+        damping,
+        nonlinear,
+        points: vec![
+            NamedPoint { name: "tip".into(), direction: unit(n, n - 1) },
+            NamedPoint { name: "drive".into(), direction: unit(n, n.saturating_sub(2)) },
+        ],
+    }
+}
+
+/// The paper's shaker (Section 4), written out here independently of the
+/// attachment module: `x = [I, q_a, q_s]`, `B2 = [0 0 1]`, voltage input.
+fn shaker(point: &str, ks: f64) -> LinearAttachment {
+    let (l, r, g, ma, ka, da) = (140e-6, 3.0, 15.5, 0.043, 2.07e4, nlmode::benchmark::shaker_da_n_s_per_m());
+    let a0 = DMatrix::from_row_slice(3, 3, &[r, 0.0, 0.0, -g, ka + ks, -ks, 0.0, -ks, ks]);
+    let a1 = DMatrix::from_row_slice(3, 3, &[l, g, 0.0, 0.0, da, 0.0, 0.0, 0.0, 0.0]);
+    let a2 = DMatrix::from_row_slice(3, 3, &[0.0, 0.0, 0.0, 0.0, ma, 0.0, 0.0, 0.0, 0.0]);
+    LinearAttachment {
+        name: "shaker".into(),
+        coefficients: vec![a0, a1, a2],
+        b2: DMatrix::from_row_slice(1, 3, &[0.0, 0.0, 1.0]),
+        interface_points: vec![point.into()],
+        input_map: DMatrix::from_column_slice(3, 1, &[1.0, 0.0, 0.0]),
+        state_names: vec!["I".into(), "q_a".into(), "q_s".into()],
+        input_names: vec!["voltage".into()],
+    }
+}
+
+/// An ideal force source: `x = [q_s]`, `A_0 = 0`, the input is the force [N].
+fn force_source(point: &str) -> LinearAttachment {
+    LinearAttachment {
+        name: "force".into(),
+        coefficients: vec![DMatrix::zeros(1, 1)],
+        b2: DMatrix::from_element(1, 1, 1.0),
+        interface_points: vec![point.into()],
+        input_map: DMatrix::from_element(1, 1, 1.0),
+        state_names: vec!["q_s".into()],
+        input_names: vec!["force".into()],
+    }
+}
+
+#[test]
+fn shaker_assembly_has_the_papers_structure() {
+    let model = chain(3, 0.3, 1e5, 1e-5, 0.0);
+    let sys = AssembledSystem::new(&model, &[shaker("drive", 2.6e7)], "tip").unwrap();
+    // x_r = [I, q_a] (the paper's L2), orders: q second, I first, q_a second
+    assert_eq!(sys.variable_names[3..], ["shaker.I".to_string(), "shaker.q_a".to_string()]);
+    assert_eq!(sys.orders, vec![2, 2, 2, 1, 2]);
+    assert_eq!(sys.first_order.nz(), 9);
+    let loc = &sys.localizations[0];
+    let l2_paper = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+    assert_eq!(loc.l2, l2_paper);
+    // L1 = -[0 0 1]^T B1 with B1 = -e^T
+    let e = unit(3, 1);
+    let l1_paper = DMatrix::from_column_slice(3, 1, &[0.0, 0.0, 1.0]) * e.transpose();
+    assert!((&loc.l1 - l1_paper).amax() < 1e-15);
+    // stinger stiffness at the drive point, coupled to q_a; mass only at q_a
+    let ks = 2.6e7;
+    assert!((sys.coefficients[0][(1, 1)] - (2e5 + ks)).abs() < 1e-6);
+    assert!((sys.coefficients[0][(1, 4)] + ks).abs() < 1e-6);
+    assert!((sys.coefficients[2][(4, 4)] - 0.043).abs() < 1e-15);
+    assert_eq!(sys.input.as_slice(), &[0.0, 0.0, 0.0, 1.0, 0.0]);
+}
+
+#[test]
+fn free_decay_of_undamped_linear_model_conserves_energy() {
+    let model = chain(4, 0.25, 2e5, 0.0, 0.0);
+    let sys = AssembledSystem::new(&model, &[], "tip").unwrap();
+    let q0 = DVector::from_column_slice(&[1e-3, -2e-3, 0.5e-3, 3e-3]);
+    let qd0 = DVector::from_column_slice(&[0.1, 0.0, -0.2, 0.05]);
+    let z0 = sys.state_from_structure(&q0, &qd0);
+    let energy = |z: &DVector<f64>| {
+        let (q, qd) = sys.structure_state(z);
+        0.5 * (qd.transpose() * &model.mass * &qd)[0] + 0.5 * (q.transpose() * &model.stiffness * &q)[0]
+    };
+    let e0 = energy(&z0);
+    for method in [Integrator::Exponential, Integrator::DormandPrince] {
+        let opts = ReferenceOptions { method, rtol: 1e-10, atol: 1e-14, ..Default::default() };
+        let mut worst: f64 = 0.0;
+        let mut count = 0;
+        // ~ 30 periods of the lowest mode (omega_1 ~ 300 rad/s), 1 ms samples
+        integrate(&sys, &z0, 1e-3, 600, &|_| 0.0, &opts, &mut |_, z| {
+            worst = worst.max((energy(z) - e0).abs() / e0);
+            count += 1;
+        }, &mut |_| {})
+        .unwrap();
+        assert_eq!(count, 601);
+        assert!(worst < 1e-6, "{method:?}: relative energy drift {worst:e}");
+    }
+}
+
+#[test]
+fn one_dof_harmonic_force_matches_analytic_steady_state() {
+    // m x'' + c x' + k x = F cos(W t), c = beta k, D = 10 %
+    let (m, k, f_amp, w): (f64, f64, f64, f64) = (2.0, 2e4, 5.0, 130.0);
+    let omega_n = (k / m).sqrt();
+    let beta = 2.0 * 0.1 / omega_n;
+    let mut model = chain(1, m, k, beta, 0.0);
+    model.points[1].direction = unit(1, 0); // drive = the mass
+    let sys = AssembledSystem::new(&model, &[force_source("drive")], "tip").unwrap();
+    assert_eq!(sys.first_order.nz(), 2);
+    let c = beta * k;
+    let h = Complex64::new(k - m * w * w, c * w);
+    let x_hat = f_amp / h; // x = Re(x_hat e^{i W t})
+    let dt = 1e-3;
+    let n = 2000; // 2 s: transient e^{-D omega_n t} ~ 1e-9
+    for method in [Integrator::Exponential, Integrator::DormandPrince] {
+        let opts = ReferenceOptions { method, rtol: 1e-9, atol: 1e-14, ..Default::default() };
+        let mut worst: f64 = 0.0;
+        let mut force_err: f64 = 0.0;
+        let mut obs = DVector::zeros(sys.n_observed());
+        integrate(&sys, &DVector::zeros(2), dt, n, &|t| f_amp * (w * t).cos(), &opts, &mut |i, z| {
+            let t = i as f64 * dt;
+            sys.observe(z, f_amp * (w * t).cos(), &[], &mut obs);
+            let o = &sys.observations[0];
+            force_err = force_err.max((obs[o.force_index] - f_amp * (w * t).cos()).abs());
+            if t >= 1.5 {
+                let exact = (x_hat * Complex64::from_polar(1.0, w * t)).re;
+                worst = worst.max((obs[0] - exact).abs() / x_hat.norm());
+            }
+        }, &mut |_| {})
+        .unwrap();
+        assert!(worst < 1e-6, "{method:?}: steady-state error {worst:e}");
+        assert!(force_err < 1e-12, "{method:?}: force source error {force_err:e}");
+    }
+}
+
+/// A small nonlinear test setup: 3-mass chain, shaker at `drive`, cubic spring at the tip.
+fn shaker_chain(k3: f64) -> (StructuralModel, Vec<LinearAttachment>) {
+    // omega_1 ~ 0.445 sqrt(k/m) ~ 257 rad/s; beta so that D_1 ~ 1 %
+    let model = chain(3, 0.3, 1e5, 2.0 * 0.01 / 257.0, k3);
+    (model, vec![shaker("drive", 2.6e7)])
+}
+
+#[test]
+fn dormand_prince_and_exponential_agree_on_nonlinear_sweep() {
+    let (model, atts) = shaker_chain(5e9);
+    let sweep = LinearSweep::new(200.0, 400.0, 1000.0, 10.0).unwrap();
+    let mut results = Vec::new();
+    for method in [Integrator::Exponential, Integrator::DormandPrince] {
+        let opts = ReferenceOptions { method, rtol: 1e-8, atol: 1e-13, ..Default::default() };
+        results.push(simulate_sweep(&model, &atts, &sweep, &opts).unwrap());
+    }
+    let (a, b) = (&results[0], &results[1]);
+    assert_eq!(a.time_s.len(), b.time_s.len());
+    let tip_max = a.tip_m.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let f_max = a.force_n.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!(tip_max > 1e-4, "the sweep must excite the structure: {tip_max}");
+    let dtip = a.tip_m.iter().zip(&b.tip_m).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    let df = a.force_n.iter().zip(&b.force_n).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(dtip < 1e-5 * tip_max, "tip difference {dtip:e} of {tip_max:e}");
+    assert!(df < 1e-5 * f_max, "force difference {df:e} of {f_max:e}");
+    // the exponential method needs far fewer steps than the explicit one
+    assert!(a.stats.steps < b.stats.steps, "{:?} vs {:?}", a.stats, b.stats);
+}
+
+/// Linear steady state of the assembly, solved here from the assembled
+/// coefficients: `(sum (i W)^k A_k) y = b u_hat`; returns (|tip|, |force|).
+fn linear_steady_state(sys: &AssembledSystem, att: &LinearAttachment, w: f64, u_hat: f64) -> (f64, f64) {
+    let n = sys.variable_names.len();
+    let mut z = DMatrix::<Complex64>::zeros(n, n);
+    for (k, a) in sys.coefficients.iter().enumerate() {
+        let s = Complex64::new(0.0, w).powu(k as u32);
+        z += a.map(|x| s * x);
+    }
+    let rhs = sys.input.map(|x| Complex64::new(x * u_hat, 0.0));
+    let y = z.lu().solve(&rhs).unwrap();
+    let tip: Complex64 = (0..sys.ndof).map(|i| y[i] * sys.tip_direction[i]).sum();
+    // lambda = pinv(B2)^T (input_map u - sum_k (iW)^k A_k x), x = T y
+    let loc = &sys.localizations[0];
+    let x = loc.t.map(|v| Complex64::new(v, 0.0)) * &y;
+    let mut r = att.input_map.column(0).map(|v| Complex64::new(v * u_hat, 0.0));
+    for (k, a) in att.coefficients.iter().enumerate() {
+        let s = Complex64::new(0.0, w).powu(k as u32);
+        r -= a.map(|v| s * v) * &x;
+    }
+    let lam = loc.pinv_b2.map(|v| Complex64::new(v, 0.0)).transpose() * r;
+    (tip.norm(), lam[0].norm())
+}
+
+/// Largest relative deviation of the (tip, force) envelopes from the linear
+/// steady state for `omega >= omega_from`; also the frequency of the tip peak.
+fn envelope_deviation(
+    sys: &AssembledSystem,
+    att: &LinearAttachment,
+    env: &nlmode::reference::Envelope,
+    omega_from: f64,
+    u_hat: f64,
+) -> (f64, f64, f64) {
+    let (mut worst_tip, mut worst_f) = (0.0f64, 0.0f64);
+    let mut peak = (0.0, 0.0);
+    for i in 0..env.omega_rad_s.len() {
+        let w = env.omega_rad_s[i];
+        if w < omega_from {
+            continue;
+        }
+        let (tip, f) = linear_steady_state(sys, att, w, u_hat);
+        worst_tip = worst_tip.max((env.tip_amplitude_m[i] - tip).abs() / tip);
+        worst_f = worst_f.max((env.force_amplitude_n[i] - f).abs() / f);
+        if env.tip_amplitude_m[i] > peak.1 {
+            peak = (w, env.tip_amplitude_m[i]);
+        }
+    }
+    (worst_tip, worst_f, peak.0)
+}
+
+#[test]
+fn slow_linear_sweep_approaches_linear_steady_state() {
+    let (model, atts) = shaker_chain(0.0);
+    let sys = AssembledSystem::new(&model, &atts, "tip").unwrap();
+    // resonance of the assembly (the shaker shifts it above the chain's 257 rad/s)
+    let tip_at = |w: f64| linear_steady_state(&sys, &atts[0], w, 1.0).0;
+    let omega0 = (2000..4000).map(|i| i as f64 * 0.1).max_by(|a, b| tip_at(*a).total_cmp(&tip_at(*b))).unwrap();
+    assert!(omega0 > 250.0 && omega0 < 350.0, "{omega0}");
+    // The deviation of a sweep from the steady state is the sweep transient: it
+    // must shrink in proportion to the rate and be below 2 % for a slow sweep.
+    let mut dev = Vec::new();
+    for r in [0.004, 0.0005] {
+        let sweep = LinearSweep::per_pseudo_period(omega0, 0.85, 1.15, r, 1.0).unwrap();
+        let res = simulate_sweep(&model, &atts, &sweep, &ReferenceOptions::default()).unwrap();
+        assert!(res.envelope.omega_rad_s.len() > 100);
+        let (tip, f, peak) = envelope_deviation(&sys, &atts[0], &res.envelope, 0.9 * omega0, 1.0);
+        eprintln!("r = {r}: deviation tip {tip:.2e}, force {f:.2e}; peak at {peak:.1} (steady {omega0:.1})");
+        assert!((peak - omega0).abs() < 0.02 * omega0, "resonance seen near {omega0}: {peak}");
+        dev.push((tip, f));
+    }
+    assert!(dev[1].0 < 0.02 && dev[1].1 < 0.02, "slow sweep deviates: {dev:?}");
+    assert!(dev[0].0 > 4.0 * dev[1].0 && dev[0].1 > 4.0 * dev[1].1, "deviation not rate-driven: {dev:?}");
+}
+
+#[test]
+fn singular_leading_matrix_is_reported_with_the_variables() {
+    let model = chain(2, 1.0, 1e4, 0.0, 0.0);
+    // a multiplier lambda that pins the drive point: lambda enters only the
+    // structure rows -> zero row in the leading matrix (index-3 DAE)
+    let att = LinearAttachment {
+        name: "pin".into(),
+        coefficients: vec![DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 1.0, 0.0])],
+        b2: DMatrix::from_row_slice(1, 2, &[0.0, 1.0]),
+        interface_points: vec!["drive".into()],
+        input_map: DMatrix::zeros(2, 1),
+        state_names: vec!["lambda".into(), "q_s".into()],
+        input_names: vec!["none".into()],
+    };
+    match AssembledSystem::new(&model, &[att], "tip") {
+        Err(ReferenceError::SingularLeadingMatrix { rcond, variables }) => {
+            assert!(rcond < 1e-12);
+            assert!(variables.contains(&"pin.lambda".to_string()), "{variables:?}");
+        }
+        other => panic!("expected a singular leading matrix, got {other:?}"),
+    }
+}
+
+#[test]
+fn bad_inputs_are_rejected_with_names() {
+    let model = chain(2, 1.0, 1e4, 0.0, 0.0);
+    match AssembledSystem::new(&model, &[shaker("nowhere", 1e6)], "tip") {
+        Err(ReferenceError::UnknownPoint { owner, point, .. }) => {
+            assert_eq!((owner.as_str(), point.as_str()), ("shaker", "nowhere"))
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(
+        AssembledSystem::new(&model, &[], "end"),
+        Err(ReferenceError::UnknownPoint { point, .. }) if point == "end"
+    ));
+    let mut att = shaker("drive", 1e6);
+    att.b2 = DMatrix::zeros(1, 3);
+    assert!(matches!(
+        AssembledSystem::new(&model, &[att], "tip"),
+        Err(ReferenceError::CompatibilityRank { rank: 0, constraints: 1, .. })
+    ));
+    let sweep = LinearSweep::new(100.0, 120.0, 100.0, 1.0).unwrap();
+    let opts = ReferenceOptions { rtol: 0.0, ..Default::default() };
+    assert!(matches!(
+        simulate_sweep(&model, &[], &sweep, &opts),
+        Err(ReferenceError::BadOption { name: "rtol", .. })
+    ));
+    // step limit
+    let opts = ReferenceOptions { method: Integrator::DormandPrince, max_steps: 10, ..Default::default() };
+    assert!(matches!(
+        simulate_sweep(&model, &[force_source("drive")], &sweep, &opts),
+        Err(ReferenceError::TooManySteps { steps: 10, .. })
+    ));
+}
+
+#[test]
+fn blow_up_is_reported_with_time() {
+    // negative cubic stiffness: a softening spring that escapes to infinity
+    let mut model = chain(1, 1.0, 1e4, 1e-4, -1e12);
+    model.points[1].direction = unit(1, 0);
+    let sweep = LinearSweep::new(50.0, 60.0, 10.0, 1e5).unwrap();
+    for method in [Integrator::Exponential, Integrator::DormandPrince] {
+        let opts = ReferenceOptions { method, divergence_limit: 1e3, ..Default::default() };
+        match simulate_sweep(&model, &[force_source("drive")], &sweep, &opts) {
+            Err(ReferenceError::BlowUp { time_s, .. })
+            | Err(ReferenceError::NonFinite { time_s })
+            | Err(ReferenceError::StepSizeCollapse { time_s, .. }) => {
+                assert!(time_s > 0.0 && time_s < 1.0, "{method:?}: {time_s}")
+            }
+            other => panic!("{method:?}: expected divergence, got {other:?}"),
+        }
+    }
+}
