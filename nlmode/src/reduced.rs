@@ -1,3 +1,529 @@
 //! The single nonlinear modal oscillator with linear attachments (`eq:NM`),
-//! paper Section 3: slow flow, steady state, linear variants, imposed force,
-//! post-processing. (filled in by the reduced-model work)
+//! paper Section 3: slow flow along a sweep, steady state, linear variants,
+//! imposed force, post-processing.
+//!
+//! # Model
+//!
+//! The structure's response is `q(t) = Re( a sum_n phi_n(a) e^{i n (Phi + theta)} )`
+//! (`eq:ansatz`, `Phi = int Omega dt`). With the attachments condensed by
+//! `eq:fc1`, the modal amplitude `a` and phase lag `theta` obey `eq:NM`:
+//!
+//! ```text
+//! 2 i Omega (a' + i a theta') + (-Omega^2 + 2 i D(a) omega(a) Omega + omega(a)^2 + Z_A(a, Omega)) a
+//!     = phi(a)^H f_ex(Omega) e^{-i theta}
+//! ```
+//!
+//! with the modal impedance and the imposed modal force computed from the
+//! generic attachment model at the attachments' interface points
+//! (`u_G = E^T q`, the table's fundamental shape `phi_G = E^T phi` there):
+//!
+//! ```text
+//! Z_A(a, Omega)      = phi^H Z_q phi   = sum_att phi_G^H Z_G(Omega) phi_G,
+//! phi^H f_ex(Omega)  = sum_att phi_G^H T_G(Omega) u_hat  (+ conj(phi_p) F_p(Omega) for an imposed force),
+//! ```
+//!
+//! where `Z_G`, `T_G` are the interface impedance and input-force map of
+//! `eq:fc1` (the force of an attachment on the structure is
+//! `F_G = -Z_G u_G + T_G u_hat`, positive along positive displacement).
+//!
+//! # Regular form used for integration
+//!
+//! Split into `a` and `theta`, `eq:NM` gives `theta' = ... / a`, singular at
+//! `a = 0` where every sweep starts (from rest). Multiplying `eq:NM` by
+//! `e^{i theta}` and writing the complex amplitude `A = a e^{i theta}`
+//! (`A' = (a' + i a theta') e^{i theta}`) gives the equivalent
+//!
+//! ```text
+//! 2 i Omega A' + K(a, Omega) A = phi(a)^H f_ex(Omega),
+//! K(a, Omega) = -Omega^2 + 2 i D(a) omega(a) Omega + omega(a)^2 + Z_A(a, Omega),   a = |A|,
+//! ```
+//!
+//! which is regular at `A = 0`; its real and imaginary parts are the two real
+//! states integrated (adaptive Dormand-Prince 5(4), [`dopri`]). `a = |A|` and
+//! `theta = arg A` are recovered for output; for `a > 0` the two forms are the
+//! same equation.
+//!
+//! # Steady state
+//!
+//! With `a' = theta' = 0`, taking magnitudes eliminates `theta`:
+//! `a |K(a, Omega)| = |phi^H f_ex|` ([`ReducedModel::steady_state`]).
+//!
+//! # Range policy
+//!
+//! The modal properties are only defined over the table's amplitude range
+//! (held constant below it). A sweep whose amplitude leaves the range, or
+//! grows without bound as with an imposed force and a frequency error (paper
+//! Section 5.3), stops there and is flagged ([`SweepStatus::LeftTableRange`]),
+//! keeping everything computed up to that point.
+use crate::nma::ModalTable;
+use crate::table::{ModalProperties, TableError, TableInterpolator};
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+use std::fmt::Debug;
+use std::sync::Arc;
+
+pub mod dopri;
+mod imposed;
+mod post;
+pub mod problems;
+mod steady;
+mod sweep;
+
+pub use dopri::IntegratorStats;
+pub use imposed::ForceEnvelope;
+pub use post::TimeSignals;
+pub use steady::{LinearSteady, SteadyFrequency, SteadyPoint};
+pub use sweep::{Envelope, SlowFlowOptions, SlowFlowResult, SlowFlowSample, SweepStatus, SweepSummary};
+
+/// Boxed error of an attachment model.
+pub type AttachmentModelError = Box<dyn std::error::Error + Send + Sync>;
+
+/// Errors of the reduced model; each names the offending input and its value.
+#[derive(Debug, thiserror::Error)]
+pub enum ReducedError {
+    #[error(transparent)]
+    Table(#[from] TableError),
+    #[error("attachment '{attachment}' at Omega = {omega_rad_s} rad/s: {source}")]
+    Attachment {
+        attachment: String,
+        omega_rad_s: f64,
+        #[source]
+        source: AttachmentModelError,
+    },
+    #[error("attachment '{attachment}': {what} has size {found}, expected {expected}")]
+    AttachmentSize { attachment: String, what: &'static str, found: usize, expected: usize },
+    #[error("attachment '{attachment}': {found} input amplitudes given, the attachment has {expected} inputs")]
+    InputCount { attachment: String, expected: usize, found: usize },
+    #[error("option '{name}' = {value} is invalid: {why}")]
+    BadOption { name: &'static str, value: f64, why: &'static str },
+    #[error("excitation frequency Omega = {0} rad/s must be positive and finite")]
+    BadOmega(f64),
+    #[error("force envelope: {0}")]
+    Envelope(String),
+    #[error("force envelope covers Omega in [{min}, {max}] rad/s, but {omega_rad_s} rad/s is needed")]
+    EnvelopeRange { omega_rad_s: f64, min: f64, max: f64 },
+    #[error("frequency error: omega(a) = {omega_rad_s} rad/s at a = {a} is not positive after (1 + {eps}) omega + {offset_rad_s}")]
+    FrequencyError { a: f64, omega_rad_s: f64, eps: f64, offset_rad_s: f64 },
+    #[error("the slow-flow result has no samples")]
+    EmptyResult,
+}
+
+/// A linear attachment as seen by the reduced model: its condensed interface
+/// quantities of `eq:fc1` at any frequency. Implemented for
+/// [`crate::attachment::LinearAttachment`]; any other frequency-domain
+/// description (e.g. measured) can implement it too (paper Section 3,
+/// "use of experimental data").
+pub trait InterfaceModel: Debug + Send + Sync {
+    /// Name used in messages.
+    fn name(&self) -> &str;
+    /// Names of the structure points of the `ncon` interface constraints (the
+    /// modal table must hold the shape at each of them).
+    fn interface_points(&self) -> Vec<String>;
+    /// Number of inputs `u` (e.g. 1: the voltage).
+    fn ninput(&self) -> usize;
+    /// `(Z_G, T_G)` at `Omega` [rad/s]: interface impedance (`ncon x ncon`) and
+    /// input-force map (`ncon x ninput`), such that the force on the structure
+    /// at the interface points is `F_G = -Z_G u_G + T_G u_hat`.
+    fn condense(&self, omega_rad_s: f64) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError>;
+}
+
+/// A natural-frequency error applied to the table (paper Section 5.3):
+/// `omega(a) -> (1 + eps) omega(a) + offset_rad_s`. The damping ratio `D(a)` is
+/// kept, so the modal damping term `2 D omega` follows the modified frequency.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct FrequencyError {
+    /// Relative error `eps` [-].
+    pub eps: f64,
+    /// Additive offset [rad/s] (the paper's "+5 %" is `0.05 omega0` here).
+    pub offset_rad_s: f64,
+}
+
+/// One attachment connected to the table's points.
+#[derive(Debug, Clone)]
+pub(crate) struct Port {
+    pub model: Arc<dyn InterfaceModel>,
+    /// Table point index of each interface constraint.
+    pub points: Vec<usize>,
+    /// Complex input amplitudes per unit of the sweep amplitude (`u_hat = amplitude * input`).
+    pub input: Vec<Complex64>,
+    /// Offset of this port's channels in the channel vector.
+    pub offset: usize,
+}
+
+impl Port {
+    fn ncon(&self) -> usize {
+        self.points.len()
+    }
+    /// `ncon^2` entries of `Z_G` (row major) followed by `ncon` entries of `T_G u_hat`.
+    fn nchannels(&self) -> usize {
+        self.ncon() * self.ncon() + self.ncon()
+    }
+}
+
+/// An imposed force `F_p(Omega)` at a table point (`f_ex^(1)` of `eq:NM`).
+#[derive(Debug, Clone)]
+pub(crate) struct Imposed {
+    pub point: usize,
+    pub envelope: ForceEnvelope,
+}
+
+/// The single-nonlinear-mode model with attachments (`eq:NM`).
+#[derive(Debug, Clone)]
+pub struct ReducedModel {
+    pub(crate) table: TableInterpolator,
+    /// The table's amplitude grid (root scan of the steady state).
+    pub(crate) grid: Vec<f64>,
+    /// The table's point names in index order.
+    pub(crate) point_names: Vec<String>,
+    pub(crate) ports: Vec<Port>,
+    pub(crate) imposed: Option<Imposed>,
+    pub(crate) tip: usize,
+    pub(crate) drive: usize,
+    pub(crate) tip_name: String,
+    pub(crate) drive_name: String,
+    pub(crate) frequency_error: FrequencyError,
+    /// Amplitude scale for absolute tolerances: the (original) table's maximum.
+    pub(crate) a_scale: f64,
+    /// Size of the channel vector (all ports).
+    pub(crate) nch: usize,
+}
+
+/// Maximum number of interface points over all attachments handled without
+/// heap allocation in the hot loop.
+pub(crate) const MAX_INTERFACE: usize = 8;
+
+impl ReducedModel {
+    /// A model of the mode in `table` without attachments or forces yet.
+    /// `tip` and `drive` name the table points reported as tip displacement
+    /// and as drive point (where the force is measured).
+    pub fn new(table: &ModalTable, tip: &str, drive: &str) -> Result<Self, ReducedError> {
+        let interp = table.interpolator()?;
+        Ok(Self {
+            tip: interp.point_index(tip)?,
+            drive: interp.point_index(drive)?,
+            table: interp,
+            grid: table.amplitude.clone(),
+            point_names: table.points.iter().map(|p| p.name.clone()).collect(),
+            ports: Vec::new(),
+            imposed: None,
+            tip_name: tip.into(),
+            drive_name: drive.into(),
+            frequency_error: FrequencyError::default(),
+            nch: 0,
+            a_scale: *table.amplitude.last().unwrap(),
+        })
+    }
+
+    /// Adds an attachment driven by the sweep: its input amplitudes are
+    /// `u_hat = amplitude * input_per_unit` (for the shaker: `[1]`, so the
+    /// sweep amplitude is the voltage amplitude).
+    pub fn with_attachment(
+        mut self,
+        model: Arc<dyn InterfaceModel>,
+        input_per_unit: &[Complex64],
+    ) -> Result<Self, ReducedError> {
+        if input_per_unit.len() != model.ninput() {
+            return Err(ReducedError::InputCount {
+                attachment: model.name().into(),
+                expected: model.ninput(),
+                found: input_per_unit.len(),
+            });
+        }
+        let points = model
+            .interface_points()
+            .iter()
+            .map(|p| self.table.point_index(p))
+            .collect::<Result<Vec<_>, _>>()?;
+        if points.is_empty() || points.len() > MAX_INTERFACE {
+            return Err(ReducedError::AttachmentSize {
+                attachment: model.name().into(),
+                what: "interface point list (1..=8 supported)",
+                found: points.len(),
+                expected: 1,
+            });
+        }
+        let port = Port { model, points, input: input_per_unit.to_vec(), offset: self.nch };
+        self.nch += port.nchannels();
+        self.ports.push(port);
+        Ok(self)
+    }
+
+    /// Adds an imposed force with complex amplitude `F(Omega)` [N] at table
+    /// point `point` (`f_ex^(1)`, independent of the sweep amplitude).
+    pub fn with_imposed_force(mut self, point: &str, envelope: ForceEnvelope) -> Result<Self, ReducedError> {
+        let point = self.table.point_index(point)?;
+        self.imposed = Some(Imposed { point, envelope });
+        Ok(self)
+    }
+
+    /// The paper's `imposed-force` model: only the prescribed force at the
+    /// drive point, no exciter model.
+    pub fn imposed_force(
+        table: &ModalTable,
+        tip: &str,
+        drive: &str,
+        envelope: ForceEnvelope,
+    ) -> Result<Self, ReducedError> {
+        Self::new(table, tip, drive)?.with_imposed_force(drive, envelope)
+    }
+
+    /// Applies a natural-frequency error (see [`FrequencyError`]).
+    pub fn with_frequency_error(mut self, error: FrequencyError) -> Result<Self, ReducedError> {
+        if !error.eps.is_finite() || error.eps <= -1.0 {
+            return Err(ReducedError::BadOption { name: "eps", value: error.eps, why: "must be finite and > -1" });
+        }
+        if !error.offset_rad_s.is_finite() {
+            return Err(ReducedError::BadOption {
+                name: "offset_rad_s",
+                value: error.offset_rad_s,
+                why: "must be finite",
+            });
+        }
+        self.frequency_error = error;
+        Ok(self)
+    }
+
+    /// The frequency error in force.
+    pub fn frequency_error(&self) -> FrequencyError {
+        self.frequency_error
+    }
+
+    /// The modal table interpolator.
+    pub fn table(&self) -> &TableInterpolator {
+        &self.table
+    }
+
+    /// Names of the tip and drive points.
+    pub fn tip_name(&self) -> &str {
+        &self.tip_name
+    }
+    /// Name of the drive point.
+    pub fn drive_name(&self) -> &str {
+        &self.drive_name
+    }
+
+    /// Linear modal properties `(omega0, D0)` at the table's first point
+    /// (frequency error applied).
+    pub fn linear_properties(&self) -> Result<(f64, f64), ReducedError> {
+        let p = self.modal_properties(0.0)?;
+        Ok((p.omega_rad_s, p.damping_ratio))
+    }
+
+    /// The linear variant (`linear-slowflow`, `linear-steady`): the same model
+    /// with constant `omega0`, `D0` and fundamental shapes `phi0` taken at the
+    /// table's first point, valid for any amplitude (the range is extended to
+    /// `1e12` times the table's maximum; higher harmonics are dropped).
+    pub fn linear(&self) -> Result<ReducedModel, ReducedError> {
+        let (amin, amax) = self.table.amplitude_range();
+        let p0 = self.table.eval(0.0)?;
+        let names = &self.point_names;
+        let shapes = names
+            .iter()
+            .enumerate()
+            .map(|(j, n)| Ok((n.as_str(), self.table.shape(j, 1, 0.0)?)))
+            .collect::<Result<Vec<_>, TableError>>()?;
+        let table = ModalTable::linear(p0.omega_rad_s, p0.damping_ratio, &shapes, amin, 1e12 * amax);
+        let mut m = ReducedModel::new(&table, &self.tip_name, &self.drive_name)?;
+        m.ports = self.ports.clone();
+        m.nch = self.nch;
+        m.imposed = self.imposed.clone();
+        m.frequency_error = self.frequency_error;
+        m.a_scale = self.a_scale;
+        Ok(m)
+    }
+
+    /// `omega(a)` (with the frequency error), `D(a)`, `d omega/d a`.
+    #[inline]
+    pub fn modal_properties(&self, a: f64) -> Result<ModalProperties, ReducedError> {
+        let mut p = self.table.eval(a)?;
+        let fe = self.frequency_error;
+        if fe.eps != 0.0 || fe.offset_rad_s != 0.0 {
+            p.omega_rad_s = (1.0 + fe.eps) * p.omega_rad_s + fe.offset_rad_s;
+            p.domega_da *= 1.0 + fe.eps;
+            if !(p.omega_rad_s > 0.0) {
+                return Err(ReducedError::FrequencyError {
+                    a,
+                    omega_rad_s: p.omega_rad_s,
+                    eps: fe.eps,
+                    offset_rad_s: fe.offset_rad_s,
+                });
+            }
+        }
+        Ok(p)
+    }
+
+    /// Fills the channel vector at `Omega` exactly from the attachment models:
+    /// per port `Z_G` (row major) then `T_G u_hat` with `u_hat = amplitude * input`.
+    pub(crate) fn fill_channels(&self, omega: f64, amplitude: f64, out: &mut [Complex64]) -> Result<(), ReducedError> {
+        if !(omega.is_finite() && omega > 0.0) {
+            return Err(ReducedError::BadOmega(omega));
+        }
+        self.fill_channels_at(omega, amplitude, out)
+    }
+
+    /// As [`Self::fill_channels`] but allows any real `Omega` (harmonics `n = 0`).
+    pub(crate) fn fill_channels_at(&self, omega: f64, amplitude: f64, out: &mut [Complex64]) -> Result<(), ReducedError> {
+        assert_eq!(out.len(), self.nch);
+        for port in &self.ports {
+            let name = port.model.name();
+            let (zg, tg) = port.model.condense(omega).map_err(|source| ReducedError::Attachment {
+                attachment: name.into(),
+                omega_rad_s: omega,
+                source,
+            })?;
+            let nc = port.ncon();
+            if zg.nrows() != nc || zg.ncols() != nc {
+                return Err(ReducedError::AttachmentSize {
+                    attachment: name.into(),
+                    what: "Z_G rows/cols",
+                    found: zg.nrows().max(zg.ncols()),
+                    expected: nc,
+                });
+            }
+            if tg.nrows() != nc || tg.ncols() != port.input.len() {
+                return Err(ReducedError::AttachmentSize {
+                    attachment: name.into(),
+                    what: "T_G columns",
+                    found: tg.ncols(),
+                    expected: port.input.len(),
+                });
+            }
+            let o = port.offset;
+            for r in 0..nc {
+                for c in 0..nc {
+                    out[o + r * nc + c] = zg[(r, c)];
+                }
+                let mut f = Complex64::new(0.0, 0.0);
+                for (j, u) in port.input.iter().enumerate() {
+                    f += tg[(r, j)] * u * amplitude;
+                }
+                out[o + nc * nc + r] = f;
+            }
+        }
+        Ok(())
+    }
+
+    /// The complex terms of `eq:NM` at amplitude `a` for given channels:
+    /// `(K(a, Omega), phi^H f_ex, modal properties)`, with `Z_A` inside `K`.
+    /// `f_imposed` is the imposed force at its point (if any).
+    #[inline]
+    pub(crate) fn nm_terms(
+        &self,
+        a: f64,
+        omega: f64,
+        ch: &[Complex64],
+        f_imposed: Complex64,
+    ) -> Result<(Complex64, Complex64, Complex64, ModalProperties), ReducedError> {
+        let p = self.modal_properties(a)?;
+        let mut za = Complex64::new(0.0, 0.0);
+        let mut fm = Complex64::new(0.0, 0.0);
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_INTERFACE];
+        for port in &self.ports {
+            let nc = port.ncon();
+            for (c, &pt) in port.points.iter().enumerate() {
+                phi[c] = self.table.shape(pt, 1, a)?;
+            }
+            let o = port.offset;
+            for r in 0..nc {
+                let mut zr = Complex64::new(0.0, 0.0);
+                for c in 0..nc {
+                    zr += ch[o + r * nc + c] * phi[c];
+                }
+                za += phi[r].conj() * zr;
+                fm += phi[r].conj() * ch[o + nc * nc + r];
+            }
+        }
+        if let Some(imp) = &self.imposed {
+            fm += self.table.shape(imp.point, 1, a)?.conj() * f_imposed;
+        }
+        let w = p.omega_rad_s;
+        let k = Complex64::new(w * w - omega * omega, 2.0 * p.damping_ratio * w * omega) + za;
+        Ok((k, fm, za, p))
+    }
+
+    /// Modal impedance `Z_A(a, Omega) = sum_att phi_G^H Z_G phi_G` [1/s^2 per
+    /// unit modal mass] and imposed modal force `phi^H f_ex(Omega)` for the
+    /// sweep amplitude `amplitude` (`eq:NM`), evaluated exactly.
+    pub fn modal_impedance_and_force(
+        &self,
+        a: f64,
+        omega_rad_s: f64,
+        amplitude: f64,
+    ) -> Result<(Complex64, Complex64), ReducedError> {
+        let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
+        self.fill_channels(omega_rad_s, amplitude, &mut ch)?;
+        let fi = self.imposed_at(omega_rad_s)?;
+        let (_, fm, za, _) = self.nm_terms(a, omega_rad_s, &ch, fi)?;
+        Ok((za, fm))
+    }
+
+    /// The imposed force at `Omega` (zero without one).
+    pub(crate) fn imposed_at(&self, omega: f64) -> Result<Complex64, ReducedError> {
+        match &self.imposed {
+            Some(imp) => imp.envelope.eval(omega),
+            None => Ok(Complex64::new(0.0, 0.0)),
+        }
+    }
+
+    /// The slow-flow right-hand side: `A' = (phi^H f_ex - K A) / (2 i Omega)`.
+    #[inline]
+    pub(crate) fn rhs(
+        &self,
+        y: &[f64; 2],
+        omega: f64,
+        ch: &[Complex64],
+        f_imposed: Complex64,
+    ) -> Result<[f64; 2], ReducedError> {
+        let amp = Complex64::new(y[0], y[1]);
+        let a = amp.norm();
+        let (k, fm, _, _) = self.nm_terms(a, omega, ch, f_imposed)?;
+        let d = (fm - k * amp) / Complex64::new(0.0, 2.0 * omega);
+        Ok([d.re, d.im])
+    }
+
+    /// The fundamental force at the drive point (sum over the attachments
+    /// connected there, plus the imposed force if it acts there) for the
+    /// complex modal amplitude `A` [N]: `F = -Z_G u_G + T_G u_hat` (`eq:fc1`).
+    pub(crate) fn drive_force(
+        &self,
+        amp: Complex64,
+        ch: &[Complex64],
+        f_imposed: Complex64,
+    ) -> Result<Complex64, ReducedError> {
+        let a = amp.norm();
+        let mut f = Complex64::new(0.0, 0.0);
+        let mut u = [Complex64::new(0.0, 0.0); MAX_INTERFACE];
+        for port in &self.ports {
+            let nc = port.ncon();
+            for (c, &pt) in port.points.iter().enumerate() {
+                u[c] = self.table.shape(pt, 1, a)? * amp;
+            }
+            let o = port.offset;
+            for (r, &pt) in port.points.iter().enumerate() {
+                if pt != self.drive {
+                    continue;
+                }
+                let mut zr = Complex64::new(0.0, 0.0);
+                for c in 0..nc {
+                    zr += ch[o + r * nc + c] * u[c];
+                }
+                f += ch[o + nc * nc + r] - zr;
+            }
+        }
+        if let Some(imp) = &self.imposed {
+            if imp.point == self.drive {
+                f += f_imposed;
+            }
+        }
+        Ok(f)
+    }
+
+    /// The blocked force at the drive point, `F0 = sum T_G u_hat` [N] (the force
+    /// with the structure held at rest).
+    pub fn blocked_force(&self, omega_rad_s: f64, amplitude: f64) -> Result<Complex64, ReducedError> {
+        let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
+        self.fill_channels(omega_rad_s, amplitude, &mut ch)?;
+        let fi = self.imposed_at(omega_rad_s)?;
+        self.drive_force(Complex64::new(0.0, 0.0), &ch, fi)
+    }
+}
