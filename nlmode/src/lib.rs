@@ -19,6 +19,7 @@ pub mod attachment;
 pub mod benchmark;
 pub mod excitation;
 pub mod frf;
+pub mod lti;
 pub mod nma;
 pub mod reduced;
 pub mod reference;

@@ -1,0 +1,147 @@
+//! `cargo run -p fmi2 --bin package-fmus -- --out DIR [--debug] [--resource ID=FILE]...`
+//!
+//! Builds the FMU crates of the workspace (release profile unless `--debug`)
+//! and writes `DIR/<id>.fmu` for every FMU whose
+//! `modelDescription/<id>/modelDescription.xml` exists:
+//! * `modelDescription.xml`,
+//! * `binaries/linux64/<id>.so` (the crate's cdylib),
+//! * `resources/`: every file below `modelDescription/<id>/resources/`, plus
+//!   files given with `--resource <id>=<file>`,
+//! * `documentation/`: the crate's `README.md` (equations, variable table) as
+//!   `README.md` and `index.html`, plus `modelDescription/<id>/documentation/`.
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+use fmi2::package::{files_below, markdown_as_html, write_fmu, FmuSpec};
+
+/// (modelIdentifier = cdylib lib name, cargo package)
+const FMUS: &[(&str, &str)] = &[("shaker", "fmu-shaker"), ("structure", "fmu-structure")];
+
+fn usage() -> ! {
+    eprintln!("usage: package-fmus --out DIR [--debug] [--resource ID=FILE]...");
+    std::process::exit(2)
+}
+
+/// Build the libraries and return (lib name, path of the .so) from cargo's JSON messages.
+fn build(root: &Path, packages: &[&str], debug: bool) -> Result<Vec<(String, PathBuf)>, String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.current_dir(root).args(["build", "--lib", "--message-format=json-render-diagnostics"]);
+    if !debug {
+        cmd.arg("--release");
+    }
+    for p in packages {
+        cmd.args(["-p", p]);
+    }
+    let out = cmd.stderr(std::process::Stdio::inherit()).output().map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("cargo build failed ({})", out.status));
+    }
+    let mut libs = Vec::new();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else { continue };
+        if v["reason"] != "compiler-artifact" {
+            continue;
+        }
+        let name = v["target"]["name"].as_str().unwrap_or_default().to_string();
+        for f in v["filenames"].as_array().into_iter().flatten() {
+            if let Some(f) = f.as_str().filter(|f| f.ends_with(".so")) {
+                libs.push((name.clone(), PathBuf::from(f)));
+            }
+        }
+    }
+    Ok(libs)
+}
+
+fn main() -> ExitCode {
+    let mut out: Option<PathBuf> = None;
+    let mut debug = false;
+    let mut extra: Vec<(String, PathBuf)> = Vec::new();
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--out" => out = Some(args.next().unwrap_or_else(|| usage()).into()),
+            "--debug" => debug = true,
+            "--resource" => {
+                let v = args.next().unwrap_or_else(|| usage());
+                let (id, f) = v.split_once('=').unwrap_or_else(|| usage());
+                extra.push((id.to_string(), PathBuf::from(f)));
+            }
+            _ => usage(),
+        }
+    }
+    let Some(out) = out else { usage() };
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf();
+    let present: Vec<(&str, &str)> = FMUS
+        .iter()
+        .copied()
+        .filter(|(id, _)| root.join("modelDescription").join(id).join("modelDescription.xml").is_file())
+        .collect();
+    if present.is_empty() {
+        eprintln!("no modelDescription/<id>/modelDescription.xml found under {}", root.display());
+        return ExitCode::FAILURE;
+    }
+    let libs = match build(&root, &present.iter().map(|p| p.1).collect::<Vec<_>>(), debug) {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Err(e) = std::fs::create_dir_all(&out) {
+        eprintln!("cannot create {}: {e}", out.display());
+        return ExitCode::FAILURE;
+    }
+    let tmp = out.join(".package-fmus-tmp");
+    for (id, krate) in present {
+        let Some((_, lib)) = libs.iter().find(|(n, _)| n == id) else {
+            eprintln!("cargo built no shared library for {id} ({krate})");
+            return ExitCode::FAILURE;
+        };
+        let md_dir = root.join("modelDescription").join(id);
+        let result = (|| -> Result<PathBuf, String> {
+            let mut resources = Vec::new();
+            if md_dir.join("resources").is_dir() {
+                resources = files_below(&md_dir.join("resources")).map_err(|e| e.to_string())?;
+            }
+            for (eid, f) in &extra {
+                if eid == id {
+                    let name = f.file_name().ok_or(format!("--resource {}: no file name", f.display()))?;
+                    resources.push((f.clone(), name.to_string_lossy().into_owned()));
+                }
+            }
+            let mut documentation = Vec::new();
+            let readme = root.join(krate).join("README.md");
+            if readme.is_file() {
+                let text = std::fs::read_to_string(&readme).map_err(|e| format!("{}: {e}", readme.display()))?;
+                std::fs::create_dir_all(&tmp).map_err(|e| e.to_string())?;
+                let html = tmp.join(format!("{id}-index.html"));
+                std::fs::write(&html, markdown_as_html(id, &text)).map_err(|e| e.to_string())?;
+                documentation.push((readme.clone(), "README.md".to_string()));
+                documentation.push((html, "index.html".to_string()));
+            }
+            if md_dir.join("documentation").is_dir() {
+                documentation.extend(files_below(&md_dir.join("documentation")).map_err(|e| e.to_string())?);
+            }
+            let spec = FmuSpec {
+                model_identifier: id.to_string(),
+                model_description: md_dir.join("modelDescription.xml"),
+                library: lib.clone(),
+                resources,
+                documentation,
+            };
+            let path = out.join(format!("{id}.fmu"));
+            write_fmu(&spec, &path).map_err(|e| e.to_string())?;
+            Ok(path)
+        })();
+        match result {
+            Ok(p) => println!("wrote {}", p.display()),
+            Err(e) => {
+                eprintln!("{id}: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,393 @@
+//! What a model implements: [`CoSimModel`], its variable table ([`Variable`]),
+//! its errors ([`ModelError`]) and the services the layer gives it ([`Logger`],
+//! [`InstantiateContext`], [`StateWriter`] / [`StateReader`]).
+use std::ffi::CString;
+use std::path::PathBuf;
+
+use crate::types::{CallbackLogger, ComponentEnvironment, Status};
+
+/// Variable type of the modelDescription (`<Real>`, `<Integer>`, ...).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VarType {
+    Real,
+    Integer,
+    Boolean,
+    String,
+}
+
+/// `causality` attribute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Causality {
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+    Local,
+    Independent,
+}
+
+/// `variability` attribute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variability {
+    Constant,
+    Fixed,
+    Tunable,
+    Discrete,
+    Continuous,
+}
+
+/// `start` attribute of a variable (must equal the model's value right after
+/// instantiation: masters such as libcosim and OMSimulator never set start values).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Start {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+    String(&'static str),
+}
+
+/// One `<ScalarVariable>` as the code sees it. The modelDescription.xml is
+/// checked against this table by [`crate::xml::check_model_description`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Variable {
+    pub name: &'static str,
+    pub vr: u32,
+    pub ty: VarType,
+    pub causality: Causality,
+    pub variability: Variability,
+    pub start: Option<Start>,
+    /// Unit name as declared in the XML (`""` for none).
+    pub unit: &'static str,
+}
+
+impl Variable {
+    /// May the importer set this variable in the given phase? (FMI 2.0 CS:
+    /// before/while initializing, inputs and parameters; while stepping, inputs
+    /// and tunable parameters.)
+    pub(crate) fn settable(&self, initialized: bool) -> bool {
+        match self.causality {
+            Causality::Input => true,
+            Causality::Parameter => {
+                !initialized || self.variability == Variability::Tunable
+            }
+            _ => false,
+        }
+    }
+}
+
+/// A failure of the model, reported to the importer through the logger with
+/// the status it carries (`fmi2Discard` or `fmi2Error`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelError {
+    pub status: Status,
+    pub message: String,
+}
+
+impl ModelError {
+    /// An error: the instance goes to the error state (`fmi2Error`).
+    pub fn error(message: impl Into<String>) -> Self {
+        Self { status: Status::Error, message: message.into() }
+    }
+    /// A step that could not be completed but may be retried (`fmi2Discard`).
+    pub fn discard(message: impl Into<String>) -> Self {
+        Self { status: Status::Discard, message: message.into() }
+    }
+}
+
+impl std::fmt::Display for ModelError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.message)
+    }
+}
+
+/// Any typed error of the physics crates converts into an `fmi2Error`.
+impl<E: std::error::Error> From<E> for ModelError {
+    fn from(e: E) -> Self {
+        ModelError::error(e.to_string())
+    }
+}
+
+/// The standard log categories this layer uses (declare them in the
+/// modelDescription's `<LogCategories>`).
+pub const LOG_CATEGORIES: &[&str] = &[
+    "logEvents",
+    "logStatusWarning",
+    "logStatusDiscard",
+    "logStatusError",
+    "logStatusFatal",
+    "logAll",
+];
+
+/// Logging through the importer's `fmi2CallbackLogger`. Messages with status
+/// warning or worse are always passed on; informative ones (`logEvents`) only
+/// when the importer switched logging on (`loggingOn` / `fmi2SetDebugLogging`).
+/// The instance name and category are never NULL, and a literal `%` is written
+/// `%%` because every master formats the message with `vsnprintf`.
+pub struct Logger {
+    callback: Option<CallbackLogger>,
+    env: ComponentEnvironment,
+    instance_name: CString,
+    pub(crate) logging_on: bool,
+    /// Enabled categories (indices into [`LOG_CATEGORIES`]); all when empty.
+    pub(crate) categories: Vec<usize>,
+}
+
+fn c_string_lossy(s: &str) -> CString {
+    CString::new(s.replace('\0', " ")).expect("NUL bytes were replaced")
+}
+
+impl Logger {
+    pub(crate) fn new(
+        callback: Option<CallbackLogger>,
+        env: ComponentEnvironment,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Self {
+        Self {
+            callback,
+            env,
+            instance_name: c_string_lossy(instance_name),
+            logging_on,
+            categories: Vec::new(),
+        }
+    }
+
+    /// A logger that drops every message (for using a model outside an FMU, e.g.
+    /// in tests and benchmarks).
+    pub fn silent() -> Self {
+        Self::new(None, std::ptr::null_mut(), "silent", false)
+    }
+
+    /// The instance name given by the importer.
+    pub fn instance_name(&self) -> &str {
+        self.instance_name.to_str().unwrap_or("?")
+    }
+
+    fn category_enabled(&self, category: &str) -> bool {
+        if !self.logging_on {
+            return false;
+        }
+        if self.categories.is_empty() {
+            return true;
+        }
+        self.categories.iter().any(|&i| {
+            LOG_CATEGORIES[i] == category || LOG_CATEGORIES[i] == "logAll"
+        })
+    }
+
+    /// Send `message` with `status` and `category` to the importer.
+    pub fn log(&self, status: Status, category: &str, message: &str) {
+        let Some(cb) = self.callback else { return };
+        let always = status >= Status::Warning;
+        if !always && !self.category_enabled(category) {
+            return;
+        }
+        let msg = c_string_lossy(&message.replace('%', "%%"));
+        let cat = c_string_lossy(category);
+        // SAFETY: the callback is the importer's fmi2CallbackLogger, called with
+        // valid NUL-terminated strings and no variadic arguments (the message has
+        // no unescaped conversion specifications).
+        unsafe { cb(self.env, self.instance_name.as_ptr(), status, cat.as_ptr(), msg.as_ptr()) }
+    }
+
+    /// An informative message (category `logEvents`, status OK).
+    pub fn info(&self, message: &str) {
+        self.log(Status::Ok, "logEvents", message);
+    }
+
+    /// A warning (category `logStatusWarning`).
+    pub fn warning(&self, message: &str) {
+        self.log(Status::Warning, "logStatusWarning", message);
+    }
+
+    /// An error (category `logStatusError`).
+    pub fn error(&self, message: &str) {
+        self.log(Status::Error, "logStatusError", message);
+    }
+}
+
+/// What a model gets at `fmi2Instantiate` (and again at `fmi2Reset`).
+pub struct InstantiateContext<'a> {
+    pub instance_name: &'a str,
+    /// The decoded `fmuResourceLocation` (None when the importer gave none or a
+    /// non-`file:` URI).
+    pub resource_dir: Option<PathBuf>,
+    pub logger: &'a Logger,
+}
+
+/// Little-endian byte writer for serialized FMU states.
+#[derive(Default)]
+pub struct StateWriter {
+    pub(crate) bytes: Vec<u8>,
+}
+
+impl StateWriter {
+    pub fn new() -> Self {
+        Self::default()
+    }
+    pub fn f64(&mut self, v: f64) {
+        self.bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn u64(&mut self, v: u64) {
+        self.bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn bool(&mut self, v: bool) {
+        self.bytes.push(v as u8);
+    }
+    pub fn f64s(&mut self, v: &[f64]) {
+        self.u64(v.len() as u64);
+        v.iter().for_each(|&x| self.f64(x));
+    }
+    pub fn into_bytes(self) -> Vec<u8> {
+        self.bytes
+    }
+}
+
+/// Reader matching [`StateWriter`]; every read is checked against the length.
+pub struct StateReader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> StateReader<'a> {
+    pub fn new(bytes: &'a [u8]) -> Self {
+        Self { bytes, pos: 0 }
+    }
+    fn take(&mut self, n: usize) -> Result<&'a [u8], ModelError> {
+        if self.pos + n > self.bytes.len() {
+            return Err(ModelError::error(format!(
+                "serialized FMU state truncated: need {} bytes at offset {}, have {}",
+                n,
+                self.pos,
+                self.bytes.len()
+            )));
+        }
+        let s = &self.bytes[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    pub fn f64(&mut self) -> Result<f64, ModelError> {
+        Ok(f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+    pub fn u64(&mut self) -> Result<u64, ModelError> {
+        Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+    pub fn bool(&mut self) -> Result<bool, ModelError> {
+        match self.take(1)?[0] {
+            0 => Ok(false),
+            1 => Ok(true),
+            b => Err(ModelError::error(format!("serialized FMU state: bad boolean byte {b}"))),
+        }
+    }
+    pub fn f64s(&mut self, expected_len: usize) -> Result<Vec<f64>, ModelError> {
+        let n = self.u64()? as usize;
+        if n != expected_len {
+            return Err(ModelError::error(format!(
+                "serialized FMU state: array of {n} values, expected {expected_len}"
+            )));
+        }
+        (0..n).map(|_| self.f64()).collect()
+    }
+    /// Error unless every byte was consumed.
+    pub fn finish(&self) -> Result<(), ModelError> {
+        if self.pos != self.bytes.len() {
+            return Err(ModelError::error(format!(
+                "serialized FMU state has {} trailing bytes",
+                self.bytes.len() - self.pos
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A co-simulation model. The layer ([`crate::export_fmu!`]) guarantees:
+/// * every value reference passed to `get_*`/`set_*` is in [`Self::VARIABLES`]
+///   with the matching type, and `set_*` is only called for variables settable
+///   in the current phase, with finite Real values;
+/// * `do_step` gets `h > 0` and the current communication point `t`;
+/// * methods are never called concurrently on one instance.
+///
+/// A model keeps all its state in `self` (no statics: several instances live
+/// in one process and may step on different threads).
+pub trait CoSimModel: Clone + Sized + 'static {
+    /// `modelIdentifier` (the shared library's name without extension).
+    const MODEL_IDENTIFIER: &'static str;
+    /// `guid` of the modelDescription (checked at instantiation).
+    const GUID: &'static str;
+    /// All scalar variables, the single source the XML is tested against.
+    const VARIABLES: &'static [Variable];
+
+    /// Build the model with the modelDescription start values.
+    fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError>;
+
+    /// `fmi2SetupExperiment`: the start time (the model's time from then on).
+    fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>) -> Result<(), ModelError> {
+        let _ = (start_time, stop_time);
+        Ok(())
+    }
+    /// `fmi2EnterInitializationMode`.
+    fn enter_initialization_mode(&mut self, log: &Logger) -> Result<(), ModelError> {
+        let _ = log;
+        Ok(())
+    }
+    /// `fmi2ExitInitializationMode`: validate parameters, compute initial outputs.
+    fn exit_initialization_mode(&mut self, log: &Logger) -> Result<(), ModelError> {
+        let _ = log;
+        Ok(())
+    }
+
+    /// Value of a Real variable at the current time.
+    fn get_real(&self, vr: u32) -> f64;
+    /// Set a Real input or parameter.
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError>;
+    fn get_integer(&self, vr: u32) -> Result<i32, ModelError> {
+        Err(ModelError::error(format!("no Integer variable with value reference {vr}")))
+    }
+    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), ModelError> {
+        let _ = value;
+        Err(ModelError::error(format!("no Integer variable with value reference {vr}")))
+    }
+    fn get_boolean(&self, vr: u32) -> Result<bool, ModelError> {
+        Err(ModelError::error(format!("no Boolean variable with value reference {vr}")))
+    }
+    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), ModelError> {
+        let _ = value;
+        Err(ModelError::error(format!("no Boolean variable with value reference {vr}")))
+    }
+    fn get_string(&self, vr: u32) -> Result<String, ModelError> {
+        Err(ModelError::error(format!("no String variable with value reference {vr}")))
+    }
+    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), ModelError> {
+        let _ = value;
+        Err(ModelError::error(format!("no String variable with value reference {vr}")))
+    }
+
+    /// Advance from `t` to `t + h` (`fmi2DoStep`).
+    fn do_step(&mut self, t: f64, h: f64, log: &Logger) -> Result<(), ModelError>;
+
+    /// `fmi2SetRealInputDerivatives` for one input (`order >= 1`).
+    fn set_real_input_derivative(&mut self, vr: u32, order: u32, value: f64) -> Result<(), ModelError> {
+        let _ = value;
+        Err(ModelError::error(format!(
+            "input derivatives are not supported (value reference {vr}, order {order})"
+        )))
+    }
+    /// `fmi2GetRealOutputDerivatives` for one output (`order >= 1`).
+    fn get_real_output_derivative(&self, vr: u32, order: u32) -> Result<f64, ModelError> {
+        Err(ModelError::error(format!(
+            "output derivatives are not supported (value reference {vr}, order {order})"
+        )))
+    }
+    /// Partial derivative `d unknown / d known` at the current point
+    /// (`fmi2GetDirectionalDerivative` sums these).
+    fn partial_derivative(&self, unknown: u32, known: u32) -> Result<f64, ModelError> {
+        Err(ModelError::error(format!(
+            "directional derivatives are not supported (d{unknown}/d{known})"
+        )))
+    }
+
+    /// Append the complete dynamic state (states, inputs, parameters, time).
+    fn serialize_state(&self, w: &mut StateWriter);
+    /// Restore what [`Self::serialize_state`] wrote (into a clone of a live instance).
+    fn deserialize_state(&mut self, r: &mut StateReader<'_>) -> Result<(), ModelError>;
+}

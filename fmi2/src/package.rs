@@ -1,0 +1,167 @@
+//! Writing `.fmu` archives (zip): `modelDescription.xml`,
+//! `binaries/linux64/<modelIdentifier>.so`, `resources/...` and
+//! `documentation/...`. Pure Rust (the `zip` crate).
+use std::fs::File;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use zip::write::SimpleFileOptions;
+
+/// Why an FMU could not be written; each variant names the file involved.
+#[derive(Debug, thiserror::Error)]
+pub enum PackageError {
+    #[error("cannot read {path}: {source}")]
+    Read { path: PathBuf, source: std::io::Error },
+    #[error("cannot write {path}: {source}")]
+    Write { path: PathBuf, source: std::io::Error },
+    #[error("zip error writing {path}: {source}")]
+    Zip { path: PathBuf, source: zip::result::ZipError },
+    #[error("{path}: invalid modelDescription: {reason}")]
+    BadModelDescription { path: PathBuf, reason: String },
+    #[error("{path}: modelIdentifier is {found:?}, expected {expected:?}")]
+    IdentifierMismatch { path: PathBuf, found: String, expected: String },
+}
+
+/// The parts of one FMU.
+#[derive(Debug, Clone)]
+pub struct FmuSpec {
+    /// `modelIdentifier` (= shared library name without `lib` and `.so`).
+    pub model_identifier: String,
+    pub model_description: PathBuf,
+    /// The built shared library (`lib<id>.so`).
+    pub library: PathBuf,
+    /// Files to put under `resources/`: (source, path inside `resources/`).
+    pub resources: Vec<(PathBuf, String)>,
+    /// Files to put under `documentation/`: (source, path inside).
+    pub documentation: Vec<(PathBuf, String)>,
+}
+
+fn read(path: &Path) -> Result<Vec<u8>, PackageError> {
+    let mut v = Vec::new();
+    File::open(path)
+        .and_then(|mut f| f.read_to_end(&mut v))
+        .map_err(|source| PackageError::Read { path: path.to_path_buf(), source })?;
+    Ok(v)
+}
+
+/// All regular files below `dir`, as (path, relative path with `/`), sorted.
+pub fn files_below(dir: &Path) -> Result<Vec<(PathBuf, String)>, PackageError> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let rd = std::fs::read_dir(&d).map_err(|source| PackageError::Read { path: d.clone(), source })?;
+        for e in rd {
+            let e = e.map_err(|source| PackageError::Read { path: d.clone(), source })?;
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p
+                    .strip_prefix(dir)
+                    .expect("below dir")
+                    .components()
+                    .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                    .collect::<Vec<_>>()
+                    .join("/");
+                out.push((p, rel));
+            }
+        }
+    }
+    out.sort_by(|a, b| a.1.cmp(&b.1));
+    Ok(out)
+}
+
+/// Write `spec` as a zip archive at `out`, after checking that the
+/// modelDescription parses and names the same `modelIdentifier`.
+pub fn write_fmu(spec: &FmuSpec, out: &Path) -> Result<(), PackageError> {
+    let md = read(&spec.model_description)?;
+    let md_text = String::from_utf8(md.clone()).map_err(|e| PackageError::BadModelDescription {
+        path: spec.model_description.clone(),
+        reason: e.to_string(),
+    })?;
+    let parsed = crate::xml::parse(&md_text).map_err(|reason| PackageError::BadModelDescription {
+        path: spec.model_description.clone(),
+        reason,
+    })?;
+    if parsed.model_identifier != spec.model_identifier {
+        return Err(PackageError::IdentifierMismatch {
+            path: spec.model_description.clone(),
+            found: parsed.model_identifier,
+            expected: spec.model_identifier.clone(),
+        });
+    }
+    let zerr = |source| PackageError::Zip { path: out.to_path_buf(), source };
+    let werr = |source| PackageError::Write { path: out.to_path_buf(), source };
+    let file = File::create(out).map_err(werr)?;
+    let mut z = zip::ZipWriter::new(file);
+    let opts = SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    let mut add = |name: &str, bytes: &[u8]| -> Result<(), PackageError> {
+        z.start_file(name, opts).map_err(zerr)?;
+        z.write_all(bytes).map_err(werr)
+    };
+    add("modelDescription.xml", &md)?;
+    add(&format!("binaries/linux64/{}.so", spec.model_identifier), &read(&spec.library)?)?;
+    for (src, rel) in &spec.resources {
+        add(&format!("resources/{rel}"), &read(src)?)?;
+    }
+    for (src, rel) in &spec.documentation {
+        add(&format!("documentation/{rel}"), &read(src)?)?;
+    }
+    z.finish().map_err(zerr)?;
+    Ok(())
+}
+
+/// Minimal HTML page showing a Markdown text verbatim (`documentation/index.html`
+/// is the entry point the standard names).
+pub fn markdown_as_html(title: &str, markdown: &str) -> String {
+    let esc = markdown.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+    format!(
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{title}</title></head>\n<body><pre>\n{esc}\n</pre></body></html>\n"
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_the_standard_layout_and_checks_the_identifier() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = |n: &str| dir.path().join(n);
+        std::fs::write(
+            p("md.xml"),
+            r#"<fmiModelDescription fmiVersion="2.0" modelName="m" guid="{g}"><CoSimulation modelIdentifier="m"/></fmiModelDescription>"#,
+        )
+        .unwrap();
+        std::fs::write(p("libm.so"), b"\x7fELF...").unwrap();
+        std::fs::create_dir_all(p("res/sub")).unwrap();
+        std::fs::write(p("res/sub/table.json"), b"{}").unwrap();
+        std::fs::write(p("res/a.txt"), b"a").unwrap();
+        let spec = FmuSpec {
+            model_identifier: "m".into(),
+            model_description: p("md.xml"),
+            library: p("libm.so"),
+            resources: files_below(&p("res")).unwrap(),
+            documentation: vec![(p("res/a.txt"), "index.html".into())],
+        };
+        write_fmu(&spec, &p("m.fmu")).unwrap();
+        let mut z = zip::ZipArchive::new(File::open(p("m.fmu")).unwrap()).unwrap();
+        let mut names: Vec<String> = (0..z.len()).map(|i| z.by_index(i).unwrap().name().to_string()).collect();
+        names.sort();
+        assert_eq!(
+            names,
+            [
+                "binaries/linux64/m.so",
+                "documentation/index.html",
+                "modelDescription.xml",
+                "resources/a.txt",
+                "resources/sub/table.json"
+            ]
+        );
+        let mut so = Vec::new();
+        z.by_name("binaries/linux64/m.so").unwrap().read_to_end(&mut so).unwrap();
+        assert_eq!(so, b"\x7fELF...");
+        let bad = FmuSpec { model_identifier: "other".into(), ..spec };
+        assert!(matches!(write_fmu(&bad, &p("x.fmu")), Err(PackageError::IdentifierMismatch { .. })));
+    }
+}
