@@ -1,1 +1,378 @@
-//! The structure FMU (filled by the FMU work).
+//! The structure FMU (FMI 2.0 Co-Simulation): the time-domain nonlinear-mode
+//! oscillator of DESIGN.md section 4 ([`nlmode::oscillator`]) driven by the
+//! force of an attachment at one point of the modal table.
+//!
+//! Physics in [`nlmode::oscillator`]; this file only maps the FMI variables
+//! (table [`Structure::VARIABLES`], the single source the modelDescription.xml
+//! is tested against) onto it. See `README.md` for the equations and the
+//! variable table.
+//!
+//! * input `F` [N]: force on the structure at the drive point, positive along
+//!   positive displacement; over a step it is `F + F' s + F'' s^2/2` with the
+//!   derivatives from `fmi2SetRealInputDerivatives` (zero unless given, reset
+//!   after every step);
+//! * outputs `x`, `v` (drive point), `x_tip`, `a`, `omega`, none with direct
+//!   feedthrough from `F`;
+//! * parameters `frequency_error` (`omega -> (1 + eps) omega`), `drive_point`
+//!   (name in the table, default `2l3`), `drive_point_index` (index into the
+//!   table's points, used when >= 0), `modal_table` (path; empty: the
+//!   `modal_table.json` of the FMU's `resources/` folder).
+use std::path::PathBuf;
+
+use fmi2::{
+    Causality, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader, StateWriter, VarType,
+    Variability, Variable,
+};
+use nlmode::nma::ModalTable;
+use nlmode::oscillator::{InputPolynomial, ModalOscillator, OscillatorState};
+
+/// Value references (Real).
+pub mod vr {
+    pub const F: u32 = 0;
+    pub const X: u32 = 1;
+    pub const V: u32 = 2;
+    pub const X_TIP: u32 = 3;
+    pub const A: u32 = 4;
+    pub const OMEGA: u32 = 5;
+    pub const FREQUENCY_ERROR: u32 = 6;
+    /// String parameters.
+    pub const DRIVE_POINT: u32 = 0;
+    pub const MODAL_TABLE: u32 = 1;
+    /// Integer parameter.
+    pub const DRIVE_POINT_INDEX: u32 = 0;
+}
+
+/// File name of the modal table in the FMU's `resources/` folder.
+pub const RESOURCE_TABLE: &str = "modal_table.json";
+/// Name of the tip point in the table.
+pub const TIP_POINT: &str = "tip";
+/// Default drive point (the paper's exciter at `2l/3`).
+pub const DEFAULT_DRIVE_POINT: &str = "2l3";
+
+/// Outputs at the current communication point.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Outputs {
+    x: f64,
+    v: f64,
+    x_tip: f64,
+    a: f64,
+    omega: f64,
+}
+
+/// One structure FMU instance.
+#[derive(Clone)]
+pub struct Structure {
+    resource_dir: Option<PathBuf>,
+    start_time_s: f64,
+    frequency_error: f64,
+    drive_point: String,
+    drive_point_index: i32,
+    modal_table: String,
+    /// `F` at the start of the next step and its first two time derivatives.
+    force: InputPolynomial,
+    osc: Option<ModalOscillator>,
+    tip: usize,
+    out: Outputs,
+}
+
+const fn real(
+    name: &'static str,
+    vr: u32,
+    causality: Causality,
+    variability: Variability,
+    start: Option<Start>,
+    unit: &'static str,
+) -> Variable {
+    Variable { name, vr, ty: VarType::Real, causality, variability, start, unit }
+}
+
+impl Structure {
+    /// Path of the modal table from the parameter or the resources folder.
+    fn table_path(&self) -> Result<PathBuf, ModelError> {
+        if !self.modal_table.is_empty() {
+            return Ok(PathBuf::from(&self.modal_table));
+        }
+        match &self.resource_dir {
+            Some(dir) => Ok(dir.join(RESOURCE_TABLE)),
+            None => Err(ModelError::error(format!(
+                "no modal table: parameter modal_table is empty and the importer gave no resource location \
+                 (expected resources/{RESOURCE_TABLE})"
+            ))),
+        }
+    }
+
+    /// Load the table and build the oscillator (at `fmi2ExitInitializationMode`).
+    fn build(&mut self) -> Result<(), ModelError> {
+        let path = self.table_path()?;
+        if !path.is_file() {
+            return Err(ModelError::error(format!("modal table {} does not exist", path.display())));
+        }
+        let table = ModalTable::read(&path)?;
+        let drive = if self.drive_point_index >= 0 {
+            let i = self.drive_point_index as usize;
+            let names: Vec<&str> = table.points.iter().map(|p| p.name.as_str()).collect();
+            names.get(i).map(|s| s.to_string()).ok_or_else(|| {
+                ModelError::error(format!(
+                    "drive_point_index = {i} but the table has {} points ({})",
+                    names.len(),
+                    names.join(", ")
+                ))
+            })?
+        } else {
+            self.drive_point.clone()
+        };
+        let mut osc = ModalOscillator::new(&table, &drive, self.frequency_error)?;
+        self.tip = osc.point_index(TIP_POINT)?;
+        osc.set_state(OscillatorState { time_s: self.start_time_s, eta: 0.0, u: 0.0 })?;
+        self.osc = Some(osc);
+        self.update_outputs()
+    }
+
+    fn update_outputs(&mut self) -> Result<(), ModelError> {
+        let Some(osc) = &self.osc else { return Ok(()) };
+        let m = osc.modal()?;
+        let d = osc.point_response(osc.drive_index())?;
+        let t = osc.point_response(self.tip)?;
+        self.out = Outputs { x: d.x_m, v: d.v_m_s, x_tip: t.x_m, a: m.amplitude, omega: m.omega_rad_s };
+        Ok(())
+    }
+
+    fn oscillator(&self) -> Result<&ModalOscillator, ModelError> {
+        self.osc.as_ref().ok_or_else(|| ModelError::error("the modal table is loaded at fmi2ExitInitializationMode"))
+    }
+}
+
+impl CoSimModel for Structure {
+    const MODEL_IDENTIFIER: &'static str = "structure";
+    const GUID: &'static str = "{60aa93fb-2eb2-4b1e-a6da-f73a230326bf}";
+    const VARIABLES: &'static [Variable] = &[
+        real("F", vr::F, Causality::Input, Variability::Continuous, Some(Start::Real(0.0)), "N"),
+        real("x", vr::X, Causality::Output, Variability::Continuous, None, "m"),
+        real("v", vr::V, Causality::Output, Variability::Continuous, None, "m/s"),
+        real("x_tip", vr::X_TIP, Causality::Output, Variability::Continuous, None, "m"),
+        real("a", vr::A, Causality::Output, Variability::Continuous, None, "sqrt(kg).m"),
+        real("omega", vr::OMEGA, Causality::Output, Variability::Continuous, None, "rad/s"),
+        real("frequency_error", vr::FREQUENCY_ERROR, Causality::Parameter, Variability::Fixed, Some(Start::Real(0.0)), ""),
+        Variable {
+            name: "drive_point",
+            vr: vr::DRIVE_POINT,
+            ty: VarType::String,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::String(DEFAULT_DRIVE_POINT)),
+            unit: "",
+        },
+        Variable {
+            name: "drive_point_index",
+            vr: vr::DRIVE_POINT_INDEX,
+            ty: VarType::Integer,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::Integer(-1)),
+            unit: "",
+        },
+        Variable {
+            name: "modal_table",
+            vr: vr::MODAL_TABLE,
+            ty: VarType::String,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::String("")),
+            unit: "",
+        },
+    ];
+
+    fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
+        if ctx.resource_dir.is_none() {
+            ctx.logger.info("no resource location given: set the parameter modal_table to a modal-table file");
+        }
+        Ok(Structure {
+            resource_dir: ctx.resource_dir.clone(),
+            start_time_s: 0.0,
+            frequency_error: 0.0,
+            drive_point: DEFAULT_DRIVE_POINT.into(),
+            drive_point_index: -1,
+            modal_table: String::new(),
+            force: InputPolynomial::default(),
+            osc: None,
+            tip: 0,
+            out: Outputs::default(),
+        })
+    }
+
+    fn setup_experiment(&mut self, start_time: f64, _stop_time: Option<f64>) -> Result<(), ModelError> {
+        self.start_time_s = start_time;
+        Ok(())
+    }
+
+    fn exit_initialization_mode(&mut self, log: &Logger) -> Result<(), ModelError> {
+        self.build()?;
+        let osc = self.oscillator()?;
+        let (a_min, a_max) = osc.table().amplitude_range();
+        log.info(&format!(
+            "modal table {} loaded: a in [{a_min:e}, {a_max:e}] sqrt(kg) m, H = {}, drive point index {}, \
+             frequency factor {}, RK4 sub-step <= {:e} s",
+            self.table_path()?.display(),
+            osc.table().harmonics(),
+            osc.drive_index(),
+            1.0 + self.frequency_error,
+            osc.max_substep_s()
+        ));
+        Ok(())
+    }
+
+    fn get_real(&self, vr: u32) -> f64 {
+        match vr {
+            vr::F => self.force.c0,
+            vr::X => self.out.x,
+            vr::V => self.out.v,
+            vr::X_TIP => self.out.x_tip,
+            vr::A => self.out.a,
+            vr::OMEGA => self.out.omega,
+            vr::FREQUENCY_ERROR => self.frequency_error,
+            _ => unreachable!("the layer checks value references"),
+        }
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
+        match vr {
+            vr::F => self.force.c0 = value,
+            vr::FREQUENCY_ERROR => {
+                if !(1.0 + value > 0.0) {
+                    return Err(ModelError::error(format!(
+                        "frequency_error = {value}: the factor 1 + frequency_error must be positive"
+                    )));
+                }
+                self.frequency_error = value
+            }
+            _ => unreachable!("the layer checks settability"),
+        }
+        Ok(())
+    }
+
+    fn get_integer(&self, vr: u32) -> Result<i32, ModelError> {
+        match vr {
+            vr::DRIVE_POINT_INDEX => Ok(self.drive_point_index),
+            _ => Err(ModelError::error(format!("no Integer variable with value reference {vr}"))),
+        }
+    }
+
+    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), ModelError> {
+        match vr {
+            vr::DRIVE_POINT_INDEX => {
+                self.drive_point_index = value;
+                Ok(())
+            }
+            _ => Err(ModelError::error(format!("no Integer variable with value reference {vr}"))),
+        }
+    }
+
+    fn get_string(&self, vr: u32) -> Result<String, ModelError> {
+        match vr {
+            vr::DRIVE_POINT => Ok(self.drive_point.clone()),
+            vr::MODAL_TABLE => Ok(self.modal_table.clone()),
+            _ => Err(ModelError::error(format!("no String variable with value reference {vr}"))),
+        }
+    }
+
+    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), ModelError> {
+        match vr {
+            vr::DRIVE_POINT => self.drive_point = value.to_string(),
+            vr::MODAL_TABLE => self.modal_table = value.to_string(),
+            _ => return Err(ModelError::error(format!("no String variable with value reference {vr}"))),
+        }
+        Ok(())
+    }
+
+    fn do_step(&mut self, _t: f64, h: f64, _log: &Logger) -> Result<(), ModelError> {
+        let osc = self.osc.as_mut().ok_or_else(|| ModelError::error("not initialized"))?;
+        osc.step(h, self.force)?;
+        // the input continues from the polynomial's end value until the master sets it;
+        // derivatives apply to one step only
+        let p = self.force;
+        self.force = InputPolynomial::constant(p.c0 + h * (p.c1 + 0.5 * h * p.c2));
+        self.update_outputs()
+    }
+
+    fn set_real_input_derivative(&mut self, vr: u32, order: u32, value: f64) -> Result<(), ModelError> {
+        match (vr, order) {
+            (vr::F, 1) => self.force.c1 = value,
+            (vr::F, 2) => self.force.c2 = value,
+            _ => {
+                return Err(ModelError::error(format!(
+                    "input derivative of order {order} of value reference {vr} is not supported (F: orders 1 and 2)"
+                )))
+            }
+        }
+        Ok(())
+    }
+
+    fn get_real_output_derivative(&self, vr: u32, order: u32) -> Result<f64, ModelError> {
+        if order != 1 {
+            return Err(ModelError::error(format!("output derivatives of order {order} are not supported (only 1)")));
+        }
+        let osc = self.oscillator()?;
+        let c = self.force.c0;
+        Ok(match vr {
+            vr::X => osc.point_response_rate(osc.drive_index(), c)?.x_m,
+            vr::V => osc.point_response_rate(osc.drive_index(), c)?.v_m_s,
+            vr::X_TIP => osc.point_response_rate(self.tip, c)?.x_m,
+            vr::A => osc.modal_rate(c)?.0,
+            vr::OMEGA => osc.modal_rate(c)?.1,
+            _ => return Err(ModelError::error(format!("value reference {vr} is not an output"))),
+        })
+    }
+
+    fn partial_derivative(&self, unknown: u32, known: u32) -> Result<f64, ModelError> {
+        // no output depends directly on the input F (ModelStructure dependencies="")
+        if known == vr::F && matches!(unknown, vr::X | vr::V | vr::X_TIP | vr::A | vr::OMEGA) {
+            return Ok(0.0);
+        }
+        Err(ModelError::error(format!(
+            "directional derivative d(vr {unknown})/d(vr {known}) is not available (only outputs w.r.t. F)"
+        )))
+    }
+
+    fn serialize_state(&self, w: &mut StateWriter) {
+        w.f64(self.force.c0);
+        w.f64(self.force.c1);
+        w.f64(self.force.c2);
+        w.f64(self.frequency_error);
+        w.bool(self.osc.is_some());
+        if let Some(osc) = &self.osc {
+            let s = osc.state();
+            w.u64(osc.drive_index() as u64);
+            w.f64(s.time_s);
+            w.f64(s.eta);
+            w.f64(s.u);
+        }
+    }
+
+    fn deserialize_state(&mut self, r: &mut StateReader<'_>) -> Result<(), ModelError> {
+        self.force = InputPolynomial { c0: r.f64()?, c1: r.f64()?, c2: r.f64()? };
+        let eps = r.f64()?;
+        let initialized = r.bool()?;
+        if eps != self.frequency_error || initialized != self.osc.is_some() {
+            return Err(ModelError::error(format!(
+                "FMU state from another configuration (frequency_error {eps}, initialized {initialized}; \
+                 this instance: {}, {})",
+                self.frequency_error,
+                self.osc.is_some()
+            )));
+        }
+        if let Some(osc) = &mut self.osc {
+            let drive = r.u64()? as usize;
+            if drive != osc.drive_index() {
+                return Err(ModelError::error(format!(
+                    "FMU state for drive point index {drive}, this instance drives point {}",
+                    osc.drive_index()
+                )));
+            }
+            let s = OscillatorState { time_s: r.f64()?, eta: r.f64()?, u: r.f64()? };
+            osc.set_state(s)?;
+        }
+        self.update_outputs()
+    }
+}
+
+fmi2::export_fmu!(Structure);

@@ -21,6 +21,7 @@ pub mod excitation;
 pub mod frf;
 pub mod lti;
 pub mod nma;
+pub mod oscillator;
 pub mod reduced;
 pub mod reference;
 pub mod structure;

@@ -1,0 +1,210 @@
+//! The structure model through its `CoSimModel` interface: the XML agrees with
+//! the code, start values, table loading, drive-point selection, state round
+//! trips, input derivatives and errors.
+use std::f64::consts::PI;
+
+use fmi2::{CoSimModel, InstantiateContext, Logger, StateReader, StateWriter};
+use nlmode::nma::ModalTable;
+use nlmode::Complex64;
+use structure::{vr, Structure};
+
+const XML: &str = include_str!("../../modelDescription/structure/modelDescription.xml");
+
+fn linear_table(dir: &std::path::Path) -> std::path::PathBuf {
+    let t = ModalTable::linear(
+        356.2,
+        0.004,
+        &[("tip", Complex64::new(1.43, 0.0)), ("l3", Complex64::new(0.3, 0.0)), ("2l3", Complex64::new(-1.04, 0.0))],
+        1e-9,
+        1.0,
+    );
+    let p = dir.join("modal_table.json");
+    t.write(&p).unwrap();
+    p
+}
+
+fn instantiate(resource_dir: Option<std::path::PathBuf>) -> Structure {
+    let log = Logger::silent();
+    Structure::instantiate(&InstantiateContext { instance_name: "s", resource_dir, logger: &log }).unwrap()
+}
+
+#[test]
+fn xml_and_code_agree() {
+    let md = fmi2::xml::check_model_description(XML, Structure::MODEL_IDENTIFIER, Structure::GUID, Structure::VARIABLES)
+        .unwrap_or_else(|e| panic!("{e:#?}"));
+    // no output depends directly on F (no algebraic loop with the shaker)
+    assert_eq!(md.outputs.len(), 5);
+    for u in &md.outputs {
+        assert_eq!(u.dependencies.as_deref(), Some(&[][..]), "output index {}", u.index);
+    }
+    let flag = |k: &str| md.cosim_flags.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
+    assert_eq!(flag("canGetAndSetFMUstate"), Some("true"));
+    assert_eq!(flag("canSerializeFMUstate"), Some("true"));
+    assert_eq!(flag("canHandleVariableCommunicationStepSize"), Some("true"));
+    assert_eq!(flag("canInterpolateInputs"), Some("true"));
+    assert_eq!(flag("maxOutputDerivativeOrder"), Some("1"));
+    assert_eq!(flag("providesDirectionalDerivative"), Some("false"));
+    let m = instantiate(None);
+    assert!(fmi2::xml::check_start_values(&m).is_empty(), "{:?}", fmi2::xml::check_start_values(&m));
+    assert_eq!(m.get_string(vr::DRIVE_POINT).unwrap(), "2l3");
+    assert_eq!(m.get_string(vr::MODAL_TABLE).unwrap(), "");
+}
+
+#[test]
+fn table_from_resources_or_parameter_and_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = linear_table(dir.path());
+    let log = Logger::silent();
+    // from the resources folder, default drive point 2l3: x = phi_ex eta, a static force
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.exit_initialization_mode(&log).unwrap();
+    assert_eq!(m.get_real(vr::OMEGA), 356.2);
+    // missing resources
+    let mut m = instantiate(Some(dir.path().join("nope")));
+    let e = m.exit_initialization_mode(&log).unwrap_err();
+    assert!(e.message.contains("does not exist"), "{}", e.message);
+    let mut m = instantiate(None);
+    let e = m.exit_initialization_mode(&log).unwrap_err();
+    assert!(e.message.contains("no modal table"), "{}", e.message);
+    // explicit path, unknown drive point, index out of range
+    let mut m = instantiate(None);
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    m.set_string(vr::DRIVE_POINT, "mid").unwrap();
+    let e = m.exit_initialization_mode(&log).unwrap_err();
+    assert!(e.message.contains("no point named 'mid'") && e.message.contains("2l3"), "{}", e.message);
+    let mut m = instantiate(None);
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    m.set_integer(vr::DRIVE_POINT_INDEX, 7).unwrap();
+    assert!(m.exit_initialization_mode(&log).unwrap_err().message.contains("drive_point_index = 7"));
+    // frequency error
+    let mut m = instantiate(None);
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    assert!(m.set_real(vr::FREQUENCY_ERROR, -1.5).is_err());
+    m.set_real(vr::FREQUENCY_ERROR, 0.05).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    assert!((m.get_real(vr::OMEGA) - 1.05 * 356.2).abs() < 1e-12);
+}
+
+/// Static deflection under a constant force: x -> phi_ex^2 F / omega^2, x_tip -> phi_tip phi_ex F / omega^2,
+/// for the drive point chosen by name or by index.
+#[test]
+fn static_limit_by_name_and_by_index() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = linear_table(dir.path());
+    let log = Logger::silent();
+    for (name, index, phi_ex) in [("l3", -1, 0.3), ("2l3", -1, -1.04), ("ignored", 1, 0.3)] {
+        let mut m = instantiate(None);
+        m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+        m.set_string(vr::DRIVE_POINT, name).unwrap();
+        m.set_integer(vr::DRIVE_POINT_INDEX, index).unwrap();
+        m.exit_initialization_mode(&log).unwrap();
+        let f = 10.0;
+        m.set_real(vr::F, f).unwrap();
+        let h = 1e-3;
+        // 5 s = 7 decay times 1/(D omega)
+        for k in 0..5000 {
+            m.do_step(k as f64 * h, h, &log).unwrap();
+        }
+        let w2 = 356.2f64 * 356.2;
+        let x = m.get_real(vr::X);
+        assert!((x - phi_ex * phi_ex * f / w2).abs() < 2e-3 * (phi_ex * phi_ex * f / w2), "{name}: {x}");
+        let xt = m.get_real(vr::X_TIP);
+        assert!((xt - 1.43 * phi_ex * f / w2).abs() < 2e-3 * (1.43 * phi_ex * f / w2).abs(), "{name}: {xt}");
+        assert!(m.get_real(vr::V).abs() < 1e-3 * x.abs() * 356.2);
+    }
+}
+
+/// Input derivatives make the input a polynomial over the step: a ramp given as
+/// value + slope equals the same ramp fed by linear interpolation in small steps.
+#[test]
+fn input_derivatives_are_honoured_and_state_round_trips_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = linear_table(dir.path());
+    let log = Logger::silent();
+    let mk = || {
+        let mut m = instantiate(None);
+        m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+        m.exit_initialization_mode(&log).unwrap();
+        m
+    };
+    let (mut a, mut b, mut z) = (mk(), mk(), mk());
+    let om = 300.0;
+    let f = |t: f64| 5.0 * (om * t).sin();
+    let df = |t: f64| 5.0 * om * (om * t).cos();
+    let ddf = |t: f64| -5.0 * om * om * (om * t).sin();
+    let h = 5e-4;
+    let mut t = 0.0;
+    for _ in 0..200 {
+        z.set_real(vr::F, f(t)).unwrap();
+        z.do_step(t, h, &log).unwrap();
+        a.set_real(vr::F, f(t)).unwrap();
+        a.set_real_input_derivative(vr::F, 1, df(t)).unwrap();
+        a.set_real_input_derivative(vr::F, 2, ddf(t)).unwrap();
+        a.do_step(t, h, &log).unwrap();
+        // reference: 100 sub-steps with zero-order hold at the midpoint value
+        for j in 0..100 {
+            let s = t + (j as f64 + 0.5) * h / 100.0;
+            b.set_real(vr::F, f(s)).unwrap();
+            b.do_step(s, h / 100.0, &log).unwrap();
+        }
+        t += h;
+    }
+    let (xa, xb, xz) = (a.get_real(vr::X), b.get_real(vr::X), z.get_real(vr::X));
+    // quadratic input over 0.5 ms steps at 300 rad/s: cubic remainder (om h)^3/6 = 5.6e-4 of F;
+    // midpoint ZOH reference error ~ (om h/100)^2/24 ~ 1e-8
+    assert!((xa - xb).abs() < 2e-3 * xb.abs(), "{xa} vs {xb}");
+    // without the derivatives (zero-order hold) the input lags by h/2: clearly worse
+    assert!((xz - xb).abs() > 10.0 * (xa - xb).abs(), "{xz} vs {xb}");
+    assert!(a.get_real_output_derivative(vr::F, 1).is_err());
+    assert!(a.set_real_input_derivative(vr::F, 3, 1.0).is_err());
+    // output derivative of x equals v in the linear limit
+    let dx = a.get_real_output_derivative(vr::X, 1).unwrap();
+    assert!((dx - a.get_real(vr::V)).abs() < 1e-6 * a.get_real(vr::V).abs(), "{dx}");
+
+    // serialize, continue, restore, continue: identical bit for bit
+    let mut w = StateWriter::new();
+    a.serialize_state(&mut w);
+    let bytes = w.into_bytes();
+    let run = |m: &mut Structure, t0: f64| {
+        let mut out = vec![];
+        for k in 0..200 {
+            let tk = t0 + k as f64 * 1e-4;
+            m.set_real(vr::F, 3.0 * (2.0 * PI * 57.0 * tk).cos()).unwrap();
+            m.do_step(tk, 1e-4, &log).unwrap();
+            out.push([m.get_real(vr::X), m.get_real(vr::V), m.get_real(vr::X_TIP), m.get_real(vr::A)]);
+        }
+        out
+    };
+    let first = run(&mut a, t);
+    let mut c = mk();
+    let mut r = StateReader::new(&bytes);
+    c.deserialize_state(&mut r).unwrap();
+    r.finish().unwrap();
+    assert_eq!(run(&mut c, t), first);
+    // a state of another configuration is refused
+    let mut d = instantiate(None);
+    d.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    d.set_real(vr::FREQUENCY_ERROR, 0.05).unwrap();
+    d.exit_initialization_mode(&log).unwrap();
+    assert!(d.deserialize_state(&mut StateReader::new(&bytes)).is_err());
+}
+
+#[test]
+fn leaving_the_table_is_an_error_naming_the_amplitude() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = ModalTable::linear(100.0, 0.01, &[("tip", Complex64::new(1.0, 0.0)), ("2l3", Complex64::new(1.0, 0.0))], 1e-9, 1e-3);
+    t.write(&dir.path().join("modal_table.json")).unwrap();
+    let log = Logger::silent();
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.exit_initialization_mode(&log).unwrap();
+    m.set_real(vr::F, 1e3).unwrap();
+    let mut err = None;
+    for k in 0..1000 {
+        if let Err(e) = m.do_step(k as f64 * 1e-3, 1e-3, &log) {
+            err = Some(e);
+            break;
+        }
+    }
+    let e = err.expect("leaves the table");
+    assert!(e.message.contains("above the modal table's range"), "{}", e.message);
+}
