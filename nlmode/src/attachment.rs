@@ -182,11 +182,11 @@ pub struct Localization {
 /// The interface (condensed) quantities of one attachment at one frequency.
 #[derive(Debug, Clone)]
 pub struct InterfaceCondensation {
-    /// Excitation frequency `Omega` [rad/s].
+    /// Excitation frequency `Omega` \[rad/s\].
     pub omega_rad_s: f64,
-    /// `Z_G` (`ncon x ncon`) [N/m for mechanical interfaces].
+    /// `Z_G` (`ncon x ncon`) \[N/m for mechanical interfaces\].
     pub z_g: DMatrix<Complex64>,
-    /// `T_G` (`ncon x ninput`) [N per input unit, e.g. N/V].
+    /// `T_G` (`ncon x ninput`) \[N per input unit, e.g. N/V\].
     pub t_g: DMatrix<Complex64>,
 }
 

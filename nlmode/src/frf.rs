@@ -43,13 +43,13 @@ pub enum FrfError {
 /// The assembled linear response at one excitation frequency.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrfPoint {
-    /// Excitation frequency `Omega` [rad/s].
+    /// Excitation frequency `Omega` \[rad/s\].
     pub omega_rad_s: f64,
-    /// Complex interface force amplitudes on the structure [N]: the `ncon`
+    /// Complex interface force amplitudes on the structure \[N\]: the `ncon`
     /// constraint forces of attachment 0, then of attachment 1, ... (one entry
     /// per attachment for single-point attachments such as the shaker).
     pub force_n: Vec<Complex64>,
-    /// Complex displacement amplitude `e^T q_hat` [m] at every named point of
+    /// Complex displacement amplitude `e^T q_hat` \[m\] at every named point of
     /// the structure, in the order of `model.points`.
     pub points: Vec<Complex64>,
 }
@@ -60,7 +60,7 @@ fn complex(m: &DMatrix<f64>) -> DMatrix<Complex64> {
 
 /// The assembled linear frequency response (`linear-frf`) of `model` (linear
 /// part) with `attachments` driven by the complex input amplitudes `inputs`
-/// (one vector of length `ninput` per attachment), at each `omegas` [rad/s].
+/// (one vector of length `ninput` per attachment), at each `omegas` \[rad/s\].
 ///
 /// The SVD localization of each attachment is computed once; per frequency the
 /// cost is one `ndof`-sized complex LU.
@@ -170,7 +170,7 @@ pub fn assembled_frf(
 }
 
 /// The structure's own (no attachment) receptance between two named points,
-/// `H(Omega) = e_out^T (-Omega^2 M + i Omega C + K)^{-1} e_in` [m/N].
+/// `H(Omega) = e_out^T (-Omega^2 M + i Omega C + K)^{-1} e_in` \[m/N\].
 pub fn structure_receptance(
     model: &StructuralModel,
     input_point: &str,
@@ -257,13 +257,13 @@ pub fn force_drop_closed_form(d0: f64, mu: f64, omega_a_over_omega0: f64, d_a: f
 }
 
 /// Modal mass with respect to the exciter location, `m_mod = 1/|phi_ex|^2`
-/// [kg], for the mass-normalised mode shape's value `phi_ex = e^T phi` there
+/// \[kg\], for the mass-normalised mode shape's value `phi_ex = e^T phi` there
 /// (below `eq:forcedrop`).
 pub fn modal_mass(phi_ex: impl Into<Complex64>) -> f64 {
     1.0 / phi_ex.into().norm_sqr()
 }
 
-/// Mass ratio `mu = m_a / m_mod` [-] (below `eq:forcedrop`).
+/// Mass ratio `mu = m_a / m_mod` \[-\] (below `eq:forcedrop`).
 pub fn mass_ratio(armature_mass_kg: f64, modal_mass_kg: f64) -> f64 {
     armature_mass_kg / modal_mass_kg
 }

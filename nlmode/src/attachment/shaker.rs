@@ -23,19 +23,19 @@ use num_complex::Complex64;
 
 /// Armature damping, given either as the total damping ratio `D_a` with
 /// `2 D_a omega_a m_a = d_a + G^2/R` (electro-mechanical damping included, as
-/// in the paper) or as the mechanical viscous coefficient `d_a` [N s/m].
+/// in the paper) or as the mechanical viscous coefficient `d_a` \[N s/m\].
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum ArmatureDamping {
-    /// Total damping ratio `D_a` [-].
+    /// Total damping ratio `D_a` \[-\].
     Ratio(f64),
-    /// Mechanical viscous damping `d_a` [N s/m].
+    /// Mechanical viscous damping `d_a` \[N s/m\].
     Viscous(f64),
 }
 
 /// The stinger (push rod) between armature and structure.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Stinger {
-    /// Axial spring of stiffness `k_s` [N/m].
+    /// Axial spring of stiffness `k_s` \[N/m\].
     Elastic { stiffness_n_per_m: f64 },
     /// Armature attached directly to the structure.
     Rigid,
@@ -44,15 +44,15 @@ pub enum Stinger {
 /// Physical parameters of the electro-dynamic shaker (paper Section 4).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ShakerParams {
-    /// Coil inductance `L` [H].
+    /// Coil inductance `L` \[H\].
     pub inductance_h: f64,
-    /// Coil resistance `R` [Ohm].
+    /// Coil resistance `R` \[Ohm\].
     pub resistance_ohm: f64,
-    /// Force constant `G` [N/A] (= back-EMF constant [V s/m]).
+    /// Force constant `G` \[N/A\] (= back-EMF constant \[V s/m\]).
     pub force_constant_n_per_a: f64,
-    /// Armature mass `m_a` [kg].
+    /// Armature mass `m_a` \[kg\].
     pub armature_mass_kg: f64,
-    /// Armature suspension stiffness `k_a` [N/m].
+    /// Armature suspension stiffness `k_a` \[N/m\].
     pub armature_stiffness_n_per_m: f64,
     /// Armature damping.
     pub armature_damping: ArmatureDamping,
@@ -170,7 +170,7 @@ impl ShakerParams {
         Ok(())
     }
 
-    /// Mechanical armature damping `d_a` [N s/m]; from a ratio `D_a`:
+    /// Mechanical armature damping `d_a` \[N s/m\]; from a ratio `D_a`:
     /// `d_a = 2 D_a omega_a m_a - G^2/R`.
     pub fn d_a(&self) -> f64 {
         match self.armature_damping {
@@ -188,17 +188,17 @@ impl ShakerParams {
             / (2.0 * self.omega_a() * self.armature_mass_kg)
     }
 
-    /// Armature natural frequency `omega_a = sqrt(k_a/m_a)` [rad/s].
+    /// Armature natural frequency `omega_a = sqrt(k_a/m_a)` \[rad/s\].
     pub fn omega_a(&self) -> f64 {
         (self.armature_stiffness_n_per_m / self.armature_mass_kg).sqrt()
     }
 
-    /// Electrical cutoff frequency `omega_c = R/L` [rad/s].
+    /// Electrical cutoff frequency `omega_c = R/L` \[rad/s\].
     pub fn omega_c(&self) -> f64 {
         self.resistance_ohm / self.inductance_h
     }
 
-    /// Armature impedance `z_a = -W^2 m_a + i W d_a + k_a + i W G^2/(R + i W L)` [N/m].
+    /// Armature impedance `z_a = -W^2 m_a + i W d_a + k_a + i W G^2/(R + i W L)` \[N/m\].
     pub fn armature_impedance(&self, omega_rad_s: f64) -> Complex64 {
         let w = omega_rad_s;
         let i = Complex64::i();
@@ -211,7 +211,7 @@ impl ShakerParams {
     }
 
     /// Closed-form interface impedance (paper Section 4): `k_s z_a/(z_a + k_s)`
-    /// (elastic stinger) or `z_a` (rigid) [N/m].
+    /// (elastic stinger) or `z_a` (rigid) \[N/m\].
     pub fn closed_form_interface_impedance(&self, omega_rad_s: f64) -> Complex64 {
         let za = self.armature_impedance(omega_rad_s);
         match self.stinger {
@@ -223,7 +223,7 @@ impl ShakerParams {
     }
 
     /// Closed-form blocked force (paper Section 4, the imposed force on the
-    /// structure at rest) [N]: `k_s/(z_a + k_s) G u_hat/(R + i W L)` (elastic)
+    /// structure at rest) \[N\]: `k_s/(z_a + k_s) G u_hat/(R + i W L)` (elastic)
     /// or `G u_hat/(R + i W L)` (rigid).
     pub fn closed_form_blocked_force(&self, omega_rad_s: f64, u_hat: Complex64) -> Complex64 {
         let coil = Complex64::new(self.resistance_ohm, omega_rad_s * self.inductance_h);
@@ -239,8 +239,8 @@ impl ShakerParams {
     /// State-space form of the shaker with elastic stinger, as used by the
     /// shaker FMU.
     ///
-    /// States `s = [I, q_a, v_a]` (A, m, m/s), inputs `[u, x]` (voltage [V],
-    /// structure displacement at the drive point [m]), outputs `[F, I, q_a]`:
+    /// States `s = [I, q_a, v_a]` (A, m, m/s), inputs `[u, x]` (voltage \[V\],
+    /// structure displacement at the drive point \[m\]), outputs `[F, I, q_a]`:
     ///
     /// ```text
     /// I'   = (u - R I - G v_a) / L
