@@ -527,3 +527,58 @@ impl ReducedModel {
         self.drive_force(Complex64::new(0.0, 0.0), &ch, fi)
     }
 }
+
+/// A [`crate::attachment::LinearAttachment`] prepared for many frequencies
+/// (its [`crate::attachment::Condenser`] built once).
+#[derive(Debug, Clone)]
+pub struct PreparedAttachment {
+    attachment: crate::attachment::LinearAttachment,
+    condenser: crate::attachment::Condenser,
+}
+
+impl PreparedAttachment {
+    /// Validates and localizes the attachment.
+    pub fn new(attachment: crate::attachment::LinearAttachment) -> Result<Self, crate::attachment::AttachmentError> {
+        attachment.validate()?;
+        let condenser = crate::attachment::Condenser::new(&attachment)?;
+        Ok(Self { attachment, condenser })
+    }
+
+    /// The underlying attachment.
+    pub fn attachment(&self) -> &crate::attachment::LinearAttachment {
+        &self.attachment
+    }
+}
+
+impl InterfaceModel for PreparedAttachment {
+    fn name(&self) -> &str {
+        &self.attachment.name
+    }
+    fn interface_points(&self) -> Vec<String> {
+        self.attachment.interface_points.clone()
+    }
+    fn ninput(&self) -> usize {
+        self.attachment.ninput()
+    }
+    fn condense(&self, omega_rad_s: f64) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError> {
+        let c = self.condenser.condense(omega_rad_s)?;
+        Ok((c.z_g, c.t_g))
+    }
+}
+
+impl ReducedModel {
+    /// Adds a generic linear attachment (`eq:component2`) driven by the sweep,
+    /// `u_hat = amplitude * input_per_unit` (see [`Self::with_attachment`]).
+    pub fn with_linear_attachment(
+        self,
+        attachment: &crate::attachment::LinearAttachment,
+        input_per_unit: &[Complex64],
+    ) -> Result<Self, ReducedError> {
+        let prepared = PreparedAttachment::new(attachment.clone()).map_err(|e| ReducedError::Attachment {
+            attachment: attachment.name.clone(),
+            omega_rad_s: f64::NAN,
+            source: Box::new(e),
+        })?;
+        self.with_attachment(Arc::new(prepared), input_per_unit)
+    }
+}

@@ -152,7 +152,7 @@ impl ReducedModel {
             scan.push(a);
         }
         scan.retain(|&a| a <= amax);
-        let xtol = 1e-13 * amax;
+        let xtol = 1e-14 * self.a_scale;
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut out = Vec::with_capacity(omegas.len());
         let mut samples: Vec<(f64, f64, f64)> = Vec::with_capacity(2 * scan.len());
