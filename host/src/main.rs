@@ -6,6 +6,7 @@
 //! frequency responses; `host package` builds the FMUs.
 mod methods;
 mod model;
+mod nma_cmd;
 mod plot;
 mod results;
 mod run;
@@ -32,12 +33,30 @@ enum Command {
         #[arg(short, long, default_value = "out")]
         out: PathBuf,
     },
+    /// Nonlinear modal analysis: modal table, backbone and damping plots.
+    Nma {
+        /// Scenario file (TOML); the embedded default if omitted.
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(short, long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Steady-state frequency response of the single-nonlinear-mode model (all branches).
+    Frf {
+        /// Scenario file (TOML); the embedded default if omitted.
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(short, long, default_value = "out")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run { scenario, out } => run::run(scenario.as_deref(), &out),
+        Command::Nma { scenario, out } => nma_cmd::nma(scenario.as_deref(), &out),
+        Command::Frf { scenario, out } => nma_cmd::frf(scenario.as_deref(), &out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -171,3 +171,35 @@ pub fn xy_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[C
     root.present().map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
     Ok(())
 }
+
+/// Points instead of lines (steady-state branches: stable / unstable).
+pub fn scatter_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[Curve]) -> Result<()> {
+    let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
+    let (x0, x1) = range(curves.iter().flat_map(|c| c.x.iter().cloned()), 0.02, false);
+    let (y0, y1) = range(curves.iter().flat_map(|c| c.y.iter().cloned()), 0.05, true);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| anyhow!("plot: {e}"))?;
+    chart.configure_mesh().x_desc(xlabel).y_desc(ylabel).draw().map_err(|e| anyhow!("plot: {e}"))?;
+    for (i, c) in curves.iter().enumerate() {
+        let col = color(i);
+        chart
+            .draw_series(c.x.iter().zip(c.y).map(|(&x, &y)| Circle::new((x, y), 2, col.filled())))
+            .map_err(|e| anyhow!("plot: {e}"))?
+            .label(c.label.clone())
+            .legend(move |(x, y)| Circle::new((x + 10, y), 3, col.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| anyhow!("plot: {e}"))?;
+    root.present().map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
+    Ok(())
+}
