@@ -12,6 +12,8 @@
 //! 3. new tangent from `[dR/dX; t~_i^T] t = [0; 1]`, normalized (this keeps the
 //!    orientation, so turning points in `lambda` are passed without special
 //!    treatment and are detected as a sign change of `t_lambda`),
+//!    The last step lands exactly on `lambda_end` (corrector with the parameter
+//!    fixed instead of the arc-length equation).
 //! 4. step adaptation `ds <- ds * clamp(n_opt / n_iter, 1/2, 2)` within
 //!    `[dsmin, dsmax]`; a failed corrector halves `ds`; below `dsmin` the
 //!    continuation stops with [`ContinuationFailure::StepSizeCollapse`].
@@ -112,7 +114,9 @@ pub enum StopReason {
 pub enum ContinuationFailure {
     /// Newton did not converge for the start point.
     StartNotConverged { parameter: f64, residual_norm: f64, iterations: usize },
-    /// The corrector kept failing until `ds < dsmin`.
+    /// The corrector kept failing until `ds < dsmin` (`residual_norm` is that of
+    /// the last non-converged corrector, NaN if the correctors converged but
+    /// jumped too far from the predictor).
     StepSizeCollapse { parameter: f64, residual_norm: f64, step_size: f64, dsmin: f64 },
     /// A bordered Jacobian was singular (e.g. at a branch point).
     SingularJacobian { parameter: f64 },
@@ -122,7 +126,10 @@ pub enum ContinuationFailure {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ContinuationSummary {
     pub points: usize,
+    /// Newton iterations of accepted and rejected correctors.
     pub newton_iterations: usize,
+    /// Corrector attempts that failed or jumped away (then `ds` was halved).
+    pub rejected_steps: usize,
     /// Indices `i` of branch points such that a turning point of the parameter
     /// lies between points `i - 1` and `i`.
     pub turning_points: Vec<usize>,
@@ -222,7 +229,7 @@ pub fn continuation<R: Residual>(
     let lambda_start = x0[n - 1];
     let dir = if lambda_end >= lambda_start { 1.0 } else { -1.0 };
     let mut summary =
-        ContinuationSummary { points: 0, newton_iterations: 0, turning_points: vec![], stop: StopReason::ReachedEnd };
+        ContinuationSummary { points: 0, newton_iterations: 0, rejected_steps: 0, turning_points: vec![], stop: StopReason::ReachedEnd };
 
     let (mut x, mut jac, iters) = match solve_fixed_parameter(res, x0, opts) {
         Ok(v) => v,
@@ -259,20 +266,45 @@ pub fn continuation<R: Residual>(
             return Ok(summary);
         }
         // corrector with step halving
+        let mut last_norm = f64::NAN;
         let (x_new, jac_new, it) = loop {
             let xs = x.component_div(scale);
-            let xp = (&xs + &t * ds).component_mul(scale);
-            let row = t.component_div(scale);
-            let target = row.dot(&xp);
-            match newton(res, xp, &row, target, opts) {
+            let mut xp = (&xs + &t * ds).component_mul(scale);
+            let mut row = t.component_div(scale);
+            let mut target = row.dot(&xp);
+            // last step: land exactly on lambda_end (parameter-fixing corrector)
+            if dir * (xp[n - 1] - lambda_end) > 0.0 && dir * t[n - 1] > 0.0 {
+                let ds_land = (lambda_end - x[n - 1]) / (t[n - 1] * scale[n - 1]);
+                xp = (&xs + &t * ds_land).component_mul(scale);
+                row = DVector::zeros(n);
+                row[n - 1] = 1.0;
+                target = lambda_end;
+            }
+            let attempt = newton(res, xp, &row, target, opts).map_err(|(norm, it)| (norm, it, false));
+            // reject a corrector that jumped to a distant branch (a converged
+            // point much farther away than the step length)
+            let attempt = attempt.and_then(|(xn, jn, it)| {
+                let dist = (xn.component_div(scale) - &xs).norm();
+                if dist > 2.0 * ds {
+                    Err((0.0, it, true))
+                } else {
+                    Ok((xn, jn, it))
+                }
+            });
+            match attempt {
                 Ok(v) => break v,
-                Err((norm, _)) => {
+                Err((norm, it, jumped)) => {
+                    summary.rejected_steps += 1;
+                    summary.newton_iterations += it;
+                    if !jumped {
+                        last_norm = norm;
+                    }
                     ds /= 2.0;
                     if ds < dsmin {
                         return Err((
                             ContinuationFailure::StepSizeCollapse {
                                 parameter: x[n - 1],
-                                residual_norm: norm,
+                                residual_norm: last_norm,
                                 step_size: ds,
                                 dsmin,
                             },
@@ -359,6 +391,34 @@ mod tests {
         assert!(pts[i - 1][0] > 0.0 && pts[i][0] < 0.0, "{:?} {:?}", pts[i - 1], pts[i]);
         assert!(pts[i][1] > 0.8);
         assert!(pts.last().unwrap()[1] < -0.5);
+    }
+
+    #[test]
+    fn last_point_lands_on_the_end_of_the_range() {
+        struct Parabola;
+        impl Residual for Parabola {
+            type Jacobian = DMatrix<f64>;
+            fn n_unknowns(&self) -> usize {
+                2
+            }
+            fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+                (DVector::from_element(1, x[0] - x[1] * x[1]), DMatrix::from_row_slice(1, 2, &[1.0, -2.0 * x[1]]))
+            }
+        }
+        let opts = ContinuationOptions { ds: 0.1, ..Default::default() };
+        let scale = DVector::from_element(2, 1.0);
+        let mut pts = vec![];
+        let s = continuation(&Parabola, DVector::from_vec(vec![0.3, 0.0]), 0.77, &scale, &opts, |b| {
+            pts.push(b.x.clone());
+            true
+        })
+        .unwrap();
+        assert_eq!(s.stop, StopReason::ReachedEnd);
+        let last = pts.last().unwrap();
+        assert_eq!(last[1], 0.77);
+        assert!((last[0] - 0.77 * 0.77).abs() < 1e-12);
+        assert!(pts[0][0].abs() < 1e-12, "start point solved with the parameter fixed");
+        assert!(pts.windows(2).all(|w| w[1][1] > w[0][1]));
     }
 
     #[test]

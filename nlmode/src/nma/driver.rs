@@ -71,6 +71,8 @@ pub enum NmaWarning {
     LinearRegimeOnly { max_amplitude: f64, omega_shift_rel: f64, damping_shift: f64 },
     #[error("continuation stopped after the maximum of {points} points at a = {amplitude:e} before reaching the end of the range")]
     MaxPointsReached { points: usize, amplitude: f64 },
+    #[error("the fundamental harmonic carries only {share:e} of the kinetic energy at a = {amplitude:e}, omega = {omega_rad_s} rad/s (energy localized in higher harmonics: internal resonance); continuation stopped")]
+    FundamentalLost { amplitude: f64, omega_rad_s: f64, share: f64 },
     #[error("the branch turned back below the start amplitude (a = {amplitude:e}) and was stopped")]
     LeftRange { amplitude: f64 },
 }
@@ -106,6 +108,11 @@ pub struct NmaOptions {
     pub points: Vec<String>,
     /// Store the shape harmonics of all generalized coordinates at every point.
     pub store_coordinates: bool,
+    /// Stop (with a warning) once the fundamental harmonic's share of the
+    /// kinetic energy ([`BranchPoint::fundamental_energy_share`]) falls below
+    /// this: the branch has turned into another mode's internal-resonance
+    /// branch, where `a -> 0` (default 0.005).
+    pub min_fundamental_share: f64,
 }
 
 impl Default for NmaOptions {
@@ -119,6 +126,7 @@ impl Default for NmaOptions {
             continuation: ContinuationOptions { ds: 0.1, ..Default::default() },
             points: vec![],
             store_coordinates: true,
+            min_fundamental_share: 0.005,
         }
     }
 }
@@ -133,6 +141,10 @@ pub struct BranchPoint {
     /// Modal damping ratio `D` [-].
     pub damping_ratio: f64,
     pub newton_iterations: usize,
+    /// Share of the fundamental harmonic in the kinetic energy of the
+    /// oscillation, `|phi_1|_M^2 / sum_n n^2 |phi_n|_M^2` (1 for a harmonic
+    /// motion; drops where energy localizes in higher harmonics along loops).
+    pub fundamental_energy_share: f64,
     /// `points[p][n]`: harmonic `phi_n` (`n = 0..=H`) at stored named point `p`
     /// [m / (sqrt(kg) m)], so the point moves as `Re(a sum_n phi_n e^{i n psi})`.
     pub points: Vec<Vec<Complex64>>,
@@ -174,8 +186,10 @@ pub struct NmaResult {
     pub point_names: Vec<String>,
     pub branch: Vec<BranchPoint>,
     pub folds: Vec<Fold>,
-    /// Total Newton iterations (including the start point).
+    /// Total Newton iterations (including the start point and rejected steps).
     pub newton_iterations: usize,
+    /// Rejected continuation steps (failed or jumped correctors).
+    pub rejected_steps: usize,
     /// Why the continuation stopped (`None` if it failed).
     pub stop: Option<StopReason>,
     pub warnings: Vec<NmaWarning>,
@@ -376,10 +390,14 @@ pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> R
         branch: vec![],
         folds: vec![],
         newton_iterations: 0,
+        rejected_steps: 0,
         stop: None,
         warnings: vec![],
     };
     let mut stop_reached = false;
+    let mut share_stop = false;
+    let mut tangent_sign: Vec<f64> = Vec::new();
+    let bp_share = |r: &NmaResult| r.branch.last().map(|b| b.fundamental_energy_share).unwrap_or(1.0);
     let on_point = |s: &BranchState| -> bool {
         let x = s.x;
         let bp = BranchPoint {
@@ -387,6 +405,7 @@ pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> R
             omega_rad_s: x[m],
             damping_ratio: x[m + 1],
             newton_iterations: s.newton_iterations,
+            fundamental_energy_share: res.fundamental_energy_share(x),
             points: point_modal.iter().map(|e| res.observe(x, e)).collect(),
             coordinates: if opts.store_coordinates {
                 let h = res.shape_harmonics(x);
@@ -396,6 +415,11 @@ pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> R
             },
         };
         result.branch.push(bp);
+        tangent_sign.push(s.tangent[m + 2].signum());
+        if s.index > 0 && bp_share(&result) < opts.min_fundamental_share {
+            share_stop = true;
+            return false;
+        }
         if let Some((em, end_m)) = &stop_point {
             let amp = 10f64.powf(x[m + 2]) * res.observe(x, em)[1].norm();
             if amp >= *end_m {
@@ -410,7 +434,7 @@ pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> R
         Ok(s) => s.clone(),
         Err((_, s)) => s.clone(),
     };
-    finish(&mut result, &summary);
+    finish(&mut result, &summary, &tangent_sign);
     match outcome {
         Ok(s) => {
             result.stop = Some(s.stop);
@@ -420,9 +444,19 @@ pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> R
                     result.warnings.push(NmaWarning::MaxPointsReached { points: s.points, amplitude: last_a })
                 }
                 StopReason::LeftRange => result.warnings.push(NmaWarning::LeftRange { amplitude: last_a }),
-                StopReason::ReachedEnd | StopReason::Callback => {}
+                StopReason::ReachedEnd => {}
+                StopReason::Callback => {
+                    if share_stop {
+                        let b = result.branch.last().expect("stopped at a computed point");
+                        result.warnings.push(NmaWarning::FundamentalLost {
+                            amplitude: b.amplitude,
+                            omega_rad_s: b.omega_rad_s,
+                            share: b.fundamental_energy_share,
+                        });
+                    }
+                    let _ = stop_reached;
+                }
             }
-            let _ = stop_reached;
             Ok(result)
         }
         Err((failure, _)) => {
@@ -451,18 +485,16 @@ pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> R
 }
 
 /// Folds, iteration count and the linear-regime warning from the summary.
-fn finish(result: &mut NmaResult, summary: &ContinuationSummary) {
+fn finish(result: &mut NmaResult, summary: &ContinuationSummary, tangent_sign: &[f64]) {
     result.newton_iterations = summary.newton_iterations;
+    result.rejected_steps = summary.rejected_steps;
     for &i in &summary.turning_points {
         if i == 0 || i >= result.branch.len() {
             continue;
         }
         let (p, q) = (&result.branch[i - 1], &result.branch[i]);
-        let kind = if i >= 2 && result.branch[i - 2].amplitude < p.amplitude || q.amplitude < p.amplitude {
-            FoldKind::AmplitudeMaximum
-        } else {
-            FoldKind::AmplitudeMinimum
-        };
+        // the parameter log10 a was increasing before the turning point
+        let kind = if tangent_sign[i - 1] > 0.0 { FoldKind::AmplitudeMaximum } else { FoldKind::AmplitudeMinimum };
         let index = match kind {
             FoldKind::AmplitudeMaximum if p.amplitude >= q.amplitude => i - 1,
             FoldKind::AmplitudeMinimum if p.amplitude <= q.amplitude => i - 1,

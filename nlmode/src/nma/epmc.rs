@@ -620,6 +620,21 @@ impl EpmcResidual {
         x
     }
 
+    /// `|Psi_1|^2 / sum_n n^2 |Psi_n|^2` (modal coordinates are mass-normalized).
+    pub fn fundamental_energy_share(&self, x: &DVector<f64>) -> f64 {
+        let n = self.basis.n_modes();
+        let mut e1 = 0.0;
+        let mut total = 0.0;
+        for nn in 1..=self.harmonics() {
+            let en: f64 = (cos_index(nn) * n..(sin_index(nn) + 1) * n).map(|i| x[i] * x[i]).sum();
+            if nn == 1 {
+                e1 = en;
+            }
+            total += (nn * nn) as f64 * en;
+        }
+        e1 / total
+    }
+
     /// Complex harmonics `phi_n`, `n = 0..=H`, of the generalized coordinates
     /// (`q = Re(a sum phi_n e^{i n omega t})`), from a solution `x`.
     pub fn shape_harmonics(&self, x: &DVector<f64>) -> Vec<nalgebra::DVector<num_complex::Complex64>> {
