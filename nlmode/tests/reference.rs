@@ -230,8 +230,11 @@ fn linear_steady_state(sys: &AssembledSystem, att: &LinearAttachment, w: f64, u_
     (tip.norm(), lam[0].norm())
 }
 
-/// Largest relative deviation of the (tip, force) envelopes from the linear
-/// steady state for `omega >= omega_from`; also the frequency of the tip peak.
+/// Deviation of the envelopes from the linear steady state for
+/// `omega >= omega_from`: tip pointwise relative; force relative to its largest
+/// steady-state value in the range (the force itself drops by up to 97 % at
+/// resonance, where a pointwise ratio would measure the drop, not the error).
+/// Also returns the Omega of the tip peak.
 fn envelope_deviation(
     sys: &AssembledSystem,
     att: &LinearAttachment,
@@ -239,7 +242,7 @@ fn envelope_deviation(
     omega_from: f64,
     u_hat: f64,
 ) -> (f64, f64, f64) {
-    let (mut worst_tip, mut worst_f) = (0.0f64, 0.0f64);
+    let (mut worst_tip, mut worst_f, mut f_max) = (0.0f64, 0.0f64, 0.0f64);
     let mut peak = (0.0, 0.0);
     for i in 0..env.omega_rad_s.len() {
         let w = env.omega_rad_s[i];
@@ -248,12 +251,13 @@ fn envelope_deviation(
         }
         let (tip, f) = linear_steady_state(sys, att, w, u_hat);
         worst_tip = worst_tip.max((env.tip_amplitude_m[i] - tip).abs() / tip);
-        worst_f = worst_f.max((env.force_amplitude_n[i] - f).abs() / f);
+        worst_f = worst_f.max((env.force_amplitude_n[i] - f).abs());
+        f_max = f_max.max(f);
         if env.tip_amplitude_m[i] > peak.1 {
             peak = (w, env.tip_amplitude_m[i]);
         }
     }
-    (worst_tip, worst_f, peak.0)
+    (worst_tip, worst_f / f_max, peak.0)
 }
 
 #[test]
@@ -353,4 +357,146 @@ fn blow_up_is_reported_with_time() {
             other => panic!("{method:?}: expected divergence, got {other:?}"),
         }
     }
+}
+
+// ---------------------------------------------------------------------------
+// The paper's benchmark (Sections 4-5): beam + cubic spring + shaker.
+
+use nlmode::attachment::ShakerParams;
+use nlmode::reference::SweepResult;
+use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
+
+fn paper(cb_modes: Option<usize>, k3: f64) -> PaperStructure {
+    paper_structure(&PaperStructureOptions { cb_modes, k3_n_per_m3: k3, ..Default::default() }).unwrap()
+}
+
+fn paper_shaker(params: &ShakerParams, point: &str) -> LinearAttachment {
+    LinearAttachment::shaker("shaker", params, point).unwrap()
+}
+
+/// (peak tip amplitude [m], its Omega [rad/s], jump-down Omega [rad/s], min force amplitude [N])
+/// from an envelope: the jump is the steepest fall of the tip envelope after the peak.
+fn case_summary(res: &SweepResult) -> (f64, f64, f64, f64) {
+    let env = &res.envelope;
+    let ipk = (0..env.omega_rad_s.len()).max_by(|&a, &b| env.tip_amplitude_m[a].total_cmp(&env.tip_amplitude_m[b])).unwrap();
+    let mut jump = (0.0, f64::NAN);
+    for i in ipk..env.omega_rad_s.len() - 1 {
+        let slope = (env.tip_amplitude_m[i] - env.tip_amplitude_m[i + 1]) / (env.omega_rad_s[i + 1] - env.omega_rad_s[i]);
+        if slope > jump.0 {
+            jump = (slope, 0.5 * (env.omega_rad_s[i] + env.omega_rad_s[i + 1]));
+        }
+    }
+    let fmin = env.force_amplitude_n.iter().cloned().fold(f64::INFINITY, f64::min);
+    (env.tip_amplitude_m[ipk], env.omega_rad_s[ipk], jump.1, fmin)
+}
+
+fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+}
+
+#[test]
+fn paper_case_a_shows_the_hardening_jump_down() {
+    // exciter at 2l/3, 10 V, 2 % per pseudo period, 0.8 -> 1.8 omega0
+    let ps = paper(Some(10), 6e9);
+    let w0 = ps.omega0_rad_s;
+    assert!((w0 - 356.2).abs() < 0.1, "{w0}");
+    let sweep = LinearSweep::per_pseudo_period(w0, 0.8, 1.8, 0.02, 10.0).unwrap();
+    let atts = [paper_shaker(&ShakerParams::paper(), "2l3")];
+    let exp = simulate_sweep(&ps.model, &atts, &sweep, &ReferenceOptions::default()).unwrap();
+    let (peak, w_peak, w_jump, fmin) = case_summary(&exp);
+    eprintln!(
+        "case (a): peak tip {peak:.4e} m at {w_peak:.1} rad/s ({:.3} omega0), jump-down at {w_jump:.1} rad/s \
+         ({:.3} omega0), min force {fmin:.3} N; {:?}",
+        w_peak / w0,
+        w_jump / w0,
+        exp.stats
+    );
+    let f0 = 15.5 * 10.0 / 3.0; // G u_hat / R, the blocked force scale [N]
+    // hardening: the resonance is dragged far above omega0 (linear peak ~1.05-1.1 omega0)
+    assert!(w_peak > 1.25 * w0 && w_peak < 1.6 * w0, "{w_peak}");
+    assert!(w_jump > w_peak && w_jump < 1.6 * w0, "{w_jump}");
+    // a real jump: the tip amplitude falls to well below half within 0.1 omega0
+    let env = &exp.envelope;
+    let after = env.omega_rad_s.iter().position(|&w| w > w_jump + 0.05 * w0).unwrap();
+    assert!(env.tip_amplitude_m[after] < 0.4 * peak, "{} vs {peak}", env.tip_amplitude_m[after]);
+    // the force drops near resonance and recovers to the order of G u/R above it
+    assert!(fmin < 0.2 * f0, "{fmin}");
+    let f_end = *env.force_amplitude_n.last().unwrap();
+    assert!(f_end > 0.85 * f0 && f_end < 1.1 * f0, "{f_end} vs {f0}");
+    // peak amplitude: millimetres at the tip
+    assert!(peak > 1e-3 && peak < 5e-3, "{peak}");
+
+    // the explicit Dormand-Prince method agrees, with many more steps
+    let dp_opts = ReferenceOptions { method: Integrator::DormandPrince, ..Default::default() };
+    let dp = simulate_sweep(&ps.model, &atts, &sweep, &dp_opts).unwrap();
+    let (d_tip, d_f) = (max_rel_diff(&dp.tip_m, &exp.tip_m), max_rel_diff(&dp.force_n, &exp.force_n));
+    eprintln!("DP vs exponential: tip {d_tip:.2e}, force {d_f:.2e}; DP {:?}", dp.stats);
+    assert!(d_tip < 1e-4 && d_f < 1e-4, "{d_tip} {d_f}");
+    assert!(dp.stats.steps > 10 * exp.stats.steps, "{:?} vs {:?}", dp.stats, exp.stats);
+}
+
+#[test]
+fn paper_unreduced_model_agrees_with_craig_bampton() {
+    // same case (a) sweep on the unreduced 100-node beam (198 DOFs, modes up to ~1e8 rad/s)
+    let atts = [paper_shaker(&ShakerParams::paper(), "2l3")];
+    let cb = paper(Some(10), 6e9);
+    let full = paper(None, 6e9);
+    assert_eq!(full.model.mass.nrows(), 198);
+    let sweep = LinearSweep::per_pseudo_period(cb.omega0_rad_s, 0.8, 1.8, 0.02, 10.0).unwrap();
+    let opts = ReferenceOptions::default();
+    let a = simulate_sweep(&cb.model, &atts, &sweep, &opts).unwrap();
+    let b = simulate_sweep(&full.model, &atts, &sweep, &opts).unwrap();
+    let (d_tip, d_f) = (
+        max_rel_diff(&b.envelope.tip_amplitude_m, &a.envelope.tip_amplitude_m),
+        max_rel_diff(&b.envelope.force_amplitude_n, &a.envelope.force_amplitude_n),
+    );
+    eprintln!("unreduced vs CB envelopes: tip {d_tip:.2e}, force {d_f:.2e}; unreduced {:?}", b.stats);
+    assert!(d_tip < 5e-3 && d_f < 5e-3, "{d_tip} {d_f}");
+}
+
+#[test]
+fn paper_linear_slow_sweep_approaches_linear_steady_state() {
+    // k3 = 0, exciter at 2l/3, 0.5 % per pseudo period around resonance
+    let ps = paper(Some(10), 0.0);
+    let w0 = ps.omega0_rad_s;
+    let atts = [paper_shaker(&ShakerParams::paper(), "2l3")];
+    let sys = AssembledSystem::new(&ps.model, &atts, "tip").unwrap();
+    // steady-state resonance of the assembly: just above omega0
+    let tip_at = |w: f64| linear_steady_state(&sys, &atts[0], w, 10.0).0;
+    let w_res = (0..400).map(|i| w0 * (0.9 + i as f64 * 0.0005)).max_by(|a, b| tip_at(*a).total_cmp(&tip_at(*b))).unwrap();
+    assert!(w_res > w0 && w_res < 1.1 * w0, "{}", w_res / w0);
+    // The deviation is the sweep transient (D0 = 0.4 %): at 0.5 % per pseudo period
+    // the tip is still ~4 % off near resonance; it shrinks in proportion to r.
+    let mut dev = Vec::new();
+    for r in [0.005, 0.001] {
+        let sweep = LinearSweep::per_pseudo_period(w0, 0.9, 1.2, r, 10.0).unwrap();
+        let res = simulate_sweep(&ps.model, &atts, &sweep, &ReferenceOptions::default()).unwrap();
+        let (tip, f, peak) = envelope_deviation(&sys, &atts[0], &res.envelope, 0.95 * w0, 10.0);
+        eprintln!("paper linear, r = {r}: deviation tip {tip:.2e}, force {f:.2e}, tip peak at {:.3} omega0", peak / w0);
+        dev.push((tip, f));
+    }
+    assert!(dev[1].0 < 0.02 && dev[1].1 < 0.02, "{dev:?}");
+    assert!(dev[0].0 > 3.0 * dev[1].0 && dev[0].1 > 3.0 * dev[1].1, "not rate-driven: {dev:?}");
+}
+
+#[test]
+fn paper_rigid_stinger_is_first_order_in_current_and_close_to_the_stiff_stinger() {
+    let ps = paper(Some(10), 6e9);
+    let rigid = paper_shaker(&ShakerParams::paper().with_rigid_stinger(), "2l3");
+    let sys = AssembledSystem::new(&ps.model, &[rigid.clone()], "tip").unwrap();
+    // q (11 coordinates, second order) + I (first order); q_a is the drive point itself
+    assert_eq!(sys.orders[11..], [1]);
+    assert_eq!(sys.first_order.nz(), 2 * 11 + 1);
+    let sweep = LinearSweep::per_pseudo_period(ps.omega0_rad_s, 0.8, 1.3, 0.02, 10.0).unwrap();
+    let opts = ReferenceOptions::default();
+    let a = simulate_sweep(&ps.model, &[rigid], &sweep, &opts).unwrap();
+    let b = simulate_sweep(&ps.model, &[paper_shaker(&ShakerParams::paper(), "2l3")], &sweep, &opts).unwrap();
+    let d_tip = max_rel_diff(&a.envelope.tip_amplitude_m, &b.envelope.tip_amplitude_m);
+    let d_f = max_rel_diff(&a.envelope.force_amplitude_n, &b.envelope.force_amplitude_n);
+    eprintln!("rigid vs elastic stinger: tip {d_tip:.2e}, force {d_f:.2e}");
+    // k_s = 2.6e7 N/m is far stiffer than the structure at 2l/3: a few per mille
+    assert!(d_tip < 0.02 && d_f < 0.02, "{d_tip} {d_f}");
+    assert!(d_tip > 0.0);
 }

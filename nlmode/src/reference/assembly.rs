@@ -56,8 +56,9 @@ use crate::structure::{NonlinearLaw, StructuralModel};
 use nalgebra::{DMatrix, DVector, RowDVector};
 use std::sync::Arc;
 
-/// Relative threshold below which a column of `A_k^asm` counts as zero.
-const ZERO_COLUMN_RTOL: f64 = 1e-14;
+/// Threshold, relative to the largest entry of `A_k^asm`, below which a column of
+/// `A_k^asm` counts as zero (round-off of the localization products).
+const ZERO_COLUMN_RTOL: f64 = 1e-13;
 /// Reciprocal condition number (after equilibration) below which the leading
 /// matrix is taken as singular.
 const SINGULAR_RCOND: f64 = 1e-12;
@@ -366,11 +367,13 @@ impl AssembledSystem {
         }
 
         // --- differential orders and states
-        let col_norm = |k: usize, j: usize| coeffs[k].column(j).amax();
+        // a column counts as non-zero against the largest entry of the same A_k
+        // (entries of different A_k carry different units)
+        let kmax_abs: Vec<f64> = coeffs.iter().map(|a| a.amax()).collect();
+        let nonzero = |k: usize, j: usize| coeffs[k].column(j).amax() > ZERO_COLUMN_RTOL * kmax_abs[k];
         let mut orders = vec![0usize; n];
         for j in 0..n {
-            let big = (0..=kmax).map(|k| col_norm(k, j)).fold(0.0, f64::max);
-            orders[j] = (0..=kmax).rev().find(|&k| col_norm(k, j) > ZERO_COLUMN_RTOL * big).unwrap_or(0);
+            orders[j] = (0..=kmax).rev().find(|&k| nonzero(k, j)).unwrap_or(0);
         }
         for i in 0..ndof {
             assert!(orders[i] >= 2, "structural coordinate {i} has no mass (M must be positive definite)");

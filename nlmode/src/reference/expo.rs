@@ -47,6 +47,45 @@ use nalgebra::{DMatrix, DVector};
 const MAX_LEVEL: u32 = 40;
 /// Newton iteration limit for the collocation forces.
 const MAX_NEWTON: usize = 25;
+/// Newton stops when the force update is below this fraction of the forces.
+const NEWTON_RTOL: f64 = 1e-11;
+
+/// Solve the small dense system `a x = b` (`n x n`, row-major) in place by
+/// Gaussian elimination with partial pivoting; `b` becomes `x`. Hand-written
+/// because it runs in the inner loop for systems of a handful of unknowns,
+/// where nalgebra's LU would allocate a matrix per call. `false` if singular.
+fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
+    for c in 0..n {
+        let p = (c..n).max_by(|&i, &j| a[i * n + c].abs().total_cmp(&a[j * n + c].abs())).unwrap();
+        if !(a[p * n + c].abs() > 0.0) {
+            return false;
+        }
+        if p != c {
+            for k in 0..n {
+                a.swap(p * n + k, c * n + k);
+            }
+            b.swap(p, c);
+        }
+        let piv = a[c * n + c];
+        for i in c + 1..n {
+            let f = a[i * n + c] / piv;
+            if f != 0.0 {
+                for k in c..n {
+                    a[i * n + k] -= f * a[c * n + k];
+                }
+                b[i] -= f * b[c];
+            }
+        }
+    }
+    for c in (0..n).rev() {
+        let mut acc = b[c];
+        for k in c + 1..n {
+            acc -= a[c * n + k] * b[k];
+        }
+        b[c] = acc / a[c * n + c];
+    }
+    b.iter().all(|x| x.is_finite())
+}
 
 /// Propagators for one step size.
 struct Level {
@@ -56,27 +95,67 @@ struct Level {
     zw: DMatrix<f64>,
     /// Error-estimate weights (`nz x s mf`).
     ew: DMatrix<f64>,
-    /// Node projections: `pe[j-1]` = `P e^{j tau A}` (`2m x nz`), `j = 1..s-1`.
-    pe: Vec<DMatrix<f64>>,
-    /// `pq[j-1]` (`2m x s mf`): weights of the node values in `P z(t_n + j tau)`.
-    pq: Vec<DMatrix<f64>>,
+    /// Node projections, transposed so that each is a contiguous dot product:
+    /// column `(j-1) 2m + k` is row `k` of `P e^{j tau A}` (`nz x (s-1) 2m`).
+    pe_t: DMatrix<f64>,
+    /// Column `(j-1) 2m + k`: weights of the node values `r` in row `k` of
+    /// `P z(t_n + j tau)` (`s mf x (s-1) 2m`).
+    pq_t: DMatrix<f64>,
 }
 
 fn factorial(k: usize) -> f64 {
     (1..=k).map(|i| i as f64).product()
 }
 
-fn build_level(sys: &FirstOrderSystem, h: f64, s: usize) -> Level {
+/// Diagonal balancing `D` (powers of 2) of `a` so that `D^-1 a D` has rows and
+/// columns of comparable 1-norm (Parlett & Reinsch 1969; LAPACK `dgebal`
+/// without permutations). nalgebra offers no balancing. The unreduced beam has
+/// `|A|` ~ 1e18 (small rotary inertias) against a spectral radius ~ 8e10: the
+/// scaling-and-squaring exponential has a backward error ~ eps |tau A|, which
+/// would perturb the slow modes unless `A` is balanced first.
+fn balance(a: &DMatrix<f64>) -> DVector<f64> {
+    let n = a.nrows();
+    let mut b = a.clone();
+    let mut d = DVector::from_element(n, 1.0);
+    for _sweep in 0..100 {
+        let mut changed = false;
+        for i in 0..n {
+            let c = b.column(i).iter().map(|x| x.abs()).sum::<f64>() - b[(i, i)].abs();
+            let r = b.row(i).iter().map(|x| x.abs()).sum::<f64>() - b[(i, i)].abs();
+            if !(c > 0.0 && r > 0.0) {
+                continue;
+            }
+            // f = 2^k closest to the minimiser sqrt(r/c) of c f + r / f
+            let f = 2f64.powi((0.5 * (r / c).log2()).round() as i32);
+            if c * f + r / f < 0.95 * (c + r) {
+                d[i] *= f;
+                b.column_mut(i).scale_mut(f);
+                b.row_mut(i).scale_mut(1.0 / f);
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    d
+}
+
+fn build_level(sys: &FirstOrderSystem, d: &DVector<f64>, h: f64, s: usize) -> Level {
     let nz = sys.nz();
     let m = sys.m();
     let mf = 1 + m;
     let tau = h / (s - 1) as f64;
     let na = nz + s * mf;
+    // balanced coordinates z_b = D^-1 z: A_b = D^-1 A D, F_b = D^-1 F
+    let a_b = DMatrix::from_fn(nz, nz, |i, j| sys.a[(i, j)] * d[j] / d[i]);
     let mut aug = DMatrix::<f64>::zeros(na, na);
-    aug.view_mut((0, 0), (nz, nz)).copy_from(&(&sys.a * tau));
-    aug.view_mut((0, nz), (nz, 1)).copy_from(&(&sys.b * tau));
-    if m > 0 {
-        aug.view_mut((0, nz + 1), (nz, m)).copy_from(&(&sys.g * tau));
+    aug.view_mut((0, 0), (nz, nz)).copy_from(&(&a_b * tau));
+    for i in 0..nz {
+        aug[(i, nz)] = sys.b[i] / d[i] * tau;
+        for e in 0..m {
+            aug[(i, nz + 1 + e)] = sys.g[(i, e)] / d[i] * tau;
+        }
     }
     for k in 0..s - 1 {
         for c in 0..mf {
@@ -84,11 +163,24 @@ fn build_level(sys: &FirstOrderSystem, h: f64, s: usize) -> Level {
         }
     }
     let e1 = aug.exp();
-    // powers[j] = exp(j tau Aug), j = 1..s-1
+    // powers[j] = exp(j tau Aug), j = 1..s-1, then back to the original
+    // coordinates: e^{sA} = D e^{s A_b} D^-1, X_k = D X_k^b (exact: D holds powers of 2)
     let mut powers = vec![DMatrix::zeros(0, 0), e1.clone()];
     for j in 2..s {
         let next = &powers[j - 1] * &e1;
         powers.push(next);
+    }
+    for p in powers.iter_mut().skip(1) {
+        for i in 0..nz {
+            for c in 0..na {
+                p[(i, c)] *= d[i];
+            }
+        }
+        for c in 0..nz {
+            for i in 0..nz {
+                p[(i, c)] /= d[c];
+            }
+        }
     }
     // interpolation in the basis rho^{k-1}/(k-1)!: with nodes rho_l = l tau,
     // V = Vhat diag(tau^{k-1}), Vhat[l][k-1] = l^{k-1}/(k-1)!.
@@ -114,13 +206,16 @@ fn build_level(sys: &FirstOrderSystem, h: f64, s: usize) -> Level {
     let e = powers[s - 1].view((0, 0), (nz, nz)).into_owned();
     let zw = weights(s - 1, 0..s);
     let ew = weights(s - 1, s - 1..s);
-    let mut pe = Vec::new();
-    let mut pq = Vec::new();
+    let np = 2 * m;
+    let mut pe_t = DMatrix::zeros(nz, (s - 1) * np);
+    let mut pq_t = DMatrix::zeros(s * mf, (s - 1) * np);
     for j in 1..s {
-        pe.push(&sys.proj * powers[j].view((0, 0), (nz, nz)));
-        pq.push(&sys.proj * weights(j, 0..s));
+        let pe = &sys.proj * powers[j].view((0, 0), (nz, nz));
+        let pq = &sys.proj * weights(j, 0..s);
+        pe_t.view_mut((0, (j - 1) * np), (nz, np)).copy_from(&pe.transpose());
+        pq_t.view_mut((0, (j - 1) * np), (s * mf, np)).copy_from(&pq.transpose());
     }
-    Level { e, zw, ew, pe, pq }
+    Level { e, zw, ew, pe_t, pq_t }
 }
 
 /// Integrate `z' = A z + b u(t) + G f(z)` from `z0` at `t = 0` over `n` sample
@@ -141,6 +236,7 @@ pub(crate) fn integrate(
     let m = sys.m();
     let mf = 1 + m;
     let mut stats = IntegrationStats::default();
+    let d = balance(&sys.a);
     let mut levels: Vec<Option<Level>> = (0..=MAX_LEVEL).map(|_| None).collect();
     let mut level: u32 = 0;
     let one: u64 = 1 << MAX_LEVEL;
@@ -152,10 +248,19 @@ pub(crate) fn integrate(
     let mut err = DVector::zeros(nz);
     let mut zmax = z.abs();
     let mut r = DVector::zeros(s * mf);
-    let mut pf = vec![0.0; 2 * m];
     let mut f0 = vec![0.0; m];
-    let mut base: Vec<DVector<f64>> = (0..s).map(|_| DVector::zeros(2 * m)).collect();
+    let np = 2 * m;
+    let mut base = DVector::zeros((s - 1) * np);
+    let mut pall = DVector::zeros((s - 1) * np);
+    // extrapolation weights of the previous step's node forces: (step ratio, s x s)
+    let mut extrap: (f64, Vec<f64>) = (f64::NAN, vec![0.0; s * s]);
     let mut last_rejected = false;
+    let nu = m * (s - 1);
+    let mut jac = vec![0.0; nu * nu];
+    let mut res = vec![0.0; nu];
+    // previous accepted step: (start time, node spacing) and node forces
+    let mut prev: Option<(f64, f64)> = None;
+    let mut prev_f = vec![0.0; s * m];
     on_sample(0, &z);
     let mut next_progress = 0.0;
     while pos < end {
@@ -166,7 +271,7 @@ pub(crate) fn integrate(
         let t = pos as f64 * tick;
         let h = ticks as f64 * tick;
         if levels[level as usize].is_none() {
-            levels[level as usize] = Some(build_level(sys, h, s));
+            levels[level as usize] = Some(build_level(sys, &d, h, s));
             stats.propagators += 1;
         }
         let lv = levels[level as usize].as_ref().unwrap();
@@ -177,30 +282,48 @@ pub(crate) fn integrate(
         }
         sys.forces(&z, &mut f0);
         stats.law_evals += m;
-        for l in 0..s {
-            for e in 0..m {
-                r[l * mf + 1 + e] = f0[e]; // initial guess: constant force
+        // initial guess of the node forces: the previous step's interpolation
+        // polynomial, extrapolated (constant force on the first step)
+        if let Some((tp, taup)) = prev {
+            // node l of this step sits at x = (s-1) + l tau/taup previous spacings
+            let ratio = tau / taup;
+            if ratio != extrap.0 {
+                for l in 0..s {
+                    let x = (t - tp) / taup + l as f64 * ratio;
+                    for k in 0..s {
+                        extrap.1[l * s + k] = (0..s)
+                            .filter(|&i| i != k)
+                            .map(|i| (x - i as f64) / (k as f64 - i as f64))
+                            .product();
+                    }
+                }
+                extrap.0 = ratio;
+            }
+        }
+        for e in 0..m {
+            r[1 + e] = f0[e];
+            for l in 1..s {
+                r[l * mf + 1 + e] = match prev {
+                    Some(_) => (0..s).map(|k| extrap.1[l * s + k] * prev_f[k * m + e]).sum(),
+                    None => f0[e],
+                };
             }
         }
         let mut newton_ok = true;
         if m > 0 {
             // known part of the projections: P e^{j tau A} z_n
-            for j in 1..s {
-                base[j].gemv(1.0, &lv.pe[j - 1], &z, 0.0);
-            }
+            base.gemv_tr(1.0, &lv.pe_t, &z, 0.0);
             let nu = m * (s - 1);
-            let mut jac = DMatrix::zeros(nu, nu);
-            let mut res = DVector::zeros(nu);
             let mut converged = false;
             for _ in 0..MAX_NEWTON {
                 stats.newton_iterations += 1;
-                let mut fscale: f64 = 1.0;
+                let mut fscale: f64 = f64::MIN_POSITIVE;
+                pall.copy_from(&base);
+                pall.gemv_tr(1.0, &lv.pq_t, &r, 1.0);
                 for j in 1..s {
-                    let mut p = base[j].clone();
-                    p.gemv(1.0, &lv.pq[j - 1], &r, 1.0);
-                    pf.copy_from_slice(p.as_slice());
+                    let pj = (j - 1) * np;
                     for e in 0..m {
-                        let (fe, dfu, dfv) = sys.laws[e].eval(pf[e], pf[m + e]);
+                        let (fe, dfu, dfv) = sys.laws[e].eval(pall[pj + e], pall[pj + m + e]);
                         stats.law_evals += 1;
                         let row = (j - 1) * m + e;
                         let cur = r[j * mf + 1 + e];
@@ -210,23 +333,25 @@ pub(crate) fn integrate(
                             for e2 in 0..m {
                                 let col = (l - 1) * m + e2;
                                 let w = l * mf + 1 + e2;
-                                jac[(row, col)] = if row == col { 1.0 } else { 0.0 }
-                                    - dfu * lv.pq[j - 1][(e, w)]
-                                    - dfv * lv.pq[j - 1][(m + e, w)];
+                                jac[row * nu + col] = if row == col { 1.0 } else { 0.0 }
+                                    - dfu * lv.pq_t[(w, pj + e)]
+                                    - dfv * lv.pq_t[(w, pj + m + e)];
                             }
                         }
                     }
                 }
-                if !res.iter().all(|x| x.is_finite()) {
+                if !res.iter().all(|x| x.is_finite()) || !solve_in_place(&mut jac, &mut res, nu) {
                     break;
                 }
-                let Some(delta) = jac.clone().lu().solve(&res) else { break };
+                let mut dmax: f64 = 0.0;
                 for j in 1..s {
                     for e in 0..m {
-                        r[j * mf + 1 + e] -= delta[(j - 1) * m + e];
+                        let d = res[(j - 1) * m + e];
+                        r[j * mf + 1 + e] -= d;
+                        dmax = dmax.max(d.abs());
                     }
                 }
-                if delta.amax() <= 1e-13 * fscale {
+                if dmax <= NEWTON_RTOL * fscale {
                     converged = true;
                     break;
                 }
@@ -255,6 +380,12 @@ pub(crate) fn integrate(
             continue;
         }
         std::mem::swap(&mut z, &mut znew);
+        prev = Some((t, tau));
+        for l in 0..s {
+            for e in 0..m {
+                prev_f[l * m + e] = r[l * mf + 1 + e];
+            }
+        }
         pos += ticks;
         stats.steps += 1;
         let t_new = pos as f64 * tick;

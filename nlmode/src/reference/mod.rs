@@ -106,7 +106,7 @@ pub struct ReferenceOptions {
     /// Envelope window length in excitation periods (default 1).
     pub envelope_periods: f64,
     /// Collocation nodes of the exponential method, `s >= 2` (polynomial degree
-    /// `s - 1` of the forcing over a step; default 5).
+    /// `s - 1` of the forcing over a step; default 8).
     pub collocation_nodes: usize,
     /// Name of the structure point reported as the tip (default `tip`).
     pub tip_point: String,
@@ -125,7 +125,7 @@ impl Default for ReferenceOptions {
             samples_per_period: 40,
             output_interval_s: None,
             envelope_periods: 1.0,
-            collocation_nodes: 5,
+            collocation_nodes: 8,
             tip_point: "tip".to_string(),
             max_steps: 5_000_000,
             divergence_limit: 1e12,
