@@ -22,6 +22,8 @@ struct Lag {
     du: f64,
     n: i32,
     on: bool,
+    /// The decoded resource folder (String output `resources`).
+    resources: String,
 }
 
 const VR_TAU: u32 = 0;
@@ -39,9 +41,14 @@ impl CoSimModel for Lag {
         Variable { name: "d", vr: VR_D, ty: VarType::Real, causality: Causality::Parameter, variability: Variability::Tunable, start: Some(Start::Real(2.0)), unit: "" },
         Variable { name: "n", vr: 0, ty: VarType::Integer, causality: Causality::Parameter, variability: Variability::Fixed, start: Some(Start::Integer(3)), unit: "" },
         Variable { name: "on", vr: 0, ty: VarType::Boolean, causality: Causality::Parameter, variability: Variability::Fixed, start: Some(Start::Boolean(true)), unit: "" },
+        Variable { name: "resources", vr: 0, ty: VarType::String, causality: Causality::Local, variability: Variability::Continuous, start: None, unit: "" },
     ];
-    fn instantiate(_: &InstantiateContext<'_>) -> Result<Self, ModelError> {
-        Ok(Lag { tau: 0.5, d: 2.0, u: 0.0, x: 0.0, du: 0.0, n: 3, on: true })
+    fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
+        let resources = ctx.resource_dir.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
+        Ok(Lag { tau: 0.5, d: 2.0, u: 0.0, x: 0.0, du: 0.0, n: 3, on: true, resources })
+    }
+    fn get_string(&self, _: u32) -> Result<String, ModelError> {
+        Ok(self.resources.clone())
     }
     fn exit_initialization_mode(&mut self, _: &Logger) -> Result<(), ModelError> {
         if self.tau <= 0.0 {
@@ -188,6 +195,23 @@ fn set(i: &Inst, vr: u32, v: f64) -> Status {
 
 fn last(log: &Log) -> (String, Status, String, String) {
     log.lock().unwrap().last().cloned().expect("a log message")
+}
+
+fn resources_of(log: &Log, uri: &str) -> String {
+    let i = new(log, "res", Lag::GUID, Some(uri)).unwrap();
+    init(&i);
+    let mut p: FmiString = std::ptr::null();
+    assert_eq!(unsafe { fmi2GetString(i.c, &0, 1, &mut p) }, Status::Ok);
+    unsafe { CStr::from_ptr(p) }.to_str().unwrap().to_string()
+}
+
+#[test]
+fn resource_location_reaches_the_model_decoded() {
+    let log = Log::default();
+    assert_eq!(resources_of(&log, "file:///tmp/my%20fmu%25/resources"), "/tmp/my fmu%/resources");
+    assert_eq!(resources_of(&log, "file:////tmp/x y/resources"), "/tmp/x y/resources");
+    assert_eq!(resources_of(&log, "file:/tmp/r"), "/tmp/r");
+    assert!(log.lock().unwrap().is_empty());
 }
 
 #[test]
@@ -464,6 +488,7 @@ fn xml_checker_finds_drift() {
     <ScalarVariable name="d" valueReference="3" causality="parameter" variability="tunable" description="feedthrough"><Real start="2"/></ScalarVariable>
     <ScalarVariable name="n" valueReference="0" causality="parameter" variability="fixed" description="n"><Integer start="3"/></ScalarVariable>
     <ScalarVariable name="on" valueReference="0" causality="parameter" variability="fixed" description="on"><Boolean start="true"/></ScalarVariable>
+    <ScalarVariable name="resources" valueReference="0" description="decoded resource folder"><String/></ScalarVariable>
   </ModelVariables>
   <ModelStructure><Outputs><Unknown index="3" dependencies="2"/></Outputs></ModelStructure>
 </fmiModelDescription>"#;

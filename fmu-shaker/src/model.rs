@@ -1,0 +1,594 @@
+//! The shaker model behind the FMI layer: variables, parameters, the internal
+//! sweep source, exact stepping and the FMU state.
+use fmi2::{
+    Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader, StateWriter,
+    VarType as T, Variability as V, Variable,
+};
+use nalgebra::{Matrix3, Matrix3x2, Vector2, Vector3};
+use nlmode::attachment::{ArmatureDamping, ShakerParams, Stinger};
+use nlmode::benchmark as bm;
+use nlmode::lti::FohStep;
+
+/// GUID of `modelDescription/shaker/modelDescription.xml`.
+pub const GUID: &str = "{8c4d2f6e-1b7a-4e3d-9f15-2a6b0c9e7d41}";
+
+// Value references (Real unless noted). Tested against the XML.
+pub const VR_L: u32 = 0;
+pub const VR_R: u32 = 1;
+pub const VR_G: u32 = 2;
+pub const VR_M_A: u32 = 3;
+pub const VR_K_A: u32 = 4;
+pub const VR_D_A_RATIO: u32 = 5;
+pub const VR_K_S: u32 = 6;
+pub const VR_U_HAT: u32 = 7;
+pub const VR_OMEGA_START: u32 = 8;
+pub const VR_OMEGA_END: u32 = 9;
+pub const VR_OMEGA_RATE: u32 = 10;
+/// Boolean.
+pub const VR_USE_EXTERNAL: u32 = 11;
+pub const VR_D_A: u32 = 12;
+pub const VR_X: u32 = 20;
+pub const VR_V: u32 = 21;
+pub const VR_U_EXT: u32 = 22;
+pub const VR_F: u32 = 30;
+pub const VR_I: u32 = 31;
+pub const VR_Q_A: u32 = 32;
+pub const VR_V_A: u32 = 33;
+pub const VR_U: u32 = 34;
+pub const VR_OMEGA: u32 = 35;
+
+/// Default sweep: from 0.8 to 1.8 omega0 of the paper's beam (omega0 = 356.2
+/// rad/s) at 2 % per pseudo period (`r omega0^2 / (2 pi)` = 404 rad/s^2).
+pub const DEFAULT_OMEGA_START: f64 = 285.0;
+pub const DEFAULT_OMEGA_END: f64 = 641.0;
+pub const DEFAULT_OMEGA_RATE: f64 = 404.0;
+pub const DEFAULT_U_HAT: f64 = 10.0;
+
+/// Largest excitation-phase increment per internal sub-step [rad] when the
+/// internal sine source drives the shaker: the voltage is interpolated
+/// linearly inside a sub-step, which scales its fundamental by
+/// `1 - (W h)^2/12` (2e-4 at 0.05 rad) and adds no phase lag.
+pub const MAX_PHASE_PER_SUBSTEP: f64 = 0.05;
+
+const fn real(name: &'static str, vr: u32, causality: C, variability: V, start: Option<f64>, unit: &'static str) -> Variable {
+    Variable {
+        name,
+        vr,
+        ty: T::Real,
+        causality,
+        variability,
+        start: match start {
+            Some(s) => Some(Start::Real(s)),
+            None => None,
+        },
+        unit,
+    }
+}
+
+/// All variables (the modelDescription.xml is tested against this table).
+pub const VARIABLES: &[Variable] = &[
+    real("L", VR_L, C::Parameter, V::Fixed, Some(bm::SHAKER_L_H), "H"),
+    real("R", VR_R, C::Parameter, V::Fixed, Some(bm::SHAKER_R_OHM), "Ohm"),
+    real("G", VR_G, C::Parameter, V::Fixed, Some(bm::SHAKER_G_N_PER_A), "N/A"),
+    real("m_a", VR_M_A, C::Parameter, V::Fixed, Some(bm::SHAKER_MA_KG), "kg"),
+    real("k_a", VR_K_A, C::Parameter, V::Fixed, Some(bm::SHAKER_KA_N_PER_M), "N/m"),
+    real("D_a", VR_D_A_RATIO, C::Parameter, V::Fixed, Some(bm::SHAKER_DA), "1"),
+    real("k_s", VR_K_S, C::Parameter, V::Fixed, Some(bm::STINGER_KS_N_PER_M), "N/m"),
+    real("u_hat", VR_U_HAT, C::Parameter, V::Fixed, Some(DEFAULT_U_HAT), "V"),
+    real("Omega_start", VR_OMEGA_START, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_START), "rad/s"),
+    real("Omega_end", VR_OMEGA_END, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_END), "rad/s"),
+    real("Omega_rate", VR_OMEGA_RATE, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_RATE), "rad/s2"),
+    Variable {
+        name: "use_external_voltage",
+        vr: VR_USE_EXTERNAL,
+        ty: T::Boolean,
+        causality: C::Parameter,
+        variability: V::Fixed,
+        start: Some(Start::Boolean(false)),
+        unit: "",
+    },
+    real("d_a", VR_D_A, C::CalculatedParameter, V::Fixed, None, "N.s/m"),
+    real("x", VR_X, C::Input, V::Continuous, Some(0.0), "m"),
+    real("v", VR_V, C::Input, V::Continuous, Some(0.0), "m/s"),
+    real("u_ext", VR_U_EXT, C::Input, V::Continuous, Some(0.0), "V"),
+    real("F", VR_F, C::Output, V::Continuous, None, "N"),
+    real("I", VR_I, C::Output, V::Continuous, None, "A"),
+    real("q_a", VR_Q_A, C::Output, V::Continuous, None, "m"),
+    real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s"),
+    real("u", VR_U, C::Output, V::Continuous, None, "V"),
+    real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s"),
+];
+
+/// The internal voltage source `u = u_hat cos(Phi)`, `Phi' = Omega`, with
+/// `Omega` going linearly from `omega_start` towards `omega_end` at `rate`
+/// [rad/s^2] and staying at `omega_end` afterwards (`rate = 0`: a fixed
+/// sine at `omega_start`). Time `tau` counts from the experiment's start.
+/// (Not `nlmode::excitation::LinearSweep`, which has no hold phase and no
+/// zero rate.)
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepSource {
+    pub u_hat: f64,
+    pub omega_start: f64,
+    pub omega_end: f64,
+    pub rate: f64,
+}
+
+impl SweepSource {
+    /// Duration of the frequency ramp [s].
+    fn ramp_duration(&self) -> f64 {
+        if self.rate == 0.0 {
+            0.0
+        } else {
+            (self.omega_end - self.omega_start).abs() / self.rate
+        }
+    }
+    fn signed_rate(&self) -> f64 {
+        if self.omega_end >= self.omega_start { self.rate } else { -self.rate }
+    }
+    /// Instantaneous frequency [rad/s].
+    pub fn omega(&self, tau: f64) -> f64 {
+        if self.rate == 0.0 {
+            self.omega_start
+        } else if tau < self.ramp_duration() {
+            self.omega_start + self.signed_rate() * tau
+        } else {
+            self.omega_end
+        }
+    }
+    /// `dOmega/dt` [rad/s^2].
+    pub fn omega_rate(&self, tau: f64) -> f64 {
+        if self.rate != 0.0 && tau < self.ramp_duration() { self.signed_rate() } else { 0.0 }
+    }
+    /// Phase `int_0^tau Omega` [rad].
+    pub fn phase(&self, tau: f64) -> f64 {
+        if self.rate == 0.0 {
+            return self.omega_start * tau;
+        }
+        let te = self.ramp_duration();
+        let t = tau.min(te);
+        let ramp = self.omega_start * t + 0.5 * self.signed_rate() * t * t;
+        ramp + self.omega_end * (tau - t)
+    }
+    /// Voltage [V].
+    pub fn voltage(&self, tau: f64) -> f64 {
+        self.u_hat * self.phase(tau).cos()
+    }
+    /// `du/dt` [V/s].
+    pub fn voltage_rate(&self, tau: f64) -> f64 {
+        -self.u_hat * self.phase(tau).sin() * self.omega(tau)
+    }
+}
+
+/// One cached discretization (fixed-size copies of an [`FohStep`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Disc {
+    h: f64,
+    phi: Matrix3<f64>,
+    p: Matrix3x2<f64>,
+    q: Matrix3x2<f64>,
+}
+
+/// A held input: value set at time `t_set`, first and second derivatives
+/// used to extrapolate it inside the step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Held {
+    value: f64,
+    t_set: f64,
+    /// First derivative from `fmi2SetRealInputDerivatives` (None: not given).
+    der1: Option<f64>,
+}
+
+impl Held {
+    fn new(value: f64) -> Self {
+        Self { value, t_set: 0.0, der1: None }
+    }
+}
+
+/// The shaker FMU model.
+#[derive(Debug, Clone)]
+pub struct Shaker {
+    /// Physical parameters (`L, R, G, m_a, k_a, D_a, k_s`).
+    pub params: ShakerParams,
+    pub source: SweepSource,
+    pub use_external_voltage: bool,
+    /// States `[I, q_a, v_a]` (A, m, m/s).
+    s: Vector3<f64>,
+    t: f64,
+    t0: f64,
+    x: Held,
+    v: Held,
+    u_ext: Held,
+    /// `[A, B]` of the state space once parameters are fixed.
+    ab: Option<(nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>)>,
+    cache: Vec<Disc>,
+}
+
+const CACHE_SIZE: usize = 4;
+
+impl Shaker {
+    /// The modelDescription start values.
+    pub fn new() -> Self {
+        Self {
+            params: ShakerParams::paper(),
+            source: SweepSource {
+                u_hat: DEFAULT_U_HAT,
+                omega_start: DEFAULT_OMEGA_START,
+                omega_end: DEFAULT_OMEGA_END,
+                rate: DEFAULT_OMEGA_RATE,
+            },
+            use_external_voltage: false,
+            s: Vector3::zeros(),
+            t: 0.0,
+            t0: 0.0,
+            x: Held::new(0.0),
+            v: Held::new(0.0),
+            u_ext: Held::new(0.0),
+            ab: None,
+            cache: Vec::with_capacity(CACHE_SIZE),
+        }
+    }
+
+    fn k_s(&self) -> f64 {
+        match self.params.stinger {
+            Stinger::Elastic { stiffness_n_per_m } => stiffness_n_per_m,
+            Stinger::Rigid => f64::NAN,
+        }
+    }
+
+    fn d_a_ratio(&self) -> f64 {
+        match self.params.armature_damping {
+            ArmatureDamping::Ratio(r) => r,
+            ArmatureDamping::Viscous(_) => self.params.damping_ratio(),
+        }
+    }
+
+    /// Validate the parameters and build the state space (`exit_initialization_mode`).
+    pub fn fix_parameters(&mut self) -> Result<(), ModelError> {
+        let src = self.source;
+        for (name, v) in [("Omega_start", src.omega_start), ("Omega_end", src.omega_end)] {
+            if !(v >= 0.0) {
+                return Err(ModelError::error(format!("{name} must be >= 0 rad/s, got {v}")));
+            }
+        }
+        if !(src.rate >= 0.0) {
+            return Err(ModelError::error(format!("Omega_rate must be >= 0 rad/s2, got {}", src.rate)));
+        }
+        let ss = self.params.state_space()?;
+        self.ab = Some((ss.a, ss.b));
+        self.cache.clear();
+        Ok(())
+    }
+
+    /// Displacement input extrapolated to time `t` [m]: `x + xdot (t - t_set)`
+    /// with `xdot` the input derivative if given, else the velocity input.
+    fn x_at(&self, t: f64) -> f64 {
+        self.x.value + self.xdot() * (t - self.x.t_set)
+    }
+    fn xdot(&self) -> f64 {
+        self.x.der1.unwrap_or(self.v.value)
+    }
+
+    /// Applied voltage at time `t` [V].
+    fn u_at(&self, t: f64) -> f64 {
+        if self.use_external_voltage {
+            self.u_ext.value + self.u_ext.der1.unwrap_or(0.0) * (t - self.u_ext.t_set)
+        } else {
+            self.source.voltage(t - self.t0)
+        }
+    }
+
+    fn disc(&mut self, h: f64) -> Result<Disc, ModelError> {
+        if let Some(d) = self.cache.iter().find(|d| d.h == h) {
+            return Ok(*d);
+        }
+        let (a, b) = self
+            .ab
+            .as_ref()
+            .ok_or_else(|| ModelError::error("parameters not fixed (initialization not completed)"))?;
+        let f = FohStep::new(a, b, h)?;
+        let d = Disc {
+            h,
+            phi: Matrix3::from_fn(|i, j| f.phi[(i, j)]),
+            p: Matrix3x2::from_fn(|i, j| f.p[(i, j)]),
+            q: Matrix3x2::from_fn(|i, j| f.q[(i, j)]),
+        };
+        if self.cache.len() == CACHE_SIZE {
+            self.cache.remove(0);
+        }
+        self.cache.push(d);
+        Ok(d)
+    }
+
+    /// Number of sub-steps for a step `[t, t+h]`.
+    fn substeps(&self, t: f64, h: f64) -> usize {
+        if self.use_external_voltage || self.source.u_hat == 0.0 {
+            return 1;
+        }
+        let w = self.source.omega(t - self.t0).max(self.source.omega(t + h - self.t0));
+        ((w * h / MAX_PHASE_PER_SUBSTEP).ceil() as usize).max(1)
+    }
+
+    /// Advance the states from `t` to `t + h` exactly for inputs linear in
+    /// time inside each sub-step.
+    pub fn advance(&mut self, t: f64, h: f64) -> Result<(), ModelError> {
+        let n = self.substeps(t, h);
+        let hs = h / n as f64;
+        let d = self.disc(hs)?;
+        let mut u0 = Vector2::new(self.u_at(t), self.x_at(t));
+        for k in 1..=n {
+            let tk = if k == n { t + h } else { t + k as f64 * hs };
+            let u1 = Vector2::new(self.u_at(tk), self.x_at(tk));
+            self.s = d.phi * self.s + d.p * u0 + d.q * u1;
+            u0 = u1;
+        }
+        self.t = t + h;
+        Ok(())
+    }
+
+    /// State derivative `[I', q_a', v_a']` at the current time.
+    fn rates(&self) -> Vector3<f64> {
+        let p = &self.params;
+        let (i, q, va) = (self.s[0], self.s[1], self.s[2]);
+        let x = self.x_at(self.t);
+        Vector3::new(
+            (self.u_at(self.t) - p.resistance_ohm * i - p.force_constant_n_per_a * va) / p.inductance_h,
+            va,
+            (p.force_constant_n_per_a * i
+                - p.d_a() * va
+                - p.armature_stiffness_n_per_m * q
+                - self.k_s() * (q - x))
+                / p.armature_mass_kg,
+        )
+    }
+
+    /// Current states `[I, q_a, v_a]` (A, m, m/s).
+    pub fn states(&self) -> [f64; 3] {
+        [self.s[0], self.s[1], self.s[2]]
+    }
+
+    /// Overwrite the states `[I, q_a, v_a]` (analysis of the coupled step map).
+    pub fn set_states(&mut self, s: [f64; 3]) {
+        self.s = Vector3::new(s[0], s[1], s[2]);
+    }
+}
+
+impl Default for Shaker {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn bad_vr(vr: u32) -> ModelError {
+    ModelError::error(format!("value reference {vr} is not handled by the shaker"))
+}
+
+impl CoSimModel for Shaker {
+    const MODEL_IDENTIFIER: &'static str = "shaker";
+    const GUID: &'static str = GUID;
+    const VARIABLES: &'static [Variable] = VARIABLES;
+
+    fn instantiate(_ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
+        Ok(Self::new())
+    }
+
+    fn setup_experiment(&mut self, start_time: f64, _stop: Option<f64>) -> Result<(), ModelError> {
+        self.t0 = start_time;
+        self.t = start_time;
+        for h in [&mut self.x, &mut self.v, &mut self.u_ext] {
+            h.t_set = start_time;
+        }
+        Ok(())
+    }
+
+    fn exit_initialization_mode(&mut self, _log: &Logger) -> Result<(), ModelError> {
+        self.fix_parameters()
+    }
+
+    fn get_real(&self, vr: u32) -> f64 {
+        let p = &self.params;
+        match vr {
+            VR_L => p.inductance_h,
+            VR_R => p.resistance_ohm,
+            VR_G => p.force_constant_n_per_a,
+            VR_M_A => p.armature_mass_kg,
+            VR_K_A => p.armature_stiffness_n_per_m,
+            VR_D_A_RATIO => self.d_a_ratio(),
+            VR_K_S => self.k_s(),
+            VR_U_HAT => self.source.u_hat,
+            VR_OMEGA_START => self.source.omega_start,
+            VR_OMEGA_END => self.source.omega_end,
+            VR_OMEGA_RATE => self.source.rate,
+            VR_D_A => p.d_a(),
+            VR_X => self.x.value,
+            VR_V => self.v.value,
+            VR_U_EXT => self.u_ext.value,
+            VR_F => self.k_s() * (self.s[1] - self.x_at(self.t)),
+            VR_I => self.s[0],
+            VR_Q_A => self.s[1],
+            VR_V_A => self.s[2],
+            VR_U => self.u_at(self.t),
+            VR_OMEGA => {
+                if self.use_external_voltage {
+                    0.0
+                } else {
+                    self.source.omega(self.t - self.t0)
+                }
+            }
+            _ => f64::NAN, // unreachable: the layer only passes Real vrs of VARIABLES
+        }
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
+        let p = &mut self.params;
+        match vr {
+            VR_L => p.inductance_h = value,
+            VR_R => p.resistance_ohm = value,
+            VR_G => p.force_constant_n_per_a = value,
+            VR_M_A => p.armature_mass_kg = value,
+            VR_K_A => p.armature_stiffness_n_per_m = value,
+            VR_D_A_RATIO => p.armature_damping = ArmatureDamping::Ratio(value),
+            VR_K_S => p.stinger = Stinger::Elastic { stiffness_n_per_m: value },
+            VR_U_HAT => self.source.u_hat = value,
+            VR_OMEGA_START => self.source.omega_start = value,
+            VR_OMEGA_END => self.source.omega_end = value,
+            VR_OMEGA_RATE => self.source.rate = value,
+            VR_X => self.x = Held { value, t_set: self.t, der1: None },
+            VR_V => self.v = Held { value, t_set: self.t, der1: None },
+            VR_U_EXT => self.u_ext = Held { value, t_set: self.t, der1: None },
+            _ => return Err(bad_vr(vr)),
+        }
+        Ok(())
+    }
+
+    fn get_boolean(&self, vr: u32) -> Result<bool, ModelError> {
+        match vr {
+            VR_USE_EXTERNAL => Ok(self.use_external_voltage),
+            _ => Err(bad_vr(vr)),
+        }
+    }
+
+    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), ModelError> {
+        match vr {
+            VR_USE_EXTERNAL => {
+                self.use_external_voltage = value;
+                Ok(())
+            }
+            _ => Err(bad_vr(vr)),
+        }
+    }
+
+    fn do_step(&mut self, t: f64, h: f64, _log: &Logger) -> Result<(), ModelError> {
+        self.advance(t, h)
+    }
+
+    /// Order 1 only: `der(x)` replaces `v` in the extrapolation of `x`,
+    /// `der(u_ext)` makes the external voltage ramp; `der(v)` is accepted and
+    /// has no effect (the displacement is extrapolated linearly).
+    fn set_real_input_derivative(&mut self, vr: u32, order: u32, value: f64) -> Result<(), ModelError> {
+        if order != 1 {
+            return Err(ModelError::error(format!(
+                "only first-order input derivatives are supported (maxOutputDerivativeOrder = 1), got order {order} for value reference {vr}"
+            )));
+        }
+        let held = match vr {
+            VR_X => &mut self.x,
+            VR_V => &mut self.v,
+            VR_U_EXT => &mut self.u_ext,
+            _ => return Err(bad_vr(vr)),
+        };
+        // the derivative refers to the value set last (at `t_set`)
+        held.der1 = Some(value);
+        Ok(())
+    }
+
+    fn get_real_output_derivative(&self, vr: u32, order: u32) -> Result<f64, ModelError> {
+        if order != 1 {
+            return Err(ModelError::error(format!(
+                "only first-order output derivatives are available, got order {order} for value reference {vr}"
+            )));
+        }
+        let r = self.rates();
+        Ok(match vr {
+            VR_F => self.k_s() * (r[1] - self.xdot()),
+            VR_I => r[0],
+            VR_Q_A => r[1],
+            VR_V_A => r[2],
+            VR_U => {
+                if self.use_external_voltage {
+                    self.u_ext.der1.unwrap_or(0.0)
+                } else {
+                    self.source.voltage_rate(self.t - self.t0)
+                }
+            }
+            VR_OMEGA => {
+                if self.use_external_voltage {
+                    0.0
+                } else {
+                    self.source.omega_rate(self.t - self.t0)
+                }
+            }
+            _ => return Err(bad_vr(vr)),
+        })
+    }
+
+    /// Direct feedthrough only: `dF/dx = -k_s`, `du/du_ext = 1` (external voltage).
+    fn partial_derivative(&self, unknown: u32, known: u32) -> Result<f64, ModelError> {
+        if ![VR_X, VR_V, VR_U_EXT].contains(&known) {
+            return Err(ModelError::error(format!(
+                "directional derivatives are provided with respect to the inputs x, v, u_ext only, not value reference {known}"
+            )));
+        }
+        Ok(match (unknown, known) {
+            (VR_F, VR_X) => -self.k_s(),
+            (VR_U, VR_U_EXT) if self.use_external_voltage => 1.0,
+            (VR_F | VR_I | VR_Q_A | VR_V_A | VR_U | VR_OMEGA, _) => 0.0,
+            _ => {
+                return Err(ModelError::error(format!(
+                    "directional derivatives are provided for outputs only, not value reference {unknown}"
+                )))
+            }
+        })
+    }
+
+    fn serialize_state(&self, w: &mut StateWriter) {
+        let p = &self.params;
+        w.f64s(&[
+            p.inductance_h,
+            p.resistance_ohm,
+            p.force_constant_n_per_a,
+            p.armature_mass_kg,
+            p.armature_stiffness_n_per_m,
+            self.d_a_ratio(),
+            self.k_s(),
+            self.source.u_hat,
+            self.source.omega_start,
+            self.source.omega_end,
+            self.source.rate,
+            self.s[0],
+            self.s[1],
+            self.s[2],
+            self.t,
+            self.t0,
+        ]);
+        w.bool(self.use_external_voltage);
+        w.bool(self.ab.is_some());
+        for h in [&self.x, &self.v, &self.u_ext] {
+            w.f64(h.value);
+            w.f64(h.t_set);
+            w.bool(h.der1.is_some());
+            w.f64(h.der1.unwrap_or(0.0));
+        }
+    }
+
+    fn deserialize_state(&mut self, r: &mut StateReader<'_>) -> Result<(), ModelError> {
+        let v = r.f64s(16)?;
+        let old = self.params;
+        self.params.inductance_h = v[0];
+        self.params.resistance_ohm = v[1];
+        self.params.force_constant_n_per_a = v[2];
+        self.params.armature_mass_kg = v[3];
+        self.params.armature_stiffness_n_per_m = v[4];
+        self.params.armature_damping = ArmatureDamping::Ratio(v[5]);
+        self.params.stinger = Stinger::Elastic { stiffness_n_per_m: v[6] };
+        self.source = SweepSource { u_hat: v[7], omega_start: v[8], omega_end: v[9], rate: v[10] };
+        self.s = Vector3::new(v[11], v[12], v[13]);
+        self.t = v[14];
+        self.t0 = v[15];
+        self.use_external_voltage = r.bool()?;
+        let fixed = r.bool()?;
+        for h in [&mut self.x, &mut self.v, &mut self.u_ext] {
+            h.value = r.f64()?;
+            h.t_set = r.f64()?;
+            let has = r.bool()?;
+            let d = r.f64()?;
+            h.der1 = has.then_some(d);
+        }
+        if !fixed {
+            self.ab = None;
+            self.cache.clear();
+        } else if self.ab.is_none() || old != self.params {
+            self.fix_parameters()?;
+        }
+        Ok(())
+    }
+}

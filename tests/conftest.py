@@ -1,0 +1,133 @@
+"""Shared fixtures of the fmpy harness.
+
+The FMUs are taken from $FMU_DIR (tests/run.sh builds them there); without it
+they are packaged into target/fmus with `cargo run -p fmi2 --bin package-fmus`.
+"""
+import ctypes
+import os
+import pathlib
+import subprocess
+from collections import defaultdict
+
+import pytest
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+from fmpy.logging import addLoggerProxy
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+
+# Log messages per instance name: (status, category, message). fmpy's native
+# logger proxy (which formats the message with vsnprintf, as C masters do) has
+# a single slot, so one Python logger serves every instance and routes by name.
+MESSAGES = defaultdict(list)
+
+
+def _logger(env, instance_name, status, category, message):
+    name = instance_name.decode("utf-8") if instance_name else "<NULL>"
+    MESSAGES[name].append(
+        (status, category.decode("utf-8") if category else "<NULL>", message.decode("utf-8") if message else "<NULL>")
+    )
+
+
+CALLBACKS = fmi2CallbackFunctions()
+CALLBACKS.logger = fmi2CallbackLoggerTYPE(_logger)
+CALLBACKS.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+CALLBACKS.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+addLoggerProxy(ctypes.byref(CALLBACKS))
+
+
+@pytest.fixture(scope="session")
+def fmu_dir():
+    d = os.environ.get("FMU_DIR")
+    if d:
+        return pathlib.Path(d)
+    out = REPO / "target" / "fmus"
+    subprocess.run(
+        ["cargo", "run", "-q", "-p", "fmi2", "--bin", "package-fmus", "--", "--out", str(out)],
+        cwd=REPO,
+        check=True,
+    )
+    return out
+
+
+@pytest.fixture(scope="session")
+def unzipped(fmu_dir, tmp_path_factory):
+    """unzipped(name) -> directory of the extracted <name>.fmu (extracted once,
+    into a folder whose name has a space and a percent sign to exercise the
+    resource-URI decoding)."""
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            path = fmu_dir / f"{name}.fmu"
+            assert path.is_file(), f"{path} missing (run tests/run.sh)"
+            cache[name] = extract(str(path), str(tmp_path_factory.mktemp(f"{name} 100%")))
+        return cache[name]
+
+    return get
+
+
+class Instance:
+    """An fmpy FMU2Slave with the log messages of its instance name."""
+
+    def __init__(self, unzipdir, instance_name, guid=None, logging_on=False):
+        self.md = read_model_description(unzipdir)
+        self.name = instance_name
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        MESSAGES.pop(instance_name, None)
+        self.fmu = FMU2Slave(
+            guid=guid or self.md.guid,
+            unzipDirectory=unzipdir,
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+            instanceName=instance_name,
+        )
+        self.fmu.instantiate(callbacks=CALLBACKS, loggingOn=logging_on)
+
+    @property
+    def messages(self):
+        return MESSAGES[self.name]
+
+    def init(self, start_time=0.0, stop_time=None, **params):
+        self.fmu.setupExperiment(startTime=start_time, stopTime=stop_time)
+        for k, v in params.items():
+            if isinstance(v, bool):
+                self.fmu.setBoolean([self.vr[k]], [v])
+            else:
+                self.fmu.setReal([self.vr[k]], [float(v)])
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+        return self
+
+    def get(self, *names):
+        vals = self.fmu.getReal([self.vr[n] for n in names])
+        return vals[0] if len(names) == 1 else vals
+
+    def set(self, **values):
+        self.fmu.setReal([self.vr[k] for k in values], [float(v) for v in values.values()])
+
+    def free(self):
+        self.fmu.freeInstance()
+
+
+@pytest.fixture
+def new_instance(unzipped):
+    """new_instance(fmu_name, instance_name, **kw) -> Instance; freed after the test."""
+    made = []
+
+    def make(fmu_name, instance_name, **kw):
+        inst = Instance(unzipped(fmu_name), instance_name, **kw)
+        made.append(inst)
+        return inst
+
+    yield make
+    for inst in made:
+        try:
+            inst.fmu.fmi2FreeInstance(inst.fmu.component)
+        except Exception:
+            pass

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The fmpy harness: creates .venv at the repository root if missing, installs
+# the pinned requirements, packages the FMUs into target/fmus and runs pytest.
+# Extra arguments go to pytest (e.g. tests/run.sh -k shaker -x).
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+PY="${PYTHON:-}"
+if [ -z "$PY" ]; then
+  if command -v python3.11 >/dev/null 2>&1; then PY=python3.11; else PY=python3; fi
+fi
+if [ ! -x .venv/bin/python ]; then
+  "$PY" -m venv .venv
+fi
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/requirements.txt
+export FMU_DIR="${FMU_DIR:-$ROOT/target/fmus}"
+cargo run --quiet --release -p fmi2 --bin package-fmus -- --out "$FMU_DIR"
+exec .venv/bin/python -m pytest tests "$@"
