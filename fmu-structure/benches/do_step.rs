@@ -41,7 +41,7 @@ fn bench(c: &mut Criterion) {
     for h in [1e-5, 1e-3] {
         let mut m = Structure::instantiate(&InstantiateContext { instance_name: "b", resource_dir: Some(dir.clone()), logger: &log }).unwrap();
         m.exit_initialization_mode(&log).unwrap();
-        let mut t = 0.0;
+        let mut t: f64 = 0.0;
         c.bench_function(&format!("structure DoStep h = {h:e} s"), |b| {
             b.iter(|| {
                 m.set_real(vr::F, 2.0 * (356.2 * t).cos()).unwrap();

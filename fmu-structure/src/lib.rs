@@ -24,7 +24,7 @@ use fmi2::{
     Variability, Variable,
 };
 use nlmode::nma::ModalTable;
-use nlmode::oscillator::{InputPolynomial, ModalOscillator, OscillatorState};
+use nlmode::oscillator::{InputPolynomial, ModalOscillator, OscillatorState, PointResponse};
 
 /// Value references (Real).
 pub mod vr {
@@ -130,10 +130,9 @@ impl Structure {
 
     fn update_outputs(&mut self) -> Result<(), ModelError> {
         let Some(osc) = &self.osc else { return Ok(()) };
-        let m = osc.modal()?;
-        let d = osc.point_response(osc.drive_index())?;
-        let t = osc.point_response(self.tip)?;
-        self.out = Outputs { x: d.x_m, v: d.v_m_s, x_tip: t.x_m, a: m.amplitude, omega: m.omega_rad_s };
+        let mut r = [PointResponse { x_m: 0.0, v_m_s: 0.0 }; 2];
+        let m = osc.outputs(&[osc.drive_index(), self.tip], &mut r)?;
+        self.out = Outputs { x: r[0].x_m, v: r[0].v_m_s, x_tip: r[1].x_m, a: m.amplitude, omega: m.omega_rad_s };
         Ok(())
     }
 
