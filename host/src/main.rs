@@ -7,6 +7,7 @@
 mod methods;
 mod model;
 mod nma_cmd;
+mod package;
 mod plot;
 mod results;
 mod run;
@@ -49,6 +50,12 @@ enum Command {
         #[arg(short, long, default_value = "out")]
         out: PathBuf,
     },
+    /// Build structure.fmu and shaker.fmu (with the paper beam's modal table).
+    Package {
+        /// Output directory.
+        #[arg(short, long, default_value = "out/fmus")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -57,6 +64,11 @@ fn main() -> ExitCode {
         Command::Run { scenario, out } => run::run(scenario.as_deref(), &out),
         Command::Nma { scenario, out } => nma_cmd::nma(scenario.as_deref(), &out),
         Command::Frf { scenario, out } => nma_cmd::frf(scenario.as_deref(), &out),
+        Command::Package { out } => package::package(&out).map(|paths| {
+            for p in paths {
+                println!("wrote {}", p.display());
+            }
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

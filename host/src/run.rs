@@ -138,6 +138,12 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
         }
     }
     write_outputs(&sc, &setup, out, &done)?;
+    if sc.output.fmus {
+        match crate::package::package(&out.join("fmus")) {
+            Ok(paths) => println!("FMUs: {}", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")),
+            Err(e) => println!("warning: FMUs not packaged: {e:#}"),
+        }
+    }
     print_summary(&setup, &done);
     Ok(())
 }

@@ -226,11 +226,13 @@ impl Default for CosimSpec {
 pub struct OutputSpec {
     pub time_series: bool,
     pub plots: bool,
+    /// Package structure.fmu and shaker.fmu into `<out>/fmus`.
+    pub fmus: bool,
 }
 
 impl Default for OutputSpec {
     fn default() -> Self {
-        Self { time_series: true, plots: true }
+        Self { time_series: true, plots: true, fmus: true }
     }
 }
 
