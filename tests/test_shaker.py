@@ -221,3 +221,40 @@ def test_misuse_is_answered_with_error_and_message(new_instance, unzipped):
     ok.init()
     run(ok, 0.0, 10)
     assert math.isfinite(ok.get("F"))
+
+
+FMI2_FUNCTIONS = """
+GetTypesPlatform GetVersion SetDebugLogging Instantiate FreeInstance SetupExperiment
+EnterInitializationMode ExitInitializationMode Terminate Reset GetReal GetInteger
+GetBoolean GetString SetReal SetInteger SetBoolean SetString GetFMUstate SetFMUstate
+FreeFMUstate SerializedFMUstateSize SerializeFMUstate DeSerializeFMUstate
+GetDirectionalDerivative SetRealInputDerivatives GetRealOutputDerivatives DoStep
+CancelStep GetStatus GetRealStatus GetIntegerStatus GetBooleanStatus GetStringStatus
+EnterEventMode NewDiscreteStates EnterContinuousTimeMode CompletedIntegratorStep SetTime
+SetContinuousStates GetDerivatives GetEventIndicators GetContinuousStates
+GetNominalsOfContinuousStates
+""".split()
+
+
+def test_every_fmi2_symbol_is_exported(unzipped):
+    import ctypes
+    import os
+
+    lib = ctypes.CDLL(os.path.join(unzipped("shaker"), "binaries", "linux64", "shaker.so"))
+    missing = [f for f in FMI2_FUNCTIONS if not hasattr(lib, "fmi2" + f)]
+    assert len(FMI2_FUNCTIONS) == 44 and missing == []
+    lib.fmi2GetVersion.restype = ctypes.c_char_p
+    lib.fmi2GetTypesPlatform.restype = ctypes.c_char_p
+    assert lib.fmi2GetVersion() == b"2.0" and lib.fmi2GetTypesPlatform() == b"default"
+
+
+def test_model_exchange_calls_are_refused(new_instance):
+    inst = new_instance("shaker", "me-call")
+    inst.init()
+    import ctypes
+
+    set_time = inst.fmu.dll.fmi2SetTime
+    set_time.argtypes = [ctypes.c_void_p, ctypes.c_double]
+    set_time.restype = ctypes.c_int
+    assert set_time(inst.fmu.component, 0.0) == 3
+    assert "fmi2SetTime: this FMU implements Co-Simulation only" in inst.messages[-1][2]

@@ -3,34 +3,25 @@ the single-mode FRF, the nonlinear steady state against eq:NM with imposed
 force (computed here from the table), FMU state round trips, independent
 instances and misuse.
 
-The FMU is taken from $STRUCTURE_FMU, else $FMU_DIR/structure.fmu, else built
-with `cargo run -p fmi2 --bin package-fmus` into a temporary folder. Modal
-tables are written by the tests (JSON, format nlmode-modal-table v1) and passed
-through the `modal_table` parameter or packed into a copy of the FMU's
-resources folder.
+The FMU comes from the shared fixtures of conftest.py ($FMU_DIR, as
+tests/run.sh packages it). Modal tables are written by the tests (JSON, format
+nlmode-modal-table v1) and passed through the `modal_table` parameter or packed
+into a copy of the FMU's resources folder.
 """
 
 import json
 import math
-import os
 import pathlib
 import shutil
-import subprocess
 import zipfile
 
 import numpy as np
 import pytest
-from fmpy import extract, read_model_description
+from fmpy import extract
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (
-    FMU2Slave,
-    fmi2CallbackAllocateMemoryTYPE,
-    fmi2CallbackFreeMemoryTYPE,
-    fmi2CallbackFunctions,
-    fmi2CallbackLoggerTYPE,
-)
-from fmpy import calloc, free
 from fmpy.validation import validate_fmu
+
+from conftest import Instance
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
@@ -48,23 +39,13 @@ PHI = {"tip": 1.43, "l3": 0.32, "2l3": -1.04}  # fundamental shape at the points
 
 
 @pytest.fixture(scope="session")
-def structure_fmu(tmp_path_factory):
-    if os.environ.get("STRUCTURE_FMU"):
-        return pathlib.Path(os.environ["STRUCTURE_FMU"])
-    if os.environ.get("FMU_DIR") and (pathlib.Path(os.environ["FMU_DIR"]) / "structure.fmu").is_file():
-        return pathlib.Path(os.environ["FMU_DIR"]) / "structure.fmu"
-    out = tmp_path_factory.mktemp("fmus")
-    subprocess.run(
-        ["cargo", "run", "--quiet", "-p", "fmi2", "--bin", "package-fmus", "--", "--out", str(out)],
-        cwd=ROOT,
-        check=True,
-    )
-    return out / "structure.fmu"
+def structure_fmu(fmu_dir):
+    return fmu_dir / "structure.fmu"
 
 
 @pytest.fixture(scope="session")
-def unzipped(structure_fmu, tmp_path_factory):
-    return extract(str(structure_fmu), unzipdir=str(tmp_path_factory.mktemp("structure")))
+def structure_dir(unzipped):
+    return unzipped("structure")
 
 
 def table_dict(amplitude, omega, damping, points, harmonics=1, description="test table"):
@@ -114,39 +95,19 @@ def write_table(tmp_path, table, name="modal_table.json"):
     return p
 
 
-class Logged:
-    """fmpy callbacks that record every log message of an instance."""
-
-    def __init__(self):
-        self.messages = []
-
-        def log(env, instance, status, category, message):
-            self.messages.append((status, (category or b"").decode(), (message or b"").decode()))
-
-        self.callbacks = fmi2CallbackFunctions()
-        self.callbacks.logger = fmi2CallbackLoggerTYPE(log)
-        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        from fmpy.logging import addLoggerProxy
-        from ctypes import byref
-
-        addLoggerProxy(byref(self.callbacks))
-
-    def text(self):
-        return "\n".join(m for _, _, m in self.messages)
+_COUNTER = [0]
 
 
-def open_fmu(unzipdir, name="s", log=None):
-    md = read_model_description(os.path.join(unzipdir, "modelDescription.xml"))
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier="structure", instanceName=name)
-    log = log or Logged()
-    fmu.instantiate(callbacks=log.callbacks, loggingOn=True)
-    fmu._log = log
-    return fmu
+def open_fmu(unzipdir, name="s"):
+    """An instantiated structure FMU (logging on); `.fmu` is the fmpy FMU2Slave,
+    `.messages` the (status, category, message) tuples logged for it."""
+    _COUNTER[0] += 1
+    return Instance(str(unzipdir), f"structure-{name}-{_COUNTER[0]}", logging_on=True)
 
 
 def start(unzipdir, table_path=None, drive="2l3", eps=0.0, name="s"):
-    fmu = open_fmu(unzipdir, name)
+    inst = open_fmu(unzipdir, name)
+    fmu = inst.fmu
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     if table_path is not None:
@@ -154,6 +115,7 @@ def start(unzipdir, table_path=None, drive="2l3", eps=0.0, name="s"):
     fmu.setString([VR_DRIVE_POINT], [drive])
     fmu.setReal([VR_EPS], [eps])
     fmu.exitInitializationMode()
+    fmu.inst = inst
     return fmu
 
 
@@ -194,9 +156,9 @@ def test_validate_fmu_reports_no_problem(structure_fmu):
 
 
 @pytest.mark.parametrize("ratio", [0.2, 0.98, 1.5])
-def test_linear_table_equals_single_mode_frf(unzipped, tmp_path, ratio):
+def test_linear_table_equals_single_mode_frf(structure_dir, tmp_path, ratio):
     d = 0.01
-    fmu = start(unzipped, write_table(tmp_path, linear_table(d)))
+    fmu = start(structure_dir, write_table(tmp_path, linear_table(d)))
     omega = ratio * W0
     f0 = 2.0
     # 12 decay times 1/(D w0), then 5 periods (at least 0.1 s) for the fit
@@ -292,9 +254,9 @@ def nm_steady_roots(table, omega, phi_ex, f0, drive="2l3"):
 
 
 @pytest.mark.parametrize("ratio", [1.0, 1.02])
-def test_nonlinear_settled_amplitude_equals_nm_steady_state(unzipped, tmp_path, ratio):
+def test_nonlinear_settled_amplitude_equals_nm_steady_state(structure_dir, tmp_path, ratio):
     table = duffing_table()
-    fmu = start(unzipped, write_table(tmp_path, table))
+    fmu = start(structure_dir, write_table(tmp_path, table))
     omega = ratio * W0
     # the Rust unit test's case (w0 = 100, phi = 0.9, F = 16 N) scaled to W0 at the same amplitudes
     f0 = 16.0 * (W0 / 100.0) ** 2 * 0.9 / abs(PHI["2l3"])
@@ -327,9 +289,9 @@ def outputs_after(fmu, t0, n, h=1e-4, f0=50.0, omega=W0):
     return out
 
 
-def test_state_get_set_and_serialize_round_trips_are_exact(unzipped, tmp_path):
+def test_state_get_set_and_serialize_round_trips_are_exact(structure_dir, tmp_path):
     path = write_table(tmp_path, duffing_table())
-    fmu = start(unzipped, path)
+    fmu = start(structure_dir, path)
     outputs_after(fmu, 0.0, 500)
     t1 = 500 * 1e-4
     state = fmu.getFMUstate()
@@ -339,7 +301,7 @@ def test_state_get_set_and_serialize_round_trips_are_exact(unzipped, tmp_path):
     blob = fmu.serializeFMUstate(state)
     fmu.freeFMUstate(state)
     # into a second instance of the same configuration
-    other = start(unzipped, path, name="other")
+    other = start(structure_dir, path, name="other")
     s2 = other.deSerializeFMUstate(blob)
     other.setFMUstate(s2)
     other.freeFMUstate(s2)
@@ -349,11 +311,11 @@ def test_state_get_set_and_serialize_round_trips_are_exact(unzipped, tmp_path):
         f.freeInstance()
 
 
-def test_two_instances_run_independently(unzipped, tmp_path):
+def test_two_instances_run_independently(structure_dir, tmp_path):
     path = write_table(tmp_path, duffing_table())
-    a, b = start(unzipped, path, name="a"), start(unzipped, path, eps=0.05, name="b")
-    ref_a = outputs_after(start(unzipped, path, name="ref_a"), 0.0, 400)
-    ref_b = outputs_after(start(unzipped, path, eps=0.05, name="ref_b"), 0.0, 400, f0=20.0)
+    a, b = start(structure_dir, path, name="a"), start(structure_dir, path, eps=0.05, name="b")
+    ref_a = outputs_after(start(structure_dir, path, name="ref_a"), 0.0, 400)
+    ref_b = outputs_after(start(structure_dir, path, eps=0.05, name="ref_b"), 0.0, 400, f0=20.0)
     got_a, got_b = [], []
     for k in range(400):
         t = k * 1e-4
@@ -364,55 +326,55 @@ def test_two_instances_run_independently(unzipped, tmp_path):
     assert a.getReal([VR_OMEGA])[0] != b.getReal([VR_OMEGA])[0]
 
 
-def expect_error(fmu, call, *args, text=None):
-    n = len(fmu._log.messages)
+def expect_error(inst, call, *args, text=None):
+    n = len(inst.messages)
     with pytest.raises(FMICallException):
         call(*args)
-    new = fmu._log.messages[n:]
+    new = inst.messages[n:]
     assert any(status >= 3 for status, _, _ in new), new  # fmi2Error logged
     if text:
         assert any(text in m for _, _, m in new), new
 
 
-def test_misuse_gives_error_status_and_log_and_the_process_survives(unzipped, tmp_path):
+def test_misuse_gives_error_status_and_log_and_the_process_survives(structure_dir, tmp_path):
     path = write_table(tmp_path, linear_table())
     # wrong call order: DoStep before initialization
-    fmu = open_fmu(unzipped, "order")
-    expect_error(fmu, fmu.doStep, 0.0, 1e-3, text="illegal call sequence")
-    fmu.freeInstance()
+    inst = open_fmu(structure_dir, "order")
+    expect_error(inst, inst.fmu.doStep, 0.0, 1e-3, text="illegal call sequence")
+    inst.free()
 
-    fmu = start(unzipped, path, name="misuse")
+    fmu = start(structure_dir, path, name="misuse")
     # unknown value reference
-    expect_error(fmu, fmu.getReal, [99])
+    expect_error(fmu.inst, fmu.getReal, [99])
     # NaN input
-    expect_error(fmu, fmu.setReal, [VR_F], [float("nan")])
+    expect_error(fmu.inst, fmu.setReal, [VR_F], [float("nan")])
     # negative step
-    expect_error(fmu, fmu.doStep, 0.0, -1e-3)
+    expect_error(fmu.inst, fmu.doStep, 0.0, -1e-3)
     fmu.freeInstance()
 
     # missing resources: no table in resources/ and no modal_table parameter
     nores = tmp_path / "nores"
-    shutil.copytree(unzipped, nores)
+    shutil.copytree(structure_dir, nores)
     (nores / "resources" / "modal_table.json").unlink(missing_ok=True)
-    fmu = open_fmu(str(nores), "nores")
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
-    expect_error(fmu, fmu.exitInitializationMode, text="modal_table.json")
-    fmu.freeInstance()
+    inst = open_fmu(nores, "nores")
+    inst.fmu.setupExperiment(startTime=0.0)
+    inst.fmu.enterInitializationMode()
+    expect_error(inst, inst.fmu.exitInitializationMode, text="modal_table.json")
+    inst.free()
 
     # leaving the table's amplitude range
     small = linear_table()
     small["amplitude"] = [1e-9, 1e-4]
-    fmu = start(unzipped, write_table(tmp_path, small, "small.json"), name="range")
+    fmu = start(structure_dir, write_table(tmp_path, small, "small.json"), name="range")
     fmu.setReal([VR_F], [1e3])
     with pytest.raises(FMICallException):
         for k in range(1000):
             fmu.doStep(k * 1e-3, 1e-3)
-    assert "above the modal table's range" in fmu._log.text()
+    assert any("above the modal table's range" in m and status >= 3 for status, _, m in fmu.inst.messages)
     fmu.freeInstance()
 
     # after all that, a fresh instance works
-    fmu = start(unzipped, path, name="fresh")
+    fmu = start(structure_dir, path, name="fresh")
     outputs_after(fmu, 0.0, 10)
     fmu.terminate()
     fmu.freeInstance()
@@ -476,10 +438,10 @@ def near_resonance_case(nm, ratio_max=1.5):
     return best
 
 
-def settle_and_compare(unzipped, table_path, nm, drive, h=1e-4):
+def settle_and_compare(structure_dir, table_path, nm, drive, h=1e-4):
     om, f0, det, a_nm = near_resonance_case(nm)
     d = float(nm.damping(a_nm))
-    fmu = start(unzipped, table_path, drive=drive)
+    fmu = start(structure_dir, table_path, drive=drive)
     t_meas = 20 * 2 * math.pi / om
     x, _, _, _ = run_harmonic(fmu, om, f0, 15 / (d * float(nm.omega(nm.a_min))) + t_meas, h, t_meas)
     fmu.terminate()
@@ -488,21 +450,62 @@ def settle_and_compare(unzipped, table_path, nm, drive, h=1e-4):
     return a_fmu, a_nm, om, det
 
 
-def test_paper_like_mode_settles_on_the_nm_steady_state(unzipped, tmp_path):
+def test_paper_like_mode_settles_on_the_nm_steady_state(structure_dir, tmp_path):
     table = paper_like_table()
     nm = NM(table, "2l3")
-    a_fmu, a_nm, om, det = settle_and_compare(unzipped, write_table(tmp_path, table), nm, "2l3")
+    a_fmu, a_nm, om, det = settle_and_compare(structure_dir, write_table(tmp_path, table), nm, "2l3")
     assert abs(a_fmu - a_nm) < 0.02 * a_nm, (a_fmu, a_nm, om, det)
 
 
-def test_packaged_modal_table_settles_on_the_nm_steady_state(unzipped):
+def test_packaged_modal_table_settles_on_the_nm_steady_state(structure_dir):
     """With the paper's modal table in the FMU's resources (packaged from `host nma`)."""
-    path = pathlib.Path(unzipped) / "resources" / "modal_table.json"
+    path = pathlib.Path(structure_dir) / "resources" / "modal_table.json"
     if not path.is_file():
         pytest.skip("this structure.fmu has no resources/modal_table.json")
     table = json.loads(path.read_text())
     names = [p["name"] for p in table["points"]]
     drive = "2l3" if "2l3" in names else names[0]
     nm = NM(table, drive)
-    a_fmu, a_nm, om, det = settle_and_compare(unzipped, None, nm, drive)
+    a_fmu, a_nm, om, det = settle_and_compare(structure_dir, None, nm, drive)
     assert abs(a_fmu - a_nm) < 0.02 * a_nm, (a_fmu, a_nm, om, det)
+
+
+def test_output_derivatives_are_the_time_derivatives_of_the_outputs(structure_dir, tmp_path):
+    fmu = start(structure_dir, write_table(tmp_path, duffing_table()), name="derivatives")
+    outputs_after(fmu, 0.0, 300, f0=2000.0)
+    t = 300 * 1e-4
+    f = 123.0
+    fmu.setReal([VR_F], [f])
+    vrs = [VR_X, VR_V, VR_X_TIP, VR_A, VR_OMEGA]
+    y0 = np.array(fmu.getReal(vrs))
+    dy = np.array(fmu.getRealOutputDerivatives(vrs, [1] * len(vrs)))
+    h = 1e-7
+    fmu.doStep(t, h)
+    y1 = np.array(fmu.getReal(vrs))
+    fd = (y1 - y0) / h
+    # forward difference: error ~ h/2 * second derivative ~ 1e-7 * omega ~ 1e-4 relative
+    scale = np.abs(dy) + 1e-3 * np.abs(y0) * 356.2
+    assert np.all(np.abs(fd - dy) < 1e-3 * scale), (fd, dy)
+    # x and v are a consistent pair: dx/dt is close to v (equal in the linear limit)
+    assert abs(dy[0] - y0[1]) < 0.05 * abs(y0[1])
+    fmu.freeInstance()
+
+
+def test_two_instances_step_concurrently_in_two_threads(structure_dir, tmp_path):
+    """OMSimulator steps two instances of one FMU from two threads at once."""
+    import threading
+
+    path = write_table(tmp_path, duffing_table())
+    refs = [outputs_after(start(structure_dir, path, eps=e, name=f"seq{e}"), 0.0, 3000, f0=f) for e, f in ((0.0, 50.0), (0.05, 20.0))]
+    fmus = [start(structure_dir, path, eps=e, name=f"thr{e}") for e in (0.0, 0.05)]
+    results = [None, None]
+
+    def work(i, f):
+        results[i] = outputs_after(fmus[i], 0.0, 3000, f0=f)
+
+    threads = [threading.Thread(target=work, args=(0, 50.0)), threading.Thread(target=work, args=(1, 20.0))]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert results[0] == refs[0] and results[1] == refs[1]

@@ -861,6 +861,15 @@ pub unsafe fn get_string_status<M: CoSimModel>(c: Component, kind: StatusKind, v
     })
 }
 
+/// The Model Exchange functions (`fmi2EnterEventMode`, `fmi2SetTime`, ...):
+/// exported because some masters resolve every FMI 2.0 symbol, answered with
+/// `fmi2Error` and a log message since these FMUs are Co-Simulation only.
+pub unsafe fn model_exchange_only<M: CoSimModel>(c: Component, func: &str) -> Status {
+    run::<M>(c, func, ALIVE, |_| {
+        Err(ModelError::error("this FMU implements Co-Simulation only (no Model Exchange functions)"))
+    })
+}
+
 /// Marker so `c_void` stays referenced in docs of the generated symbols.
 #[doc(hidden)]
 pub type Void = c_void;

@@ -22,9 +22,9 @@
 //!    * optionally `setup_experiment`, `exit_initialization_mode` (validate
 //!      parameters here), `set_real_input_derivative`,
 //!      `get_real_output_derivative`, `partial_derivative`.
-//!    The layer has already checked value references, settability, finite
-//!    inputs, pointers, the call sequence and `h > 0` before it calls you.
-//!    Return [`ModelError`] for failures (any `std::error::Error` converts).
+//!    * the layer has already checked value references, settability, finite
+//!      inputs, pointers, the call sequence and `h > 0` before it calls you;
+//!      return [`ModelError`] for failures (any `std::error::Error` converts).
 //! 3. In the cdylib crate root: `fmi2::export_fmu!(MyModel);` — this defines
 //!    every `fmi2*` symbol of the shared library.
 //! 4. Test the XML against the table:
@@ -222,6 +222,46 @@ macro_rules! export_fmu {
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetBooleanStatus(c: Component, k: StatusKind, v: *mut Boolean) -> Status {
                 $crate::ffi::get_boolean_status::<M>(c, k, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterEventMode(c: Component) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2EnterEventMode")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2NewDiscreteStates(c: Component, _info: *mut ::std::os::raw::c_void) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2NewDiscreteStates")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: Component) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2EnterContinuousTimeMode")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(c: Component, _no_set: Boolean, _enter: *mut Boolean, _term: *mut Boolean) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2CompletedIntegratorStep")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetTime(c: Component, _t: Real) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2SetTime")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetContinuousStates(c: Component, _x: *const Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2SetContinuousStates")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetDerivatives(c: Component, _dx: *mut Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetDerivatives")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetEventIndicators(c: Component, _z: *mut Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetEventIndicators")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetContinuousStates(c: Component, _x: *mut Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetContinuousStates")
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(c: Component, _x: *mut Real, _n: usize) -> Status {
+                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetNominalsOfContinuousStates")
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetStringStatus(c: Component, k: StatusKind, v: *mut FmiString) -> Status {

@@ -9,6 +9,9 @@ use std::ffi::{c_void, CStr, CString};
 use std::os::raw::c_char;
 use std::sync::Mutex;
 
+/// The logger's fixed arguments without the C variadic tail.
+type PlainLogger = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
+
 use fmi2::types::*;
 use fmi2::*;
 
@@ -134,10 +137,10 @@ unsafe extern "C" fn record(env: *mut c_void, name: *const c_char, status: Statu
 }
 
 fn callbacks(log: &Log) -> CallbackFunctions {
-    let f: unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char) = record;
+    let f: PlainLogger = record;
     CallbackFunctions {
         // SAFETY: see the module doc (no variadic arguments are ever passed).
-        logger: Some(unsafe { std::mem::transmute::<_, CallbackLogger>(f) }),
+        logger: Some(unsafe { std::mem::transmute::<PlainLogger, CallbackLogger>(f) }),
         allocate_memory: None,
         free_memory: None,
         step_finished: None,
@@ -307,10 +310,13 @@ fn illegal_call_sequence_is_refused_and_logged() {
     }
 }
 
+/// A misuse and the text its log message must contain.
+type Case = (Box<dyn Fn(&Inst) -> Status>, &'static str);
+
 #[test]
 fn bad_arguments_are_errors_with_numbers() {
     let log = Log::default();
-    let cases: Vec<(Box<dyn Fn(&Inst) -> Status>, &str)> = vec![
+    let cases: Vec<Case> = vec![
         (Box::new(|i| set(i, 99, 1.0)), "unknown value reference 99"),
         (Box::new(|i| set(i, VR_U, f64::NAN)), "must be finite, got NaN"),
         (Box::new(|i| set(i, VR_U, f64::INFINITY)), "must be finite, got inf"),
@@ -326,6 +332,8 @@ fn bad_arguments_are_errors_with_numbers() {
         (Box::new(|i| unsafe { fmi2SetRealInputDerivatives(i.c, &VR_Y, 1, &1, &1.0) }), "y (value reference 2) is not an input"),
         (Box::new(|i| unsafe { fmi2GetRealOutputDerivatives(i.c, &VR_Y, 1, &1, &mut 0.0) }), "output derivatives are not supported"),
         (Box::new(|i| unsafe { fmi2SetDebugLogging(i.c, 1, 1, [c"logNope".as_ptr()].as_ptr()) }), "unknown log category \"logNope\""),
+        (Box::new(|i| unsafe { fmi2SetTime(i.c, 1.0) }), "fmi2SetTime: this FMU implements Co-Simulation only"),
+        (Box::new(|i| unsafe { fmi2GetDerivatives(i.c, std::ptr::null_mut(), 0) }), "fmi2GetDerivatives: this FMU implements Co-Simulation only"),
         (Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, 11.0, 0) }), "too large, 100%% sure"),
     ];
     for (f, expect) in cases {

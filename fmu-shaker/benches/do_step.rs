@@ -3,7 +3,10 @@
 //! and at 1e-3 s, with new inputs set before every step as a master does.
 use std::ffi::{c_char, c_void, CString};
 
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use criterion::{criterion_group, criterion_main, Criterion};
+/// The logger's fixed arguments without the C variadic tail.
+type PlainLogger = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
+
 use fmi2::types::{CallbackFunctions, CallbackLogger, Status, FMI2_CO_SIMULATION};
 use shaker::model::{GUID, VR_F, VR_V, VR_X};
 use shaker::*;
@@ -11,10 +14,10 @@ use shaker::*;
 unsafe extern "C" fn quiet(_: *mut c_void, _: *const c_char, _: Status, _: *const c_char, _: *const c_char) {}
 
 fn bench(c: &mut Criterion) {
-    let f: unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char) = quiet;
+    let f: PlainLogger = quiet;
     let cb = CallbackFunctions {
         // non-variadic logger through the variadic type: no variadic arguments are passed
-        logger: Some(unsafe { std::mem::transmute::<_, CallbackLogger>(f) }),
+        logger: Some(unsafe { std::mem::transmute::<PlainLogger, CallbackLogger>(f) }),
         allocate_memory: None,
         free_memory: None,
         step_finished: None,
@@ -29,11 +32,9 @@ fn bench(c: &mut Criterion) {
             assert_eq!(fmi2EnterInitializationMode(comp), Status::Ok);
             assert_eq!(fmi2ExitInitializationMode(comp), Status::Ok);
         }
-        let mut t = 0.0;
+        let mut t: f64 = 0.0;
         c.bench_function(&format!("shaker fmi2DoStep h={h:e} s (set x, v; step; get F)"), |b| {
-            b.iter_batched(
-                || (),
-                |_| unsafe {
+            b.iter(|| unsafe {
                     let vrs = [VR_X, VR_V];
                     let xv = [1e-6 * (300.0 * t).sin(), 3e-4 * (300.0 * t).cos()];
                     fmi2SetReal(comp, vrs.as_ptr(), 2, xv.as_ptr());
@@ -42,9 +43,7 @@ fn bench(c: &mut Criterion) {
                     let mut f = 0.0;
                     fmi2GetReal(comp, &VR_F, 1, &mut f);
                     (st, f)
-                },
-                BatchSize::SmallInput,
-            )
+                })
         });
         unsafe { fmi2FreeInstance(comp) };
     }

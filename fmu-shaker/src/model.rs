@@ -246,11 +246,11 @@ impl Shaker {
     pub fn fix_parameters(&mut self) -> Result<(), ModelError> {
         let src = self.source;
         for (name, v) in [("Omega_start", src.omega_start), ("Omega_end", src.omega_end)] {
-            if !(v >= 0.0) {
+            if v.is_nan() || v < 0.0 {
                 return Err(ModelError::error(format!("{name} must be >= 0 rad/s, got {v}")));
             }
         }
-        if !(src.rate >= 0.0) {
+        if src.rate.is_nan() || src.rate < 0.0 {
             return Err(ModelError::error(format!("Omega_rate must be >= 0 rad/s2, got {}", src.rate)));
         }
         let ss = self.params.state_space()?;

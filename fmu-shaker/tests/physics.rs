@@ -97,3 +97,59 @@ fn moving_drive_point_sees_the_interface_impedance() {
         assert!(err_zoh > 10.0 * err, "ZOH {err_zoh:e} vs extrapolated {err:e}");
     }
 }
+
+fn initialized(external: bool) -> Shaker {
+    let mut m = shaker();
+    m.set_boolean(VR_USE_EXTERNAL, external).unwrap();
+    m.setup_experiment(0.0, None).unwrap();
+    m.exit_initialization_mode(&Logger::silent()).unwrap();
+    m
+}
+
+#[test]
+fn external_dc_voltage_gives_the_static_blocked_force() {
+    // x = 0, u = V0 constant: I = V0/R, (k_a + k_s) q_a = G I, F = k_s q_a
+    let mut m = initialized(true);
+    let log = Logger::silent();
+    m.set_real(VR_U_EXT, 4.0).unwrap();
+    let h = 1e-3;
+    for k in 0..200 {
+        m.do_step(k as f64 * h, h, &log).unwrap();
+    }
+    let exact = 2.6e7 / (2.07e4 + 2.6e7) * 15.5 * 4.0 / 3.0;
+    assert!((m.get_real(VR_F) - exact).abs() < 1e-9 * exact, "{} vs {exact}", m.get_real(VR_F));
+    assert!((m.get_real(VR_I) - 4.0 / 3.0).abs() < 1e-12);
+    assert_eq!(m.get_real(VR_U), 4.0);
+    assert_eq!(m.get_real(VR_OMEGA), 0.0);
+    // der(u_ext) ramps the applied voltage inside the step
+    m.set_real(VR_U_EXT, 4.0).unwrap();
+    m.set_real_input_derivative(VR_U_EXT, 1, 100.0).unwrap();
+    m.do_step(0.2, 1e-3, &log).unwrap();
+    assert!((m.get_real(VR_U) - 4.1).abs() < 1e-12);
+    assert_eq!(m.get_real_output_derivative(VR_U, 1).unwrap(), 100.0);
+    assert!(m.set_real_input_derivative(VR_U_EXT, 2, 1.0).is_err());
+}
+
+#[test]
+fn input_derivative_of_x_replaces_the_velocity() {
+    let log = Logger::silent();
+    let mut a = initialized(false);
+    let mut b = initialized(false);
+    for k in 0..50 {
+        let t = k as f64 * 1e-4;
+        a.set_real(VR_X, 1e-3 * t).unwrap();
+        a.set_real(VR_V, 1e-3).unwrap();
+        b.set_real(VR_X, 1e-3 * t).unwrap();
+        b.set_real(VR_V, 0.0).unwrap();
+        b.set_real_input_derivative(VR_X, 1, 1e-3).unwrap();
+        a.do_step(t, 1e-4, &log).unwrap();
+        b.do_step(t, 1e-4, &log).unwrap();
+    }
+    assert_eq!(a.states(), b.states());
+    // output derivative of F is k_s (v_a - xdot)
+    let dfdt = b.get_real_output_derivative(VR_F, 1).unwrap();
+    assert!((dfdt - 2.6e7 * (b.get_real(VR_V_A) - 1e-3)).abs() < 1e-9 * dfdt.abs());
+    // a new value of x without a derivative falls back to v (= 0 here)
+    b.set_real(VR_X, 0.0).unwrap();
+    assert_eq!(b.get_real_output_derivative(VR_F, 1).unwrap(), 2.6e7 * b.get_real(VR_V_A));
+}

@@ -237,7 +237,7 @@ impl CoSimModel for Structure {
         match vr {
             vr::F => self.force.c0 = value,
             vr::FREQUENCY_ERROR => {
-                if !(1.0 + value > 0.0) {
+                if 1.0 + value <= 0.0 {
                     return Err(ModelError::error(format!(
                         "frequency_error = {value}: the factor 1 + frequency_error must be positive"
                     )));
