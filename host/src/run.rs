@@ -181,7 +181,14 @@ fn write_outputs(sc: &Scenario, setup: &Setup, out: &Path, done: &[MethodResult]
     if sc.output.plots {
         let refs: Vec<&MethodResult> = done.iter().collect();
         let title = if sc.title.is_empty() { "sweep".to_string() } else { sc.title.clone() };
-        plot::sweep_plot(&out.join("sweep.svg"), &title, setup.omega0_rad_s, &refs, None)?;
+        // The reference's time signals in grey under the envelopes, as in the paper's figures.
+        let signal_cols = done.iter().find(|r| r.name == "reference").and_then(|r| r.time_series.as_ref()).map(|ts| {
+            let col = |n: &str| ts.columns.iter().find(|(c, _)| c == n).map(|(_, v)| v.clone()).unwrap_or_default();
+            let eta: Vec<f64> = col("omega_rad_s").iter().map(|w| w / setup.omega0_rad_s).collect();
+            (eta, col("force_N"), col("tip_m"))
+        });
+        let signal = signal_cols.as_ref().map(|(eta, f, x)| plot::Signal { eta, force_n: f, tip_m: x });
+        plot::sweep_plot(&out.join("sweep.svg"), &title, setup.omega0_rad_s, &refs, signal)?;
     }
     Ok(())
 }
