@@ -608,3 +608,33 @@ fn higher_mode_index_continues_that_mode() {
         assert!((c[1].re - basis.phi[(i, 2)]).abs() < 1e-6, "{i}");
     }
 }
+
+#[test]
+fn unreduced_beam_backbone_matches_the_craig_bampton_model() {
+    // same analysis on the 198-DOF beam (condensed solver over all 198 modes)
+    // and on the 11-DOF CB model
+    let full = paper_structure(&PaperStructureOptions { cb_modes: None, ..Default::default() }).unwrap();
+    let cb = paper_beam();
+    let opts = beam_opts(3, false, -6.0, -3.0);
+    let rf = nonlinear_modal_analysis(&full.model, &opts).unwrap();
+    let rc = nonlinear_modal_analysis(&cb.model, &opts).unwrap();
+    let (bf, bc) = (&rf.branch[0], &rc.branch[0]);
+    // at a = 1e-6 the first-order single-mode backbone
+    // omega^2 = omega0^2 + 3/4 k3 phi_tip^4 a^2 holds (the shift is 2e-7)
+    let phi_tip = bf.points[rf.point_index("tip").unwrap()][1].re;
+    let expected = (full.omega0_rad_s.powi(2) + 0.75 * 6e9 * phi_tip.powi(4) * 1e-12).sqrt();
+    assert!((bf.omega_rad_s / expected - 1.0).abs() < 1e-9, "{} {expected}", bf.omega_rad_s);
+    assert!((bf.omega_rad_s / full.omega0_rad_s - 1.0) > 1e-7);
+    // stiffness-proportional damping: 2 D omega = beta omega0^2 = 2 D0 omega0
+    let dw = bf.damping_ratio * bf.omega_rad_s / (0.004 * full.omega0_rad_s) - 1.0;
+    // (Phi^T C Phi on the stiff FE matrices rounds at ~ eps omega_max^2/omega_1^2)
+    assert!(dw.abs() < 1e-8, "{dw:e} {} {}", rf.linear_damping_ratio, rf.linear_omega_rad_s);
+    let (lf, lc) = (rf.branch.last().unwrap(), rc.branch.last().unwrap());
+    assert_eq!(lf.amplitude, 1e-3);
+    assert!(lf.omega_rad_s > 1.1 * bf.omega_rad_s);
+    // CB with 10 fixed-interface modes is accurate to well below 0.1 %
+    assert!((lf.omega_rad_s / lc.omega_rad_s - 1.0).abs() < 1e-3, "{} {}", lf.omega_rad_s, lc.omega_rad_s);
+    assert!((lf.damping_ratio / lc.damping_ratio - 1.0).abs() < 1e-2);
+    let (pf, pc) = (rf.point_index("tip").unwrap(), rc.point_index("tip").unwrap());
+    assert!((lf.points[pf][1] - lc.points[pc][1]).norm() < 1e-3 * lc.points[pc][1].norm());
+}
