@@ -32,7 +32,9 @@ mod dopri;
 pub mod envelope;
 pub mod expo;
 
-pub use assembly::{AssembledSystem, AttachmentLocalization, AttachmentObservation, FirstOrderSystem};
+pub use assembly::{
+    AssembledSystem, AttachmentLocalization, AttachmentObservation, FirstOrderSystem,
+};
 
 use crate::attachment::LinearAttachment;
 use crate::excitation::LinearSweep;
@@ -43,14 +45,22 @@ use nalgebra::DVector;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ReferenceError {
     #[error("{owner}: point '{point}' is not a named point of the structure (known: {known:?})")]
-    UnknownPoint { owner: String, point: String, known: Vec<String> },
+    UnknownPoint {
+        owner: String,
+        point: String,
+        known: Vec<String>,
+    },
     #[error("attachment '{attachment}' has no coefficient matrices A_k")]
     EmptyAttachment { attachment: String },
     #[error(
         "attachment '{attachment}': B2 has rank {rank} but {constraints} constraints; \
          eq:L1L2 needs full row rank"
     )]
-    CompatibilityRank { attachment: String, rank: usize, constraints: usize },
+    CompatibilityRank {
+        attachment: String,
+        rank: usize,
+        constraints: usize,
+    },
     #[error(
         "the leading-coefficient matrix of the assembled system is singular (reciprocal condition \
          {rcond:.3e}); the assembly is a DAE of index > 1 in the variables {variables:?} (e.g. an \
@@ -62,7 +72,12 @@ pub enum ReferenceError {
         "attachment '{attachment}': its interface force needs derivative {order} of '{variable}', \
          which has differential order {available} in the assembly"
     )]
-    InterfaceForceOrder { attachment: String, variable: String, order: usize, available: usize },
+    InterfaceForceOrder {
+        attachment: String,
+        variable: String,
+        order: usize,
+        available: usize,
+    },
     #[error("step size collapsed to {step_s:.3e} s at t = {time_s} s")]
     StepSizeCollapse { time_s: f64, step_s: f64 },
     #[error("non-finite state at t = {time_s} s")]
@@ -72,7 +87,11 @@ pub enum ReferenceError {
     #[error("step limit max_steps = {steps} reached at t = {time_s} s")]
     TooManySteps { time_s: f64, steps: usize },
     #[error("option {name} = {value}: expected {expected}")]
-    BadOption { name: &'static str, value: String, expected: &'static str },
+    BadOption {
+        name: &'static str,
+        value: String,
+        expected: &'static str,
+    },
 }
 
 /// Time integration method.
@@ -145,7 +164,13 @@ pub(crate) struct StepControl {
 
 impl ReferenceOptions {
     fn validate(&self) -> Result<StepControl, ReferenceError> {
-        let bad = |name, value: String, expected| Err(ReferenceError::BadOption { name, value, expected });
+        let bad = |name, value: String, expected| {
+            Err(ReferenceError::BadOption {
+                name,
+                value,
+                expected,
+            })
+        };
         if !(self.rtol.is_finite() && self.rtol > 0.0 && self.rtol < 1.0) {
             return bad("rtol", self.rtol.to_string(), "a number in (0, 1)");
         }
@@ -153,24 +178,44 @@ impl ReferenceOptions {
             return bad("atol", self.atol.to_string(), "a positive number");
         }
         if self.samples_per_period < 4 {
-            return bad("samples_per_period", self.samples_per_period.to_string(), "an integer >= 4");
+            return bad(
+                "samples_per_period",
+                self.samples_per_period.to_string(),
+                "an integer >= 4",
+            );
         }
         if let Some(dt) = self.output_interval_s {
             if !(dt.is_finite() && dt > 0.0) {
-                return bad("output_interval_s", dt.to_string(), "a positive interval in seconds");
+                return bad(
+                    "output_interval_s",
+                    dt.to_string(),
+                    "a positive interval in seconds",
+                );
             }
         }
         if !(self.envelope_periods.is_finite() && self.envelope_periods > 0.0) {
-            return bad("envelope_periods", self.envelope_periods.to_string(), "a positive number of periods");
+            return bad(
+                "envelope_periods",
+                self.envelope_periods.to_string(),
+                "a positive number of periods",
+            );
         }
         if !(2..=12).contains(&self.collocation_nodes) {
-            return bad("collocation_nodes", self.collocation_nodes.to_string(), "an integer in 2..=12");
+            return bad(
+                "collocation_nodes",
+                self.collocation_nodes.to_string(),
+                "an integer in 2..=12",
+            );
         }
         if self.max_steps == 0 {
             return bad("max_steps", "0".into(), "a positive integer");
         }
         if !(self.divergence_limit.is_finite() && self.divergence_limit > 0.0) {
-            return bad("divergence_limit", self.divergence_limit.to_string(), "a positive number");
+            return bad(
+                "divergence_limit",
+                self.divergence_limit.to_string(),
+                "a positive number",
+            );
         }
         Ok(StepControl {
             rtol: self.rtol,
@@ -251,13 +296,23 @@ pub struct SweepResult {
     pub stats: IntegrationStats,
 }
 
-/// Integrate the assembled system from `z0` at `t = 0` over `n` intervals of
-/// `dt` [s], calling `on_sample(i, z)` at `t = i dt`.
+/// Uniform sample times `t_i = i interval_s`, `i = 0..=count`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleGrid {
+    /// Sample interval [s].
+    pub interval_s: f64,
+    /// Number of intervals (the integration ends at `count interval_s`).
+    pub count: usize,
+}
+
+/// Integrate the assembled system (first-order state `z`, see
+/// [`AssembledSystem::state_from_structure`]) from `z0` at `t = 0` with the
+/// input signal `input(t)` on every attachment input, calling `on_sample(i, z)` at
+/// every grid time and `progress(fraction)` now and then.
 pub fn integrate(
     system: &AssembledSystem,
     z0: &DVector<f64>,
-    dt: f64,
-    n: usize,
+    grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     options: &ReferenceOptions,
     on_sample: &mut dyn FnMut(usize, &DVector<f64>),
@@ -266,10 +321,24 @@ pub fn integrate(
     let ctl = options.validate()?;
     assert_eq!(z0.len(), system.first_order.nz(), "initial state length");
     match options.method {
-        Integrator::Exponential => expo::integrate(&system.first_order, z0, dt, n, input, &ctl, on_sample, progress),
-        Integrator::DormandPrince => {
-            dopri::integrate(&system.first_order, z0, dt, n, input, &ctl, on_sample, progress)
-        }
+        Integrator::Exponential => expo::integrate(
+            &system.first_order,
+            z0,
+            grid,
+            input,
+            &ctl,
+            on_sample,
+            progress,
+        ),
+        Integrator::DormandPrince => dopri::integrate(
+            &system.first_order,
+            z0,
+            grid,
+            input,
+            &ctl,
+            on_sample,
+            progress,
+        ),
     }
 }
 
@@ -312,7 +381,19 @@ pub fn simulate_sweep_with_progress(
             record[i * nobs..(i + 1) * nobs].copy_from_slice(obs.as_slice());
         };
         let input = |t: f64| sweep.value(t);
-        integrate(&system, &z0, dt, n, &input, options, &mut on_sample, progress)?
+        let grid = SampleGrid {
+            interval_s: dt,
+            count: n,
+        };
+        integrate(
+            &system,
+            &z0,
+            grid,
+            &input,
+            options,
+            &mut on_sample,
+            progress,
+        )?
     };
     progress(1.0);
 
@@ -337,11 +418,16 @@ pub fn simulate_sweep_with_progress(
                 drive_m: (0..ncon).map(|c| series(o.drive_index + c)).collect(),
                 force_n: (0..ncon).map(|c| series(o.force_index + c)).collect(),
                 state_names: o.state_names.clone(),
-                states: (0..o.state_names.len()).map(|k| series(o.state_index + k)).collect(),
+                states: (0..o.state_names.len())
+                    .map(|k| series(o.state_index + k))
+                    .collect(),
             }
         })
         .collect();
-    let first = system.observations.iter().find(|o| !o.interface_points.is_empty());
+    let first = system
+        .observations
+        .iter()
+        .find(|o| !o.interface_points.is_empty());
     let (drive_m, force_n) = match first {
         Some(o) => (series(o.drive_index), series(o.force_index)),
         None => (Vec::new(), Vec::new()),
@@ -349,9 +435,15 @@ pub fn simulate_sweep_with_progress(
 
     // envelopes from the full-rate samples
     let phase: Vec<f64> = (0..=n).map(|i| sweep.phase_rad(i as f64 * dt)).collect();
-    let tip_env = envelope::fundamental_amplitudes(&phase, &full(0), &out_idx, options.envelope_periods);
+    let tip_env =
+        envelope::fundamental_amplitudes(&phase, &full(0), &out_idx, options.envelope_periods);
     let force_env = match first {
-        Some(o) => envelope::fundamental_amplitudes(&phase, &full(o.force_index), &out_idx, options.envelope_periods),
+        Some(o) => envelope::fundamental_amplitudes(
+            &phase,
+            &full(o.force_index),
+            &out_idx,
+            options.envelope_periods,
+        ),
         None => vec![Some(0.0); out_idx.len()],
     };
     let mut env = Envelope::default();
