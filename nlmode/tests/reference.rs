@@ -669,3 +669,65 @@ fn paper_rigid_stinger_is_first_order_in_current_and_close_to_the_stiff_stinger(
     assert!(d_tip < 0.02 && d_f < 0.02, "{d_tip} {d_f}");
     assert!(d_tip > 0.0);
 }
+
+#[test]
+fn decimation_progress_and_backward_sweep() {
+    let (model, atts) = shaker_chain(0.0);
+    let sys = AssembledSystem::new(&model, &atts, "tip").unwrap();
+    // backward, slow sweep through the assembly's resonance (~289.6 rad/s)
+    let sweep = LinearSweep::new(
+        330.0,
+        260.0,
+        0.0005 * 289.6 * 289.6 / (2.0 * std::f64::consts::PI),
+        1.0,
+    )
+    .unwrap();
+    let opts = ReferenceOptions {
+        output_interval_s: Some(2e-3),
+        ..Default::default()
+    };
+    let mut fractions = Vec::new();
+    let res =
+        nlmode::reference::simulate_sweep_with_progress(&model, &atts, &sweep, &opts, &mut |f| {
+            fractions.push(f)
+        })
+        .unwrap();
+    // progress: increasing, ends at 1
+    assert!(fractions.len() > 10);
+    assert!(fractions.windows(2).all(|w| w[1] >= w[0]), "{fractions:?}");
+    assert_eq!(*fractions.last().unwrap(), 1.0);
+    // decimated series: every k-th analysis sample, close to the requested interval
+    let dts: Vec<f64> = res.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+    let k = (2e-3 / res.sample_interval_s).round();
+    assert!(
+        dts.iter()
+            .all(|d| (d - k * res.sample_interval_s).abs() < 1e-12),
+        "{:?}",
+        &dts[..3]
+    );
+    assert!((dts[0] - 2e-3).abs() < 0.5 * res.sample_interval_s);
+    assert_eq!(res.tip_m.len(), res.time_s.len());
+    assert_eq!(res.attachments[0].states.len(), 3);
+    assert_eq!(res.attachments[0].force_n[0], res.force_n);
+    // q_s (third shaker state) is the drive-point displacement
+    assert!(max_rel_diff(&res.attachments[0].states[2], &res.drive_m) < 1e-12);
+    // Omega decreases, and the envelope follows the linear steady state
+    assert!(res.omega_rad_s.windows(2).all(|w| w[1] < w[0]));
+    let first = res.envelope.omega_rad_s[0];
+    assert!(first < 330.0 && first > 320.0, "{first}");
+    // skip the start-up transient (the first 10 rad/s of the sweep)
+    let env = &res.envelope;
+    let keep: Vec<usize> = (0..env.omega_rad_s.len())
+        .filter(|&i| env.omega_rad_s[i] < 320.0)
+        .collect();
+    let pick = |v: &[f64]| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+    let steady_part = nlmode::reference::Envelope {
+        omega_rad_s: pick(&env.omega_rad_s),
+        force_amplitude_n: pick(&env.force_amplitude_n),
+        tip_amplitude_m: pick(&env.tip_amplitude_m),
+    };
+    let (tip, f, peak) = envelope_deviation(&sys, &atts[0], &steady_part, 0.0, 1.0);
+    eprintln!("backward sweep: deviation tip {tip:.2e}, force {f:.2e}, peak {peak:.1}");
+    assert!((peak - 289.6).abs() < 0.02 * 289.6, "{peak}");
+    assert!(tip < 0.02 && f < 0.02, "tip {tip}, force {f}");
+}
