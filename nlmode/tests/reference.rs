@@ -731,3 +731,94 @@ fn decimation_progress_and_backward_sweep() {
     assert!((peak - 289.6).abs() < 0.02 * 289.6, "{peak}");
     assert!(tip < 0.02 && f < 0.02, "tip {tip}, force {f}");
 }
+
+#[test]
+fn two_attachments_equal_the_hand_assembled_structure() {
+    // shaker at `drive` plus a spring-damper-mass absorber at the tip, against the
+    // same absorber built into the structure as a fourth coordinate
+    let (mt, kt, ct) = (0.05, 3e4, 4.0);
+    let (model, mut atts) = shaker_chain(5e9);
+    atts.push(LinearAttachment {
+        name: "absorber".into(),
+        coefficients: vec![
+            DMatrix::from_row_slice(2, 2, &[kt, -kt, -kt, kt]),
+            DMatrix::from_row_slice(2, 2, &[ct, -ct, -ct, ct]),
+            DMatrix::from_row_slice(2, 2, &[mt, 0.0, 0.0, 0.0]),
+        ],
+        b2: DMatrix::from_row_slice(1, 2, &[0.0, 1.0]),
+        interface_points: vec!["tip".into()],
+        input_map: DMatrix::zeros(2, 1),
+        state_names: vec!["q_m".into(), "q_t".into()],
+        input_names: vec!["none".into()],
+    });
+    let mut big = chain(4, 0.3, 1e5, 2.0 * 0.01 / 257.0, 0.0);
+    // chain(4) has a spring between masses 3 and 4; replace it by the absorber
+    let k_chain = chain(3, 0.3, 1e5, 2.0 * 0.01 / 257.0, 0.0);
+    big.mass[(3, 3)] = mt;
+    big.stiffness.fill(0.0);
+    big.damping.fill(0.0);
+    big.stiffness
+        .view_mut((0, 0), (3, 3))
+        .copy_from(&k_chain.stiffness);
+    big.damping
+        .view_mut((0, 0), (3, 3))
+        .copy_from(&k_chain.damping);
+    for (mat, v) in [(&mut big.stiffness, kt), (&mut big.damping, ct)] {
+        mat[(2, 2)] += v;
+        mat[(3, 3)] += v;
+        mat[(2, 3)] -= v;
+        mat[(3, 2)] -= v;
+    }
+    big.nonlinear = model
+        .nonlinear
+        .iter()
+        .map(|e| NonlinearElement {
+            name: e.name.clone(),
+            direction: unit(4, 2),
+            law: e.law.clone(),
+        })
+        .collect();
+    big.points = vec![
+        NamedPoint {
+            name: "tip".into(),
+            direction: unit(4, 2),
+        },
+        NamedPoint {
+            name: "drive".into(),
+            direction: unit(4, 1),
+        },
+        NamedPoint {
+            name: "absorber_mass".into(),
+            direction: unit(4, 3),
+        },
+    ];
+    let sys = AssembledSystem::new(&model, &atts, "tip").unwrap();
+    assert_eq!(
+        sys.variable_names[3..],
+        ["shaker.I", "shaker.q_a", "absorber.q_m"]
+    );
+    assert_eq!(sys.orders, vec![2, 2, 2, 1, 2, 2]);
+    let sweep = LinearSweep::new(200.0, 400.0, 1000.0, 10.0).unwrap();
+    let opts = ReferenceOptions {
+        rtol: 1e-9,
+        ..Default::default()
+    };
+    let a = simulate_sweep(&model, &atts, &sweep, &opts).unwrap();
+    let b = simulate_sweep(&big, &atts[..1], &sweep, &opts).unwrap();
+    let (d_tip, d_f) = (
+        max_rel_diff(&a.tip_m, &b.tip_m),
+        max_rel_diff(&a.force_n, &b.force_n),
+    );
+    assert!(d_tip < 1e-7 && d_f < 1e-7, "{d_tip} {d_f}");
+    // the absorber mass moves like the fourth coordinate of the hand-built model
+    assert_eq!(a.attachments[1].state_names, ["q_m", "q_t"]);
+    assert!(max_rel_diff(&a.attachments[1].states[1], &a.tip_m) < 1e-12);
+    let opts_m = ReferenceOptions {
+        tip_point: "absorber_mass".into(),
+        ..opts.clone()
+    };
+    let b_m = simulate_sweep(&big, &atts[..1], &sweep, &opts_m).unwrap();
+    assert!(max_rel_diff(&a.attachments[1].states[0], &b_m.tip_m) < 1e-7);
+    let fa = &a.attachments[1].force_n[0];
+    assert!(fa.iter().fold(0.0f64, |m, x| m.max(x.abs())) > 1e-3);
+}
