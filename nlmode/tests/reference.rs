@@ -29,8 +29,8 @@ fn unit(n: usize, i: usize) -> DVector<f64> {
     e
 }
 
-/// Fixed-free chain of `n` masses `m` [kg] and springs `k` [N/m], stiffness-
-/// proportional damping `C = beta K`, cubic spring `k3` [N/m^3] at the last mass;
+/// Fixed-free chain of `n` masses `m` \[kg\] and springs `k` \[N/m\], stiffness-
+/// proportional damping `C = beta K`, cubic spring `k3` \[N/m^3\] at the last mass;
 /// points `tip` (last mass) and `drive` (mass `n-2`).
 fn chain(n: usize, m: f64, k: f64, beta: f64, k3: f64) -> StructuralModel {
     let mass = DMatrix::from_diagonal_element(n, n, m);
@@ -96,7 +96,7 @@ fn shaker(point: &str, ks: f64) -> LinearAttachment {
     }
 }
 
-/// An ideal force source: `x = [q_s]`, `A_0 = 0`, the input is the force [N].
+/// An ideal force source: `x = [q_s]`, `A_0 = 0`, the input is the force \[N\].
 fn force_source(point: &str) -> LinearAttachment {
     LinearAttachment {
         name: "force".into(),
@@ -498,7 +498,7 @@ fn paper_shaker(params: &ShakerParams, point: &str) -> LinearAttachment {
     LinearAttachment::shaker("shaker", params, point).unwrap()
 }
 
-/// (peak tip amplitude [m], its Omega [rad/s], jump-down Omega [rad/s], min force amplitude [N])
+/// (peak tip amplitude \[m\], its Omega \[rad/s\], jump-down Omega \[rad/s\], min force amplitude \[N\])
 /// from an envelope: the jump is the steepest fall of the tip envelope after the peak.
 fn case_summary(res: &SweepResult) -> (f64, f64, f64, f64) {
     let env = &res.envelope;

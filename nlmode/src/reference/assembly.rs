@@ -109,7 +109,7 @@ impl FirstOrderSystem {
     pub fn m(&self) -> usize {
         self.laws.len()
     }
-    /// Nonlinear forces `f_e` [N] at state `z`.
+    /// Nonlinear forces `f_e` \[N\] at state `z`.
     pub fn forces(&self, z: &DVector<f64>, f: &mut [f64]) {
         let m = self.m();
         for (e, fe) in f.iter_mut().enumerate().take(m) {
@@ -153,9 +153,9 @@ pub struct AttachmentObservation {
     pub name: String,
     pub interface_points: Vec<String>,
     pub state_names: Vec<String>,
-    /// Index of the first interface displacement `e_c^T q` [m] (`ncon` entries).
+    /// Index of the first interface displacement `e_c^T q` \[m\] (`ncon` entries).
     pub drive_index: usize,
-    /// Index of the first interface force `lambda_c` [N] on the structure
+    /// Index of the first interface force `lambda_c` \[N\] on the structure
     /// (`ncon` entries), `f_c1 = E lambda`.
     pub force_index: usize,
     /// Index of the first attachment state `x` (`ndim` entries).
@@ -693,7 +693,7 @@ impl AssembledSystem {
 
     /// Observed quantities at state `z`, input `u` and nonlinear forces `f`:
     /// `[tip displacement [m], then per attachment: interface displacements [m],
-    /// interface forces on the structure [N], attachment states x]` (indices in
+    /// interface forces on the structure \[N\], attachment states x]` (indices in
     /// [`Self::observations`]).
     pub fn observe(&self, z: &DVector<f64>, u: f64, f: &[f64], out: &mut DVector<f64>) {
         out.gemv(1.0, &self.obs.z, z, 0.0);
@@ -703,8 +703,8 @@ impl AssembledSystem {
         }
     }
 
-    /// First-order state for structural displacements `q0` [m] and velocities
-    /// `qd0` [m/s]; all attachment states zero.
+    /// First-order state for structural displacements `q0` \[m\] and velocities
+    /// `qd0` \[m/s\]; all attachment states zero.
     pub fn state_from_structure(&self, q0: &DVector<f64>, qd0: &DVector<f64>) -> DVector<f64> {
         let mut z = DVector::zeros(self.first_order.nz());
         for i in 0..self.ndof {
@@ -714,7 +714,7 @@ impl AssembledSystem {
         z
     }
 
-    /// Structural displacements `q` [m] and velocities `q'` [m/s] of state `z`.
+    /// Structural displacements `q` \[m\] and velocities `q'` \[m/s\] of state `z`.
     pub fn structure_state(&self, z: &DVector<f64>) -> (DVector<f64>, DVector<f64>) {
         let q = DVector::from_fn(self.ndof, |i, _| z[self.state_of[i][0]]);
         let qd = DVector::from_fn(self.ndof, |i, _| z[self.state_of[i][1]]);

@@ -137,7 +137,7 @@ pub struct ReferenceOptions {
     /// (default 40): the envelope resolution and, for the exponential method,
     /// the largest step.
     pub samples_per_period: usize,
-    /// Interval of the returned time series and envelope points [s]; rounded to a
+    /// Interval of the returned time series and envelope points \[s\]; rounded to a
     /// multiple of the analysis interval; `None` = every analysis sample.
     pub output_interval_s: Option<f64>,
     /// Envelope window length in excitation periods (default 1).
@@ -265,11 +265,11 @@ pub struct IntegrationStats {
 /// Fundamental-harmonic envelopes against the instantaneous excitation frequency.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Envelope {
-    /// `Omega` at the window centre [rad/s].
+    /// `Omega` at the window centre \[rad/s\].
     pub omega_rad_s: Vec<f64>,
-    /// Fundamental amplitude of the first attachment's first interface force [N].
+    /// Fundamental amplitude of the first attachment's first interface force \[N\].
     pub force_amplitude_n: Vec<f64>,
-    /// Fundamental amplitude of the tip displacement [m].
+    /// Fundamental amplitude of the tip displacement \[m\].
     pub tip_amplitude_m: Vec<f64>,
 }
 
@@ -278,9 +278,9 @@ pub struct Envelope {
 pub struct AttachmentSeries {
     pub name: String,
     pub interface_points: Vec<String>,
-    /// `drive_m[c][i]`: displacement of interface point `c` [m].
+    /// `drive_m[c][i]`: displacement of interface point `c` \[m\].
     pub drive_m: Vec<Vec<f64>>,
-    /// `force_n[c][i]`: interface force on the structure at point `c` [N],
+    /// `force_n[c][i]`: interface force on the structure at point `c` \[N\],
     /// positive along the point's positive displacement.
     pub force_n: Vec<Vec<f64>>,
     pub state_names: Vec<String>,
@@ -291,25 +291,25 @@ pub struct AttachmentSeries {
 /// Result of [`simulate_sweep`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SweepResult {
-    /// Sample times [s] (decimated).
+    /// Sample times \[s\] (decimated).
     pub time_s: Vec<f64>,
-    /// Instantaneous excitation frequency [rad/s].
+    /// Instantaneous excitation frequency \[rad/s\].
     pub omega_rad_s: Vec<f64>,
     /// Excitation signal `u(t)` (V for a shaker).
     pub input: Vec<f64>,
-    /// Tip displacement [m].
+    /// Tip displacement \[m\].
     pub tip_m: Vec<f64>,
-    /// Displacement of the first attachment's first interface point [m] (empty
+    /// Displacement of the first attachment's first interface point \[m\] (empty
     /// without attachments).
     pub drive_m: Vec<f64>,
     /// Force of the first attachment on the structure at its first interface
-    /// point [N] (empty without attachments).
+    /// point \[N\] (empty without attachments).
     pub force_n: Vec<f64>,
     /// Per-attachment series.
     pub attachments: Vec<AttachmentSeries>,
     /// Envelopes at the output times whose window lies inside the sweep.
     pub envelope: Envelope,
-    /// Analysis sample interval [s].
+    /// Analysis sample interval \[s\].
     pub sample_interval_s: f64,
     pub stats: IntegrationStats,
 }
@@ -317,7 +317,7 @@ pub struct SweepResult {
 /// Uniform sample times `t_i = i interval_s`, `i = 0..=count`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SampleGrid {
-    /// Sample interval [s].
+    /// Sample interval \[s\].
     pub interval_s: f64,
     /// Number of intervals (the integration ends at `count interval_s`).
     pub count: usize,
