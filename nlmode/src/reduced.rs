@@ -63,6 +63,7 @@ use std::fmt::Debug;
 use std::sync::Arc;
 
 pub mod dopri;
+mod fast;
 mod imposed;
 mod post;
 pub mod problems;
@@ -171,6 +172,8 @@ pub(crate) struct Imposed {
 #[derive(Debug, Clone)]
 pub struct ReducedModel {
     pub(crate) table: TableInterpolator,
+    /// The same interpolant in power form for the hot loop.
+    pub(crate) fast: fast::FastTable,
     /// The table's amplitude grid (root scan of the steady state).
     pub(crate) grid: Vec<f64>,
     /// The table's point names in index order.
@@ -201,7 +204,9 @@ impl ReducedModel {
     /// and as drive point (where the force is measured).
     pub fn new(table: &ModalTable, tip: &str, drive: &str) -> Result<Self, ReducedError> {
         let interp = table.interpolator()?;
+        let fast = fast::FastTable::new(&interp, &table.amplitude, table.points.len())?;
         Ok(Self {
+            fast,
             tip: interp.point_index(tip)?,
             drive: interp.point_index(drive)?,
             table: interp,
@@ -347,7 +352,17 @@ impl ReducedModel {
     /// `omega(a)` (with the frequency error), `D(a)`, `d omega/d a`.
     #[inline]
     pub fn modal_properties(&self, a: f64) -> Result<ModalProperties, ReducedError> {
-        let mut p = self.table.eval(a)?;
+        let loc = self.fast.locate(a)?;
+        self.properties_at(loc, a)
+    }
+
+    #[inline]
+    fn properties_at(&self, loc: fast::Loc, a: f64) -> Result<ModalProperties, ReducedError> {
+        let mut p = ModalProperties {
+            omega_rad_s: self.fast.value(loc, 0),
+            damping_ratio: self.fast.value(loc, 1),
+            domega_da: self.fast.derivative(loc, a, 0),
+        };
         let fe = self.frequency_error;
         if fe.eps != 0.0 || fe.offset_rad_s != 0.0 {
             p.omega_rad_s = (1.0 + fe.eps) * p.omega_rad_s + fe.offset_rad_s;
@@ -362,6 +377,18 @@ impl ReducedModel {
             }
         }
         Ok(p)
+    }
+
+    /// Fundamental shape at table point `pt` (fast path).
+    #[inline]
+    pub(crate) fn phi1(&self, loc: fast::Loc, pt: usize) -> Complex64 {
+        Complex64::new(self.fast.value(loc, 2 + 2 * pt), self.fast.value(loc, 3 + 2 * pt))
+    }
+
+    /// Fundamental shape at table point `pt` and amplitude `a`.
+    #[inline]
+    pub(crate) fn phi1_at(&self, a: f64, pt: usize) -> Result<Complex64, ReducedError> {
+        Ok(self.phi1(self.fast.locate(a)?, pt))
     }
 
     /// Fills the channel vector at `Omega` exactly from the attachment models:
@@ -436,16 +463,17 @@ impl ReducedModel {
     /// interface points (ports in order) followed by the imposed-force point.
     #[inline]
     pub(crate) fn gather(&self, a: f64, phi: &mut [Complex64; MAX_PHI]) -> Result<ModalProperties, ReducedError> {
-        let p = self.modal_properties(a)?;
+        let loc = self.fast.locate(a)?;
+        let p = self.properties_at(loc, a)?;
         let mut j = 0;
         for port in &self.ports {
             for &pt in &port.points {
-                phi[j] = self.table.shape(pt, 1, a)?;
+                phi[j] = self.phi1(loc, pt);
                 j += 1;
             }
         }
         if let Some(imp) = &self.imposed {
-            phi[j] = self.table.shape(imp.point, 1, a)?;
+            phi[j] = self.phi1(loc, imp.point);
         }
         Ok(p)
     }

@@ -413,10 +413,10 @@ impl ReducedModel {
             a,
             theta_rad: amp.arg(),
             modal_frequency_rad_s: p.omega_rad_s,
-            tip_amplitude_m: a * self.table.shape(self.tip, 1, a)?.norm(),
+            tip_amplitude_m: a * self.phi1_at(a, self.tip)?.norm(),
             drive_amplitude_m: a * match self.phi_index(self.drive) {
                 Some(j) => phi[j],
-                None => self.table.shape(self.drive, 1, a)?,
+                None => self.phi1_at(a, self.drive)?,
             }
             .norm(),
             force_amplitude_n: f.norm(),
