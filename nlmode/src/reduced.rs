@@ -63,6 +63,7 @@ use std::fmt::Debug;
 use std::sync::Arc;
 
 pub mod dopri;
+mod fast;
 mod imposed;
 mod post;
 pub mod problems;
@@ -171,6 +172,8 @@ pub(crate) struct Imposed {
 #[derive(Debug, Clone)]
 pub struct ReducedModel {
     pub(crate) table: TableInterpolator,
+    /// The same interpolant in power form for the hot loop.
+    pub(crate) fast: fast::FastTable,
     /// The table's amplitude grid (root scan of the steady state).
     pub(crate) grid: Vec<f64>,
     /// The table's point names in index order.
@@ -191,6 +194,9 @@ pub struct ReducedModel {
 /// Maximum number of interface points over all attachments handled without
 /// heap allocation in the hot loop.
 pub(crate) const MAX_INTERFACE: usize = 8;
+/// Maximum number of interface points over all attachments plus the imposed
+/// force point (fixed-size buffers of the hot loop).
+pub(crate) const MAX_PHI: usize = 32;
 
 impl ReducedModel {
     /// A model of the mode in `table` without attachments or forces yet.
@@ -198,7 +204,9 @@ impl ReducedModel {
     /// and as drive point (where the force is measured).
     pub fn new(table: &ModalTable, tip: &str, drive: &str) -> Result<Self, ReducedError> {
         let interp = table.interpolator()?;
+        let fast = fast::FastTable::new(&interp, &table.amplitude, table.points.len())?;
         Ok(Self {
+            fast,
             tip: interp.point_index(tip)?,
             drive: interp.point_index(drive)?,
             table: interp,
@@ -240,6 +248,15 @@ impl ReducedModel {
                 what: "interface point list (1..=8 supported)",
                 found: points.len(),
                 expected: 1,
+            });
+        }
+        let total: usize = self.ports.iter().map(|p| p.points.len()).sum::<usize>() + points.len() + 1;
+        if total > MAX_PHI {
+            return Err(ReducedError::AttachmentSize {
+                attachment: model.name().into(),
+                what: "total number of interface points of all attachments (at most 31)",
+                found: total - 1,
+                expected: MAX_PHI - 1,
             });
         }
         let port = Port { model, points, input: input_per_unit.to_vec(), offset: self.nch };
@@ -335,7 +352,17 @@ impl ReducedModel {
     /// `omega(a)` (with the frequency error), `D(a)`, `d omega/d a`.
     #[inline]
     pub fn modal_properties(&self, a: f64) -> Result<ModalProperties, ReducedError> {
-        let mut p = self.table.eval(a)?;
+        let loc = self.fast.locate(a)?;
+        self.properties_at(loc, a)
+    }
+
+    #[inline]
+    fn properties_at(&self, loc: fast::Loc, a: f64) -> Result<ModalProperties, ReducedError> {
+        let mut p = ModalProperties {
+            omega_rad_s: self.fast.value(loc, 0),
+            damping_ratio: self.fast.value(loc, 1),
+            domega_da: self.fast.derivative(loc, a, 0),
+        };
         let fe = self.frequency_error;
         if fe.eps != 0.0 || fe.offset_rad_s != 0.0 {
             p.omega_rad_s = (1.0 + fe.eps) * p.omega_rad_s + fe.offset_rad_s;
@@ -350,6 +377,18 @@ impl ReducedModel {
             }
         }
         Ok(p)
+    }
+
+    /// Fundamental shape at table point `pt` (fast path).
+    #[inline]
+    pub(crate) fn phi1(&self, loc: fast::Loc, pt: usize) -> Complex64 {
+        Complex64::new(self.fast.value(loc, 2 + 2 * pt), self.fast.value(loc, 3 + 2 * pt))
+    }
+
+    /// Fundamental shape at table point `pt` and amplitude `a`.
+    #[inline]
+    pub(crate) fn phi1_at(&self, a: f64, pt: usize) -> Result<Complex64, ReducedError> {
+        Ok(self.phi1(self.fast.locate(a)?, pt))
     }
 
     /// Fills the channel vector at `Omega` exactly from the attachment models:
@@ -414,31 +453,82 @@ impl ReducedModel {
         ch: &[Complex64],
         f_imposed: Complex64,
     ) -> Result<(Complex64, Complex64, Complex64, ModalProperties), ReducedError> {
-        let p = self.modal_properties(a)?;
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        let p = self.gather(a, &mut phi)?;
+        let (k, fm, za) = self.terms_with(&p, &phi, omega, ch, f_imposed);
+        Ok((k, fm, za, p))
+    }
+
+    /// Modal properties at `a` and the fundamental shapes at all attachment
+    /// interface points (ports in order) followed by the imposed-force point.
+    #[inline]
+    pub(crate) fn gather(&self, a: f64, phi: &mut [Complex64; MAX_PHI]) -> Result<ModalProperties, ReducedError> {
+        let loc = self.fast.locate(a)?;
+        let p = self.properties_at(loc, a)?;
+        let mut j = 0;
+        for port in &self.ports {
+            for &pt in &port.points {
+                phi[j] = self.phi1(loc, pt);
+                j += 1;
+            }
+        }
+        if let Some(imp) = &self.imposed {
+            phi[j] = self.phi1(loc, imp.point);
+        }
+        Ok(p)
+    }
+
+    /// Index of table point `point` in the buffer filled by [`Self::gather`].
+    #[inline]
+    pub(crate) fn phi_index(&self, point: usize) -> Option<usize> {
+        let mut j = 0;
+        for port in &self.ports {
+            for &pt in &port.points {
+                if pt == point {
+                    return Some(j);
+                }
+                j += 1;
+            }
+        }
+        match &self.imposed {
+            Some(imp) if imp.point == point => Some(j),
+            _ => None,
+        }
+    }
+
+    /// `(K, phi^H f_ex, Z_A)` of `eq:NM` from gathered properties and shapes.
+    #[inline]
+    pub(crate) fn terms_with(
+        &self,
+        p: &ModalProperties,
+        phi: &[Complex64; MAX_PHI],
+        omega: f64,
+        ch: &[Complex64],
+        f_imposed: Complex64,
+    ) -> (Complex64, Complex64, Complex64) {
         let mut za = Complex64::new(0.0, 0.0);
         let mut fm = Complex64::new(0.0, 0.0);
-        let mut phi = [Complex64::new(0.0, 0.0); MAX_INTERFACE];
+        let mut j = 0;
         for port in &self.ports {
             let nc = port.ncon();
-            for (c, &pt) in port.points.iter().enumerate() {
-                phi[c] = self.table.shape(pt, 1, a)?;
-            }
+            let ph = &phi[j..j + nc];
             let o = port.offset;
             for r in 0..nc {
                 let mut zr = Complex64::new(0.0, 0.0);
                 for c in 0..nc {
-                    zr += ch[o + r * nc + c] * phi[c];
+                    zr += ch[o + r * nc + c] * ph[c];
                 }
-                za += phi[r].conj() * zr;
-                fm += phi[r].conj() * ch[o + nc * nc + r];
+                za += ph[r].conj() * zr;
+                fm += ph[r].conj() * ch[o + nc * nc + r];
             }
+            j += nc;
         }
-        if let Some(imp) = &self.imposed {
-            fm += self.table.shape(imp.point, 1, a)?.conj() * f_imposed;
+        if self.imposed.is_some() {
+            fm += phi[j].conj() * f_imposed;
         }
         let w = p.omega_rad_s;
         let k = Complex64::new(w * w - omega * omega, 2.0 * p.damping_ratio * w * omega) + za;
-        Ok((k, fm, za, p))
+        (k, fm, za)
     }
 
     /// Modal impedance `Z_A(a, Omega) = sum_att phi_G^H Z_G phi_G` [1/s^2 per
@@ -475,7 +565,8 @@ impl ReducedModel {
         f_imposed: Complex64,
     ) -> Result<[f64; 2], ReducedError> {
         let amp = Complex64::new(y[0], y[1]);
-        let a = amp.norm();
+        // plain sqrt: hypot's overflow guard is not needed at modal amplitudes
+        let a = (y[0] * y[0] + y[1] * y[1]).sqrt();
         let (k, fm, _, _) = self.nm_terms(a, omega, ch, f_imposed)?;
         let d = (fm - k * amp) / Complex64::new(0.0, 2.0 * omega);
         Ok([d.re, d.im])
@@ -490,14 +581,25 @@ impl ReducedModel {
         ch: &[Complex64],
         f_imposed: Complex64,
     ) -> Result<Complex64, ReducedError> {
-        let a = amp.norm();
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        self.gather(amp.norm(), &mut phi)?;
+        Ok(self.drive_force_with(amp, &phi, ch, f_imposed))
+    }
+
+    /// [`Self::drive_force`] from shapes gathered by [`Self::gather`].
+    #[inline]
+    pub(crate) fn drive_force_with(
+        &self,
+        amp: Complex64,
+        phi: &[Complex64; MAX_PHI],
+        ch: &[Complex64],
+        f_imposed: Complex64,
+    ) -> Complex64 {
         let mut f = Complex64::new(0.0, 0.0);
-        let mut u = [Complex64::new(0.0, 0.0); MAX_INTERFACE];
+        let mut j = 0;
         for port in &self.ports {
             let nc = port.ncon();
-            for (c, &pt) in port.points.iter().enumerate() {
-                u[c] = self.table.shape(pt, 1, a)? * amp;
-            }
+            let ph = &phi[j..j + nc];
             let o = port.offset;
             for (r, &pt) in port.points.iter().enumerate() {
                 if pt != self.drive {
@@ -505,17 +607,18 @@ impl ReducedModel {
                 }
                 let mut zr = Complex64::new(0.0, 0.0);
                 for c in 0..nc {
-                    zr += ch[o + r * nc + c] * u[c];
+                    zr += ch[o + r * nc + c] * ph[c] * amp;
                 }
                 f += ch[o + nc * nc + r] - zr;
             }
+            j += nc;
         }
         if let Some(imp) = &self.imposed {
             if imp.point == self.drive {
                 f += f_imposed;
             }
         }
-        Ok(f)
+        f
     }
 
     /// The blocked force at the drive point, `F0 = sum T_G u_hat` [N] (the force

@@ -2,7 +2,7 @@
 //! `a |K(a, Omega)| = |phi(a)^H f_ex(a, Omega)|` at each `Omega`, their
 //! stability from the slow-flow Jacobian, and the single-mode linear steady
 //! state (`linear-steady`, `eq:LMss`) with the force drop (`eq:forcedrop`).
-use super::{ReducedError, ReducedModel};
+use super::{ReducedError, ReducedModel, MAX_PHI};
 use crate::table::TableError;
 use num_complex::Complex64;
 use serde::Serialize;
@@ -137,21 +137,25 @@ impl ReducedModel {
     /// All steady-state solutions of `eq:NM` at each `Omega` for the sweep
     /// amplitude `amplitude` (`u_hat`).
     ///
-    /// Roots of `R(a) = a |K(a, Omega)| - |phi^H f_ex|` on `[0, a_max]`: `R` is
-    /// sampled on the table's grid (and the midpoints), the resonance dip
+    /// Roots of `R(a) = a^2 |K(a, Omega)|^2 - |phi^H f_ex|^2` on `[0, a_max]` (the
+    /// squared form has the same roots and needs no square roots): `R` is
+    /// sampled on the table's grid, the resonance dip
     /// (where `Re K` changes sign, i.e. `omega(a)^2 + Re Z_A = Omega^2`, often
     /// narrower than a grid cell) is located by Brent's method on `Re K` and
     /// added to the samples, and every sign change of `R` is refined by Brent's
     /// method.
     pub fn steady_state(&self, omegas: &[f64], amplitude: f64) -> Result<Vec<SteadyFrequency>, ReducedError> {
         let (_, amax) = self.table.amplitude_range();
+        // R and Re K are sampled at a = 0 and at the table's nodes, where the
+        // interpolant equals the tabulated values: gather them once.
         let mut scan: Vec<f64> = vec![0.0];
-        for (j, &a) in self.grid.iter().enumerate() {
-            let prev = if j == 0 { 0.0 } else { self.grid[j - 1] };
-            scan.push(0.5 * (prev + a));
-            scan.push(a);
+        scan.extend(self.grid.iter().copied().filter(|&a| a <= amax));
+        let mut node_data = Vec::with_capacity(scan.len());
+        for &a in &scan {
+            let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+            let p = self.gather(a, &mut phi)?;
+            node_data.push((p, phi));
         }
-        scan.retain(|&a| a <= amax);
         let xtol = 1e-14 * self.a_scale;
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut out = Vec::with_capacity(omegas.len());
@@ -161,14 +165,15 @@ impl ReducedModel {
             let fi = self.imposed_at(w)?;
             let terms = |a: f64| -> Result<(f64, f64), ReducedError> {
                 let (k, f, _, _) = self.nm_terms(a, w, &ch, fi)?;
-                Ok((a * k.norm() - f.norm(), k.re))
+                Ok((a * a * k.norm_sqr() - f.norm_sqr(), k.re))
             };
             samples.clear();
-            for &a in &scan {
-                let (r, kr) = terms(a)?;
-                samples.push((a, r, kr));
+            for (&a, (p, phi)) in scan.iter().zip(&node_data) {
+                let (k, f, _) = self.terms_with(p, phi, w, &ch, fi);
+                samples.push((a, a * a * k.norm_sqr() - f.norm_sqr(), k.re));
             }
-            // resonance dips
+            // resonance dips (often narrower than a grid cell): where Re K
+            // changes sign, |K| is smallest
             let n0 = samples.len();
             for j in 0..n0 - 1 {
                 let (a0, _, k0) = samples[j];

@@ -1,7 +1,7 @@
 //! Slow-flow integration of `eq:NM` along a sine sweep (`nlmode`,
 //! `linear-slowflow`, `imposed-force`).
 use super::dopri::{integrate, IntegratorStats, Stop, Tolerances};
-use super::{ReducedError, ReducedModel};
+use super::{ReducedError, ReducedModel, MAX_PHI};
 use crate::excitation::LinearSweep;
 use crate::table::TableError;
 use num_complex::Complex64;
@@ -27,7 +27,7 @@ pub struct SlowFlowOptions {
 
 impl Default for SlowFlowOptions {
     fn default() -> Self {
-        Self { rtol: 1e-7, atol_rel: 1e-9, max_step_fraction: 0.02, output_samples: 2001, channel_tol: 1e-9 }
+        Self { rtol: 1e-5, atol_rel: 1e-9, max_step_fraction: 0.02, output_samples: 2001, channel_tol: 1e-9 }
     }
 }
 
@@ -404,16 +404,21 @@ impl ReducedModel {
         fi: Complex64,
     ) -> Result<SlowFlowSample, ReducedError> {
         let a = amp.norm();
-        let p = self.modal_properties(a)?;
-        let f = self.drive_force(amp, ch, fi)?;
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        let p = self.gather(a, &mut phi)?;
+        let f = self.drive_force_with(amp, &phi, ch, fi);
         Ok(SlowFlowSample {
             t_s: t,
             omega_rad_s: w,
             a,
             theta_rad: amp.arg(),
             modal_frequency_rad_s: p.omega_rad_s,
-            tip_amplitude_m: a * self.table.shape(self.tip, 1, a)?.norm(),
-            drive_amplitude_m: a * self.table.shape(self.drive, 1, a)?.norm(),
+            tip_amplitude_m: a * self.phi1_at(a, self.tip)?.norm(),
+            drive_amplitude_m: a * match self.phi_index(self.drive) {
+                Some(j) => phi[j],
+                None => self.phi1_at(a, self.drive)?,
+            }
+            .norm(),
             force_amplitude_n: f.norm(),
             force_phase_rad: f.arg(),
         })
