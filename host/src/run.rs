@@ -66,7 +66,8 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     }
     let error = nlmode::reduced::FrequencyError {
         eps: sc.imposed_force.frequency_error,
-        offset_rad_s: sc.imposed_force.frequency_offset_rad_s,
+        offset_rad_s: sc.imposed_force.frequency_offset_rad_s
+            + sc.imposed_force.frequency_offset_omega0 * setup.omega0_rad_s,
     };
     let has_error = error.eps != 0.0 || error.offset_rad_s != 0.0;
     let mut nlmode_flow = None;
@@ -237,7 +238,7 @@ fn speedup(done: &[MethodResult]) -> Value {
 fn print_summary(setup: &Setup, done: &[MethodResult]) {
     println!();
     println!(
-        "{:<16} {:>10} {:>14} {:>12} {:>12} {:>12} {:>10}",
+        "{:<18} {:>10} {:>14} {:>12} {:>12} {:>12} {:>10}",
         "method", "wall [s]", "peak tip [mm]", "at Omega/w0", "min |F| [N]", "max |F| [N]", "drop [%]"
     );
     for r in done {
@@ -245,7 +246,7 @@ fn print_summary(setup: &Setup, done: &[MethodResult]) {
         let g = |k: &str| s.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
         let drop = s.get("force_drop").and_then(|v| v.as_f64()).map(|d| format!("{:.1}", 100.0 * d)).unwrap_or_default();
         println!(
-            "{:<16} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",
+            "{:<18} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",
             r.name,
             r.wall_time_s,
             1e3 * g("peak_tip_amplitude_m"),

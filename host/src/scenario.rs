@@ -178,13 +178,22 @@ pub struct ImposedForceSpec {
     pub frequency_error: f64,
     /// Additive natural-frequency offset [rad/s].
     pub frequency_offset_rad_s: f64,
+    /// Additive natural-frequency offset as a fraction of omega0 (the paper's
+    /// "+5 %" amplitude-independent offset is 0.05); added to `frequency_offset_rad_s`.
+    pub frequency_offset_omega0: f64,
     /// Apply the same frequency error to `nlmode` (the paper's "NM with shaker, +5 %").
     pub apply_to_nlmode: bool,
 }
 
 impl Default for ImposedForceSpec {
     fn default() -> Self {
-        Self { source: "nlmode".into(), frequency_error: 0.0, frequency_offset_rad_s: 0.0, apply_to_nlmode: false }
+        Self {
+            source: "nlmode".into(),
+            frequency_error: 0.0,
+            frequency_offset_rad_s: 0.0,
+            frequency_offset_omega0: 0.0,
+            apply_to_nlmode: false,
+        }
     }
 }
 
@@ -354,6 +363,14 @@ impl Scenario {
         }
         if !self.imposed_force.frequency_error.is_finite() || self.imposed_force.frequency_error <= -1.0 {
             return Err(bad("imposed_force.frequency_error", "expected a finite number > -1"));
+        }
+        for (k, v) in [
+            ("imposed_force.frequency_offset_rad_s", self.imposed_force.frequency_offset_rad_s),
+            ("imposed_force.frequency_offset_omega0", self.imposed_force.frequency_offset_omega0),
+        ] {
+            if !v.is_finite() {
+                return Err(bad(k, format!("expected a finite number, got {v}")));
+            }
         }
         positive("reference.rtol", self.reference.rtol)?;
         if !(self.reference.output_interval_s.is_finite() && self.reference.output_interval_s >= 0.0) {
