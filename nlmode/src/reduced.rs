@@ -385,12 +385,6 @@ impl ReducedModel {
         Complex64::new(self.fast.value(loc, 2 + 2 * pt), self.fast.value(loc, 3 + 2 * pt))
     }
 
-    /// Fundamental shape at table point `pt` and amplitude `a`.
-    #[inline]
-    pub(crate) fn phi1_at(&self, a: f64, pt: usize) -> Result<Complex64, ReducedError> {
-        Ok(self.phi1(self.fast.locate(a)?, pt))
-    }
-
     /// Fills the channel vector at `Omega` exactly from the attachment models:
     /// per port `Z_G` (row major) then `T_G u_hat` with `u_hat = amplitude * input`.
     pub(crate) fn fill_channels(&self, omega: f64, amplitude: f64, out: &mut [Complex64]) -> Result<(), ReducedError> {
@@ -463,6 +457,16 @@ impl ReducedModel {
     /// interface points (ports in order) followed by the imposed-force point.
     #[inline]
     pub(crate) fn gather(&self, a: f64, phi: &mut [Complex64; MAX_PHI]) -> Result<ModalProperties, ReducedError> {
+        Ok(self.gather_loc(a, phi)?.1)
+    }
+
+    /// [`Self::gather`], also returning the table location of `a`.
+    #[inline]
+    pub(crate) fn gather_loc(
+        &self,
+        a: f64,
+        phi: &mut [Complex64; MAX_PHI],
+    ) -> Result<(fast::Loc, ModalProperties), ReducedError> {
         let loc = self.fast.locate(a)?;
         let p = self.properties_at(loc, a)?;
         let mut j = 0;
@@ -475,25 +479,7 @@ impl ReducedModel {
         if let Some(imp) = &self.imposed {
             phi[j] = self.phi1(loc, imp.point);
         }
-        Ok(p)
-    }
-
-    /// Index of table point `point` in the buffer filled by [`Self::gather`].
-    #[inline]
-    pub(crate) fn phi_index(&self, point: usize) -> Option<usize> {
-        let mut j = 0;
-        for port in &self.ports {
-            for &pt in &port.points {
-                if pt == point {
-                    return Some(j);
-                }
-                j += 1;
-            }
-        }
-        match &self.imposed {
-            Some(imp) if imp.point == point => Some(j),
-            _ => None,
-        }
+        Ok((loc, p))
     }
 
     /// `(K, phi^H f_ex, Z_A)` of `eq:NM` from gathered properties and shapes.

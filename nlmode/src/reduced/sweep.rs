@@ -403,9 +403,11 @@ impl ReducedModel {
         ch: &[Complex64],
         fi: Complex64,
     ) -> Result<SlowFlowSample, ReducedError> {
-        let a = amp.norm();
+        // plain sqrt instead of hypot: no overflow risk at these magnitudes
+        let abs = |z: Complex64| z.norm_sqr().sqrt();
+        let a = abs(amp);
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
-        let p = self.gather(a, &mut phi)?;
+        let (loc, p) = self.gather_loc(a, &mut phi)?;
         let f = self.drive_force_with(amp, &phi, ch, fi);
         Ok(SlowFlowSample {
             t_s: t,
@@ -413,13 +415,9 @@ impl ReducedModel {
             a,
             theta_rad: amp.arg(),
             modal_frequency_rad_s: p.omega_rad_s,
-            tip_amplitude_m: a * self.phi1_at(a, self.tip)?.norm(),
-            drive_amplitude_m: a * match self.phi_index(self.drive) {
-                Some(j) => phi[j],
-                None => self.phi1_at(a, self.drive)?,
-            }
-            .norm(),
-            force_amplitude_n: f.norm(),
+            tip_amplitude_m: a * abs(self.phi1(loc, self.tip)),
+            drive_amplitude_m: a * abs(self.phi1(loc, self.drive)),
+            force_amplitude_n: abs(f),
             force_phase_rad: f.arg(),
         })
     }
