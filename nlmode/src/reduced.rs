@@ -48,6 +48,29 @@
 //! With `a' = theta' = 0`, taking magnitudes eliminates `theta`:
 //! `a |K(a, Omega)| = |phi^H f_ex|` ([`ReducedModel::steady_state`]).
 //!
+//! # Usage
+//!
+//! ```text
+//! let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3")?;
+//! let nm = ReducedModel::new(&table, "tip", "2l3")?.with_linear_attachment(&shaker, &[1.0.into()])?;
+//! let sweep = LinearSweep::per_pseudo_period(omega0, 0.8, 1.8, 0.02, 10.0)?;
+//! let r = nm.simulate_sweep(&sweep, &SlowFlowOptions::default())?;        // nlmode
+//! let l = nm.linear()?.simulate_sweep(&sweep, &SlowFlowOptions::default())?; // linear-slowflow
+//! let s = nm.linear_steady(&omegas, 10.0)?;                              // linear-steady, force_drop
+//! let frf = nm.steady_state(&omegas, 10.0)?;                             // all branches, stability
+//! let imp = ReducedModel::imposed_force(&table, "tip", "2l3", ForceEnvelope::from_result(&r)?)?
+//!     .with_frequency_error(FrequencyError { eps: 0.0, offset_rad_s: 0.05 * omega0 })?; // imposed-force
+//! ```
+//!
+//! # Performance
+//!
+//! The hot loop is allocation-free: the attachment quantities `Z_G`,
+//! `T_G u_hat` are tabulated once per sweep over its frequency range (cubic
+//! Hermite in `Omega`, refined until the interpolation error is below
+//! `channel_tol`, default 1e-9 relative), and the modal table's PCHIP
+//! interpolant is evaluated in power form with one segment search for all
+//! quantities (`fast`). A sweep of the paper's case (a) takes about 0.3 ms.
+//!
 //! # Range policy
 //!
 //! The modal properties are only defined over the table's amplitude range

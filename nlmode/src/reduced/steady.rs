@@ -222,12 +222,13 @@ impl ReducedModel {
     }
 
     /// Adaptive sampling of `K(a)`, `F(a)` on `[p0.a, p1.a]` for the root scan:
-    /// an interval is bisected (geometrically) while `K` changes by more than
-    /// 5 % of its smaller magnitude, `F` by more than 5 %, or `a` by more than
-    /// 25 %, so that `R(a)` is resolved wherever the modal properties, the
-    /// attachment impedance or the distance to resonance vary (the table's own
-    /// grid can be far coarser, e.g. where an NMA took large steps). Pushes the
-    /// right end of every final sub-interval.
+    /// an interval is bisected (geometrically) while `K` or `F` change by more
+    /// than 10 % of their smaller magnitude, so that `R(a)` is resolved wherever
+    /// the modal properties, the attachment impedance or the distance to
+    /// resonance vary (the table's own grid can be far coarser, e.g. where an
+    /// NMA took large steps). Where `K` and `F` are nearly constant,
+    /// `R = a^2 |K|^2 - |F|^2` increases monotonically and has at most one root.
+    /// Pushes the right end of every final sub-interval.
     #[allow(clippy::too_many_arguments)]
     fn refine_scan(
         &self,
@@ -243,9 +244,8 @@ impl ReducedModel {
         let (a1, k1, f1) = p1;
         let split = depth < 16
             && a0 > 0.0
-            && ((k1 - k0).norm_sqr() > 0.0025 * k0.norm_sqr().min(k1.norm_sqr())
-                || (f1 - f0).norm_sqr() > 0.0025 * f0.norm_sqr().min(f1.norm_sqr())
-                || a1 > 1.25 * a0);
+            && ((k1 - k0).norm_sqr() > 0.01 * k0.norm_sqr().min(k1.norm_sqr())
+                || (f1 - f0).norm_sqr() > 0.01 * f0.norm_sqr().min(f1.norm_sqr()));
         if !split {
             push(a1, k1, f1);
             return Ok(());
