@@ -145,7 +145,7 @@ pub trait InterfaceModel: Debug + Send + Sync {
     fn interface_points(&self) -> Vec<String>;
     /// Number of inputs `u` (e.g. 1: the voltage).
     fn ninput(&self) -> usize;
-    /// `(Z_G, T_G)` at `Omega` [rad/s]: interface impedance (`ncon x ncon`) and
+    /// `(Z_G, T_G)` at `Omega` \[rad/s\]: interface impedance (`ncon x ncon`) and
     /// input-force map (`ncon x ninput`), such that the force on the structure
     /// at the interface points is `F_G = -Z_G u_G + T_G u_hat`.
     fn condense(&self, omega_rad_s: f64) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError>;
@@ -156,9 +156,9 @@ pub trait InterfaceModel: Debug + Send + Sync {
 /// kept, so the modal damping term `2 D omega` follows the modified frequency.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct FrequencyError {
-    /// Relative error `eps` [-].
+    /// Relative error `eps` \[-\].
     pub eps: f64,
-    /// Additive offset [rad/s] (the paper's "+5 %" is `0.05 omega0` here).
+    /// Additive offset \[rad/s\] (the paper's "+5 %" is `0.05 omega0` here).
     pub offset_rad_s: f64,
 }
 
@@ -288,7 +288,7 @@ impl ReducedModel {
         Ok(self)
     }
 
-    /// Adds an imposed force with complex amplitude `F(Omega)` [N] at table
+    /// Adds an imposed force with complex amplitude `F(Omega)` \[N\] at table
     /// point `point` (`f_ex^(1)`, independent of the sweep amplitude).
     pub fn with_imposed_force(mut self, point: &str, envelope: ForceEnvelope) -> Result<Self, ReducedError> {
         let point = self.table.point_index(point)?;
@@ -583,7 +583,7 @@ impl ReducedModel {
 
     /// The fundamental force at the drive point (sum over the attachments
     /// connected there, plus the imposed force if it acts there) for the
-    /// complex modal amplitude `A` [N]: `F = -Z_G u_G + T_G u_hat` (`eq:fc1`).
+    /// complex modal amplitude `A` \[N\]: `F = -Z_G u_G + T_G u_hat` (`eq:fc1`).
     pub(crate) fn drive_force(
         &self,
         amp: Complex64,
@@ -630,7 +630,7 @@ impl ReducedModel {
         f
     }
 
-    /// The blocked force at the drive point, `F0 = sum T_G u_hat` [N] (the force
+    /// The blocked force at the drive point, `F0 = sum T_G u_hat` \[N\] (the force
     /// with the structure held at rest).
     pub fn blocked_force(&self, omega_rad_s: f64, amplitude: f64) -> Result<Complex64, ReducedError> {
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];

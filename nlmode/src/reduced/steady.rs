@@ -10,26 +10,26 @@ use serde::Serialize;
 /// One steady-state solution.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SteadyPoint {
-    /// Excitation frequency [rad/s].
+    /// Excitation frequency \[rad/s\].
     pub omega_rad_s: f64,
-    /// Modal amplitude `a` [sqrt(kg) m].
+    /// Modal amplitude `a` \[sqrt(kg) m\].
     pub a: f64,
-    /// Phase lag `theta` [rad].
+    /// Phase lag `theta` \[rad\].
     pub theta_rad: f64,
     /// Stable as a fixed point of the slow flow (both Jacobian eigenvalues in
     /// the open left half plane).
     pub stable: bool,
-    /// Eigenvalues of the 2 x 2 slow-flow Jacobian at the fixed point [1/s].
+    /// Eigenvalues of the 2 x 2 slow-flow Jacobian at the fixed point \[1/s\].
     pub eigenvalues: [Complex64; 2],
-    /// `omega(a)` in force [rad/s].
+    /// `omega(a)` in force \[rad/s\].
     pub modal_frequency_rad_s: f64,
-    /// Fundamental tip amplitude [m].
+    /// Fundamental tip amplitude \[m\].
     pub tip_amplitude_m: f64,
-    /// Fundamental drive-point amplitude [m].
+    /// Fundamental drive-point amplitude \[m\].
     pub drive_amplitude_m: f64,
-    /// Fundamental drive-point force amplitude [N].
+    /// Fundamental drive-point force amplitude \[N\].
     pub force_amplitude_n: f64,
-    /// Force phase relative to the excitation [rad].
+    /// Force phase relative to the excitation \[rad\].
     pub force_phase_rad: f64,
 }
 
@@ -47,11 +47,11 @@ pub struct SteadyFrequency {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LinearSteady {
     pub points: Vec<SteadyPoint>,
-    /// Linear natural frequency used (`omega0`, frequency error applied) [rad/s].
+    /// Linear natural frequency used (`omega0`, frequency error applied) \[rad/s\].
     pub omega0_rad_s: f64,
-    /// `|F|` at the structural resonance `Omega = omega0` [N].
+    /// `|F|` at the structural resonance `Omega = omega0` \[N\].
     pub force_at_resonance_n: f64,
-    /// Blocked force `|F0| = |T_G u_hat|` at `omega0` [N].
+    /// Blocked force `|F0| = |T_G u_hat|` at `omega0` \[N\].
     pub blocked_force_at_resonance_n: f64,
     /// `1 - |F|/|F0|` at `Omega = omega0` (`eq:forcedrop`).
     pub force_drop: f64,
