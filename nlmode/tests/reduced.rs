@@ -467,7 +467,7 @@ fn default_tolerances_are_converged_on_case_a() {
 
 mod paper {
     use super::*;
-    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, NmaOptions, TablePolicy};
+    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy};
     use nlmode::reference::{simulate_sweep as reference_sweep, ReferenceOptions, SweepResult};
     use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
 
@@ -483,6 +483,8 @@ mod paper {
             amplitude: AmplitudeRange::Modal { log10_start: -6.0, log10_end: -2.0 },
             points: vec!["tip".into(), "2l3".into(), "l3".into()],
             store_coordinates: false,
+            // a table fine enough for PCHIP (steps of at most 0.05 in log10 a)
+            continuation: ContinuationOptions { ds: 0.02, dsmax: Some(0.05), ..Default::default() },
             ..Default::default()
         };
         nonlinear_modal_analysis(&ps.model, &opts).unwrap().to_table(TablePolicy::PrimaryBranch)
