@@ -467,7 +467,7 @@ fn default_tolerances_are_converged_on_case_a() {
 
 mod paper {
     use super::*;
-    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, NmaOptions, TablePolicy};
+    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy};
     use nlmode::reference::{simulate_sweep as reference_sweep, ReferenceOptions, SweepResult};
     use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
 
@@ -483,6 +483,8 @@ mod paper {
             amplitude: AmplitudeRange::Modal { log10_start: -6.0, log10_end: -2.0 },
             points: vec!["tip".into(), "2l3".into(), "l3".into()],
             store_coordinates: false,
+            // a table fine enough for PCHIP (steps of at most 0.05 in log10 a)
+            continuation: ContinuationOptions { ds: 0.02, dsmax: Some(0.05), ..Default::default() },
             ..Default::default()
         };
         nonlinear_modal_analysis(&ps.model, &opts).unwrap().to_table(TablePolicy::PrimaryBranch)
@@ -605,4 +607,42 @@ fn paper_case_c_imposed_force_is_far_more_sensitive_to_a_frequency_error_than_th
     assert!(d1.abs() < 0.02, "{d1}");
     assert!(d2.abs() < 0.1, "{d2}");
     assert!(d3.abs() > 5.0 * d2.abs() && d3 > 0.3, "imposed {d3} vs shaker {d2}");
+}
+
+#[test]
+fn paper_steady_state_frf_has_a_hysteresis_whose_upper_fold_a_slow_sweep_jumps_at() {
+    let ps = paper::structure();
+    let w0 = ps.omega0_rad_s;
+    let table = paper::table(&ps);
+    let m = shaker_model(&table, "2l3");
+    let omegas: Vec<f64> = (0..500).map(|j| w0 * (0.8 + j as f64 / 499.0)).collect();
+    let frf = m.steady_state(&omegas, 10.0).unwrap();
+    let three: Vec<f64> = frf.iter().filter(|f| f.solutions.len() == 3).map(|f| f.omega_rad_s).collect();
+
+    assert!(frf.iter().all(|f| !f.exceeds_table && (f.solutions.len() == 1 || f.solutions.len() == 3)));
+    for f in frf.iter().filter(|f| f.solutions.len() == 3) {
+        let st: Vec<bool> = f.solutions.iter().map(|s| s.stable).collect();
+        assert_eq!(st, vec![true, false, true], "Omega {}", f.omega_rad_s);
+    }
+    let (lo, hi) = (three[0], *three.last().unwrap());
+    // the 3-solution frequencies form one interval
+    assert_eq!(three.len(), frf.iter().filter(|f| f.omega_rad_s >= lo && f.omega_rad_s <= hi).count());
+    // forward sweeps jump down after the upper fold, the later the faster
+    // (slow passage through a saddle-node); the delay vanishes with the rate
+    let jump = |r: f64| {
+        let sweep = LinearSweep::per_pseudo_period(w0, 0.8, 1.8, r, 10.0).unwrap();
+        m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap().summary().unwrap().jump_down_omega_rad_s.unwrap()
+    };
+    let (j2, j3, j4) = (jump(1e-2), jump(1e-3), jump(1e-4));
+    eprintln!(
+        "paper 2l/3, 10 V: 3 steady-state solutions for Omega in {:.1}..{:.1} rad/s ({:.3}..{:.3} omega0); \
+         jump-down of sweeps at 1 %, 0.1 %, 0.01 % per pseudo period: {j2:.1}, {j3:.1}, {j4:.1} rad/s",
+        lo,
+        hi,
+        lo / w0,
+        hi / w0
+    );
+    let dw = omegas[1] - omegas[0];
+    assert!(j4 > hi - dw && j3 > j4 - dw && j2 > j3 - dw, "{j2} {j3} {j4} vs fold {hi}");
+    assert!(j4 - hi < 0.5 * (j3 - hi) && j4 - hi < 0.005 * hi, "{j3} {j4} vs fold {hi}");
 }

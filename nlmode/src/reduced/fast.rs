@@ -10,6 +10,13 @@
 //! held below the first amplitude, [`TableError::AboveRange`] above the last.
 use crate::table::{TableError, TableInterpolator};
 use nalgebra::{Matrix4, Vector4};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+impl Clone for FastTable {
+    fn clone(&self) -> Self {
+        Self { x: self.x.clone(), hint: AtomicUsize::new(0), nq: self.nq, c: self.c.clone() }
+    }
+}
 
 /// Segment and local coordinate of an amplitude.
 #[derive(Debug, Clone, Copy)]
@@ -18,9 +25,13 @@ pub(crate) struct Loc {
     t: f64,
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub(crate) struct FastTable {
     x: Vec<f64>,
+    /// Segment of the previous lookup: the amplitude changes smoothly along a
+    /// sweep, so the next one is usually the same or a neighbour (relaxed
+    /// atomic: only a hint, any value is safe).
+    hint: AtomicUsize,
     /// Quantities: 0 = omega, 1 = D, then `2 + 2 p`, `3 + 2 p` = Re, Im of the
     /// fundamental shape at table point `p`.
     nq: usize,
@@ -55,7 +66,7 @@ impl FastTable {
                 c.push([q[0], co[1], co[2], co[3]]);
             }
         }
-        Ok(Self { x: grid.to_vec(), nq, c })
+        Ok(Self { x: grid.to_vec(), hint: AtomicUsize::new(0), nq, c })
     }
 
     #[inline]
@@ -70,8 +81,20 @@ impl FastTable {
         if a > self.x[n - 1] {
             return Err(TableError::AboveRange { a, max: self.x[n - 1] });
         }
-        // `<=`: a node hit starts its segment (t = 0, exact node value)
-        let k = self.x.partition_point(|&v| v <= a).clamp(1, n - 1) - 1;
+        // segment k with x[k] <= a < x[k+1] (a node hit starts its segment: t = 0,
+        // exact node value); the last node belongs to the last segment
+        let inside = |k: usize| self.x[k] <= a && (a < self.x[k + 1] || k + 2 == n);
+        let h = self.hint.load(Ordering::Relaxed).min(n - 2);
+        let k = if inside(h) {
+            h
+        } else if h + 1 < n - 1 && inside(h + 1) {
+            h + 1
+        } else if h > 0 && inside(h - 1) {
+            h - 1
+        } else {
+            self.x.partition_point(|&v| v <= a).clamp(1, n - 1) - 1
+        };
+        self.hint.store(k, Ordering::Relaxed);
         Ok(Loc { k, t: (a - self.x[k]) / (self.x[k + 1] - self.x[k]) })
     }
 
