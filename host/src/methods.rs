@@ -55,6 +55,38 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
     Ok(r)
 }
 
+/// `closed-form`: the applied force of `eq:fhfhNull` (linear, single mode,
+/// `omega_c >> omega0`, `k_s >> k_a`), `|F| = |F/F0| G u_hat / R`, beside the
+/// assembled FRF; the tip follows from the structure's own single-mode FRF.
+pub fn closed_form(setup: &Setup, n: usize) -> Result<MethodResult> {
+    let t0 = Instant::now();
+    let omegas = frf_omegas(setup, n);
+    let shaker = &setup.shakers[0];
+    let (m_mod, mu) = setup.modal_masses()?[0];
+    let f0 = shaker.force_constant_n_per_a * setup.sweep.amplitude / shaker.resistance_ohm;
+    let ra = shaker.omega_a() / setup.omega0_rad_s;
+    let modes = nlmode::structure::modal_analysis(&setup.model, 1)?;
+    let phi_tip = modes.deflection(0, &setup.model.point(TIP)?.direction);
+    let phi_ex = modes.deflection(0, &setup.model.point(&setup.exciter_points[0])?.direction);
+    let (mut f, mut tip) = (Vec::new(), Vec::new());
+    for &w in &omegas {
+        let eta = w / setup.omega0_rad_s;
+        let ratio = frf::force_ratio_closed_form(eta, setup.d0, mu, ra, shaker.damping_ratio());
+        let force = ratio * f0;
+        // single-mode FRF of the structure: q_tip = phi_tip phi_ex F / (omega0^2 (1 - eta^2 + 2 i D0 eta))
+        let h = Complex64::new(1.0 - eta * eta, 2.0 * setup.d0 * eta) * setup.omega0_rad_s.powi(2);
+        f.push(force.norm());
+        tip.push((force * phi_tip * phi_ex / h).norm());
+    }
+    let env = Envelope { omega_rad_s: omegas, force_amplitude_n: f, tip_amplitude_m: tip, extra: vec![] };
+    let mut r = MethodResult::new("closed-form", t0.elapsed().as_secs_f64(), env, false);
+    let drop = 1.0 - frf::force_drop_closed_form(setup.d0, mu, ra, shaker.damping_ratio());
+    r.extra.insert("force_drop".into(), json!(drop));
+    r.extra.insert("modal_mass_kg".into(), json!(m_mod));
+    r.extra.insert("mass_ratio".into(), json!(mu));
+    Ok(r)
+}
+
 /// The nonlinear mode used by the single-mode methods.
 pub struct Nma {
     pub table: nlmode::nma::ModalTable,

@@ -77,7 +77,11 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     for m in order {
         let table = || &nma.as_ref().expect("mode computed").table;
         match m {
-            "linear-frf" => done.push(methods::linear_frf(&setup, sc.run.frf_points)?),
+            "linear-frf" => {
+                done.push(methods::linear_frf(&setup, sc.run.frf_points)?);
+                // eq:fhfhNull beside the assembled FRF (the paper's force-drop figure)
+                done.push(methods::closed_form(&setup, sc.run.frf_points)?);
+            }
             "reference" => {
                 let mut bar = Progress::new("reference");
                 done.push(methods::reference(&setup, &sc, &mut |f| bar.set(f))?);
