@@ -92,9 +92,9 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         "|q_tip,1| [m]",
         "omega / omega0 [-]",
         &curves_w,
-        true,
+        plot::Style::LinesLogX,
     )?;
-    plot::xy_plot(&out.join("damping.svg"), "Modal damping ratio vs amplitude", "|q_tip,1| [m]", "D [%]", &curves_d, true)?;
+    plot::xy_plot(&out.join("damping.svg"), "Modal damping ratio vs amplitude", "|q_tip,1| [m]", "D [%]", &curves_d, plot::Style::LinesLogX)?;
     println!("wrote {}, backbone.svg, damping.svg, *_branch.csv to {}", table_path.display(), out.display());
     Ok(())
 }
@@ -135,7 +135,6 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
         &["omega_rad_s".into(), "modal_amplitude".into(), "tip_amplitude_m".into(), "force_amplitude_N".into(), "stable".into()],
         &[&w, &a, &tip, &f, &st],
     )?;
-    let eta = |ws: &[f64]| ws.iter().map(|x| x / setup.omega0_rad_s).collect::<Vec<f64>>();
     let split = |stable: bool| {
         let idx: Vec<usize> = (0..w.len()).filter(|&i| (st[i] == 1.0) == stable).collect();
         (
@@ -146,21 +145,22 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
     };
     let (xs, ys, fs) = split(true);
     let (xu, yu, fu) = split(false);
-    plot::scatter_plot(
+    plot::xy_plot(
         &out.join("frf_tip.svg"),
         "Steady state of eq:NM: tip amplitude",
         "Omega/omega0 [-]",
         "|q_tip,1| [mm]",
         &[Curve { label: "stable".into(), x: &xs, y: &ys }, Curve { label: "unstable".into(), x: &xu, y: &yu }],
+        plot::Style::Dots,
     )?;
-    plot::scatter_plot(
+    plot::xy_plot(
         &out.join("frf_force.svg"),
         "Steady state of eq:NM: force amplitude",
         "Omega/omega0 [-]",
         "|F| [N]",
         &[Curve { label: "stable".into(), x: &xs, y: &fs }, Curve { label: "unstable".into(), x: &xu, y: &fu }],
+        plot::Style::Dots,
     )?;
-    let _ = eta;
     println!(
         "steady state at {} frequencies in {:.2} ms: {} with several solutions, {} possibly above the table's range",
         ss.len(),
