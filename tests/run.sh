@@ -14,5 +14,7 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/requirements.txt
 export FMU_DIR="${FMU_DIR:-$ROOT/target/fmus}"
-cargo run --quiet --release -p fmi2 --bin package-fmus -- --out "$FMU_DIR"
+# host package = the cdylibs + the paper beam's modal table in structure.fmu
+cargo build --quiet --release --workspace
+target/release/host package --out "$FMU_DIR"
 exec .venv/bin/python -m pytest tests "$@"

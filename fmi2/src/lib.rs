@@ -27,7 +27,9 @@
 //!      return [`ModelError`] for failures (any `std::error::Error` converts).
 //! 3. In the cdylib crate root: `fmi2::export_fmu!(MyModel);` — this defines
 //!    every `fmi2*` symbol of the shared library.
-//! 4. Test the XML against the table:
+//! 4. Never build an FMU with `panic = "abort"`: the layer relies on
+//!    unwinding to turn a panic into `fmi2Error` instead of killing the importer.
+//! 5. Test the XML against the table:
 //!    `fmi2::xml::check_model_description(xml, MyModel::MODEL_IDENTIFIER, MyModel::GUID, MyModel::VARIABLES)`
 //!    and the start values with [`xml::check_start_values`].
 //!

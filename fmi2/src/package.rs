@@ -165,3 +165,53 @@ mod tests {
         assert!(matches!(write_fmu(&bad, &p("x.fmu")), Err(PackageError::IdentifierMismatch { .. })));
     }
 }
+
+/// Package the workspace FMU `id` (crate `krate`) from its built library:
+/// `modelDescription/<id>/modelDescription.xml`, every file below
+/// `modelDescription/<id>/resources/` plus `extra_resources`, and as
+/// documentation the crate's `README.md` (also rendered as `index.html`) plus
+/// `modelDescription/<id>/documentation/`. Writes `out_dir/<id>.fmu`.
+pub fn package_workspace_fmu(
+    root: &Path,
+    id: &str,
+    krate: &str,
+    library: &Path,
+    extra_resources: &[PathBuf],
+    out_dir: &Path,
+) -> Result<PathBuf, String> {
+    let md_dir = root.join("modelDescription").join(id);
+    let mut resources = Vec::new();
+    if md_dir.join("resources").is_dir() {
+        resources = files_below(&md_dir.join("resources")).map_err(|e| e.to_string())?;
+    }
+    for f in extra_resources {
+        let name = f.file_name().ok_or(format!("resource {}: no file name", f.display()))?;
+        resources.push((f.clone(), name.to_string_lossy().into_owned()));
+    }
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+    let tmp = out_dir.join(format!(".package-{id}-tmp"));
+    let mut documentation = Vec::new();
+    let readme = root.join(krate).join("README.md");
+    if readme.is_file() {
+        let text = std::fs::read_to_string(&readme).map_err(|e| format!("{}: {e}", readme.display()))?;
+        std::fs::create_dir_all(&tmp).map_err(|e| e.to_string())?;
+        let html = tmp.join("index.html");
+        std::fs::write(&html, markdown_as_html(id, &text)).map_err(|e| e.to_string())?;
+        documentation.push((readme.clone(), "README.md".to_string()));
+        documentation.push((html, "index.html".to_string()));
+    }
+    if md_dir.join("documentation").is_dir() {
+        documentation.extend(files_below(&md_dir.join("documentation")).map_err(|e| e.to_string())?);
+    }
+    let spec = FmuSpec {
+        model_identifier: id.to_string(),
+        model_description: md_dir.join("modelDescription.xml"),
+        library: library.to_path_buf(),
+        resources,
+        documentation,
+    };
+    let path = out_dir.join(format!("{id}.fmu"));
+    let result = write_fmu(&spec, &path).map_err(|e| e.to_string());
+    let _ = std::fs::remove_dir_all(&tmp);
+    result.map(|()| path)
+}

@@ -7,6 +7,8 @@
 mod cosim;
 mod methods;
 mod model;
+mod nma_cmd;
+mod package;
 mod plot;
 mod results;
 mod run;
@@ -33,12 +35,41 @@ enum Command {
         #[arg(short, long, default_value = "out")]
         out: PathBuf,
     },
+    /// Nonlinear modal analysis: modal table, backbone and damping plots.
+    Nma {
+        /// Scenario file (TOML); the embedded default if omitted.
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(short, long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Steady-state frequency response of the single-nonlinear-mode model (all branches).
+    Frf {
+        /// Scenario file (TOML); the embedded default if omitted.
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(short, long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Build structure.fmu and shaker.fmu (with the paper beam's modal table).
+    Package {
+        /// Output directory.
+        #[arg(short, long, default_value = "out/fmus")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run { scenario, out } => run::run(scenario.as_deref(), &out),
+        Command::Nma { scenario, out } => nma_cmd::nma(scenario.as_deref(), &out),
+        Command::Frf { scenario, out } => nma_cmd::frf(scenario.as_deref(), &out),
+        Command::Package { out } => package::package(&out).map(|paths| {
+            for p in paths {
+                println!("wrote {}", p.display());
+            }
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -54,3 +54,210 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
     r.extra.insert("mass_ratio".into(), json!(mu));
     Ok(r)
 }
+
+/// `closed-form`: the applied force of `eq:fhfhNull` (linear, single mode,
+/// `omega_c >> omega0`, `k_s >> k_a`), `|F| = |F/F0| G u_hat / R`, beside the
+/// assembled FRF; the tip follows from the structure's own single-mode FRF.
+pub fn closed_form(setup: &Setup, n: usize) -> Result<MethodResult> {
+    let t0 = Instant::now();
+    let omegas = frf_omegas(setup, n);
+    let shaker = &setup.shakers[0];
+    let (m_mod, mu) = setup.modal_masses()?[0];
+    let f0 = shaker.force_constant_n_per_a * setup.sweep.amplitude / shaker.resistance_ohm;
+    let ra = shaker.omega_a() / setup.omega0_rad_s;
+    let modes = nlmode::structure::modal_analysis(&setup.model, 1)?;
+    let phi_tip = modes.deflection(0, &setup.model.point(TIP)?.direction);
+    let phi_ex = modes.deflection(0, &setup.model.point(&setup.exciter_points[0])?.direction);
+    let (mut f, mut tip) = (Vec::new(), Vec::new());
+    for &w in &omegas {
+        let eta = w / setup.omega0_rad_s;
+        let ratio = frf::force_ratio_closed_form(eta, setup.d0, mu, ra, shaker.damping_ratio());
+        let force = ratio * f0;
+        // single-mode FRF of the structure: q_tip = phi_tip phi_ex F / (omega0^2 (1 - eta^2 + 2 i D0 eta))
+        let h = Complex64::new(1.0 - eta * eta, 2.0 * setup.d0 * eta) * setup.omega0_rad_s.powi(2);
+        f.push(force.norm());
+        tip.push((force * phi_tip * phi_ex / h).norm());
+    }
+    let env = Envelope { omega_rad_s: omegas, force_amplitude_n: f, tip_amplitude_m: tip, extra: vec![] };
+    let mut r = MethodResult::new("closed-form", t0.elapsed().as_secs_f64(), env, false);
+    let drop = 1.0 - frf::force_drop_closed_form(setup.d0, mu, ra, shaker.damping_ratio());
+    r.extra.insert("force_drop".into(), json!(drop));
+    r.extra.insert("modal_mass_kg".into(), json!(m_mod));
+    r.extra.insert("mass_ratio".into(), json!(mu));
+    Ok(r)
+}
+
+/// The nonlinear mode used by the single-mode methods.
+pub struct Nma {
+    pub table: nlmode::nma::ModalTable,
+    pub wall_time_s: f64,
+    /// One line describing how the table was obtained.
+    pub note: String,
+}
+
+/// NMA of the scenario's structure (or the table file it names): points `tip`
+/// and every named point of the model (the exciter locations).
+pub fn nma_table(setup: &Setup, sc: &crate::scenario::Scenario, conservative: bool) -> Result<(Nma, Option<nlmode::nma::NmaResult>)> {
+    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, NmaOptions, TablePolicy};
+    let t0 = Instant::now();
+    if let Some(path) = &sc.nma.table {
+        let table = nlmode::nma::ModalTable::read(std::path::Path::new(path)).with_context(|| "nma.table".to_string())?;
+        let note = format!("modal table read from {path} ({} points)", table.amplitude.len());
+        return Ok((Nma { table, wall_time_s: t0.elapsed().as_secs_f64(), note }, None));
+    }
+    let opts = NmaOptions {
+        harmonics: sc.nma.harmonics,
+        amplitude: AmplitudeRange::Point { name: TIP.into(), start_m: 1e-7, end_m: sc.nma.max_tip_amplitude_m },
+        conservative,
+        points: setup.model.points.iter().map(|p| p.name.clone()).collect(),
+        store_coordinates: false,
+        ..Default::default()
+    };
+    let res = nonlinear_modal_analysis(&setup.model, &opts).map_err(|e| anyhow::anyhow!("nma: {e}"))?;
+    let table = res.to_table(TablePolicy::PrimaryBranch);
+    let wall = t0.elapsed().as_secs_f64();
+    let fold = match table.truncated_at_fold {
+        Some(a) => format!(", primary branch truncated at the first fold a = {a:.4e}"),
+        None => String::new(),
+    };
+    let note = format!(
+        "NMA (H = {}, {}): {} branch points, {} in the table, {} Newton iterations, {:.1} ms{fold}",
+        res.harmonics,
+        if conservative { "conservative" } else { "damped" },
+        res.branch.len(),
+        table.amplitude.len(),
+        res.newton_iterations,
+        1e3 * wall
+    );
+    Ok((Nma { table, wall_time_s: wall, note }, Some(res)))
+}
+
+/// The single-nonlinear-mode model with the scenario's shakers (`eq:NM`).
+pub fn reduced_model(
+    setup: &Setup,
+    table: &nlmode::nma::ModalTable,
+    error: Option<nlmode::reduced::FrequencyError>,
+) -> Result<nlmode::reduced::ReducedModel> {
+    let mut m = nlmode::reduced::ReducedModel::new(table, TIP, &setup.exciter_points[0])?;
+    for att in &setup.attachments {
+        m = m.with_linear_attachment(att, &[Complex64::new(1.0, 0.0)])?;
+    }
+    if let Some(e) = error {
+        m = m.with_frequency_error(e)?;
+    }
+    Ok(m)
+}
+
+fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult) -> MethodResult {
+    let s = &res.samples;
+    let col = |f: fn(&nlmode::reduced::SlowFlowSample) -> f64| s.iter().map(f).collect::<Vec<f64>>();
+    let env = Envelope {
+        omega_rad_s: col(|x| x.omega_rad_s),
+        force_amplitude_n: col(|x| x.force_amplitude_n),
+        tip_amplitude_m: col(|x| x.tip_amplitude_m),
+        extra: vec![
+            ("force_phase_rad".into(), col(|x| x.force_phase_rad)),
+            ("drive_amplitude_m".into(), col(|x| x.drive_amplitude_m)),
+            ("modal_amplitude".into(), col(|x| x.a)),
+            ("modal_frequency_rad_s".into(), col(|x| x.modal_frequency_rad_s)),
+        ],
+    };
+    let mut r = MethodResult::new(name, wall, env, true);
+    r.time_series = Some(crate::results::TimeSeries {
+        columns: vec![
+            ("t_s".into(), col(|x| x.t_s)),
+            ("omega_rad_s".into(), col(|x| x.omega_rad_s)),
+            ("a".into(), col(|x| x.a)),
+            ("theta_rad".into(), col(|x| x.theta_rad)),
+            ("modal_frequency_rad_s".into(), col(|x| x.modal_frequency_rad_s)),
+            ("tip_amplitude_m".into(), col(|x| x.tip_amplitude_m)),
+            ("force_amplitude_N".into(), col(|x| x.force_amplitude_n)),
+            ("force_phase_rad".into(), col(|x| x.force_phase_rad)),
+        ],
+    });
+    r.extra.insert("steps".into(), json!(res.stats.accepted_steps));
+    r.extra.insert("status".into(), json!(format!("{:?}", res.status)));
+    if !matches!(res.status, nlmode::reduced::SweepStatus::Completed) {
+        r.warnings.push(format!("{name}: sweep stopped early: {:?}", res.status));
+    }
+    r
+}
+
+/// `nlmode` / `linear-slowflow` / `imposed-force`: slow flow of `eq:NM`.
+pub fn slow_flow(
+    name: &str,
+    setup: &Setup,
+    model: &nlmode::reduced::ReducedModel,
+) -> Result<(MethodResult, nlmode::reduced::SlowFlowResult)> {
+    let t0 = Instant::now();
+    let res = model
+        .simulate_sweep(&setup.sweep, &nlmode::reduced::SlowFlowOptions::default())
+        .with_context(|| format!("{name}"))?;
+    let wall = t0.elapsed().as_secs_f64();
+    Ok((slowflow_result(name, wall, &res), res))
+}
+
+/// `linear-steady`: the paper's single-mode linear steady state.
+pub fn linear_steady(setup: &Setup, model: &nlmode::reduced::ReducedModel, n: usize) -> Result<MethodResult> {
+    let t0 = Instant::now();
+    let omegas = frf_omegas(setup, n);
+    let ls = model.linear_steady(&omegas, setup.sweep.amplitude).context("linear-steady")?;
+    let wall = t0.elapsed().as_secs_f64();
+    let p = &ls.points;
+    let env = Envelope {
+        omega_rad_s: p.iter().map(|x| x.omega_rad_s).collect(),
+        force_amplitude_n: p.iter().map(|x| x.force_amplitude_n).collect(),
+        tip_amplitude_m: p.iter().map(|x| x.tip_amplitude_m).collect(),
+        extra: vec![
+            ("force_phase_rad".into(), p.iter().map(|x| x.force_phase_rad).collect()),
+            ("drive_amplitude_m".into(), p.iter().map(|x| x.drive_amplitude_m).collect()),
+        ],
+    };
+    let mut r = MethodResult::new("linear-steady", wall, env, false);
+    r.extra.insert("force_drop".into(), json!(ls.force_drop));
+    r.extra.insert("omega0_single_mode_rad_s".into(), json!(ls.omega0_rad_s));
+    Ok(r)
+}
+
+/// `reference`: direct time integration of the assembled full-order model.
+pub fn reference(setup: &Setup, sc: &crate::scenario::Scenario, progress: &mut dyn FnMut(f64)) -> Result<MethodResult> {
+    use nlmode::reference::{simulate_sweep_with_progress, Integrator, ReferenceOptions};
+    let method = match sc.reference.integrator.as_str() {
+        "" | "exponential" => Integrator::Exponential,
+        "dormand-prince" => Integrator::DormandPrince,
+        other => anyhow::bail!("reference.integrator: expected 'exponential' or 'dormand-prince', got '{other}'"),
+    };
+    let opts = ReferenceOptions {
+        method,
+        rtol: sc.reference.rtol,
+        output_interval_s: (sc.reference.output_interval_s > 0.0).then_some(sc.reference.output_interval_s),
+        tip_point: TIP.into(),
+        ..Default::default()
+    };
+    let t0 = Instant::now();
+    let res = simulate_sweep_with_progress(&setup.model, &setup.attachments, &setup.sweep, &opts, progress)
+        .context("reference")?;
+    let wall = t0.elapsed().as_secs_f64();
+    let e = &res.envelope;
+    let env = Envelope {
+        omega_rad_s: e.omega_rad_s.clone(),
+        force_amplitude_n: e.force_amplitude_n.clone(),
+        tip_amplitude_m: e.tip_amplitude_m.clone(),
+        extra: vec![],
+    };
+    let mut r = MethodResult::new("reference", wall, env, true);
+    r.time_series = Some(crate::results::TimeSeries {
+        columns: vec![
+            ("t_s".into(), res.time_s.clone()),
+            ("omega_rad_s".into(), res.omega_rad_s.clone()),
+            ("voltage_V".into(), res.input.clone()),
+            ("tip_m".into(), res.tip_m.clone()),
+            ("drive_m".into(), res.drive_m.clone()),
+            ("force_N".into(), res.force_n.clone()),
+        ],
+    });
+    r.extra.insert("steps".into(), json!(res.stats.steps));
+    r.extra.insert("rejected_steps".into(), json!(res.stats.rejected));
+    r.extra.insert("integrator".into(), json!(format!("{method:?}")));
+    Ok(r)
+}

@@ -136,13 +136,23 @@ pub struct Curve<'a> {
     pub y: &'a [f64],
 }
 
-/// A simple x-y line plot (backbone, damping, force ratio).
-pub fn xy_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[Curve], log_x: bool) -> Result<()> {
+/// How [`xy_plot`] draws its curves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Style {
+    /// Lines, x on a log10 axis.
+    LinesLogX,
+    /// Dots (steady-state branches: stable / unstable), y axis from zero.
+    Dots,
+}
+
+/// A single-panel x-y plot (backbone, damping, steady-state branches).
+pub fn xy_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[Curve], style: Style) -> Result<()> {
     let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
+    let log_x = style == Style::LinesLogX;
     let tx = |v: f64| if log_x { v.log10() } else { v };
     let (x0, x1) = range(curves.iter().flat_map(|c| c.x.iter().map(|&v| tx(v))), 0.02, false);
-    let (y0, y1) = range(curves.iter().flat_map(|c| c.y.iter().cloned()), 0.05, false);
+    let (y0, y1) = range(curves.iter().flat_map(|c| c.y.iter().cloned()), 0.05, style == Style::Dots);
     let xdesc = if log_x { format!("log10 {xlabel}") } else { xlabel.to_string() };
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 18))
@@ -156,11 +166,19 @@ pub fn xy_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[C
         let col = color(i);
         let pts: Vec<(f64, f64)> =
             c.x.iter().zip(c.y).filter(|(x, y)| x.is_finite() && y.is_finite()).map(|(&x, &y)| (tx(x), y)).collect();
-        chart
-            .draw_series(LineSeries::new(pts, col.stroke_width(2)))
-            .map_err(|e| anyhow!("plot: {e}"))?
-            .label(c.label.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+        if style == Style::Dots {
+            chart
+                .draw_series(pts.into_iter().map(|p| Circle::new(p, 2, col.filled())))
+                .map_err(|e| anyhow!("plot: {e}"))?
+                .label(c.label.clone())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 3, col.filled()));
+        } else {
+            chart
+                .draw_series(LineSeries::new(pts, col.stroke_width(2)))
+                .map_err(|e| anyhow!("plot: {e}"))?
+                .label(c.label.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+        }
     }
     chart
         .configure_series_labels()

@@ -56,14 +56,99 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
         format!("{:.3}", s.duration_s())
     );
     let mut done: Vec<MethodResult> = Vec::new();
-    for m in &sc.run.methods {
-        let r = match m.as_str() {
-            "linear-frf" => methods::linear_frf(&setup, sc.run.frf_points)?,
+    let wants = |m: &str| sc.run.methods.iter().any(|x| x == m);
+    let needs_mode = ["nlmode", "linear-slowflow", "linear-steady", "imposed-force"].iter().any(|m| wants(m));
+    let mut nma = None;
+    if needs_mode {
+        let (n, _) = methods::nma_table(&setup, &sc, false)?;
+        println!("{}", n.note);
+        nma = Some(n);
+    }
+    let error = nlmode::reduced::FrequencyError {
+        eps: sc.imposed_force.frequency_error,
+        offset_rad_s: sc.imposed_force.frequency_offset_rad_s
+            + sc.imposed_force.frequency_offset_omega0 * setup.omega0_rad_s,
+    };
+    let has_error = error.eps != 0.0 || error.offset_rad_s != 0.0;
+    let mut nlmode_flow = None;
+    // Dependencies first: imposed-force takes its force from nlmode.
+    let mut order: Vec<&str> = sc.run.methods.iter().map(|s| s.as_str()).collect();
+    order.sort_by_key(|m| usize::from(*m == "imposed-force"));
+    for m in order {
+        let table = || &nma.as_ref().expect("mode computed").table;
+        match m {
+            "linear-frf" => {
+                done.push(methods::linear_frf(&setup, sc.run.frf_points)?);
+                // eq:fhfhNull beside the assembled FRF (the paper's force-drop figure)
+                done.push(methods::closed_form(&setup, sc.run.frf_points)?);
+            }
+            "reference" => {
+                let mut bar = Progress::new("reference");
+                done.push(methods::reference(&setup, &sc, &mut |f| bar.set(f))?);
+                bar.finish();
+            }
+            "nlmode" => {
+                let model = methods::reduced_model(&setup, table(), None)?;
+                let (r, flow) = methods::slow_flow("nlmode", &setup, &model)?;
+                done.push(r);
+                nlmode_flow = Some(flow);
+                if has_error && sc.imposed_force.apply_to_nlmode {
+                    let model = methods::reduced_model(&setup, table(), Some(error))?;
+                    let (r, _) = methods::slow_flow("nlmode-freq-error", &setup, &model)?;
+                    done.push(r);
+                }
+            }
+            "linear-slowflow" => {
+                let model = methods::reduced_model(&setup, table(), None)?.linear()?;
+                done.push(methods::slow_flow("linear-slowflow", &setup, &model)?.0);
+            }
+            "linear-steady" => {
+                let model = methods::reduced_model(&setup, table(), None)?;
+                done.push(methods::linear_steady(&setup, &model, sc.run.frf_points)?);
+            }
+            "imposed-force" => {
+                let envelope = match sc.imposed_force.source.as_str() {
+                    "nlmode" => {
+                        let flow = match &nlmode_flow {
+                            Some(f) => f.clone(),
+                            None => {
+                                let model = methods::reduced_model(&setup, table(), None)?;
+                                methods::slow_flow("nlmode", &setup, &model)?.1
+                            }
+                        };
+                        nlmode::reduced::ForceEnvelope::from_result(&flow)?
+                    }
+                    path => {
+                        let text = std::fs::read_to_string(path)
+                            .with_context(|| format!("imposed_force.source: cannot read CSV file '{path}'"))?;
+                        nlmode::reduced::ForceEnvelope::from_csv(&text)
+                            .with_context(|| format!("imposed_force.source: CSV file '{path}'"))?
+                    }
+                };
+                let model = nlmode::reduced::ReducedModel::imposed_force(
+                    table(),
+                    crate::model::TIP,
+                    &setup.exciter_points[0],
+                    envelope,
+                )?
+                .with_frequency_error(error)?;
+                done.push(methods::slow_flow("imposed-force", &setup, &model)?.0);
+            }
             other => anyhow::bail!("run.methods: method '{other}' is not available in this build yet"),
-        };
-        done.push(r);
+        }
+    }
+    for r in &done {
+        for w in &r.warnings {
+            println!("warning: {w}");
+        }
     }
     write_outputs(&sc, &setup, out, &done)?;
+    if sc.output.fmus {
+        match crate::package::package(&out.join("fmus")) {
+            Ok(paths) => println!("FMUs: {}", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")),
+            Err(e) => println!("warning: FMUs not packaged: {e:#}"),
+        }
+    }
     print_summary(&setup, &done);
     Ok(())
 }
@@ -101,9 +186,49 @@ fn write_outputs(sc: &Scenario, setup: &Setup, out: &Path, done: &[MethodResult]
     if sc.output.plots {
         let refs: Vec<&MethodResult> = done.iter().collect();
         let title = if sc.title.is_empty() { "sweep".to_string() } else { sc.title.clone() };
-        plot::sweep_plot(&out.join("sweep.svg"), &title, setup.omega0_rad_s, &refs, None)?;
+        // The reference's time signals in grey under the envelopes, as in the paper's figures.
+        let signal_cols = done.iter().find(|r| r.name == "reference").and_then(|r| r.time_series.as_ref()).map(|ts| {
+            let col = |n: &str| ts.columns.iter().find(|(c, _)| c == n).map(|(_, v)| v.clone()).unwrap_or_default();
+            let eta: Vec<f64> = col("omega_rad_s").iter().map(|w| w / setup.omega0_rad_s).collect();
+            (eta, col("force_N"), col("tip_m"))
+        });
+        let signal = signal_cols.as_ref().map(|(eta, f, x)| plot::Signal { eta, force_n: f, tip_m: x });
+        plot::sweep_plot(&out.join("sweep.svg"), &title, setup.omega0_rad_s, &refs, signal)?;
     }
     Ok(())
+}
+
+/// A progress bar that appears only when a method runs longer than a second.
+struct Progress {
+    bar: indicatif::ProgressBar,
+    start: std::time::Instant,
+    shown: bool,
+}
+
+impl Progress {
+    fn new(name: &str) -> Self {
+        let bar = indicatif::ProgressBar::hidden();
+        bar.set_length(1000);
+        bar.set_message(name.to_string());
+        if let Ok(style) = indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}% {elapsed}") {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        Self { bar, start: std::time::Instant::now(), shown: false }
+    }
+
+    fn set(&mut self, fraction: f64) {
+        if !self.shown && self.start.elapsed().as_secs_f64() > 1.0 {
+            self.bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            self.shown = true;
+        }
+        self.bar.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+    }
+
+    fn finish(&self) {
+        if self.shown {
+            self.bar.finish_and_clear();
+        }
+    }
 }
 
 fn speedup(done: &[MethodResult]) -> Value {
@@ -117,7 +242,7 @@ fn speedup(done: &[MethodResult]) -> Value {
 fn print_summary(setup: &Setup, done: &[MethodResult]) {
     println!();
     println!(
-        "{:<16} {:>10} {:>14} {:>12} {:>12} {:>12} {:>10}",
+        "{:<18} {:>10} {:>14} {:>12} {:>12} {:>12} {:>10}",
         "method", "wall [s]", "peak tip [mm]", "at Omega/w0", "min |F| [N]", "max |F| [N]", "drop [%]"
     );
     for r in done {
@@ -125,7 +250,7 @@ fn print_summary(setup: &Setup, done: &[MethodResult]) {
         let g = |k: &str| s.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
         let drop = s.get("force_drop").and_then(|v| v.as_f64()).map(|d| format!("{:.1}", 100.0 * d)).unwrap_or_default();
         println!(
-            "{:<16} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",
+            "{:<18} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",
             r.name,
             r.wall_time_s,
             1e3 * g("peak_tip_amplitude_m"),

@@ -178,13 +178,22 @@ pub struct ImposedForceSpec {
     pub frequency_error: f64,
     /// Additive natural-frequency offset [rad/s].
     pub frequency_offset_rad_s: f64,
+    /// Additive natural-frequency offset as a fraction of omega0 (the paper's
+    /// "+5 %" amplitude-independent offset is 0.05); added to `frequency_offset_rad_s`.
+    pub frequency_offset_omega0: f64,
     /// Apply the same frequency error to `nlmode` (the paper's "NM with shaker, +5 %").
     pub apply_to_nlmode: bool,
 }
 
 impl Default for ImposedForceSpec {
     fn default() -> Self {
-        Self { source: "nlmode".into(), frequency_error: 0.0, frequency_offset_rad_s: 0.0, apply_to_nlmode: false }
+        Self {
+            source: "nlmode".into(),
+            frequency_error: 0.0,
+            frequency_offset_rad_s: 0.0,
+            frequency_offset_omega0: 0.0,
+            apply_to_nlmode: false,
+        }
     }
 }
 
@@ -226,11 +235,13 @@ impl Default for CosimSpec {
 pub struct OutputSpec {
     pub time_series: bool,
     pub plots: bool,
+    /// Package structure.fmu and shaker.fmu into `<out>/fmus`.
+    pub fmus: bool,
 }
 
 impl Default for OutputSpec {
     fn default() -> Self {
-        Self { time_series: true, plots: true }
+        Self { time_series: true, plots: true, fmus: true }
     }
 }
 
@@ -353,6 +364,14 @@ impl Scenario {
         if !self.imposed_force.frequency_error.is_finite() || self.imposed_force.frequency_error <= -1.0 {
             return Err(bad("imposed_force.frequency_error", "expected a finite number > -1"));
         }
+        for (k, v) in [
+            ("imposed_force.frequency_offset_rad_s", self.imposed_force.frequency_offset_rad_s),
+            ("imposed_force.frequency_offset_omega0", self.imposed_force.frequency_offset_omega0),
+        ] {
+            if !v.is_finite() {
+                return Err(bad(k, format!("expected a finite number, got {v}")));
+            }
+        }
         positive("reference.rtol", self.reference.rtol)?;
         if !(self.reference.output_interval_s.is_finite() && self.reference.output_interval_s >= 0.0) {
             return Err(bad("reference.output_interval_s", "expected a finite number >= 0"));
@@ -445,5 +464,20 @@ mod tests {
         assert!(e.contains("rate_per_pseudo_period"), "{e}");
         let e = Scenario::parse("[run]\nmethods = [\"magic\"]\n").unwrap_err();
         assert!(e.contains("run.methods[0]") && e.contains("magic"), "{e}");
+    }
+
+    #[test]
+    fn every_example_scenario_parses() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let p = entry.unwrap().path();
+            if p.extension().and_then(|e| e.to_str()) == Some("toml") {
+                let text = std::fs::read_to_string(&p).unwrap();
+                Scenario::parse(&text).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+                n += 1;
+            }
+        }
+        assert!(n >= 9, "only {n} example scenarios");
     }
 }

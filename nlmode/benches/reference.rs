@@ -15,10 +15,17 @@ use std::time::Duration;
 fn case_a(c: &mut Criterion) {
     let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
     let cb = paper_structure(&PaperStructureOptions::default()).unwrap();
-    let full = paper_structure(&PaperStructureOptions { cb_modes: None, ..Default::default() }).unwrap();
+    let full = paper_structure(&PaperStructureOptions {
+        cb_modes: None,
+        ..Default::default()
+    })
+    .unwrap();
     let sweep = LinearSweep::per_pseudo_period(cb.omega0_rad_s, 0.8, 1.8, 0.02, 10.0).unwrap();
     let exponential = ReferenceOptions::default();
-    let dopri = ReferenceOptions { method: Integrator::DormandPrince, ..Default::default() };
+    let dopri = ReferenceOptions {
+        method: Integrator::DormandPrince,
+        ..Default::default()
+    };
     let atts = [shaker];
 
     let mut g = c.benchmark_group("reference_case_a");

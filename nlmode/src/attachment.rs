@@ -98,13 +98,26 @@ pub enum AttachmentError {
     #[error("attachment parameter `{name}` must be non-negative, got {value}")]
     Negative { name: &'static str, value: f64 },
     #[error("attachment `{attachment}`: `{name}` contains a non-finite value ({value})")]
-    NotFinite { attachment: String, name: String, value: f64 },
+    NotFinite {
+        attachment: String,
+        name: String,
+        value: f64,
+    },
     #[error("attachment `{attachment}`: `{what}` has dimension {found}, expected {expected}")]
-    DimensionMismatch { attachment: String, what: String, expected: usize, found: usize },
+    DimensionMismatch {
+        attachment: String,
+        what: String,
+        expected: usize,
+        found: usize,
+    },
     #[error("attachment `{attachment}` has no coefficient matrices A_k (need at least A_0)")]
     NoCoefficients { attachment: String },
     #[error("attachment `{attachment}`: {ncon} interface constraints exceed the {ndim} attachment states (the paper requires ncon <= ndim)")]
-    TooManyConstraints { attachment: String, ncon: usize, ndim: usize },
+    TooManyConstraints {
+        attachment: String,
+        ncon: usize,
+        ndim: usize,
+    },
     #[error("attachment `{attachment}`: B2 has rank {rank} < ncon = {ncon} (redundant or contradictory constraints; singular values {singular_values:?}, tolerance {tolerance:e})")]
     RankDeficientB2 {
         attachment: String,
@@ -114,9 +127,18 @@ pub enum AttachmentError {
         tolerance: f64,
     },
     #[error("attachment `{attachment}`: interface point `{point}` does not exist in the structural model (available: {available:?})")]
-    UnknownPoint { attachment: String, point: String, available: Vec<String> },
+    UnknownPoint {
+        attachment: String,
+        point: String,
+        available: Vec<String>,
+    },
     #[error("attachment `{attachment}`: interface point `{point}` has a direction of length {found}, the structure has {ndof} DOFs")]
-    PointDimension { attachment: String, point: String, found: usize, ndof: usize },
+    PointDimension {
+        attachment: String,
+        point: String,
+        found: usize,
+        ndof: usize,
+    },
     #[error("attachment `{attachment}`: Z22 is singular at Omega = {omega_rad_s} rad/s (condition number {condition_number:e} > {limit:e}): the attachment has an undamped resonance under fixed interface (eq:fc1 requires Z22 regular)")]
     SingularZ22 {
         attachment: String,
@@ -125,11 +147,19 @@ pub enum AttachmentError {
         limit: f64,
     },
     #[error("shaker: the armature damping ratio D_a = {d_a_ratio} is below the electro-mechanical part G^2/(2 R omega_a m_a) = {electrical_ratio}: the mechanical damping d_a = {d_a} N s/m would be negative")]
-    NegativeMechanicalDamping { d_a_ratio: f64, electrical_ratio: f64, d_a: f64 },
+    NegativeMechanicalDamping {
+        d_a_ratio: f64,
+        electrical_ratio: f64,
+        d_a: f64,
+    },
     #[error("shaker: a rigid stinger has no state-space form with the structure displacement as input (the force depends on the structure's acceleration); use an elastic stinger")]
     RigidStingerStateSpace,
     #[error("attachment `{attachment}`: {found} input amplitudes given, the attachment has {expected} inputs")]
-    InputCount { attachment: String, expected: usize, found: usize },
+    InputCount {
+        attachment: String,
+        expected: usize,
+        found: usize,
+    },
 }
 
 /// Result type of this module.
@@ -152,18 +182,22 @@ pub struct Localization {
 /// The interface (condensed) quantities of one attachment at one frequency.
 #[derive(Debug, Clone)]
 pub struct InterfaceCondensation {
-    /// Excitation frequency `Omega` [rad/s].
+    /// Excitation frequency `Omega` \[rad/s\].
     pub omega_rad_s: f64,
-    /// `Z_G` (`ncon x ncon`) [N/m for mechanical interfaces].
+    /// `Z_G` (`ncon x ncon`) \[N/m for mechanical interfaces\].
     pub z_g: DMatrix<Complex64>,
-    /// `T_G` (`ncon x ninput`) [N per input unit, e.g. N/V].
+    /// `T_G` (`ncon x ninput`) \[N per input unit, e.g. N/V\].
     pub t_g: DMatrix<Complex64>,
 }
 
 impl InterfaceCondensation {
     /// Interface force on the structure `F_G = -Z_G u_G + T_G u_hat` (sign
     /// convention of the module docs).
-    pub fn force(&self, u_g: &DVector<Complex64>, u_hat: &DVector<Complex64>) -> DVector<Complex64> {
+    pub fn force(
+        &self,
+        u_g: &DVector<Complex64>,
+        u_hat: &DVector<Complex64>,
+    ) -> DVector<Complex64> {
         &self.t_g * u_hat - &self.z_g * u_g
     }
 }
@@ -232,7 +266,9 @@ impl LinearAttachment {
         let n = self.ndim();
         let c = self.ncon();
         if self.coefficients.is_empty() {
-            return Err(AttachmentError::NoCoefficients { attachment: self.name.clone() });
+            return Err(AttachmentError::NoCoefficients {
+                attachment: self.name.clone(),
+            });
         }
         if n == 0 {
             return Err(self.dim_err("B2 columns (ndim)", 1, 0));
@@ -316,7 +352,12 @@ impl LinearAttachment {
             }
         }
         debug_assert_eq!(j2, n - c);
-        Ok(Localization { pinv_b2, l2, singular_values: sv[..c].to_vec(), tolerance })
+        Ok(Localization {
+            pinv_b2,
+            l2,
+            singular_values: sv[..c].to_vec(),
+            tolerance,
+        })
     }
 
     /// The interface point vectors `E = [e_1 .. e_C]` (`ndof x ncon`) from the
@@ -325,13 +366,16 @@ impl LinearAttachment {
         let ndof = model.mass.nrows();
         let mut e = DMatrix::<f64>::zeros(ndof, self.interface_points.len());
         for (c, name) in self.interface_points.iter().enumerate() {
-            let p: &NamedPoint = model.points.iter().find(|p| &p.name == name).ok_or_else(|| {
-                AttachmentError::UnknownPoint {
-                    attachment: self.name.clone(),
-                    point: name.clone(),
-                    available: model.points.iter().map(|p| p.name.clone()).collect(),
-                }
-            })?;
+            let p: &NamedPoint =
+                model
+                    .points
+                    .iter()
+                    .find(|p| &p.name == name)
+                    .ok_or_else(|| AttachmentError::UnknownPoint {
+                        attachment: self.name.clone(),
+                        point: name.clone(),
+                        available: model.points.iter().map(|p| p.name.clone()).collect(),
+                    })?;
             if p.direction.len() != ndof {
                 return Err(AttachmentError::PointDimension {
                     attachment: self.name.clone(),
@@ -376,7 +420,11 @@ impl LinearAttachment {
     }
 
     /// Full-size blocks `Z_mn = L_m^T Z L_n` (`eq:assemblyF1`-`eq:assemblyF2`).
-    pub fn impedance_blocks(&self, model: &StructuralModel, omega_rad_s: f64) -> Result<ImpedanceBlocks> {
+    pub fn impedance_blocks(
+        &self,
+        model: &StructuralModel,
+        omega_rad_s: f64,
+    ) -> Result<ImpedanceBlocks> {
         let l1 = to_complex(&self.l1(model)?);
         let l2 = to_complex(&self.l2()?);
         let z = self.impedance(omega_rad_s);
@@ -443,7 +491,8 @@ impl LinearAttachment {
             let l2 = to_complex(&loc.l2);
             let z = self.impedance(omega_rad_s);
             let z22 = l2.transpose() * &z * &l2;
-            let z22_inv = Condenser::with_localization(self, &loc).checked_inverse(omega_rad_s, z22)?;
+            let z22_inv =
+                Condenser::with_localization(self, &loc).checked_inverse(omega_rad_s, z22)?;
             let rhs = l2.transpose() * (to_complex(&self.input_map) * u_hat - &z * &p * u_g);
             let xr = z22_inv * rhs;
             x += l2 * xr;
@@ -455,7 +504,11 @@ impl LinearAttachment {
 impl Localization {
     /// `Z_G`, `T_G` at `Omega` for `att` (which this localization belongs to).
     /// For many frequencies build a [`Condenser`] once instead.
-    pub fn condense(&self, att: &LinearAttachment, omega_rad_s: f64) -> Result<InterfaceCondensation> {
+    pub fn condense(
+        &self,
+        att: &LinearAttachment,
+        omega_rad_s: f64,
+    ) -> Result<InterfaceCondensation> {
         Condenser::with_localization(att, self).condense(omega_rad_s)
     }
 }
@@ -491,7 +544,9 @@ fn poly(mats: &[DMatrix<f64>], omega_rad_s: f64) -> DMatrix<Complex64> {
 }
 
 fn one_norm(m: &DMatrix<Complex64>) -> f64 {
-    m.column_iter().map(|c| c.iter().map(|v| v.norm()).sum::<f64>()).fold(0.0, f64::max)
+    m.column_iter()
+        .map(|c| c.iter().map(|v| v.norm()).sum::<f64>())
+        .fold(0.0, f64::max)
 }
 
 impl Condenser {
@@ -504,7 +559,10 @@ impl Condenser {
         let p = &loc.pinv_b2;
         let l2 = &loc.l2;
         let proj = |left: &DMatrix<f64>, right: &DMatrix<f64>| -> Vec<DMatrix<f64>> {
-            att.coefficients.iter().map(|a| left.transpose() * a * right).collect()
+            att.coefficients
+                .iter()
+                .map(|a| left.transpose() * a * right)
+                .collect()
         };
         let a_22 = proj(l2, l2);
         Condenser {
@@ -534,7 +592,11 @@ impl Condenser {
             z_g -= &k * z_2g;
             t_g -= &k * &self.bu_2;
         }
-        Ok(InterfaceCondensation { omega_rad_s, z_g, t_g })
+        Ok(InterfaceCondensation {
+            omega_rad_s,
+            z_g,
+            t_g,
+        })
     }
 
     /// Inverts `Z22` after checking its condition; see
@@ -547,7 +609,11 @@ impl Condenser {
     /// the units of the states (electrical vs. mechanical), and it detects a
     /// resonance by cancellation even for a 1 x 1 `Z22` (`k - Omega^2 m -> 0`
     /// gives `(k + Omega^2 m)/|k - Omega^2 m|`).
-    fn checked_inverse(&self, omega_rad_s: f64, z22: DMatrix<Complex64>) -> Result<DMatrix<Complex64>> {
+    fn checked_inverse(
+        &self,
+        omega_rad_s: f64,
+        z22: DMatrix<Complex64>,
+    ) -> Result<DMatrix<Complex64>> {
         let nr = z22.nrows();
         let mut s = DMatrix::<f64>::zeros(nr, nr);
         let mut w = 1.0;
@@ -558,13 +624,21 @@ impl Condenser {
         let dr: Vec<f64> = (0..nr)
             .map(|i| {
                 let m = s.row(i).iter().cloned().fold(0.0, f64::max);
-                if m > 0.0 { 1.0 / m } else { 1.0 }
+                if m > 0.0 {
+                    1.0 / m
+                } else {
+                    1.0
+                }
             })
             .collect();
         let dc: Vec<f64> = (0..nr)
             .map(|j| {
                 let m = (0..nr).map(|i| dr[i] * s[(i, j)]).fold(0.0, f64::max);
-                if m > 0.0 { 1.0 / m } else { 1.0 }
+                if m > 0.0 {
+                    1.0 / m
+                } else {
+                    1.0
+                }
             })
             .collect();
         let s_norm = (0..nr)
@@ -602,7 +676,11 @@ pub fn condensed_sum(
     inputs: &[DVector<Complex64>],
     omega_rad_s: f64,
 ) -> Result<(DMatrix<Complex64>, DVector<Complex64>)> {
-    assert_eq!(attachments.len(), inputs.len(), "one input vector per attachment");
+    assert_eq!(
+        attachments.len(),
+        inputs.len(),
+        "one input vector per attachment"
+    );
     let ndof = model.mass.nrows();
     let mut zq = DMatrix::<Complex64>::zeros(ndof, ndof);
     let mut f = DVector::<Complex64>::zeros(ndof);

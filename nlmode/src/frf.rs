@@ -15,7 +15,9 @@
 //! structure displacement, see [`crate::attachment`]), and the complex response
 //! `e^T q_hat` at every named point are returned. Amplitudes are complex
 //! fundamental Fourier coefficients: `f(t) = Re(f_hat e^{i Omega t})`.
-use crate::attachment::{AttachmentError, Condenser, InterfaceCondensation, LinearAttachment, ShakerParams};
+use crate::attachment::{
+    AttachmentError, Condenser, InterfaceCondensation, LinearAttachment, ShakerParams,
+};
 use crate::structure::StructuralModel;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -32,19 +34,22 @@ pub enum FrfError {
     #[error("the assembled dynamic stiffness is singular at Omega = {omega_rad_s} rad/s (undamped resonance of the assembly)")]
     SingularDynamicStiffness { omega_rad_s: f64 },
     #[error("structure point `{point}` does not exist (available: {available:?})")]
-    UnknownPoint { point: String, available: Vec<String> },
+    UnknownPoint {
+        point: String,
+        available: Vec<String>,
+    },
 }
 
 /// The assembled linear response at one excitation frequency.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrfPoint {
-    /// Excitation frequency `Omega` [rad/s].
+    /// Excitation frequency `Omega` \[rad/s\].
     pub omega_rad_s: f64,
-    /// Complex interface force amplitudes on the structure [N]: the `ncon`
+    /// Complex interface force amplitudes on the structure \[N\]: the `ncon`
     /// constraint forces of attachment 0, then of attachment 1, ... (one entry
     /// per attachment for single-point attachments such as the shaker).
     pub force_n: Vec<Complex64>,
-    /// Complex displacement amplitude `e^T q_hat` [m] at every named point of
+    /// Complex displacement amplitude `e^T q_hat` \[m\] at every named point of
     /// the structure, in the order of `model.points`.
     pub points: Vec<Complex64>,
 }
@@ -55,7 +60,7 @@ fn complex(m: &DMatrix<f64>) -> DMatrix<Complex64> {
 
 /// The assembled linear frequency response (`linear-frf`) of `model` (linear
 /// part) with `attachments` driven by the complex input amplitudes `inputs`
-/// (one vector of length `ninput` per attachment), at each `omegas` [rad/s].
+/// (one vector of length `ninput` per attachment), at each `omegas` \[rad/s\].
 ///
 /// The SVD localization of each attachment is computed once; per frequency the
 /// cost is one `ndof`-sized complex LU.
@@ -66,7 +71,10 @@ pub fn assembled_frf(
     omegas: &[f64],
 ) -> Result<Vec<FrfPoint>, FrfError> {
     if inputs.len() != attachments.len() {
-        return Err(FrfError::AttachmentInputs { expected: attachments.len(), found: inputs.len() });
+        return Err(FrfError::AttachmentInputs {
+            expected: attachments.len(),
+            found: inputs.len(),
+        });
     }
     let ndof = model.mass.nrows();
     assert_eq!(model.stiffness.shape(), (ndof, ndof), "K shape");
@@ -95,12 +103,24 @@ pub fn assembled_frf(
         let outer = (0..nc * nc)
             .map(|ab| e.column(ab / nc) * e.column(ab % nc).transpose())
             .collect();
-        prepared.push(Prepared { condenser, e: complex(&e), outer, u });
+        prepared.push(Prepared {
+            condenser,
+            e: complex(&e),
+            outer,
+            u,
+        });
     }
     let mut observe = DMatrix::<Complex64>::zeros(model.points.len(), ndof);
     for (i, p) in model.points.iter().enumerate() {
-        assert_eq!(p.direction.len(), ndof, "point `{}` direction length", p.name);
-        observe.row_mut(i).copy_from(&p.direction.transpose().map(|v| Complex64::new(v, 0.0)));
+        assert_eq!(
+            p.direction.len(),
+            ndof,
+            "point `{}` direction length",
+            p.name
+        );
+        observe
+            .row_mut(i)
+            .copy_from(&p.direction.transpose().map(|v| Complex64::new(v, 0.0)));
     }
     let (m, c, k) = (&model.mass, &model.damping, &model.stiffness);
     let mut out = Vec::with_capacity(omegas.len());
@@ -111,7 +131,10 @@ pub fn assembled_frf(
             return Err(FrfError::NonFiniteOmega { omega_rad_s: w });
         }
         let w2 = w * w;
-        for (d, ((kij, mij), cij)) in dyn_stiff.iter_mut().zip(k.iter().zip(m.iter()).zip(c.iter())) {
+        for (d, ((kij, mij), cij)) in dyn_stiff
+            .iter_mut()
+            .zip(k.iter().zip(m.iter()).zip(c.iter()))
+        {
             *d = Complex64::new(kij - w2 * mij, w * cij);
         }
         let mut rhs = DVector::<Complex64>::zeros(ndof);
@@ -137,13 +160,17 @@ pub fn assembled_frf(
             let u_g = p.e.transpose() * &q;
             force_n.extend(cond.force(&u_g, p.u).iter().copied());
         }
-        out.push(FrfPoint { omega_rad_s: w, force_n, points: (&observe * &q).iter().copied().collect() });
+        out.push(FrfPoint {
+            omega_rad_s: w,
+            force_n,
+            points: (&observe * &q).iter().copied().collect(),
+        });
     }
     Ok(out)
 }
 
 /// The structure's own (no attachment) receptance between two named points,
-/// `H(Omega) = e_out^T (-Omega^2 M + i Omega C + K)^{-1} e_in` [m/N].
+/// `H(Omega) = e_out^T (-Omega^2 M + i Omega C + K)^{-1} e_in` \[m/N\].
 pub fn structure_receptance(
     model: &StructuralModel,
     input_point: &str,
@@ -151,13 +178,19 @@ pub fn structure_receptance(
     omegas: &[f64],
 ) -> Result<Vec<Complex64>, FrfError> {
     let find = |name: &str| {
-        model.points.iter().find(|p| p.name == name).ok_or_else(|| FrfError::UnknownPoint {
-            point: name.to_string(),
-            available: model.points.iter().map(|p| p.name.clone()).collect(),
-        })
+        model
+            .points
+            .iter()
+            .find(|p| p.name == name)
+            .ok_or_else(|| FrfError::UnknownPoint {
+                point: name.to_string(),
+                available: model.points.iter().map(|p| p.name.clone()).collect(),
+            })
     };
     let e_in = find(input_point)?.direction.map(|v| Complex64::new(v, 0.0));
-    let e_out = find(output_point)?.direction.map(|v| Complex64::new(v, 0.0));
+    let e_out = find(output_point)?
+        .direction
+        .map(|v| Complex64::new(v, 0.0));
     let ndof = model.mass.nrows();
     let (m, c, k) = (&model.mass, &model.damping, &model.stiffness);
     omegas
@@ -169,7 +202,10 @@ pub fn structure_receptance(
             let d = DMatrix::<Complex64>::from_fn(ndof, ndof, |i, j| {
                 Complex64::new(k[(i, j)] - w * w * m[(i, j)], w * c[(i, j)])
             });
-            let x = d.lu().solve(&e_in).ok_or(FrfError::SingularDynamicStiffness { omega_rad_s: w })?;
+            let x = d
+                .lu()
+                .solve(&e_in)
+                .ok_or(FrfError::SingularDynamicStiffness { omega_rad_s: w })?;
             Ok(e_out.dot(&x))
         })
         .collect()
@@ -198,7 +234,13 @@ pub fn linear_force_drop(
 /// mass ratio `mu = m_a/m_mod`, `omega_a/omega0` and the total armature damping
 /// ratio `d_a` (`2 D_a omega_a m_a = d_a + G^2/R`). Assumes
 /// `omega_c >> omega0` and `k_s >> k_a` (or a rigid stinger).
-pub fn force_ratio_closed_form(eta: f64, d0: f64, mu: f64, omega_a_over_omega0: f64, d_a: f64) -> Complex64 {
+pub fn force_ratio_closed_form(
+    eta: f64,
+    d0: f64,
+    mu: f64,
+    omega_a_over_omega0: f64,
+    d_a: f64,
+) -> Complex64 {
     let i = Complex64::i();
     let r = omega_a_over_omega0;
     let num = -eta * eta + 2.0 * d0 * i * eta + 1.0;
@@ -215,13 +257,13 @@ pub fn force_drop_closed_form(d0: f64, mu: f64, omega_a_over_omega0: f64, d_a: f
 }
 
 /// Modal mass with respect to the exciter location, `m_mod = 1/|phi_ex|^2`
-/// [kg], for the mass-normalised mode shape's value `phi_ex = e^T phi` there
+/// \[kg\], for the mass-normalised mode shape's value `phi_ex = e^T phi` there
 /// (below `eq:forcedrop`).
 pub fn modal_mass(phi_ex: impl Into<Complex64>) -> f64 {
     1.0 / phi_ex.into().norm_sqr()
 }
 
-/// Mass ratio `mu = m_a / m_mod` [-] (below `eq:forcedrop`).
+/// Mass ratio `mu = m_a / m_mod` \[-\] (below `eq:forcedrop`).
 pub fn mass_ratio(armature_mass_kg: f64, modal_mass_kg: f64) -> f64 {
     armature_mass_kg / modal_mass_kg
 }

@@ -17,8 +17,14 @@ fn two_dof() -> StructuralModel {
         damping: DMatrix::from_row_slice(2, 2, &[3.0, -1.0, -1.0, 1.0]),
         nonlinear: vec![],
         points: vec![
-            NamedPoint { name: "drive".into(), direction: DVector::from_vec(vec![0.6, 0.8]) },
-            NamedPoint { name: "tip".into(), direction: DVector::from_vec(vec![0.0, 1.0]) },
+            NamedPoint {
+                name: "drive".into(),
+                direction: DVector::from_vec(vec![0.6, 0.8]),
+            },
+            NamedPoint {
+                name: "tip".into(),
+                direction: DVector::from_vec(vec![0.0, 1.0]),
+            },
         ],
     }
 }
@@ -36,7 +42,10 @@ const OMEGAS: [f64; 7] = [0.0, 10.0, 346.0, 356.2, 693.8, 5000.0, 1e5];
 #[test]
 fn shaker_localization_spans_paper_spaces() {
     let model = two_dof();
-    for params in [ShakerParams::paper(), ShakerParams::paper().with_rigid_stinger()] {
+    for params in [
+        ShakerParams::paper(),
+        ShakerParams::paper().with_rigid_stinger(),
+    ] {
         let att = LinearAttachment::shaker("shaker", &params, "drive").unwrap();
         let n = att.ndim();
         let e = att.interface_vectors(&model).unwrap();
@@ -49,7 +58,9 @@ fn shaker_localization_spans_paper_spaces() {
         assert!((&l1 - &l1_paper).norm() < 1e-14, "L1 = {l1}");
         // Paper: L2 = [I; 0]; same column space <=> same orthogonal projector.
         let mut l2_paper = DMatrix::<f64>::zeros(n, n - 1);
-        l2_paper.view_mut((0, 0), (n - 1, n - 1)).fill_with_identity();
+        l2_paper
+            .view_mut((0, 0), (n - 1, n - 1))
+            .fill_with_identity();
         let proj = &l2 * l2.transpose();
         let proj_paper = &l2_paper * l2_paper.transpose();
         assert!((proj - proj_paper).norm() < 1e-14);
@@ -95,15 +106,26 @@ fn generic_localization_for_a_non_boolean_b2() {
 fn shaker_condensation_equals_closed_form() {
     let model = two_dof();
     let e = DMatrix::from_column_slice(2, 1, &[c(0.6), c(0.8)]);
-    for params in [ShakerParams::paper(), ShakerParams::paper().with_rigid_stinger()] {
+    for params in [
+        ShakerParams::paper(),
+        ShakerParams::paper().with_rigid_stinger(),
+    ] {
         let att = LinearAttachment::shaker("shaker", &params, "drive").unwrap();
         for &w in &OMEGAS {
             let zg_cf = params.closed_form_interface_impedance(w);
             let tg_cf = params.closed_form_blocked_force(w, c(1.0));
             let zg = att.interface_impedance(w).unwrap();
             let tg = att.interface_input_force(w).unwrap();
-            assert!((zg[(0, 0)] - zg_cf).norm() < 1e-10 * zg_cf.norm(), "{w}: {} vs {zg_cf}", zg[(0, 0)]);
-            assert!((tg[(0, 0)] - tg_cf).norm() < 1e-10 * tg_cf.norm(), "{w}: {} vs {tg_cf}", tg[(0, 0)]);
+            assert!(
+                (zg[(0, 0)] - zg_cf).norm() < 1e-10 * zg_cf.norm(),
+                "{w}: {} vs {zg_cf}",
+                zg[(0, 0)]
+            );
+            assert!(
+                (tg[(0, 0)] - tg_cf).norm() < 1e-10 * tg_cf.norm(),
+                "{w}: {} vs {tg_cf}",
+                tg[(0, 0)]
+            );
             let (zq, fmap) = att.condensed(&model, w).unwrap();
             let zq_cf = &e * e.transpose() * zg_cf;
             assert!(rel_err(&zq, &zq_cf) < 1e-10);
@@ -149,11 +171,24 @@ fn state_space_matches_condensation() {
         // F = T_G u - Z_G x.
         let tg = cond.t_g[(0, 0)];
         let zg = cond.z_g[(0, 0)];
-        assert!((h[(0, 0)] - tg).norm() < 1e-9 * tg.norm(), "{w}: {} vs {tg}", h[(0, 0)]);
-        assert!((h[(0, 1)] + zg).norm() < 1e-9 * zg.norm(), "{w}: {} vs {}", h[(0, 1)], -zg);
+        assert!(
+            (h[(0, 0)] - tg).norm() < 1e-9 * tg.norm(),
+            "{w}: {} vs {tg}",
+            h[(0, 0)]
+        );
+        assert!(
+            (h[(0, 1)] + zg).norm() < 1e-9 * zg.norm(),
+            "{w}: {} vs {}",
+            h[(0, 1)],
+            -zg
+        );
         // Current and armature displacement against the recovered attachment states.
         let x = att
-            .states(w, &DVector::from_vec(vec![c(1e-4)]), &DVector::from_vec(vec![c(2.0)]))
+            .states(
+                w,
+                &DVector::from_vec(vec![c(1e-4)]),
+                &DVector::from_vec(vec![c(2.0)]),
+            )
             .unwrap();
         let y = &h * DVector::from_vec(vec![c(2.0), c(1e-4)]);
         assert!((y[1] - x[0]).norm() < 1e-9 * x[0].norm());
@@ -215,7 +250,10 @@ fn generic_attachments_hand_derived_impedances() {
     // Grounded spring-dashpot, ncon = ndim = 1 (no `2` blocks): Z_G = k + i W d.
     let spring = LinearAttachment {
         name: "spring".into(),
-        coefficients: vec![DMatrix::from_element(1, 1, 5e4), DMatrix::from_element(1, 1, 2.0)],
+        coefficients: vec![
+            DMatrix::from_element(1, 1, 5e4),
+            DMatrix::from_element(1, 1, 2.0),
+        ],
         b2: DMatrix::from_element(1, 1, 1.0),
         interface_points: vec!["tip".into()],
         input_map: DMatrix::from_element(1, 1, 1.0),
@@ -238,6 +276,10 @@ fn generic_attachments_hand_derived_impedances() {
         let zs = spring.interface_condensation(w).unwrap();
         assert!((zs.z_g[(0, 0)] - Complex64::new(5e4, 2.0 * w)).norm() < 1e-12 * 5e4);
         assert!((zs.t_g[(0, 0)] - c(1.0)).norm() < 1e-15);
+        // ncon = ndim: the `2` blocks are empty and Z_q = Z11.
+        let blk = link.impedance_blocks(&model, w).unwrap();
+        assert_eq!((blk.z22.shape(), blk.z12.shape()), ((0, 0), (2, 0)));
+        assert!(rel_err(&link.condensed(&model, w).unwrap().0, &blk.z11) < 1e-14);
         let zl = link.interface_impedance(w).unwrap();
         let zl_cf = DMatrix::from_row_slice(2, 2, &[c(7e3), c(-7e3), c(-7e3), c(7e3)]);
         assert!(rel_err(&zl, &zl_cf) < 1e-14);
@@ -245,11 +287,18 @@ fn generic_attachments_hand_derived_impedances() {
         let kd = Complex64::new(k, w * d);
         let zt_cf = -w * w * m * kd / (kd - w * w * m);
         let zt = t.interface_impedance(w).unwrap()[(0, 0)];
-        assert!((zt - zt_cf).norm() <= 1e-10 * zt_cf.norm(), "{w}: {zt} vs {zt_cf}");
+        assert!(
+            (zt - zt_cf).norm() <= 1e-10 * zt_cf.norm(),
+            "{w}: {zt} vs {zt_cf}"
+        );
     }
     // Several attachments: the sum of E Z_G E^T and of the imposed forces.
     let atts = [spring.clone(), link.clone(), t.clone()];
-    let inputs = [DVector::from_vec(vec![c(3.0)]), DVector::zeros(0), DVector::zeros(0)];
+    let inputs = [
+        DVector::from_vec(vec![c(3.0)]),
+        DVector::zeros(0),
+        DVector::zeros(0),
+    ];
     let w = 250.0;
     let (zq, f) = condensed_sum(&model, &atts, &inputs, w).unwrap();
     let mut zq_ref = DMatrix::<Complex64>::zeros(2, 2);
@@ -276,7 +325,11 @@ fn singular_z22_is_reported_with_omega() {
     let t = tmd("tip", 0.25, 1e4, 0.0);
     let w = (1e4f64 / 0.25).sqrt();
     match t.interface_impedance(w) {
-        Err(AttachmentError::SingularZ22 { omega_rad_s, condition_number, .. }) => {
+        Err(AttachmentError::SingularZ22 {
+            omega_rad_s,
+            condition_number,
+            ..
+        }) => {
             assert_eq!(omega_rad_s, w);
             assert!(condition_number > 1e12);
         }
@@ -295,13 +348,48 @@ fn singular_z22_is_reported_with_omega() {
 fn bad_shaker_parameters_are_rejected_by_name() {
     let base = ShakerParams::paper();
     let cases: Vec<(ShakerParams, &str)> = vec![
-        (ShakerParams { inductance_h: 0.0, ..base }, "inductance_h"),
-        (ShakerParams { resistance_ohm: -3.0, ..base }, "resistance_ohm"),
-        (ShakerParams { force_constant_n_per_a: 0.0, ..base }, "force_constant_n_per_a"),
-        (ShakerParams { armature_mass_kg: -0.043, ..base }, "armature_mass_kg"),
-        (ShakerParams { armature_stiffness_n_per_m: 0.0, ..base }, "armature_stiffness_n_per_m"),
         (
-            ShakerParams { stinger: Stinger::Elastic { stiffness_n_per_m: 0.0 }, ..base },
+            ShakerParams {
+                inductance_h: 0.0,
+                ..base
+            },
+            "inductance_h",
+        ),
+        (
+            ShakerParams {
+                resistance_ohm: -3.0,
+                ..base
+            },
+            "resistance_ohm",
+        ),
+        (
+            ShakerParams {
+                force_constant_n_per_a: 0.0,
+                ..base
+            },
+            "force_constant_n_per_a",
+        ),
+        (
+            ShakerParams {
+                armature_mass_kg: -0.043,
+                ..base
+            },
+            "armature_mass_kg",
+        ),
+        (
+            ShakerParams {
+                armature_stiffness_n_per_m: 0.0,
+                ..base
+            },
+            "armature_stiffness_n_per_m",
+        ),
+        (
+            ShakerParams {
+                stinger: Stinger::Elastic {
+                    stiffness_n_per_m: 0.0,
+                },
+                ..base
+            },
             "stinger_stiffness_n_per_m",
         ),
     ];
@@ -312,31 +400,63 @@ fn bad_shaker_parameters_are_rejected_by_name() {
         }
         assert!(LinearAttachment::shaker("s", &p, "drive").is_err());
     }
-    match (ShakerParams { armature_damping: ArmatureDamping::Viscous(-1.0), ..base }).validate() {
+    match (ShakerParams {
+        armature_damping: ArmatureDamping::Viscous(-1.0),
+        ..base
+    })
+    .validate()
+    {
         Err(AttachmentError::Negative { name, value }) => {
             assert_eq!(name, "armature_damping_n_s_per_m");
             assert_eq!(value, -1.0);
         }
         other => panic!("{other:?}"),
     }
-    match (ShakerParams { inductance_h: f64::NAN, ..base }).validate() {
+    match (ShakerParams {
+        inductance_h: f64::NAN,
+        ..base
+    })
+    .validate()
+    {
         Err(AttachmentError::NotFinite { name, .. }) => assert_eq!(name, "inductance_h"),
         other => panic!("{other:?}"),
     }
-    match (ShakerParams { armature_damping: ArmatureDamping::Ratio(f64::INFINITY), ..base }).validate() {
+    match (ShakerParams {
+        armature_damping: ArmatureDamping::Ratio(f64::INFINITY),
+        ..base
+    })
+    .validate()
+    {
         Err(AttachmentError::NotFinite { name, .. }) => assert_eq!(name, "armature_damping_ratio"),
         other => panic!("{other:?}"),
     }
     // D_a below the electro-mechanical share G^2/(2 R omega_a m_a) = 1.342.
-    match (ShakerParams { armature_damping: ArmatureDamping::Ratio(1.0), ..base }).validate() {
-        Err(AttachmentError::NegativeMechanicalDamping { electrical_ratio, d_a, .. }) => {
-            assert!((electrical_ratio - 1.342).abs() < 1e-3, "{electrical_ratio}");
+    match (ShakerParams {
+        armature_damping: ArmatureDamping::Ratio(1.0),
+        ..base
+    })
+    .validate()
+    {
+        Err(AttachmentError::NegativeMechanicalDamping {
+            electrical_ratio,
+            d_a,
+            ..
+        }) => {
+            assert!(
+                (electrical_ratio - 1.342).abs() < 1e-3,
+                "{electrical_ratio}"
+            );
             assert!(d_a < 0.0);
         }
         other => panic!("{other:?}"),
     }
     // Viscous damping zero is allowed.
-    assert!((ShakerParams { armature_damping: ArmatureDamping::Viscous(0.0), ..base }).validate().is_ok());
+    assert!((ShakerParams {
+        armature_damping: ArmatureDamping::Viscous(0.0),
+        ..base
+    })
+    .validate()
+    .is_ok());
 }
 
 #[test]
@@ -344,7 +464,10 @@ fn bad_attachment_definitions_are_rejected() {
     let model = two_dof();
     let good = LinearAttachment::shaker("s", &ShakerParams::paper(), "drive").unwrap();
     assert!(good.validate().is_ok());
-    assert_eq!((good.ndim(), good.ncon(), good.order(), good.ninput()), (3, 1, 2, 1));
+    assert_eq!(
+        (good.ndim(), good.ncon(), good.order(), good.ninput()),
+        (3, 1, 2, 1)
+    );
 
     let mut a = good.clone();
     a.coefficients[1] = DMatrix::zeros(2, 2);
@@ -355,31 +478,55 @@ fn bad_attachment_definitions_are_rejected() {
 
     let mut a = good.clone();
     a.coefficients[0][(1, 1)] = f64::NAN;
-    assert!(matches!(a.validate(), Err(AttachmentError::NotFinite { ref name, .. }) if name == "A_0"));
+    assert!(
+        matches!(a.validate(), Err(AttachmentError::NotFinite { ref name, .. }) if name == "A_0")
+    );
 
     let mut a = good.clone();
     a.coefficients.clear();
-    assert!(matches!(a.validate(), Err(AttachmentError::NoCoefficients { .. })));
+    assert!(matches!(
+        a.validate(),
+        Err(AttachmentError::NoCoefficients { .. })
+    ));
 
     let mut a = good.clone();
     a.b2 = DMatrix::from_row_slice(4, 3, &[0.0; 12]);
     a.interface_points = vec!["drive".into(); 4];
-    assert!(matches!(a.validate(), Err(AttachmentError::TooManyConstraints { ncon: 4, ndim: 3, .. })));
+    assert!(matches!(
+        a.validate(),
+        Err(AttachmentError::TooManyConstraints {
+            ncon: 4,
+            ndim: 3,
+            ..
+        })
+    ));
 
     // Redundant constraints: rank 1 < ncon = 2.
     let mut a = good.clone();
     a.b2 = DMatrix::from_row_slice(2, 3, &[0.0, 0.0, 1.0, 0.0, 0.0, 2.0]);
     a.interface_points = vec!["drive".into(), "tip".into()];
-    assert!(matches!(a.localization(), Err(AttachmentError::RankDeficientB2 { rank: 1, ncon: 2, .. })));
+    assert!(matches!(
+        a.localization(),
+        Err(AttachmentError::RankDeficientB2 {
+            rank: 1,
+            ncon: 2,
+            ..
+        })
+    ));
 
     let mut a = good.clone();
     a.input_map = DMatrix::zeros(2, 1);
-    assert!(matches!(a.validate(), Err(AttachmentError::DimensionMismatch { .. })));
+    assert!(matches!(
+        a.validate(),
+        Err(AttachmentError::DimensionMismatch { .. })
+    ));
 
     let mut a = good.clone();
     a.interface_points = vec!["nowhere".into()];
     match a.condensed(&model, 100.0) {
-        Err(AttachmentError::UnknownPoint { point, available, .. }) => {
+        Err(AttachmentError::UnknownPoint {
+            point, available, ..
+        }) => {
             assert_eq!(point, "nowhere");
             assert_eq!(available, vec!["drive".to_string(), "tip".to_string()]);
         }
@@ -390,12 +537,25 @@ fn bad_attachment_definitions_are_rejected() {
     bad_model.points[0].direction = DVector::zeros(3);
     assert!(matches!(
         good.l1(&bad_model),
-        Err(AttachmentError::PointDimension { found: 3, ndof: 2, .. })
+        Err(AttachmentError::PointDimension {
+            found: 3,
+            ndof: 2,
+            ..
+        })
     ));
 
     // Wrong number of inputs in the multi-attachment helper.
     assert!(matches!(
-        condensed_sum(&model, &[good.clone()], &[DVector::zeros(2)], 10.0),
-        Err(AttachmentError::InputCount { expected: 1, found: 2, .. })
+        condensed_sum(
+            &model,
+            std::slice::from_ref(&good),
+            &[DVector::zeros(2)],
+            10.0
+        ),
+        Err(AttachmentError::InputCount {
+            expected: 1,
+            found: 2,
+            ..
+        })
     ));
 }

@@ -7,7 +7,9 @@ use nlmode::frf::{
     assembled_frf, force_drop_closed_form, force_ratio_closed_form, linear_force_drop, mass_ratio,
     modal_mass, structure_receptance, FrfError,
 };
-use nlmode::structure::{modal_analysis, paper_structure, NamedPoint, PaperStructureOptions, StructuralModel};
+use nlmode::structure::{
+    modal_analysis, paper_structure, NamedPoint, PaperStructureOptions, StructuralModel,
+};
 use nlmode::Complex64;
 
 fn c(re: f64) -> Complex64 {
@@ -29,8 +31,14 @@ fn chain2() -> StructuralModel {
         damping: DMatrix::from_row_slice(2, 2, &[3.0, -1.0, -1.0, 1.0]),
         nonlinear: vec![],
         points: vec![
-            NamedPoint { name: "p1".into(), direction: unit(2, 0) },
-            NamedPoint { name: "p2".into(), direction: unit(2, 1) },
+            NamedPoint {
+                name: "p1".into(),
+                direction: unit(2, 0),
+            },
+            NamedPoint {
+                name: "p2".into(),
+                direction: unit(2, 1),
+            },
         ],
     }
 }
@@ -54,7 +62,10 @@ fn tmd(point: &str, m: f64, k: f64, d: f64) -> LinearAttachment {
 /// Solves the 2 x 2 system by Cramer's rule.
 fn cramer(d: [[Complex64; 2]; 2], r: [Complex64; 2]) -> [Complex64; 2] {
     let det = d[0][0] * d[1][1] - d[0][1] * d[1][0];
-    [(r[0] * d[1][1] - d[0][1] * r[1]) / det, (d[0][0] * r[1] - d[1][0] * r[0]) / det]
+    [
+        (r[0] * d[1][1] - d[0][1] * r[1]) / det,
+        (d[0][0] * r[1] - d[1][0] * r[0]) / det,
+    ]
 }
 
 fn close(a: Complex64, b: Complex64, tol: f64) -> bool {
@@ -74,7 +85,10 @@ fn two_attachments_on_two_dofs_match_hand_derived_closed_form() {
     let u2 = Complex64::new(0.0, 2.0);
     let case_a = assembled_frf(
         &model,
-        &[LinearAttachment::shaker("s1", &sp, "p1").unwrap(), tmd("p2", mt, kt, dt)],
+        &[
+            LinearAttachment::shaker("s1", &sp, "p1").unwrap(),
+            tmd("p2", mt, kt, dt),
+        ],
         &[DVector::from_element(1, u1), DVector::zeros(0)],
         &omegas,
     )
@@ -92,7 +106,7 @@ fn two_attachments_on_two_dofs_match_hand_derived_closed_form() {
     for (i, &w) in omegas.iter().enumerate() {
         // Structure dynamic stiffness by hand.
         let d11 = Complex64::new(3e5 - w * w * 1.0, 3.0 * w);
-        let d12 = Complex64::new(-1e5, -1.0 * w);
+        let d12 = Complex64::new(-1e5, -w);
         let d22 = Complex64::new(1e5 - w * w * 2.0, 1.0 * w);
         let z1 = sp.closed_form_interface_impedance(w);
         let t1 = sp.closed_form_blocked_force(w, u1);
@@ -105,11 +119,29 @@ fn two_attachments_on_two_dofs_match_hand_derived_closed_form() {
         let p = &case_a[i];
         assert_eq!(p.omega_rad_s, w);
         assert_eq!((p.force_n.len(), p.points.len()), (2, 2));
-        assert!(close(p.points[0], q[0], 1e-9), "{w}: {} vs {}", p.points[0], q[0]);
-        assert!(close(p.points[1], q[1], 1e-9), "{w}: {} vs {}", p.points[1], q[1]);
-        assert!(close(p.force_n[0], f1, 1e-9), "{w}: {} vs {f1}", p.force_n[0]);
+        assert!(
+            close(p.points[0], q[0], 1e-9),
+            "{w}: {} vs {}",
+            p.points[0],
+            q[0]
+        );
+        assert!(
+            close(p.points[1], q[1], 1e-9),
+            "{w}: {} vs {}",
+            p.points[1],
+            q[1]
+        );
+        assert!(
+            close(p.force_n[0], f1, 1e-9),
+            "{w}: {} vs {f1}",
+            p.force_n[0]
+        );
         if w > 0.0 {
-            assert!(close(p.force_n[1], ft, 1e-9), "{w}: {} vs {ft}", p.force_n[1]);
+            assert!(
+                close(p.force_n[1], ft, 1e-9),
+                "{w}: {} vs {ft}",
+                p.force_n[1]
+            );
         } else {
             assert!(p.force_n[1].norm() < 1e-12);
         }
@@ -133,7 +165,8 @@ fn measured_force_drive_point_frf_is_the_structures_own() {
     let omegas: Vec<f64> = (1..200).map(|i| i as f64 * 5.0).collect();
     for point in ["p1", "p2"] {
         let att = LinearAttachment::shaker("s", &ShakerParams::paper(), point).unwrap();
-        let frf = assembled_frf(&model, &[att], &[DVector::from_element(1, c(3.0))], &omegas).unwrap();
+        let frf =
+            assembled_frf(&model, &[att], &[DVector::from_element(1, c(3.0))], &omegas).unwrap();
         let h = structure_receptance(&model, point, point, &omegas).unwrap();
         let h_cross = structure_receptance(&model, point, "p2", &omegas).unwrap();
         let idx = if point == "p1" { 0 } else { 1 };
@@ -164,7 +197,10 @@ fn single_dof_with_rigid_ideal_shaker_is_eq_fhfhnull() {
         stiffness: DMatrix::from_element(1, 1, k),
         damping: DMatrix::from_element(1, 1, 2.0 * d0 * omega0 * m),
         nonlinear: vec![],
-        points: vec![NamedPoint { name: "x".into(), direction: unit(1, 0) }],
+        points: vec![NamedPoint {
+            name: "x".into(),
+            direction: unit(1, 0),
+        }],
     };
     let mut sp = ShakerParams::paper().with_rigid_stinger();
     sp.inductance_h = 1e-15;
@@ -184,7 +220,11 @@ fn single_dof_with_rigid_ideal_shaker_is_eq_fhfhnull() {
     let f0 = sp.force_constant_n_per_a * 10.0 / sp.resistance_ohm;
     for (p, &eta) in frf.iter().zip(&etas) {
         let cf = force_ratio_closed_form(eta, d0, mu, ra, 1.36);
-        assert!(close(p.force_n[0] / f0, cf, 1e-9), "eta {eta}: {} vs {cf}", p.force_n[0] / f0);
+        assert!(
+            close(p.force_n[0] / f0, cf, 1e-9),
+            "eta {eta}: {} vs {cf}",
+            p.force_n[0] / f0
+        );
     }
     // eq:forcedrop is |eq:fhfhNull| at eta = 1.
     let fd = force_drop_closed_form(d0, mu, ra, 1.36);
@@ -193,7 +233,10 @@ fn single_dof_with_rigid_ideal_shaker_is_eq_fhfhnull() {
     assert!((1.0 - drop - fd).abs() < 1e-9);
     // The paper's shaker (elastic stinger, real L) is close but not identical.
     let drop_real = linear_force_drop(&model, &ShakerParams::paper(), "x", omega0).unwrap();
-    assert!((drop_real - drop).abs() < 0.01 && (drop_real - drop).abs() > 1e-6, "{drop_real} {drop}");
+    assert!(
+        (drop_real - drop).abs() < 0.01 && (drop_real - drop).abs() > 1e-6,
+        "{drop_real} {drop}"
+    );
 }
 
 #[test]
@@ -220,22 +263,43 @@ fn bad_frf_inputs_are_rejected() {
     let model = chain2();
     let att = LinearAttachment::shaker("s", &ShakerParams::paper(), "p1").unwrap();
     assert_eq!(
-        assembled_frf(&model, &[att.clone()], &[], &[1.0]).unwrap_err(),
-        FrfError::AttachmentInputs { expected: 1, found: 0 }
+        assembled_frf(&model, std::slice::from_ref(&att), &[], &[1.0]).unwrap_err(),
+        FrfError::AttachmentInputs {
+            expected: 1,
+            found: 0
+        }
     );
     assert!(matches!(
-        assembled_frf(&model, &[att.clone()], &[DVector::zeros(3)], &[1.0]),
-        Err(FrfError::Attachment(nlmode::attachment::AttachmentError::InputCount { expected: 1, found: 3, .. }))
+        assembled_frf(
+            &model,
+            std::slice::from_ref(&att),
+            &[DVector::zeros(3)],
+            &[1.0]
+        ),
+        Err(FrfError::Attachment(
+            nlmode::attachment::AttachmentError::InputCount {
+                expected: 1,
+                found: 3,
+                ..
+            }
+        ))
     ));
     assert!(matches!(
-        assembled_frf(&model, &[att.clone()], &[DVector::from_element(1, c(1.0))], &[1.0, f64::NAN]),
+        assembled_frf(
+            &model,
+            std::slice::from_ref(&att),
+            &[DVector::from_element(1, c(1.0))],
+            &[1.0, f64::NAN]
+        ),
         Err(FrfError::NonFiniteOmega { .. })
     ));
     let mut away = att.clone();
     away.interface_points = vec!["elsewhere".into()];
     assert!(matches!(
         assembled_frf(&model, &[away], &[DVector::from_element(1, c(1.0))], &[1.0]),
-        Err(FrfError::Attachment(nlmode::attachment::AttachmentError::UnknownPoint { .. }))
+        Err(FrfError::Attachment(
+            nlmode::attachment::AttachmentError::UnknownPoint { .. }
+        ))
     ));
     assert!(matches!(
         structure_receptance(&model, "p1", "nope", &[1.0]),
@@ -274,7 +338,10 @@ fn frf_timing() {
         assert_eq!(r.len(), 500);
     }
     let dt = t.elapsed().as_secs_f64() / n as f64;
-    println!("assembled_frf: 500 frequencies, 11 DOF, 1 shaker: {:.3} ms", dt * 1e3);
+    println!(
+        "assembled_frf: 500 frequencies, 11 DOF, 1 shaker: {:.3} ms",
+        dt * 1e3
+    );
 }
 
 /// The paper's beam (Craig-Bampton, 11 DOFs): force drop at resonance from the
@@ -285,7 +352,11 @@ fn paper_beam_force_drop_matches_eq_forcedrop() {
     let model = &ps.model;
     let modes = modal_analysis(model, 1).unwrap();
     let omega0 = modes.omega_rad_s[0];
-    assert!((omega0 / ps.omega0_rad_s - 1.0).abs() < 1e-3, "{omega0} vs {}", ps.omega0_rad_s);
+    assert!(
+        (omega0 / ps.omega0_rad_s - 1.0).abs() < 1e-3,
+        "{omega0} vs {}",
+        ps.omega0_rad_s
+    );
     // Modal damping ratio of mode 1 of the reduced model: phi^T C phi = 2 D0 omega0.
     let phi = modes.shape(0);
     let d0 = (phi.transpose() * &model.damping * &phi)[(0, 0)] / (2.0 * omega0);
@@ -294,19 +365,34 @@ fn paper_beam_force_drop_matches_eq_forcedrop() {
     let ra = sp.omega_a() / omega0;
     let mut results = vec![];
     for (point, mmod_expected, drop_expected) in [("2l3", 0.92, 0.97), ("l3", 10.0, 0.765)] {
-        let e = &model.points.iter().find(|p| p.name == point).unwrap().direction;
+        let e = &model
+            .points
+            .iter()
+            .find(|p| p.name == point)
+            .unwrap()
+            .direction;
         let mmod = modal_mass(modes.deflection(0, e));
         let mu = mass_ratio(sp.armature_mass_kg, mmod);
-        assert!((mmod / mmod_expected - 1.0).abs() < 0.03, "{point}: m_mod = {mmod}");
+        assert!(
+            (mmod / mmod_expected - 1.0).abs() < 0.03,
+            "{point}: m_mod = {mmod}"
+        );
         let closed = 1.0 - force_drop_closed_form(d0, mu, ra, sp.damping_ratio());
         let assembled = linear_force_drop(model, &sp, point, omega0).unwrap();
         results.push((point, mmod, mu, closed, assembled));
-        assert!((assembled - closed).abs() < 0.01, "{point}: FRF {assembled} vs eq:forcedrop {closed}");
-        assert!((assembled - drop_expected).abs() < 0.012, "{point}: {assembled}");
+        assert!(
+            (assembled - closed).abs() < 0.01,
+            "{point}: FRF {assembled} vs eq:forcedrop {closed}"
+        );
+        assert!(
+            (assembled - drop_expected).abs() < 0.012,
+            "{point}: {assembled}"
+        );
         // Drive-point and tip FRF with the measured force are the structure's own.
         let omegas: Vec<f64> = (0..=60).map(|i| omega0 * (0.7 + 0.01 * i as f64)).collect();
         let att = LinearAttachment::shaker("s", &sp, point).unwrap();
-        let frf = assembled_frf(model, &[att], &[DVector::from_element(1, c(10.0))], &omegas).unwrap();
+        let frf =
+            assembled_frf(model, &[att], &[DVector::from_element(1, c(10.0))], &omegas).unwrap();
         let ip = model.points.iter().position(|p| p.name == point).unwrap();
         let it = model.points.iter().position(|p| p.name == "tip").unwrap();
         let h = structure_receptance(model, point, point, &omegas).unwrap();
@@ -316,8 +402,18 @@ fn paper_beam_force_drop_matches_eq_forcedrop() {
             assert!(close(p.points[it] / p.force_n[0], *ht, 1e-8));
         }
         // The force minimum of the FRF lies at the structural resonance (within 1 %).
-        let imin = (0..frf.len()).min_by(|&a, &b| frf[a].force_n[0].norm().total_cmp(&frf[b].force_n[0].norm())).unwrap();
-        assert!((frf[imin].omega_rad_s / omega0 - 1.0).abs() <= 0.011, "{}", frf[imin].omega_rad_s / omega0);
+        let imin = (0..frf.len())
+            .min_by(|&a, &b| {
+                frf[a].force_n[0]
+                    .norm()
+                    .total_cmp(&frf[b].force_n[0].norm())
+            })
+            .unwrap();
+        assert!(
+            (frf[imin].omega_rad_s / omega0 - 1.0).abs() <= 0.011,
+            "{}",
+            frf[imin].omega_rad_s / omega0
+        );
     }
     for (point, mmod, mu, closed, assembled) in results {
         println!("{point}: m_mod = {mmod:.4} kg, mu = {:.3} %, force drop eq:forcedrop = {:.2} %, assembled FRF = {:.2} %",
@@ -336,13 +432,22 @@ fn frf_timing_parts() {
     for _ in 0..n {
         assembled_frf(&model, &[], &[], &omegas).unwrap();
     }
-    println!("no attachment: {:.3} ms", t.elapsed().as_secs_f64() / n as f64 * 1e3);
-    let cd = nlmode::attachment::Condenser::new(&LinearAttachment::shaker("s", &ShakerParams::paper(), "2l3").unwrap()).unwrap();
+    println!(
+        "no attachment: {:.3} ms",
+        t.elapsed().as_secs_f64() / n as f64 * 1e3
+    );
+    let cd = nlmode::attachment::Condenser::new(
+        &LinearAttachment::shaker("s", &ShakerParams::paper(), "2l3").unwrap(),
+    )
+    .unwrap();
     let t = std::time::Instant::now();
     for _ in 0..n {
         for &w in &omegas {
             cd.condense(w).unwrap();
         }
     }
-    println!("condense only: {:.3} ms", t.elapsed().as_secs_f64() / n as f64 * 1e3);
+    println!(
+        "condense only: {:.3} ms",
+        t.elapsed().as_secs_f64() / n as f64 * 1e3
+    );
 }

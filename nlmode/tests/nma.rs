@@ -3,7 +3,9 @@
 use nalgebra::{DMatrix, DVector};
 use nlmode::nma::continuation::{solve_fixed_parameter, BorderedSolve, Residual};
 use nlmode::nma::epmc::{EpmcResidual, ForcedResidual, ModalBasis};
-use nlmode::nma::problems::{chain, duffing, duffing_backbone_h1, duffing_exact_backbone, CubicLaw};
+use nlmode::nma::problems::{
+    chain, duffing, duffing_backbone_h1, duffing_exact_backbone, CubicLaw,
+};
 use nlmode::nma::*;
 use nlmode::structure::{NonlinearElement, NonlinearLaw, StructuralModel};
 use std::sync::Arc;
@@ -25,14 +27,24 @@ fn fd_jacobian<R: Residual>(res: &R, x: &DVector<f64>) -> DMatrix<f64> {
 fn pseudo_random(n: usize, seed: u64) -> DVector<f64> {
     let mut s = seed;
     DVector::from_fn(n, |_, _| {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5
     })
 }
 
 /// A 3-mass chain with a cubic spring and a cubic damper at the end.
 fn test_chain(extra_damper: f64) -> StructuralModel {
-    chain(3, 1.3, 1000.0, 0.5, 1e-4, CubicLaw { k3: 4e5, c3: 30.0 }, extra_damper)
+    chain(
+        3,
+        1.3,
+        1000.0,
+        0.5,
+        1e-4,
+        CubicLaw { k3: 4e5, c3: 30.0 },
+        extra_damper,
+    )
 }
 
 #[test]
@@ -50,7 +62,11 @@ fn epmc_jacobian_matches_finite_differences() {
         let (_, jac) = res.eval(&x);
         let fd = fd_jacobian(&res, &x);
         let err = (&fd - jac.to_dense()).amax();
-        assert!(err < 1e-6 * fd.amax(), "extra damper {extra}: {err} vs {}", fd.amax());
+        assert!(
+            err < 1e-6 * fd.amax(),
+            "extra damper {extra}: {err} vs {}",
+            fd.amax()
+        );
     }
 }
 
@@ -78,7 +94,11 @@ fn condensed_solve_equals_dense_solve() {
     let m = res.n_coeffs();
     // generic point, and points with an internal resonance n omega ~ omega_k
     // (near-singular modal blocks that must be kept explicit)
-    for (omega, d) in [(om[0] * 1.1, 0.01), (om[1] / 3.0 * 1.001, 0.0), (om[2] / 5.0, 0.0)] {
+    for (omega, d) in [
+        (om[0] * 1.1, 0.01),
+        (om[1] / 3.0 * 1.001, 0.0),
+        (om[2] / 5.0, 0.0),
+    ] {
         let mut x = res.linear_guess(-0.5) + pseudo_random(m + 3, 11) * 0.2;
         x[m] = omega;
         x[m + 1] = d;
@@ -87,7 +107,11 @@ fn condensed_solve_equals_dense_solve() {
         let rhs = pseudo_random(m + 3, 9);
         let y1 = jac.solve_bordered(&row, &rhs).unwrap();
         let y2 = jac.solve_bordered_dense(&row, &rhs).unwrap();
-        assert!((&y1 - &y2).amax() < 1e-9 * y2.amax(), "omega {omega}: {}", (&y1 - &y2).amax());
+        assert!(
+            (&y1 - &y2).amax() < 1e-9 * y2.amax(),
+            "omega {omega}: {}",
+            (&y1 - &y2).amax()
+        );
         // and it solves the scaled system given by to_dense()
         let mut a = jac.to_dense().insert_row(m + 2, 0.0);
         a.row_mut(m + 2).copy_from(&row.transpose());
@@ -113,7 +137,10 @@ fn duffing_h1_backbone_is_analytic() {
     let model = duffing(1.0, 0.0, omega0 * omega0, k3);
     let opts = NmaOptions {
         harmonics: 1,
-        amplitude: AmplitudeRange::Modal { log10_start: -3.0, log10_end: 1.0 },
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -3.0,
+            log10_end: 1.0,
+        },
         ..Default::default()
     };
     let r = nonlinear_modal_analysis(&model, &opts).unwrap();
@@ -125,7 +152,12 @@ fn duffing_h1_backbone_is_analytic() {
     assert!(last.omega_rad_s > 2.0 * omega0);
     for b in &r.branch {
         let exact = duffing_backbone_h1(omega0, k3, b.amplitude);
-        assert!((b.omega_rad_s / exact - 1.0).abs() < 1e-8, "a = {}: {} vs {exact}", b.amplitude, b.omega_rad_s);
+        assert!(
+            (b.omega_rad_s / exact - 1.0).abs() < 1e-8,
+            "a = {}: {} vs {exact}",
+            b.amplitude,
+            b.omega_rad_s
+        );
         assert!(b.damping_ratio.abs() < 1e-10);
         // unit mass: |x_1| = a, phase normalized to a real positive fundamental
         assert!((b.points[0][1].re - 1.0).abs() < 1e-10 && b.points[0][1].im.abs() < 1e-12);
@@ -152,7 +184,10 @@ fn duffing_converges_to_the_exact_backbone() {
             errs.push((x[m] / omega_ex - 1.0).abs());
         }
         // monotone convergence, H = 7 close to the exact value
-        assert!(errs[1] < 0.1 * errs[0] && errs[2] < 0.1 * errs[1], "x_max {x_max}: {errs:?}");
+        assert!(
+            errs[1] < 0.1 * errs[0] && errs[2] < 0.1 * errs[1],
+            "x_max {x_max}: {errs:?}"
+        );
         assert!(errs[2] < 1e-8, "x_max {x_max}: {errs:?}");
     }
 }
@@ -164,17 +199,28 @@ fn epmc_damping_of_a_linear_viscous_oscillator_is_its_damping_ratio() {
     let zeta = c / (2.0 * (k * m).sqrt());
     let opts = NmaOptions {
         harmonics: 3,
-        amplitude: AmplitudeRange::Modal { log10_start: -4.0, log10_end: 0.0 },
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -4.0,
+            log10_end: 0.0,
+        },
         ..Default::default()
     };
     let r = nonlinear_modal_analysis(&model, &opts).unwrap();
     for b in &r.branch {
-        assert!((b.damping_ratio / zeta - 1.0).abs() < 1e-10, "{} vs {zeta}", b.damping_ratio);
+        assert!(
+            (b.damping_ratio / zeta - 1.0).abs() < 1e-10,
+            "{} vs {zeta}",
+            b.damping_ratio
+        );
         assert!((b.omega_rad_s / (k / m).sqrt() - 1.0).abs() < 1e-12);
         // a = sqrt(m) |x_1|
         assert!((b.points[0][1].norm() - 1.0 / m.sqrt()).abs() < 1e-12);
     }
-    assert!(matches!(r.warnings.as_slice(), [NmaWarning::LinearRegimeOnly { .. }]), "{:?}", r.warnings);
+    assert!(
+        matches!(r.warnings.as_slice(), [NmaWarning::LinearRegimeOnly { .. }]),
+        "{:?}",
+        r.warnings
+    );
 }
 
 /// EPMC energy balance: the work of the linear damping over a period equals
@@ -201,7 +247,10 @@ fn damped_chain_satisfies_the_energy_balance_and_mass_normalization() {
         model.nonlinear[0].law = Arc::new(CubicLaw { k3: 4e5, c3: 0.0 });
         let opts = NmaOptions {
             harmonics: 5,
-            amplitude: AmplitudeRange::Modal { log10_start: -3.0, log10_end: -0.5 },
+            amplitude: AmplitudeRange::Modal {
+                log10_start: -3.0,
+                log10_end: -0.5,
+            },
             ..Default::default()
         };
         let r = nonlinear_modal_analysis(&model, &opts).unwrap();
@@ -210,7 +259,11 @@ fn damped_chain_satisfies_the_energy_balance_and_mass_normalization() {
         assert!(last.omega_rad_s > 1.05 * first.omega_rad_s, "hardening");
         for b in &r.branch {
             let d = energy_balance_damping(&model, b);
-            assert!((b.damping_ratio - d).abs() < 1e-9 * d.abs().max(1e-3), "extra {extra}: {} vs {d}", b.damping_ratio);
+            assert!(
+                (b.damping_ratio - d).abs() < 1e-9 * d.abs().max(1e-3),
+                "extra {extra}: {} vs {d}",
+                b.damping_ratio
+            );
             let phi1 = DVector::from_fn(3, |i, _| b.coordinates[i][1]);
             let mm = model.mass.map(|v| nlmode::Complex64::new(v, 0.0));
             assert!((phi1.dotc(&(&mm * &phi1)).re - 1.0).abs() < 1e-10);
@@ -228,7 +281,10 @@ fn cubic_damper_gives_the_equivalent_linearization_damping() {
     model.nonlinear[0].law = Arc::new(CubicLaw { k3: 0.0, c3 });
     let opts = NmaOptions {
         harmonics: 1,
-        amplitude: AmplitudeRange::Modal { log10_start: -2.0, log10_end: 0.5 },
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -2.0,
+            log10_end: 0.5,
+        },
         ..Default::default()
     };
     let r = nonlinear_modal_analysis(&model, &opts).unwrap();
@@ -236,7 +292,12 @@ fn cubic_damper_gives_the_equivalent_linearization_damping() {
     assert!(last.damping_ratio > 10.0 * r.branch[0].damping_ratio);
     for b in &r.branch {
         let d = (c + 0.75 * c3 * k * b.amplitude.powi(2)) / (2.0 * k.sqrt());
-        assert!((b.damping_ratio / d - 1.0).abs() < 1e-8, "a {}: {} vs {d}", b.amplitude, b.damping_ratio);
+        assert!(
+            (b.damping_ratio / d - 1.0).abs() < 1e-8,
+            "a {}: {} vs {d}",
+            b.amplitude,
+            b.damping_ratio
+        );
         assert!((b.omega_rad_s / k.sqrt() - 1.0).abs() < 1e-10);
     }
 }
@@ -251,7 +312,10 @@ fn forced_duffing_h1_satisfies_the_amplitude_frequency_relation() {
         force: DVector::from_element(1, f),
         omega_start: 0.5,
         omega_end: 2.0,
-        continuation: ContinuationOptions { ds: 0.02, ..Default::default() },
+        continuation: ContinuationOptions {
+            ds: 0.02,
+            ..Default::default()
+        },
         points: vec![],
     };
     let r = forced_response(&model, &opts).unwrap();
@@ -261,8 +325,13 @@ fn forced_duffing_h1_satisfies_the_amplitude_frequency_relation() {
         let a = p.points[0][1].norm();
         amax = amax.max(a);
         let om = p.omega_rad_s;
-        let lhs = a * a * ((omega0 * omega0 - om * om + 0.75 * k3 * a * a).powi(2) + (c * om).powi(2));
-        assert!((lhs / (f * f) - 1.0).abs() < 1e-8, "Omega {om}: {lhs} vs {}", f * f);
+        let lhs =
+            a * a * ((omega0 * omega0 - om * om + 0.75 * k3 * a * a).powi(2) + (c * om).powi(2));
+        assert!(
+            (lhs / (f * f) - 1.0).abs() < 1e-8,
+            "Omega {om}: {lhs} vs {}",
+            f * f
+        );
     }
     // hardening with two folds (jump-up and jump-down frequencies)
     assert_eq!(r.turning_points.len(), 2, "{:?}", r.turning_points);
@@ -286,11 +355,18 @@ fn forced_response_higher_harmonics_match_epmc_backbone_at_the_peak() {
         force: DVector::from_element(1, f),
         omega_start: 0.8,
         omega_end: 2.0,
-        continuation: ContinuationOptions { ds: 0.02, ..Default::default() },
+        continuation: ContinuationOptions {
+            ds: 0.02,
+            ..Default::default()
+        },
         points: vec![],
     };
     let r = forced_response(&model, &opts).unwrap();
-    let peak = r.points.iter().max_by(|a, b| a.points[0][1].norm().total_cmp(&b.points[0][1].norm())).unwrap();
+    let peak = r
+        .points
+        .iter()
+        .max_by(|a, b| a.points[0][1].norm().total_cmp(&b.points[0][1].norm()))
+        .unwrap();
     let a_peak = peak.points[0][1].norm();
     let basis = Arc::new(ModalBasis::new(&model, false).unwrap());
     let res = EpmcResidual::new(basis, 5, 21, 0);
@@ -299,8 +375,17 @@ fn forced_response_higher_harmonics_match_epmc_backbone_at_the_peak() {
     x0[m] = duffing_backbone_h1(omega0, k3, a_peak);
     let (x, _, _) = solve_fixed_parameter(&res, x0, &ContinuationOptions::default()).unwrap();
     // discrete points: the peak is within one step of the maximum
-    assert!((peak.omega_rad_s / x[m] - 1.0).abs() < 2e-3, "{} vs {}", peak.omega_rad_s, x[m]);
-    assert!((x[m + 1] - c / (2.0 * x[m])).abs() < 0.05 * c / (2.0 * x[m]), "D {}", x[m + 1]);
+    assert!(
+        (peak.omega_rad_s / x[m] - 1.0).abs() < 2e-3,
+        "{} vs {}",
+        peak.omega_rad_s,
+        x[m]
+    );
+    assert!(
+        (x[m + 1] - c / (2.0 * x[m])).abs() < 0.05 * c / (2.0 * x[m]),
+        "D {}",
+        x[m + 1]
+    );
 }
 
 #[test]
@@ -308,7 +393,10 @@ fn table_keeps_the_primary_branch_and_is_monotone() {
     let model = duffing(1.0, 0.0, 4.0, 0.5);
     let opts = NmaOptions {
         harmonics: 3,
-        amplitude: AmplitudeRange::Modal { log10_start: -2.0, log10_end: 0.5 },
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -2.0,
+            log10_end: 0.5,
+        },
         ..Default::default()
     };
     let mut r = nonlinear_modal_analysis(&model, &opts).unwrap();
@@ -337,10 +425,22 @@ fn table_keeps_the_primary_branch_and_is_monotone() {
 
 #[test]
 fn point_amplitude_range_stops_at_the_point_amplitude() {
-    let model = chain(3, 1.0, 1000.0, 0.0, 1e-4, CubicLaw { k3: 1e5, c3: 0.0 }, 0.0);
+    let model = chain(
+        3,
+        1.0,
+        1000.0,
+        0.0,
+        1e-4,
+        CubicLaw { k3: 1e5, c3: 0.0 },
+        0.0,
+    );
     let opts = NmaOptions {
         harmonics: 3,
-        amplitude: AmplitudeRange::Point { name: "last".into(), start_m: 1e-4, end_m: 0.05 },
+        amplitude: AmplitudeRange::Point {
+            name: "last".into(),
+            start_m: 1e-4,
+            end_m: 0.05,
+        },
         ..Default::default()
     };
     let r = nonlinear_modal_analysis(&model, &opts).unwrap();
@@ -368,27 +468,66 @@ impl NonlinearLaw for BreakingSpring {
 #[test]
 fn bad_input_is_reported_with_numbers() {
     let model = duffing(1.0, 0.1, 4.0, 1.0);
-    let e = nonlinear_modal_analysis(&model, &NmaOptions { mode_index: 1, ..Default::default() }).unwrap_err();
-    assert!(matches!(e, NmaError::ModeIndexOutOfRange { mode_index: 1, n_modes: 1 }));
-    assert!(e.to_string().contains("mode index 1") && e.to_string().contains("1 modes"), "{e}");
-    let e = nonlinear_modal_analysis(&model, &NmaOptions { harmonics: 3, samples: Some(12), ..Default::default() })
-        .unwrap_err();
-    assert!(e.to_string().contains("12") && e.to_string().contains("13"), "{e}");
     let e = nonlinear_modal_analysis(
         &model,
-        &NmaOptions { amplitude: AmplitudeRange::Modal { log10_start: -1.0, log10_end: -2.0 }, ..Default::default() },
+        &NmaOptions {
+            mode_index: 1,
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(
+        e,
+        NmaError::ModeIndexOutOfRange {
+            mode_index: 1,
+            n_modes: 1
+        }
+    ));
+    assert!(
+        e.to_string().contains("mode index 1") && e.to_string().contains("1 modes"),
+        "{e}"
+    );
+    let e = nonlinear_modal_analysis(
+        &model,
+        &NmaOptions {
+            harmonics: 3,
+            samples: Some(12),
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("12") && e.to_string().contains("13"),
+        "{e}"
+    );
+    let e = nonlinear_modal_analysis(
+        &model,
+        &NmaOptions {
+            amplitude: AmplitudeRange::Modal {
+                log10_start: -1.0,
+                log10_end: -2.0,
+            },
+            ..Default::default()
+        },
     )
     .unwrap_err();
     assert!(matches!(e, NmaError::InvalidAmplitudeRange { .. }));
     let e = nonlinear_modal_analysis(
         &model,
         &NmaOptions {
-            amplitude: AmplitudeRange::Point { name: "tip".into(), start_m: 1e-3, end_m: 1e-2 },
+            amplitude: AmplitudeRange::Point {
+                name: "tip".into(),
+                start_m: 1e-3,
+                end_m: 1e-2,
+            },
             ..Default::default()
         },
     )
     .unwrap_err();
-    assert!(e.to_string().contains("'tip'") && e.to_string().contains("x"), "{e}");
+    assert!(
+        e.to_string().contains("'tip'") && e.to_string().contains("x"),
+        "{e}"
+    );
 
     // the spring breaks at |u| = 0.1: step size collapse with the branch so far
     let mut broken = model.clone();
@@ -399,12 +538,21 @@ fn bad_input_is_reported_with_numbers() {
     }];
     let opts = NmaOptions {
         harmonics: 3,
-        amplitude: AmplitudeRange::Modal { log10_start: -3.0, log10_end: 0.0 },
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -3.0,
+            log10_end: 0.0,
+        },
         ..Default::default()
     };
     let e = nonlinear_modal_analysis(&broken, &opts).unwrap_err();
     match &e {
-        NmaError::StepSizeCollapse { amplitude, step_size, dsmin, partial, .. } => {
+        NmaError::StepSizeCollapse {
+            amplitude,
+            step_size,
+            dsmin,
+            partial,
+            ..
+        } => {
             assert!(*amplitude < 0.1 && *amplitude > 0.03, "{amplitude}");
             assert!(step_size < dsmin);
             assert!(partial.branch.len() > 5);
@@ -441,7 +589,10 @@ fn measured_csv_becomes_a_table() {
     let e = table_from_measured_csv(csv, "l3").unwrap_err();
     assert!(e.to_string().contains("phi_re or l3_re"), "{e}");
     let bad = csv.replace("365.0", "abc");
-    assert!(table_from_measured_csv(&bad, "tip").unwrap_err().to_string().contains("'abc'"));
+    assert!(table_from_measured_csv(&bad, "tip")
+        .unwrap_err()
+        .to_string()
+        .contains("'abc'"));
 }
 
 // ---------------------------------------------------------------------------
@@ -458,8 +609,14 @@ fn beam_opts(harmonics: usize, conservative: bool, log10_start: f64, log10_end: 
     NmaOptions {
         harmonics,
         conservative,
-        amplitude: AmplitudeRange::Modal { log10_start, log10_end },
-        continuation: ContinuationOptions { ds: 0.1, ..Default::default() },
+        amplitude: AmplitudeRange::Modal {
+            log10_start,
+            log10_end,
+        },
+        continuation: ContinuationOptions {
+            ds: 0.1,
+            ..Default::default()
+        },
         ..Default::default()
     }
 }
@@ -473,19 +630,36 @@ fn paper_beam_low_amplitude_limit_is_the_linear_mode() {
     // 356.2 rad/s (the paper prints 346 rad/s; DESIGN.md), CB vs full model
     assert!((b.omega_rad_s - 356.2).abs() < 0.05, "{}", b.omega_rad_s);
     assert!((b.omega_rad_s / ps.omega0_rad_s - 1.0).abs() < 1e-4);
-    assert!((b.damping_ratio / 0.004 - 1.0).abs() < 1e-4, "{}", b.damping_ratio);
+    assert!(
+        (b.damping_ratio / 0.004 - 1.0).abs() < 1e-4,
+        "{}",
+        b.damping_ratio
+    );
     // against the structure module's independent linear modal analysis
     let mut lin = modal_analysis(&ps.model, 2).unwrap();
-    let tip = ps.model.points.iter().find(|p| p.name == "tip").unwrap().direction.clone();
+    let tip = ps
+        .model
+        .points
+        .iter()
+        .find(|p| p.name == "tip")
+        .unwrap()
+        .direction
+        .clone();
     lin.align_signs(&tip);
     assert!((b.omega_rad_s / lin.omega_rad_s[0] - 1.0).abs() < 1e-6);
     assert!((b.damping_ratio / (0.5 * ps.damping_beta_s * lin.omega_rad_s[0]) - 1.0).abs() < 1e-6);
     let phi = lin.shape(0);
-    let err: f64 = (0..phi.len()).map(|i| (b.coordinates[i][1] - nlmode::Complex64::new(phi[i], 0.0)).norm()).fold(0.0, f64::max);
+    let err: f64 = (0..phi.len())
+        .map(|i| (b.coordinates[i][1] - nlmode::Complex64::new(phi[i], 0.0)).norm())
+        .fold(0.0, f64::max);
     assert!(err < 1e-6 * phi.amax(), "{err}");
     // higher harmonics vanish in the linear limit
     for c in &b.coordinates {
-        assert!(c[0].norm() < 1e-6 * phi.amax() && c[2].norm() < 1e-6 * phi.amax() && c[3].norm() < 1e-6 * phi.amax());
+        assert!(
+            c[0].norm() < 1e-6 * phi.amax()
+                && c[2].norm() < 1e-6 * phi.amax()
+                && c[3].norm() < 1e-6 * phi.amax()
+        );
     }
     // the named points carry the same shape
     let p = r.point_index("tip").unwrap();
@@ -499,11 +673,15 @@ fn paper_beam_hardens_and_converges_in_the_harmonics() {
     let a_end = 2.5e-3f64;
     let mut omega = vec![];
     for h in [3, 7, 13] {
-        let r = nonlinear_modal_analysis(&ps.model, &beam_opts(h, false, -6.0, a_end.log10())).unwrap();
+        let r =
+            nonlinear_modal_analysis(&ps.model, &beam_opts(h, false, -6.0, a_end.log10())).unwrap();
         let last = r.branch.last().unwrap();
         assert!((last.amplitude / a_end - 1.0).abs() < 1e-12);
         // hardening: omega increases monotonically with a
-        assert!(r.branch.windows(2).all(|w| w[1].omega_rad_s >= w[0].omega_rad_s - 1e-9));
+        assert!(r
+            .branch
+            .windows(2)
+            .all(|w| w[1].omega_rad_s >= w[0].omega_rad_s - 1e-9));
         assert!(last.omega_rad_s > 1.5 * r.linear_omega_rad_s);
         assert!(r.folds.is_empty());
         omega.push(last.omega_rad_s);
@@ -521,12 +699,18 @@ fn paper_beam_loop_is_detected_as_a_fold_in_both_branches() {
     let band = (lin.omega_rad_s[1] / 3.0, 1.25 * lin.omega_rad_s[1] / 3.0);
     let mut first_folds = vec![];
     for conservative in [false, true] {
-        let r = nonlinear_modal_analysis(&ps.model, &beam_opts(7, conservative, -6.0, 6e-3f64.log10()));
+        let r = nonlinear_modal_analysis(
+            &ps.model,
+            &beam_opts(7, conservative, -6.0, 6e-3f64.log10()),
+        );
         let r = r.unwrap();
         assert!(!r.folds.is_empty(), "conservative {conservative}");
         let f = r.first_fold().unwrap().clone();
         assert_eq!(f.kind, FoldKind::AmplitudeMaximum);
-        assert!(f.omega_rad_s > band.0 && f.omega_rad_s < band.1, "{f:?} not in {band:?}");
+        assert!(
+            f.omega_rad_s > band.0 && f.omega_rad_s < band.1,
+            "{f:?} not in {band:?}"
+        );
         if conservative {
             assert!(r.branch.iter().all(|b| b.damping_ratio.abs() < 1e-8));
             // the conservative branch runs into the 1:3 internal-resonance
@@ -544,7 +728,11 @@ fn paper_beam_loop_is_detected_as_a_fold_in_both_branches() {
             assert_eq!(r.stop, Some(StopReason::ReachedEnd));
             assert_eq!(r.folds.len(), 2);
             assert_eq!(r.folds[1].kind, FoldKind::AmplitudeMinimum);
-            let share = r.branch.iter().map(|b| b.fundamental_energy_share).fold(1.0, f64::min);
+            let share = r
+                .branch
+                .iter()
+                .map(|b| b.fundamental_energy_share)
+                .fold(1.0, f64::min);
             assert!(share < 0.1, "{share}");
         }
         let t = r.to_table(TablePolicy::PrimaryBranch);
@@ -556,7 +744,10 @@ fn paper_beam_loop_is_detected_as_a_fold_in_both_branches() {
         first_folds.push(f);
     }
     // conservative and damped loops nearly coincide (D0 = 0.4 % is light)
-    assert!((first_folds[0].omega_rad_s / first_folds[1].omega_rad_s - 1.0).abs() < 0.02, "{first_folds:?}");
+    assert!(
+        (first_folds[0].omega_rad_s / first_folds[1].omega_rad_s - 1.0).abs() < 0.02,
+        "{first_folds:?}"
+    );
 }
 
 #[test]
@@ -566,8 +757,17 @@ fn paper_beam_conservative_and_damped_backbones_nearly_coincide() {
     let d = nonlinear_modal_analysis(&ps.model, &beam_opts(7, false, -6.0, a.log10())).unwrap();
     let c = nonlinear_modal_analysis(&ps.model, &beam_opts(7, true, -6.0, a.log10())).unwrap();
     let (bd, bc) = (d.branch.last().unwrap(), c.branch.last().unwrap());
-    assert!(bd.omega_rad_s > 1.1 * d.linear_omega_rad_s, "nonlinear at a = 1e-3: {}", bd.omega_rad_s);
-    assert!((bd.omega_rad_s / bc.omega_rad_s - 1.0).abs() < 1e-4, "{} {}", bd.omega_rad_s, bc.omega_rad_s);
+    assert!(
+        bd.omega_rad_s > 1.1 * d.linear_omega_rad_s,
+        "nonlinear at a = 1e-3: {}",
+        bd.omega_rad_s
+    );
+    assert!(
+        (bd.omega_rad_s / bc.omega_rad_s - 1.0).abs() < 1e-4,
+        "{} {}",
+        bd.omega_rad_s,
+        bc.omega_rad_s
+    );
     assert!(bc.damping_ratio.abs() < 1e-10);
     assert_eq!(c.linear_damping_ratio, 0.0);
 }
@@ -579,7 +779,14 @@ fn options_deserialize_with_defaults() {
     )
     .unwrap();
     assert_eq!(o.harmonics, 3);
-    assert_eq!(o.amplitude, AmplitudeRange::Point { name: "tip".into(), start_m: 1e-6, end_m: 0.02 });
+    assert_eq!(
+        o.amplitude,
+        AmplitudeRange::Point {
+            name: "tip".into(),
+            start_m: 1e-6,
+            end_m: 0.02
+        }
+    );
     assert_eq!(o.continuation.ds, 0.05);
     assert_eq!(o.continuation.dsmin(), 0.01);
     assert_eq!(o.continuation.dsmax(), 0.25);
@@ -595,7 +802,10 @@ fn higher_mode_index_continues_that_mode() {
     let opts = NmaOptions {
         harmonics: 3,
         mode_index: 2,
-        amplitude: AmplitudeRange::Modal { log10_start: -5.0, log10_end: -1.0 },
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -5.0,
+            log10_end: -1.0,
+        },
         ..Default::default()
     };
     let r = nonlinear_modal_analysis(&model, &opts).unwrap();
@@ -603,8 +813,95 @@ fn higher_mode_index_continues_that_mode() {
     assert!((b.omega_rad_s / basis.omega(2) - 1.0).abs() < 1e-8);
     assert!((b.damping_ratio / basis.damping_ratio(2) - 1.0).abs() < 1e-6);
     let l = r.branch.last().unwrap();
-    assert!(l.omega_rad_s > b.omega_rad_s, "{} {} {} {:?} {:?} {:?}", l.omega_rad_s, l.amplitude, l.damping_ratio, r.stop, r.warnings, r.folds);
+    assert!(
+        l.omega_rad_s > b.omega_rad_s,
+        "{} {} {} {:?} {:?} {:?}",
+        l.omega_rad_s,
+        l.amplitude,
+        l.damping_ratio,
+        r.stop,
+        r.warnings,
+        r.folds
+    );
     for (i, c) in b.coordinates.iter().enumerate() {
         assert!((c[1].re - basis.phi[(i, 2)]).abs() < 1e-6, "{i}");
     }
+}
+
+#[test]
+fn unreduced_beam_backbone_matches_the_craig_bampton_model() {
+    // same analysis on the 198-DOF beam (condensed solver over all 198 modes)
+    // and on the 11-DOF CB model
+    let full = paper_structure(&PaperStructureOptions {
+        cb_modes: None,
+        ..Default::default()
+    })
+    .unwrap();
+    let cb = paper_beam();
+    let opts = beam_opts(3, false, -6.0, -3.0);
+    let rf = nonlinear_modal_analysis(&full.model, &opts).unwrap();
+    let rc = nonlinear_modal_analysis(&cb.model, &opts).unwrap();
+    let bf = &rf.branch[0];
+    // at a = 1e-6 the first-order single-mode backbone
+    // omega^2 = omega0^2 + 3/4 k3 phi_tip^4 a^2 holds (the shift is 2e-7)
+    let phi_tip = bf.points[rf.point_index("tip").unwrap()][1].re;
+    let expected = (full.omega0_rad_s.powi(2) + 0.75 * 6e9 * phi_tip.powi(4) * 1e-12).sqrt();
+    assert!(
+        (bf.omega_rad_s / expected - 1.0).abs() < 1e-9,
+        "{} {expected}",
+        bf.omega_rad_s
+    );
+    assert!((bf.omega_rad_s / full.omega0_rad_s - 1.0) > 1e-7);
+    // stiffness-proportional damping: 2 D omega = beta omega0^2 = 2 D0 omega0
+    let dw = bf.damping_ratio * bf.omega_rad_s / (0.004 * full.omega0_rad_s) - 1.0;
+    // (Phi^T C Phi on the stiff FE matrices rounds at ~ eps omega_max^2/omega_1^2)
+    assert!(
+        dw.abs() < 1e-8,
+        "{dw:e} {} {}",
+        rf.linear_damping_ratio,
+        rf.linear_omega_rad_s
+    );
+    let (lf, lc) = (rf.branch.last().unwrap(), rc.branch.last().unwrap());
+    assert_eq!(lf.amplitude, 1e-3);
+    assert!(lf.omega_rad_s > 1.1 * bf.omega_rad_s);
+    // CB with 10 fixed-interface modes is accurate to well below 0.1 %
+    assert!(
+        (lf.omega_rad_s / lc.omega_rad_s - 1.0).abs() < 1e-3,
+        "{} {}",
+        lf.omega_rad_s,
+        lc.omega_rad_s
+    );
+    assert!((lf.damping_ratio / lc.damping_ratio - 1.0).abs() < 1e-2);
+    let (pf, pc) = (
+        rf.point_index("tip").unwrap(),
+        rc.point_index("tip").unwrap(),
+    );
+    assert!((lf.points[pf][1] - lc.points[pc][1]).norm() < 1e-3 * lc.points[pc][1].norm());
+}
+
+#[test]
+fn paper_beam_conservative_small_steps_find_the_1_to_5_loop() {
+    // with small steps the conservative branch resolves the thin 1:5 internal
+    // resonance with mode 2 (the paper's first loop), which the damped branch
+    // does not have; the branch then follows the resonance towards a -> 0
+    // (energy in harmonic 5) and is stopped with a warning
+    let ps = paper_beam();
+    let lin = modal_analysis(&ps.model, 2).unwrap();
+    let mut opts = beam_opts(7, true, -6.0, 6e-3f64.log10());
+    opts.continuation = ContinuationOptions { ds: 0.005, dsmax: Some(0.01), ..Default::default() };
+    opts.store_coordinates = false;
+    let r = nonlinear_modal_analysis(&ps.model, &opts).unwrap();
+    let f = r.first_fold().expect("a fold").clone();
+    assert_eq!(f.kind, FoldKind::AmplitudeMaximum);
+    let w5 = lin.omega_rad_s[1] / 5.0;
+    assert!(f.omega_rad_s > w5 && f.omega_rad_s < 1.05 * w5, "{f:?}, omega2/5 = {w5}");
+    assert!(matches!(r.warnings.as_slice(), [NmaWarning::FundamentalLost { .. }]), "{:?}", r.warnings);
+    let t = r.to_table(TablePolicy::PrimaryBranch);
+    assert_eq!(t.truncated_at_fold, Some(f.amplitude));
+    // the damped branch has no such loop at this amplitude
+    let mut opts_d = opts.clone();
+    opts_d.conservative = false;
+    opts_d.amplitude = AmplitudeRange::Modal { log10_start: -6.0, log10_end: 2e-3f64.log10() };
+    let rd = nonlinear_modal_analysis(&ps.model, &opts_d).unwrap();
+    assert!(rd.folds.is_empty(), "{:?}", rd.folds);
 }

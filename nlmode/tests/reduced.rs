@@ -460,3 +460,189 @@ fn default_tolerances_are_converged_on_case_a() {
     assert!(d < 1e-3, "{d}");
     assert!((s.peak_tip_amplitude_m - sf.peak_tip_amplitude_m).abs() < 1e-4 * sf.peak_tip_amplitude_m);
 }
+
+// ---------------------------------------------------------------------------
+// The paper's benchmark: modal table of the beam by NMA, against the reference
+// ---------------------------------------------------------------------------
+
+mod paper {
+    use super::*;
+    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy};
+    use nlmode::reference::{simulate_sweep as reference_sweep, ReferenceOptions, SweepResult};
+    use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
+
+    pub fn structure() -> PaperStructure {
+        paper_structure(&PaperStructureOptions::default()).unwrap()
+    }
+
+    /// The damped nonlinear mode with H = 3 (the paper: "H = 3 found sufficient
+    /// for the sweeps"), primary branch.
+    pub fn table(ps: &PaperStructure) -> ModalTable {
+        let opts = NmaOptions {
+            harmonics: 3,
+            amplitude: AmplitudeRange::Modal { log10_start: -6.0, log10_end: -2.0 },
+            points: vec!["tip".into(), "2l3".into(), "l3".into()],
+            store_coordinates: false,
+            // a table fine enough for PCHIP (steps of at most 0.05 in log10 a)
+            continuation: ContinuationOptions { ds: 0.02, dsmax: Some(0.05), ..Default::default() },
+            ..Default::default()
+        };
+        nonlinear_modal_analysis(&ps.model, &opts).unwrap().to_table(TablePolicy::PrimaryBranch)
+    }
+
+    pub fn reference(ps: &PaperStructure, point: &str, sweep: &LinearSweep) -> SweepResult {
+        let atts = [LinearAttachment::shaker("shaker", &ShakerParams::paper(), point).unwrap()];
+        reference_sweep(&ps.model, &atts, sweep, &ReferenceOptions::default()).unwrap()
+    }
+
+    /// Linear interpolation of `(x, y)` (x increasing) at `x0`.
+    pub fn interp(x: &[f64], y: &[f64], x0: f64) -> Option<f64> {
+        if x0 < x[0] || x0 > x[x.len() - 1] {
+            return None;
+        }
+        let k = x.partition_point(|&v| v <= x0).clamp(1, x.len() - 1);
+        let s = (x0 - x[k - 1]) / (x[k] - x[k - 1]);
+        Some(y[k - 1] + s * (y[k] - y[k - 1]))
+    }
+
+    /// (peak, its Omega, jump-down Omega) of an envelope: steepest fall after the peak.
+    pub fn summary(w: &[f64], tip: &[f64]) -> (f64, f64, f64) {
+        let ip = (0..w.len()).max_by(|&a, &b| tip[a].total_cmp(&tip[b])).unwrap();
+        let mut jump = (0.0, f64::NAN);
+        for i in ip..w.len() - 1 {
+            let slope = (tip[i] - tip[i + 1]) / (w[i + 1] - w[i]);
+            if slope > jump.0 {
+                jump = (slope, 0.5 * (w[i] + w[i + 1]));
+            }
+        }
+        (tip[ip], w[ip], jump.1)
+    }
+}
+
+#[test]
+fn paper_case_a_nlmode_agrees_with_the_full_order_reference() {
+    let ps = paper::structure();
+    let w0 = ps.omega0_rad_s;
+    let table = paper::table(&ps);
+    let m = shaker_model(&table, "2l3");
+    let sweep = LinearSweep::per_pseudo_period(w0, 0.8, 1.8, 0.02, 10.0).unwrap();
+    let t = std::time::Instant::now();
+    let r = m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap();
+    let t_nl = t.elapsed().as_secs_f64();
+    assert_eq!(r.status, SweepStatus::Completed, "table range {:?}", m.table().amplitude_range());
+    let t = std::time::Instant::now();
+    let reference = paper::reference(&ps, "2l3", &sweep);
+    let t_ref = t.elapsed().as_secs_f64();
+    let env = &reference.envelope;
+    let (p_ref, wp_ref, wj_ref) = paper::summary(&env.omega_rad_s, &env.tip_amplitude_m);
+    let s = r.summary().unwrap();
+    let (p_nl, wj_nl) = (s.peak_tip_amplitude_m, s.jump_down_omega_rad_s.unwrap());
+    // RMS envelope differences over eta >= 0.85, relative to the reference peaks
+    let ours = r.envelope();
+    let fpeak = env.force_amplitude_n.iter().cloned().fold(0.0, f64::max);
+    let (mut se_tip, mut se_f, mut n) = (0.0, 0.0, 0usize);
+    for (k, &w) in env.omega_rad_s.iter().enumerate() {
+        if w < 0.85 * w0 {
+            continue;
+        }
+        let (Some(tip), Some(f)) = (
+            paper::interp(&ours.omega_rad_s, &ours.tip_amplitude_m, w),
+            paper::interp(&ours.omega_rad_s, &ours.force_amplitude_n, w),
+        ) else {
+            continue;
+        };
+        se_tip += (tip - env.tip_amplitude_m[k]).powi(2);
+        se_f += (f - env.force_amplitude_n[k]).powi(2);
+        n += 1;
+    }
+    let rms_tip = (se_tip / n as f64).sqrt() / p_ref;
+    let rms_f = (se_f / n as f64).sqrt() / fpeak;
+    eprintln!(
+        "case (a): peak tip nlmode {p_nl:.4e} m vs reference {p_ref:.4e} m ({:+.2} %), at {:.1} vs {wp_ref:.1} rad/s; \
+         jump-down {wj_nl:.2} vs {wj_ref:.2} rad/s ({:+.2} %); RMS envelope difference tip {:.2} %, force {:.2} % of peaks; \
+         wall time nlmode {:.2} ms, reference {:.2} s (x{:.0}); table {} points, a_max {:.3e}",
+        100.0 * (p_nl / p_ref - 1.0),
+        s.peak_omega_rad_s,
+        100.0 * (wj_nl / wj_ref - 1.0),
+        100.0 * rms_tip,
+        100.0 * rms_f,
+        1e3 * t_nl,
+        t_ref,
+        t_ref / t_nl,
+        table.amplitude.len(),
+        table.amplitude.last().unwrap()
+    );
+    assert!((p_nl / p_ref - 1.0).abs() < 0.02, "peak");
+    assert!((wj_nl / wj_ref - 1.0).abs() < 0.01, "jump-down");
+    assert!(rms_tip < 0.03 && rms_f < 0.03, "RMS");
+}
+
+#[test]
+fn paper_case_c_imposed_force_is_far_more_sensitive_to_a_frequency_error_than_the_shaker_model() {
+    // 2l/3, 5 V, 2 % per pseudo period, +5 % natural-frequency error as an
+    // amplitude-independent offset (paper Section 5.3)
+    let ps = paper::structure();
+    let w0 = ps.omega0_rad_s;
+    let table = paper::table(&ps);
+    let sweep = LinearSweep::per_pseudo_period(w0, 0.8, 1.8, 0.02, 5.0).unwrap();
+    let opts = SlowFlowOptions { output_samples: 20001, ..Default::default() };
+    let err = FrequencyError { eps: 0.0, offset_rad_s: 0.05 * w0 };
+    let reference = paper::reference(&ps, "2l3", &sweep);
+    let env = &reference.envelope;
+    let (p_ref, _, _) = paper::summary(&env.omega_rad_s, &env.tip_amplitude_m);
+    let nm = shaker_model(&table, "2l3");
+    let r1 = nm.simulate_sweep(&sweep, &opts).unwrap();
+    let r2 = nm.clone().with_frequency_error(err).unwrap().simulate_sweep(&sweep, &opts).unwrap();
+    let imposed = ReducedModel::imposed_force(&table, "tip", "2l3", ForceEnvelope::from_result(&r1).unwrap()).unwrap();
+    let r3 = imposed.with_frequency_error(err).unwrap().simulate_sweep(&sweep, &opts).unwrap();
+    let peak = |r: &SlowFlowResult| r.summary().unwrap().peak_tip_amplitude_m;
+    let (d1, d2, d3) = (peak(&r1) / p_ref - 1.0, peak(&r2) / p_ref - 1.0, peak(&r3) / p_ref - 1.0);
+    eprintln!(
+        "case (c): peak tip reference {p_ref:.4e} m; NM + shaker {:+.1} %; NM + shaker + 5 % {:+.1} %; imposed force + 5 % {:+.1} % ({:?})",
+        100.0 * d1,
+        100.0 * d2,
+        100.0 * d3,
+        r3.status
+    );
+    assert!(d1.abs() < 0.02, "{d1}");
+    assert!(d2.abs() < 0.1, "{d2}");
+    assert!(d3.abs() > 5.0 * d2.abs() && d3 > 0.3, "imposed {d3} vs shaker {d2}");
+}
+
+#[test]
+fn paper_steady_state_frf_has_a_hysteresis_whose_upper_fold_a_slow_sweep_jumps_at() {
+    let ps = paper::structure();
+    let w0 = ps.omega0_rad_s;
+    let table = paper::table(&ps);
+    let m = shaker_model(&table, "2l3");
+    let omegas: Vec<f64> = (0..500).map(|j| w0 * (0.8 + j as f64 / 499.0)).collect();
+    let frf = m.steady_state(&omegas, 10.0).unwrap();
+    let three: Vec<f64> = frf.iter().filter(|f| f.solutions.len() == 3).map(|f| f.omega_rad_s).collect();
+
+    assert!(frf.iter().all(|f| !f.exceeds_table && (f.solutions.len() == 1 || f.solutions.len() == 3)));
+    for f in frf.iter().filter(|f| f.solutions.len() == 3) {
+        let st: Vec<bool> = f.solutions.iter().map(|s| s.stable).collect();
+        assert_eq!(st, vec![true, false, true], "Omega {}", f.omega_rad_s);
+    }
+    let (lo, hi) = (three[0], *three.last().unwrap());
+    // the 3-solution frequencies form one interval
+    assert_eq!(three.len(), frf.iter().filter(|f| f.omega_rad_s >= lo && f.omega_rad_s <= hi).count());
+    // forward sweeps jump down after the upper fold, the later the faster
+    // (slow passage through a saddle-node); the delay vanishes with the rate
+    let jump = |r: f64| {
+        let sweep = LinearSweep::per_pseudo_period(w0, 0.8, 1.8, r, 10.0).unwrap();
+        m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap().summary().unwrap().jump_down_omega_rad_s.unwrap()
+    };
+    let (j2, j3, j4) = (jump(1e-2), jump(1e-3), jump(1e-4));
+    eprintln!(
+        "paper 2l/3, 10 V: 3 steady-state solutions for Omega in {:.1}..{:.1} rad/s ({:.3}..{:.3} omega0); \
+         jump-down of sweeps at 1 %, 0.1 %, 0.01 % per pseudo period: {j2:.1}, {j3:.1}, {j4:.1} rad/s",
+        lo,
+        hi,
+        lo / w0,
+        hi / w0
+    );
+    let dw = omegas[1] - omegas[0];
+    assert!(j4 > hi - dw && j3 > j4 - dw && j2 > j3 - dw, "{j2} {j3} {j4} vs fold {hi}");
+    assert!(j4 - hi < 0.5 * (j3 - hi) && j4 - hi < 0.005 * hi, "{j3} {j4} vs fold {hi}");
+}

@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-use fmi2::package::{files_below, markdown_as_html, write_fmu, FmuSpec};
+use fmi2::package::package_workspace_fmu;
 
 /// (modelIdentifier = cdylib lib name, cargo package)
 const FMUS: &[(&str, &str)] = &[("shaker", "fmu-shaker"), ("structure", "fmu-structure")];
@@ -92,49 +92,13 @@ fn main() -> ExitCode {
         eprintln!("cannot create {}: {e}", out.display());
         return ExitCode::FAILURE;
     }
-    let tmp = out.join(".package-fmus-tmp");
     for (id, krate) in present {
         let Some((_, lib)) = libs.iter().find(|(n, _)| n == id) else {
             eprintln!("cargo built no shared library for {id} ({krate})");
             return ExitCode::FAILURE;
         };
-        let md_dir = root.join("modelDescription").join(id);
-        let result = (|| -> Result<PathBuf, String> {
-            let mut resources = Vec::new();
-            if md_dir.join("resources").is_dir() {
-                resources = files_below(&md_dir.join("resources")).map_err(|e| e.to_string())?;
-            }
-            for (eid, f) in &extra {
-                if eid == id {
-                    let name = f.file_name().ok_or(format!("--resource {}: no file name", f.display()))?;
-                    resources.push((f.clone(), name.to_string_lossy().into_owned()));
-                }
-            }
-            let mut documentation = Vec::new();
-            let readme = root.join(krate).join("README.md");
-            if readme.is_file() {
-                let text = std::fs::read_to_string(&readme).map_err(|e| format!("{}: {e}", readme.display()))?;
-                std::fs::create_dir_all(&tmp).map_err(|e| e.to_string())?;
-                let html = tmp.join(format!("{id}-index.html"));
-                std::fs::write(&html, markdown_as_html(id, &text)).map_err(|e| e.to_string())?;
-                documentation.push((readme.clone(), "README.md".to_string()));
-                documentation.push((html, "index.html".to_string()));
-            }
-            if md_dir.join("documentation").is_dir() {
-                documentation.extend(files_below(&md_dir.join("documentation")).map_err(|e| e.to_string())?);
-            }
-            let spec = FmuSpec {
-                model_identifier: id.to_string(),
-                model_description: md_dir.join("modelDescription.xml"),
-                library: lib.clone(),
-                resources,
-                documentation,
-            };
-            let path = out.join(format!("{id}.fmu"));
-            write_fmu(&spec, &path).map_err(|e| e.to_string())?;
-            Ok(path)
-        })();
-        match result {
+        let extra_here: Vec<PathBuf> = extra.iter().filter(|(eid, _)| eid == id).map(|(_, f)| f.clone()).collect();
+        match package_workspace_fmu(&root, id, krate, lib, &extra_here, &out) {
             Ok(p) => println!("wrote {}", p.display()),
             Err(e) => {
                 eprintln!("{id}: {e}");
@@ -142,6 +106,5 @@ fn main() -> ExitCode {
             }
         }
     }
-    let _ = std::fs::remove_dir_all(&tmp);
     ExitCode::SUCCESS
 }

@@ -23,36 +23,36 @@ use num_complex::Complex64;
 
 /// Armature damping, given either as the total damping ratio `D_a` with
 /// `2 D_a omega_a m_a = d_a + G^2/R` (electro-mechanical damping included, as
-/// in the paper) or as the mechanical viscous coefficient `d_a` [N s/m].
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// in the paper) or as the mechanical viscous coefficient `d_a` \[N s/m\].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum ArmatureDamping {
-    /// Total damping ratio `D_a` [-].
+    /// Total damping ratio `D_a` \[-\].
     Ratio(f64),
-    /// Mechanical viscous damping `d_a` [N s/m].
+    /// Mechanical viscous damping `d_a` \[N s/m\].
     Viscous(f64),
 }
 
 /// The stinger (push rod) between armature and structure.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Stinger {
-    /// Axial spring of stiffness `k_s` [N/m].
+    /// Axial spring of stiffness `k_s` \[N/m\].
     Elastic { stiffness_n_per_m: f64 },
     /// Armature attached directly to the structure.
     Rigid,
 }
 
 /// Physical parameters of the electro-dynamic shaker (paper Section 4).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ShakerParams {
-    /// Coil inductance `L` [H].
+    /// Coil inductance `L` \[H\].
     pub inductance_h: f64,
-    /// Coil resistance `R` [Ohm].
+    /// Coil resistance `R` \[Ohm\].
     pub resistance_ohm: f64,
-    /// Force constant `G` [N/A] (= back-EMF constant [V s/m]).
+    /// Force constant `G` \[N/A\] (= back-EMF constant \[V s/m\]).
     pub force_constant_n_per_a: f64,
-    /// Armature mass `m_a` [kg].
+    /// Armature mass `m_a` \[kg\].
     pub armature_mass_kg: f64,
-    /// Armature suspension stiffness `k_a` [N/m].
+    /// Armature suspension stiffness `k_a` \[N/m\].
     pub armature_stiffness_n_per_m: f64,
     /// Armature damping.
     pub armature_damping: ArmatureDamping,
@@ -113,7 +113,9 @@ impl ShakerParams {
             armature_mass_kg: benchmark::SHAKER_MA_KG,
             armature_stiffness_n_per_m: benchmark::SHAKER_KA_N_PER_M,
             armature_damping: ArmatureDamping::Ratio(benchmark::SHAKER_DA),
-            stinger: Stinger::Elastic { stiffness_n_per_m: benchmark::STINGER_KS_N_PER_M },
+            stinger: Stinger::Elastic {
+                stiffness_n_per_m: benchmark::STINGER_KS_N_PER_M,
+            },
         }
     }
 
@@ -131,7 +133,10 @@ impl ShakerParams {
         positive("resistance_ohm", self.resistance_ohm)?;
         positive("force_constant_n_per_a", self.force_constant_n_per_a)?;
         positive("armature_mass_kg", self.armature_mass_kg)?;
-        positive("armature_stiffness_n_per_m", self.armature_stiffness_n_per_m)?;
+        positive(
+            "armature_stiffness_n_per_m",
+            self.armature_stiffness_n_per_m,
+        )?;
         if let Stinger::Elastic { stiffness_n_per_m } = self.stinger {
             positive("stinger_stiffness_n_per_m", stiffness_n_per_m)?;
         }
@@ -165,7 +170,7 @@ impl ShakerParams {
         Ok(())
     }
 
-    /// Mechanical armature damping `d_a` [N s/m]; from a ratio `D_a`:
+    /// Mechanical armature damping `d_a` \[N s/m\]; from a ratio `D_a`:
     /// `d_a = 2 D_a omega_a m_a - G^2/R`.
     pub fn d_a(&self) -> f64 {
         match self.armature_damping {
@@ -183,46 +188,50 @@ impl ShakerParams {
             / (2.0 * self.omega_a() * self.armature_mass_kg)
     }
 
-    /// Armature natural frequency `omega_a = sqrt(k_a/m_a)` [rad/s].
+    /// Armature natural frequency `omega_a = sqrt(k_a/m_a)` \[rad/s\].
     pub fn omega_a(&self) -> f64 {
         (self.armature_stiffness_n_per_m / self.armature_mass_kg).sqrt()
     }
 
-    /// Electrical cutoff frequency `omega_c = R/L` [rad/s].
+    /// Electrical cutoff frequency `omega_c = R/L` \[rad/s\].
     pub fn omega_c(&self) -> f64 {
         self.resistance_ohm / self.inductance_h
     }
 
-    /// Armature impedance `z_a = -W^2 m_a + i W d_a + k_a + i W G^2/(R + i W L)` [N/m].
+    /// Armature impedance `z_a = -W^2 m_a + i W d_a + k_a + i W G^2/(R + i W L)` \[N/m\].
     pub fn armature_impedance(&self, omega_rad_s: f64) -> Complex64 {
         let w = omega_rad_s;
         let i = Complex64::i();
         let g = self.force_constant_n_per_a;
         let coil = Complex64::new(self.resistance_ohm, w * self.inductance_h);
-        -w * w * self.armature_mass_kg + i * w * self.d_a() + self.armature_stiffness_n_per_m
+        -w * w * self.armature_mass_kg
+            + i * w * self.d_a()
+            + self.armature_stiffness_n_per_m
             + i * w * g * g / coil
     }
 
     /// Closed-form interface impedance (paper Section 4): `k_s z_a/(z_a + k_s)`
-    /// (elastic stinger) or `z_a` (rigid) [N/m].
+    /// (elastic stinger) or `z_a` (rigid) \[N/m\].
     pub fn closed_form_interface_impedance(&self, omega_rad_s: f64) -> Complex64 {
         let za = self.armature_impedance(omega_rad_s);
         match self.stinger {
-            Stinger::Elastic { stiffness_n_per_m: ks } => ks * za / (za + ks),
+            Stinger::Elastic {
+                stiffness_n_per_m: ks,
+            } => ks * za / (za + ks),
             Stinger::Rigid => za,
         }
     }
 
     /// Closed-form blocked force (paper Section 4, the imposed force on the
-    /// structure at rest) [N]: `k_s/(z_a + k_s) G u_hat/(R + i W L)` (elastic)
+    /// structure at rest) \[N\]: `k_s/(z_a + k_s) G u_hat/(R + i W L)` (elastic)
     /// or `G u_hat/(R + i W L)` (rigid).
     pub fn closed_form_blocked_force(&self, omega_rad_s: f64, u_hat: Complex64) -> Complex64 {
         let coil = Complex64::new(self.resistance_ohm, omega_rad_s * self.inductance_h);
         let f = self.force_constant_n_per_a * u_hat / coil;
         match self.stinger {
-            Stinger::Elastic { stiffness_n_per_m: ks } => {
-                ks / (self.armature_impedance(omega_rad_s) + ks) * f
-            }
+            Stinger::Elastic {
+                stiffness_n_per_m: ks,
+            } => ks / (self.armature_impedance(omega_rad_s) + ks) * f,
             Stinger::Rigid => f,
         }
     }
@@ -230,8 +239,8 @@ impl ShakerParams {
     /// State-space form of the shaker with elastic stinger, as used by the
     /// shaker FMU.
     ///
-    /// States `s = [I, q_a, v_a]` (A, m, m/s), inputs `[u, x]` (voltage [V],
-    /// structure displacement at the drive point [m]), outputs `[F, I, q_a]`:
+    /// States `s = [I, q_a, v_a]` (A, m, m/s), inputs `[u, x]` (voltage \[V\],
+    /// structure displacement at the drive point \[m\]), outputs `[F, I, q_a]`:
     ///
     /// ```text
     /// I'   = (u - R I - G v_a) / L
@@ -240,6 +249,7 @@ impl ShakerParams {
     /// F    = k_s (q_a - x)
     /// ```
     ///
+    /// The structure's velocity is not needed (the stinger is a pure spring).
     /// `F` is the stinger force on the structure, positive along positive
     /// structure displacement, so the structure's equation reads
     /// `M q'' + ... = e F`; `F` depends directly on the input `x` (`D[0][1] = -k_s`).
@@ -252,8 +262,16 @@ impl ShakerParams {
             Stinger::Elastic { stiffness_n_per_m } => stiffness_n_per_m,
             Stinger::Rigid => return Err(AttachmentError::RigidStingerStateSpace),
         };
-        let (l, r, g) = (self.inductance_h, self.resistance_ohm, self.force_constant_n_per_a);
-        let (m, k, d) = (self.armature_mass_kg, self.armature_stiffness_n_per_m, self.d_a());
+        let (l, r, g) = (
+            self.inductance_h,
+            self.resistance_ohm,
+            self.force_constant_n_per_a,
+        );
+        let (m, k, d) = (
+            self.armature_mass_kg,
+            self.armature_stiffness_n_per_m,
+            self.d_a(),
+        );
         #[rustfmt::skip]
         let a = DMatrix::from_row_slice(3, 3, &[
             -r / l, 0.0,           -g / l,
@@ -303,10 +321,20 @@ impl LinearAttachment {
     /// `input_map = [1 0]^T`.
     pub fn shaker(name: &str, params: &ShakerParams, point_name: &str) -> Result<LinearAttachment> {
         params.validate()?;
-        let (l, r, g) = (params.inductance_h, params.resistance_ohm, params.force_constant_n_per_a);
-        let (m, k, d) = (params.armature_mass_kg, params.armature_stiffness_n_per_m, params.d_a());
+        let (l, r, g) = (
+            params.inductance_h,
+            params.resistance_ohm,
+            params.force_constant_n_per_a,
+        );
+        let (m, k, d) = (
+            params.armature_mass_kg,
+            params.armature_stiffness_n_per_m,
+            params.d_a(),
+        );
         let att = match params.stinger {
-            Stinger::Elastic { stiffness_n_per_m: ks } => {
+            Stinger::Elastic {
+                stiffness_n_per_m: ks,
+            } => {
                 #[rustfmt::skip]
                 let a0 = DMatrix::from_row_slice(3, 3, &[
                     r,   0.0,     0.0,

@@ -29,7 +29,11 @@ pub trait BorderedSolve {
 impl BorderedSolve for nalgebra::DMatrix<f64> {
     fn solve_bordered(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
         let n = self.ncols();
-        assert_eq!(self.nrows() + 1, n, "bordered solve needs an (n-1) x n Jacobian");
+        assert_eq!(
+            self.nrows() + 1,
+            n,
+            "bordered solve needs an (n-1) x n Jacobian"
+        );
         let mut a = self.clone().insert_row(n - 1, 0.0);
         a.row_mut(n - 1).copy_from(&row.transpose());
         let y = a.lu().solve(rhs)?;
@@ -114,11 +118,20 @@ pub enum StopReason {
 #[derive(Debug, Clone, PartialEq)]
 pub enum ContinuationFailure {
     /// Newton did not converge for the start point.
-    StartNotConverged { parameter: f64, residual_norm: f64, iterations: usize },
+    StartNotConverged {
+        parameter: f64,
+        residual_norm: f64,
+        iterations: usize,
+    },
     /// The corrector kept failing until `ds < dsmin` (`residual_norm` is that of
     /// the last non-converged corrector, NaN if the correctors converged but
     /// jumped too far from the predictor).
-    StepSizeCollapse { parameter: f64, residual_norm: f64, step_size: f64, dsmin: f64 },
+    StepSizeCollapse {
+        parameter: f64,
+        residual_norm: f64,
+        step_size: f64,
+        dsmin: f64,
+    },
     /// A bordered Jacobian was singular (e.g. at a branch point).
     SingularJacobian { parameter: f64 },
 }
@@ -149,6 +162,11 @@ pub struct BranchState<'a> {
     pub step: f64,
 }
 
+/// A converged Newton solve: solution, Jacobian there, iterations.
+pub type NewtonOk<J> = (DVector<f64>, J, usize);
+/// A failed Newton solve: last residual norm, iterations.
+pub type NewtonErr = (f64, usize);
+
 /// Newton iterations on `[R(X); c.X - target] = 0`. Returns the solution, the
 /// Jacobian at it and the iteration count, or the last residual norm.
 fn newton<R: Residual>(
@@ -157,7 +175,7 @@ fn newton<R: Residual>(
     row: &DVector<f64>,
     target: f64,
     opts: &ContinuationOptions,
-) -> Result<(DVector<f64>, R::Jacobian, usize), (f64, usize)> {
+) -> Result<NewtonOk<R::Jacobian>, NewtonErr> {
     let mut first_norm = None;
     for it in 0..=opts.max_iterations {
         let (r, jac) = res.eval(&x);
@@ -189,7 +207,7 @@ pub fn solve_fixed_parameter<R: Residual>(
     res: &R,
     x0: DVector<f64>,
     opts: &ContinuationOptions,
-) -> Result<(DVector<f64>, R::Jacobian, usize), (f64, usize)> {
+) -> Result<NewtonOk<R::Jacobian>, NewtonErr> {
     let n = res.n_unknowns();
     let mut row = DVector::zeros(n);
     row[n - 1] = 1.0;
@@ -199,7 +217,11 @@ pub fn solve_fixed_parameter<R: Residual>(
 
 /// Unit tangent in scaled unknowns from `[J; c^T] t = [0; 1]`, `c` in scaled
 /// unknowns; returns `None` if singular.
-fn tangent<J: BorderedSolve>(jac: &J, c_scaled: &DVector<f64>, scale: &DVector<f64>) -> Option<DVector<f64>> {
+fn tangent<J: BorderedSolve>(
+    jac: &J,
+    c_scaled: &DVector<f64>,
+    scale: &DVector<f64>,
+) -> Option<DVector<f64>> {
     let n = scale.len();
     let row = c_scaled.component_div(scale);
     let mut rhs = DVector::zeros(n);
@@ -228,15 +250,28 @@ pub fn continuation<R: Residual>(
     assert_eq!(x0.len(), n);
     assert_eq!(scale.len(), n);
     let lambda_start = x0[n - 1];
-    let dir = if lambda_end >= lambda_start { 1.0 } else { -1.0 };
-    let mut summary =
-        ContinuationSummary { points: 0, newton_iterations: 0, rejected_steps: 0, turning_points: vec![], stop: StopReason::ReachedEnd };
+    let dir = if lambda_end >= lambda_start {
+        1.0
+    } else {
+        -1.0
+    };
+    let mut summary = ContinuationSummary {
+        points: 0,
+        newton_iterations: 0,
+        rejected_steps: 0,
+        turning_points: vec![],
+        stop: StopReason::ReachedEnd,
+    };
 
     let (mut x, mut jac, iters) = match solve_fixed_parameter(res, x0, opts) {
         Ok(v) => v,
         Err((norm, it)) => {
             return Err((
-                ContinuationFailure::StartNotConverged { parameter: lambda_start, residual_norm: norm, iterations: it },
+                ContinuationFailure::StartNotConverged {
+                    parameter: lambda_start,
+                    residual_norm: norm,
+                    iterations: it,
+                },
                 summary,
             ))
         }
@@ -246,13 +281,26 @@ pub fn continuation<R: Residual>(
     e[n - 1] = dir;
     let mut t = match tangent(&jac, &e.component_mul(scale), scale) {
         Some(t) => t,
-        None => return Err((ContinuationFailure::SingularJacobian { parameter: lambda_start }, summary)),
+        None => {
+            return Err((
+                ContinuationFailure::SingularJacobian {
+                    parameter: lambda_start,
+                },
+                summary,
+            ))
+        }
     };
     if t[n - 1] * dir < 0.0 {
         t = -t;
     }
     summary.points = 1;
-    if !on_point(&BranchState { index: 0, x: &x, tangent: &t, newton_iterations: iters, step: 0.0 }) {
+    if !on_point(&BranchState {
+        index: 0,
+        x: &x,
+        tangent: &t,
+        newton_iterations: iters,
+        step: 0.0,
+    }) {
         summary.stop = StopReason::Callback;
         return Ok(summary);
     }
@@ -281,7 +329,8 @@ pub fn continuation<R: Residual>(
                 row[n - 1] = 1.0;
                 target = lambda_end;
             }
-            let attempt = newton(res, xp, &row, target, opts).map_err(|(norm, it)| (norm, it, false));
+            let attempt =
+                newton(res, xp, &row, target, opts).map_err(|(norm, it)| (norm, it, false));
             // reject a corrector that jumped to a distant branch (a converged
             // point much farther away than the step length)
             let attempt = attempt.and_then(|(xn, jn, it)| {
@@ -317,7 +366,14 @@ pub fn continuation<R: Residual>(
         };
         let t_new = match tangent(&jac_new, &t, scale) {
             Some(tn) => tn,
-            None => return Err((ContinuationFailure::SingularJacobian { parameter: x_new[n - 1] }, summary)),
+            None => {
+                return Err((
+                    ContinuationFailure::SingularJacobian {
+                        parameter: x_new[n - 1],
+                    },
+                    summary,
+                ))
+            }
         };
         if t_new[n - 1] * t[n - 1] < 0.0 {
             summary.turning_points.push(summary.points);
@@ -328,7 +384,13 @@ pub fn continuation<R: Residual>(
         jac = jac_new;
         t = t_new;
         let _ = &jac;
-        let state = BranchState { index: summary.points, x: &x, tangent: &t, newton_iterations: it, step };
+        let state = BranchState {
+            index: summary.points,
+            x: &x,
+            tangent: &t,
+            newton_iterations: it,
+            step,
+        };
         summary.points += 1;
         if !on_point(&state) {
             summary.stop = StopReason::Callback;
@@ -372,15 +434,25 @@ mod tests {
 
     #[test]
     fn circle_passes_its_turning_point() {
-        let opts = ContinuationOptions { ds: 0.1, ..Default::default() };
+        let opts = ContinuationOptions {
+            ds: 0.1,
+            ..Default::default()
+        };
         let scale = DVector::from_element(2, 1.0);
         let mut pts = vec![];
         // start at y = -0.5 on the right half, continue towards y = 2 (never
         // reached): the branch turns at y = 1 and comes back below the start.
-        let s = continuation(&Circle, DVector::from_vec(vec![0.8, -0.5]), 2.0, &scale, &opts, |b| {
-            pts.push(b.x.clone());
-            true
-        })
+        let s = continuation(
+            &Circle,
+            DVector::from_vec(vec![0.8, -0.5]),
+            2.0,
+            &scale,
+            &opts,
+            |b| {
+                pts.push(b.x.clone());
+                true
+            },
+        )
         .unwrap();
         for p in &pts {
             assert!((p.norm() - 1.0).abs() < 1e-10);
@@ -389,7 +461,12 @@ mod tests {
         assert_eq!(s.stop, StopReason::LeftRange);
         let i = s.turning_points[0];
         // the turning point is at (0, 1): x changes sign there
-        assert!(pts[i - 1][0] > 0.0 && pts[i][0] < 0.0, "{:?} {:?}", pts[i - 1], pts[i]);
+        assert!(
+            pts[i - 1][0] > 0.0 && pts[i][0] < 0.0,
+            "{:?} {:?}",
+            pts[i - 1],
+            pts[i]
+        );
         assert!(pts[i][1] > 0.8);
         assert!(pts.last().unwrap()[1] < -0.5);
     }
@@ -403,22 +480,38 @@ mod tests {
                 2
             }
             fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
-                (DVector::from_element(1, x[0] - x[1] * x[1]), DMatrix::from_row_slice(1, 2, &[1.0, -2.0 * x[1]]))
+                (
+                    DVector::from_element(1, x[0] - x[1] * x[1]),
+                    DMatrix::from_row_slice(1, 2, &[1.0, -2.0 * x[1]]),
+                )
             }
         }
-        let opts = ContinuationOptions { ds: 0.1, ..Default::default() };
+        let opts = ContinuationOptions {
+            ds: 0.1,
+            ..Default::default()
+        };
         let scale = DVector::from_element(2, 1.0);
         let mut pts = vec![];
-        let s = continuation(&Parabola, DVector::from_vec(vec![0.3, 0.0]), 0.77, &scale, &opts, |b| {
-            pts.push(b.x.clone());
-            true
-        })
+        let s = continuation(
+            &Parabola,
+            DVector::from_vec(vec![0.3, 0.0]),
+            0.77,
+            &scale,
+            &opts,
+            |b| {
+                pts.push(b.x.clone());
+                true
+            },
+        )
         .unwrap();
         assert_eq!(s.stop, StopReason::ReachedEnd);
         let last = pts.last().unwrap();
         assert_eq!(last[1], 0.77);
         assert!((last[0] - 0.77 * 0.77).abs() < 1e-12);
-        assert!(pts[0][0].abs() < 1e-12, "start point solved with the parameter fixed");
+        assert!(
+            pts[0][0].abs() < 1e-12,
+            "start point solved with the parameter fixed"
+        );
         assert!(pts.windows(2).all(|w| w[1][1] > w[0][1]));
     }
 
@@ -432,20 +525,42 @@ mod tests {
                 2
             }
             fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
-                let r = if x[1] <= 0.5 { x[0] - x[1] * x[1] } else { f64::NAN };
-                (DVector::from_element(1, r), DMatrix::from_row_slice(1, 2, &[1.0, -2.0 * x[1]]))
+                let r = if x[1] <= 0.5 {
+                    x[0] - x[1] * x[1]
+                } else {
+                    f64::NAN
+                };
+                (
+                    DVector::from_element(1, r),
+                    DMatrix::from_row_slice(1, 2, &[1.0, -2.0 * x[1]]),
+                )
             }
         }
-        let opts = ContinuationOptions { ds: 0.1, ..Default::default() };
+        let opts = ContinuationOptions {
+            ds: 0.1,
+            ..Default::default()
+        };
         let scale = DVector::from_element(2, 1.0);
         let mut last = 0.0;
-        let err = continuation(&Wall, DVector::from_vec(vec![0.0, 0.0]), 1.0, &scale, &opts, |b| {
-            last = b.x[1];
-            true
-        })
+        let err = continuation(
+            &Wall,
+            DVector::from_vec(vec![0.0, 0.0]),
+            1.0,
+            &scale,
+            &opts,
+            |b| {
+                last = b.x[1];
+                true
+            },
+        )
         .unwrap_err();
         match err.0 {
-            ContinuationFailure::StepSizeCollapse { parameter, step_size, dsmin, .. } => {
+            ContinuationFailure::StepSizeCollapse {
+                parameter,
+                step_size,
+                dsmin,
+                ..
+            } => {
                 assert_eq!(parameter, last);
                 assert!(parameter < 0.5 && parameter > 0.3, "{parameter}");
                 assert!(step_size < dsmin);

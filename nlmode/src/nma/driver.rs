@@ -1,7 +1,8 @@
 //! Drivers: nonlinear modal analysis (EPMC branch) and forced Harmonic Balance
 //! frequency responses, branch results, modal tables.
 use super::continuation::{
-    continuation, BranchState, ContinuationFailure, ContinuationOptions, ContinuationSummary, StopReason,
+    continuation, BranchState, ContinuationFailure, ContinuationOptions, ContinuationSummary,
+    StopReason,
 };
 use super::epmc::{EpmcResidual, ForcedResidual, ModalBasis};
 use super::hb::default_samples;
@@ -20,21 +21,38 @@ pub enum NmaError {
     #[error("harmonics must be at least 1, got {harmonics}")]
     NoHarmonics { harmonics: usize },
     #[error("{samples} AFT samples are too few for H = {harmonics} harmonics (need at least 4H+1 = {minimum})")]
-    TooFewSamples { samples: usize, harmonics: usize, minimum: usize },
+    TooFewSamples {
+        samples: usize,
+        harmonics: usize,
+        minimum: usize,
+    },
     #[error("invalid amplitude range: start {start}, end {end} ({reason})")]
-    InvalidAmplitudeRange { start: f64, end: f64, reason: &'static str },
+    InvalidAmplitudeRange {
+        start: f64,
+        end: f64,
+        reason: &'static str,
+    },
     #[error("invalid frequency range: start {start} rad/s, end {end} rad/s")]
     InvalidFrequencyRange { start: f64, end: f64 },
     #[error("unknown named point '{name}' (the model has: {available})")]
     UnknownPoint { name: String, available: String },
     #[error("named point '{name}' does not move in mode {mode_index} (|phi| = {value:e}), cannot convert its amplitude")]
-    PointAtNode { name: String, mode_index: usize, value: f64 },
+    PointAtNode {
+        name: String,
+        mode_index: usize,
+        value: f64,
+    },
     #[error("the mass matrix is not positive definite")]
     MassNotPositiveDefinite,
     #[error("force vector has length {got}, the model has {expected} coordinates")]
     ForceLength { got: usize, expected: usize },
     #[error("Newton did not converge at the start point a = {amplitude:e} (residual norm {residual_norm:e} after {iterations} iterations)")]
-    StartNotConverged { amplitude: f64, residual_norm: f64, iterations: usize, partial: Box<NmaResult> },
+    StartNotConverged {
+        amplitude: f64,
+        residual_norm: f64,
+        iterations: usize,
+        partial: Box<NmaResult>,
+    },
     #[error("continuation step size collapsed after a = {amplitude:e}, omega = {omega_rad_s} rad/s: step {step_size:e} < dsmin {dsmin:e} (last residual norm {residual_norm:e}); {} points computed", partial.branch.len())]
     StepSizeCollapse {
         amplitude: f64,
@@ -45,9 +63,16 @@ pub enum NmaError {
         partial: Box<NmaResult>,
     },
     #[error("singular Jacobian (bifurcation point?) after a = {amplitude:e}; {} points computed", partial.branch.len())]
-    SingularJacobian { amplitude: f64, partial: Box<NmaResult> },
+    SingularJacobian {
+        amplitude: f64,
+        partial: Box<NmaResult>,
+    },
     #[error("forced response failed after Omega = {omega_rad_s} rad/s: {reason}; {} points computed", partial.points.len())]
-    ForcedResponseFailed { omega_rad_s: f64, reason: String, partial: Box<ForcedResponse> },
+    ForcedResponseFailed {
+        omega_rad_s: f64,
+        reason: String,
+        partial: Box<ForcedResponse>,
+    },
     #[error("measured modal data, line {line}: {message}")]
     MeasuredData { line: usize, message: String },
 }
@@ -68,12 +93,22 @@ impl NmaError {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NmaWarning {
     #[error("the amplitude range never left the linear regime: up to a = {max_amplitude:e} the modal frequency changed by {omega_shift_rel:e} (relative) and the damping ratio by {damping_shift:e}")]
-    LinearRegimeOnly { max_amplitude: f64, omega_shift_rel: f64, damping_shift: f64 },
+    LinearRegimeOnly {
+        max_amplitude: f64,
+        omega_shift_rel: f64,
+        damping_shift: f64,
+    },
     #[error("continuation stopped after the maximum of {points} points at a = {amplitude:e} before reaching the end of the range")]
     MaxPointsReached { points: usize, amplitude: f64 },
     #[error("the fundamental harmonic carries only {share:e} of the kinetic energy at a = {amplitude:e}, omega = {omega_rad_s} rad/s (energy localized in higher harmonics: internal resonance); continuation stopped")]
-    FundamentalLost { amplitude: f64, omega_rad_s: f64, share: f64 },
-    #[error("the branch turned back below the start amplitude (a = {amplitude:e}) and was stopped")]
+    FundamentalLost {
+        amplitude: f64,
+        omega_rad_s: f64,
+        share: f64,
+    },
+    #[error(
+        "the branch turned back below the start amplitude (a = {amplitude:e}) and was stopped"
+    )]
     LeftRange { amplitude: f64 },
 }
 
@@ -88,7 +123,11 @@ pub enum AmplitudeRange {
     /// converted with the linear mode; the analysis stops once the point's
     /// amplitude reaches `end_m` (modal amplitude capped at 1000x the linear
     /// estimate of `end_m`).
-    Point { name: String, start_m: f64, end_m: f64 },
+    Point {
+        name: String,
+        start_m: f64,
+        end_m: f64,
+    },
 }
 
 /// Options of [`nonlinear_modal_analysis`]. Serialisable; missing keys take
@@ -126,9 +165,15 @@ impl Default for NmaOptions {
             harmonics: 13,
             samples: None,
             mode_index: 0,
-            amplitude: AmplitudeRange::Modal { log10_start: -6.0, log10_end: -1.0 },
+            amplitude: AmplitudeRange::Modal {
+                log10_start: -6.0,
+                log10_end: -1.0,
+            },
             conservative: false,
-            continuation: ContinuationOptions { ds: 0.1, ..Default::default() },
+            continuation: ContinuationOptions {
+                ds: 0.1,
+                ..Default::default()
+            },
             points: vec![],
             store_coordinates: true,
             min_fundamental_share: 0.005,
@@ -225,7 +270,12 @@ impl NmaResult {
     /// of the paper's backbone figure.
     pub fn point_fundamental_amplitude(&self, name: &str) -> Option<Vec<f64>> {
         let p = self.point_index(name)?;
-        Some(self.branch.iter().map(|b| b.amplitude * b.points[p][1].norm()).collect())
+        Some(
+            self.branch
+                .iter()
+                .map(|b| b.amplitude * b.points[p][1].norm())
+                .collect(),
+        )
     }
 
     /// First fold of the amplitude (where the default table is truncated).
@@ -263,15 +313,26 @@ impl NmaResult {
         let (idx, truncated) = self.table_indices(policy);
         let shape = |name: String, get: &dyn Fn(&BranchPoint) -> &Vec<Complex64>| PointShape {
             name,
-            re: idx.iter().map(|&i| get(&self.branch[i]).iter().map(|c| c.re).collect()).collect(),
-            im: idx.iter().map(|&i| get(&self.branch[i]).iter().map(|c| c.im).collect()).collect(),
+            re: idx
+                .iter()
+                .map(|&i| get(&self.branch[i]).iter().map(|c| c.re).collect())
+                .collect(),
+            im: idx
+                .iter()
+                .map(|&i| get(&self.branch[i]).iter().map(|c| c.im).collect())
+                .collect(),
         };
         let points = (0..self.point_names.len())
             .map(|p| shape(self.point_names[p].clone(), &|b: &BranchPoint| &b.points[p]))
             .collect();
-        let ncoord = self.branch.first().map(|b| b.coordinates.len()).unwrap_or(0);
-        let coordinates =
-            (0..ncoord).map(|i| shape(format!("q{i}"), &|b: &BranchPoint| &b.coordinates[i])).collect();
+        let ncoord = self
+            .branch
+            .first()
+            .map(|b| b.coordinates.len())
+            .unwrap_or(0);
+        let coordinates = (0..ncoord)
+            .map(|i| shape(format!("q{i}"), &|b: &BranchPoint| &b.coordinates[i]))
+            .collect();
         let mut description = format!(
             "EPMC nonlinear mode {} (0-based) by Harmonic Balance, H = {}, {} AFT samples, {}; linear omega = {} rad/s, D = {}; {} of {} branch points",
             self.mode_index,
@@ -285,7 +346,9 @@ impl NmaResult {
         );
         if let Some(a) = truncated {
             description += &match policy {
-                TablePolicy::PrimaryBranch => format!("; primary branch truncated at the first fold of a = {a:e}"),
+                TablePolicy::PrimaryBranch => {
+                    format!("; primary branch truncated at the first fold of a = {a:e}")
+                }
                 TablePolicy::SkipLoops => format!("; loops skipped, first fold at a = {a:e}"),
             };
         }
@@ -311,16 +374,29 @@ fn check_harmonics(harmonics: usize, samples: Option<usize>) -> Result<usize, Nm
     let minimum = default_samples(harmonics);
     let samples = samples.unwrap_or(minimum);
     if samples < minimum {
-        return Err(NmaError::TooFewSamples { samples, harmonics, minimum });
+        return Err(NmaError::TooFewSamples {
+            samples,
+            harmonics,
+            minimum,
+        });
     }
     Ok(samples)
 }
 
 fn find_point(model: &StructuralModel, name: &str) -> Result<usize, NmaError> {
-    model.points.iter().position(|p| p.name == name).ok_or_else(|| NmaError::UnknownPoint {
-        name: name.to_string(),
-        available: model.points.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
-    })
+    model
+        .points
+        .iter()
+        .position(|p| p.name == name)
+        .ok_or_else(|| NmaError::UnknownPoint {
+            name: name.to_string(),
+            available: model
+                .points
+                .iter()
+                .map(|p| p.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
 }
 
 /// Nonlinear modal analysis by the EPMC (`eq:EPMC`) with Harmonic Balance and
@@ -329,11 +405,17 @@ fn find_point(model: &StructuralModel, name: &str) -> Result<usize, NmaError> {
 /// Returns the full branch (loops included, folds of `a` reported); use
 /// [`NmaResult::to_table`] for the modal table. On a continuation failure the
 /// error carries the computed part of the branch.
-pub fn nonlinear_modal_analysis(model: &StructuralModel, opts: &NmaOptions) -> Result<NmaResult, NmaError> {
+pub fn nonlinear_modal_analysis(
+    model: &StructuralModel,
+    opts: &NmaOptions,
+) -> Result<NmaResult, NmaError> {
     check_harmonics(opts.harmonics, opts.samples)?;
     let n = model.mass.nrows();
     if opts.mode_index >= n {
-        return Err(NmaError::ModeIndexOutOfRange { mode_index: opts.mode_index, n_modes: n });
+        return Err(NmaError::ModeIndexOutOfRange {
+            mode_index: opts.mode_index,
+            n_modes: n,
+        });
     }
     let basis = Arc::new(ModalBasis::new(model, opts.conservative)?);
     nonlinear_modal_analysis_with_basis(model, basis, opts)
@@ -351,24 +433,42 @@ pub fn nonlinear_modal_analysis_with_basis(
     let samples = check_harmonics(opts.harmonics, opts.samples)?;
     let n = model.mass.nrows();
     assert_eq!(basis.n_modes(), n, "modal basis of another model");
-    assert_eq!(basis.w.ncols(), model.nonlinear.len(), "modal basis of another model");
-    assert_eq!(basis.conservative, opts.conservative, "modal basis with the other damping option");
+    assert_eq!(
+        basis.w.ncols(),
+        model.nonlinear.len(),
+        "modal basis of another model"
+    );
+    assert_eq!(
+        basis.conservative, opts.conservative,
+        "modal basis with the other damping option"
+    );
     if opts.mode_index >= n {
-        return Err(NmaError::ModeIndexOutOfRange { mode_index: opts.mode_index, n_modes: n });
+        return Err(NmaError::ModeIndexOutOfRange {
+            mode_index: opts.mode_index,
+            n_modes: n,
+        });
     }
     let point_ids: Vec<usize> = if opts.points.is_empty() {
         (0..model.points.len()).collect()
     } else {
-        opts.points.iter().map(|p| find_point(model, p)).collect::<Result<_, _>>()?
+        opts.points
+            .iter()
+            .map(|p| find_point(model, p))
+            .collect::<Result<_, _>>()?
     };
     let j = opts.mode_index;
     let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, j);
-    let point_modal: Vec<DVector<f64>> =
-        point_ids.iter().map(|&p| basis.phi.transpose() * &model.points[p].direction).collect();
+    let point_modal: Vec<DVector<f64>> = point_ids
+        .iter()
+        .map(|&p| basis.phi.transpose() * &model.points[p].direction)
+        .collect();
 
     // amplitude range in log10 a
     let (lg_start, lg_end, stop_point) = match &opts.amplitude {
-        AmplitudeRange::Modal { log10_start, log10_end } => {
+        AmplitudeRange::Modal {
+            log10_start,
+            log10_end,
+        } => {
             if !(log10_start.is_finite() && log10_end.is_finite()) || log10_end <= log10_start {
                 return Err(NmaError::InvalidAmplitudeRange {
                     start: *log10_start,
@@ -378,7 +478,11 @@ pub fn nonlinear_modal_analysis_with_basis(
             }
             (*log10_start, *log10_end, None)
         }
-        AmplitudeRange::Point { name, start_m, end_m } => {
+        AmplitudeRange::Point {
+            name,
+            start_m,
+            end_m,
+        } => {
             if !(*start_m > 0.0 && end_m > start_m && end_m.is_finite()) {
                 return Err(NmaError::InvalidAmplitudeRange {
                     start: *start_m,
@@ -389,10 +493,18 @@ pub fn nonlinear_modal_analysis_with_basis(
             let pid = find_point(model, name)?;
             let c = (basis.phi.column(j).dot(&model.points[pid].direction)).abs();
             if c <= 1e-12 * basis.phi.column(j).amax() * model.points[pid].direction.norm() {
-                return Err(NmaError::PointAtNode { name: name.clone(), mode_index: j, value: c });
+                return Err(NmaError::PointAtNode {
+                    name: name.clone(),
+                    mode_index: j,
+                    value: c,
+                });
             }
             let em = basis.phi.transpose() * &model.points[pid].direction;
-            ((start_m / c).log10(), (end_m / c).log10() + 3.0, Some((em, *end_m)))
+            (
+                (start_m / c).log10(),
+                (end_m / c).log10() + 3.0,
+                Some((em, *end_m)),
+            )
         }
     };
 
@@ -411,7 +523,10 @@ pub fn nonlinear_modal_analysis_with_basis(
         conservative: opts.conservative,
         linear_omega_rad_s: omega0,
         linear_damping_ratio: d0,
-        point_names: point_ids.iter().map(|&p| model.points[p].name.clone()).collect(),
+        point_names: point_ids
+            .iter()
+            .map(|&p| model.points[p].name.clone())
+            .collect(),
         branch: vec![],
         folds: vec![],
         newton_iterations: 0,
@@ -422,7 +537,12 @@ pub fn nonlinear_modal_analysis_with_basis(
     let mut stop_reached = false;
     let mut share_stop = false;
     let mut tangent_sign: Vec<f64> = Vec::new();
-    let bp_share = |r: &NmaResult| r.branch.last().map(|b| b.fundamental_energy_share).unwrap_or(1.0);
+    let bp_share = |r: &NmaResult| {
+        r.branch
+            .last()
+            .map(|b| b.fundamental_energy_share)
+            .unwrap_or(1.0)
+    };
     let on_point = |s: &BranchState| -> bool {
         let x = s.x;
         let bp = BranchPoint {
@@ -454,7 +574,14 @@ pub fn nonlinear_modal_analysis_with_basis(
         }
         true
     };
-    let outcome = continuation(&res, res.linear_guess(lg_start), lg_end, &scale, &opts.continuation, on_point);
+    let outcome = continuation(
+        &res,
+        res.linear_guess(lg_start),
+        lg_end,
+        &scale,
+        &opts.continuation,
+        on_point,
+    );
     let summary = match &outcome {
         Ok(s) => s.clone(),
         Err((_, s)) => s.clone(),
@@ -463,12 +590,19 @@ pub fn nonlinear_modal_analysis_with_basis(
     match outcome {
         Ok(s) => {
             result.stop = Some(s.stop);
-            let last_a = result.branch.last().map(|b| b.amplitude).unwrap_or(f64::NAN);
+            let last_a = result
+                .branch
+                .last()
+                .map(|b| b.amplitude)
+                .unwrap_or(f64::NAN);
             match s.stop {
-                StopReason::MaxPoints => {
-                    result.warnings.push(NmaWarning::MaxPointsReached { points: s.points, amplitude: last_a })
-                }
-                StopReason::LeftRange => result.warnings.push(NmaWarning::LeftRange { amplitude: last_a }),
+                StopReason::MaxPoints => result.warnings.push(NmaWarning::MaxPointsReached {
+                    points: s.points,
+                    amplitude: last_a,
+                }),
+                StopReason::LeftRange => result
+                    .warnings
+                    .push(NmaWarning::LeftRange { amplitude: last_a }),
                 StopReason::ReachedEnd => {}
                 StopReason::Callback => {
                     if share_stop {
@@ -485,25 +619,40 @@ pub fn nonlinear_modal_analysis_with_basis(
             Ok(result)
         }
         Err((failure, _)) => {
-            let last = result.branch.last().map(|b| (b.amplitude, b.omega_rad_s)).unwrap_or((f64::NAN, f64::NAN));
+            let last = result
+                .branch
+                .last()
+                .map(|b| (b.amplitude, b.omega_rad_s))
+                .unwrap_or((f64::NAN, f64::NAN));
             let partial = Box::new(result);
             Err(match failure {
-                ContinuationFailure::StartNotConverged { parameter, residual_norm, iterations } => {
-                    NmaError::StartNotConverged { amplitude: 10f64.powf(parameter), residual_norm, iterations, partial }
-                }
-                ContinuationFailure::StepSizeCollapse { residual_norm, step_size, dsmin, .. } => {
-                    NmaError::StepSizeCollapse {
-                        amplitude: last.0,
-                        omega_rad_s: last.1,
-                        residual_norm,
-                        step_size,
-                        dsmin,
-                        partial,
-                    }
-                }
-                ContinuationFailure::SingularJacobian { .. } => {
-                    NmaError::SingularJacobian { amplitude: last.0, partial }
-                }
+                ContinuationFailure::StartNotConverged {
+                    parameter,
+                    residual_norm,
+                    iterations,
+                } => NmaError::StartNotConverged {
+                    amplitude: 10f64.powf(parameter),
+                    residual_norm,
+                    iterations,
+                    partial,
+                },
+                ContinuationFailure::StepSizeCollapse {
+                    residual_norm,
+                    step_size,
+                    dsmin,
+                    ..
+                } => NmaError::StepSizeCollapse {
+                    amplitude: last.0,
+                    omega_rad_s: last.1,
+                    residual_norm,
+                    step_size,
+                    dsmin,
+                    partial,
+                },
+                ContinuationFailure::SingularJacobian { .. } => NmaError::SingularJacobian {
+                    amplitude: last.0,
+                    partial,
+                },
             })
         }
     }
@@ -519,14 +668,23 @@ fn finish(result: &mut NmaResult, summary: &ContinuationSummary, tangent_sign: &
         }
         let (p, q) = (&result.branch[i - 1], &result.branch[i]);
         // the parameter log10 a was increasing before the turning point
-        let kind = if tangent_sign[i - 1] > 0.0 { FoldKind::AmplitudeMaximum } else { FoldKind::AmplitudeMinimum };
+        let kind = if tangent_sign[i - 1] > 0.0 {
+            FoldKind::AmplitudeMaximum
+        } else {
+            FoldKind::AmplitudeMinimum
+        };
         let index = match kind {
             FoldKind::AmplitudeMaximum if p.amplitude >= q.amplitude => i - 1,
             FoldKind::AmplitudeMinimum if p.amplitude <= q.amplitude => i - 1,
             _ => i,
         };
         let b = &result.branch[index];
-        result.folds.push(Fold { index, kind, amplitude: b.amplitude, omega_rad_s: b.omega_rad_s });
+        result.folds.push(Fold {
+            index,
+            kind,
+            amplitude: b.amplitude,
+            omega_rad_s: b.omega_rad_s,
+        });
     }
     if let (Some(first), Some(_)) = (result.branch.first(), result.branch.last()) {
         let mut omega_shift_rel: f64 = 0.0;
@@ -539,7 +697,11 @@ fn finish(result: &mut NmaResult, summary: &ContinuationSummary, tangent_sign: &
         }
         let d_ref = first.damping_ratio.abs().max(1e-6);
         if result.branch.len() > 1 && omega_shift_rel < 1e-4 && damping_shift < 1e-3 * d_ref {
-            result.warnings.push(NmaWarning::LinearRegimeOnly { max_amplitude, omega_shift_rel, damping_shift });
+            result.warnings.push(NmaWarning::LinearRegimeOnly {
+                max_amplitude,
+                omega_shift_rel,
+                damping_shift,
+            });
         }
     }
 }
@@ -583,24 +745,41 @@ pub struct ForcedResponse {
 
 /// Harmonic Balance frequency response of the forced full model (for
 /// validation of the single-nonlinear-mode model), by the same continuation.
-pub fn forced_response(model: &StructuralModel, opts: &ForcedResponseOptions) -> Result<ForcedResponse, NmaError> {
+pub fn forced_response(
+    model: &StructuralModel,
+    opts: &ForcedResponseOptions,
+) -> Result<ForcedResponse, NmaError> {
     let samples = check_harmonics(opts.harmonics, opts.samples)?;
     let n = model.mass.nrows();
     if opts.force.len() != n {
-        return Err(NmaError::ForceLength { got: opts.force.len(), expected: n });
+        return Err(NmaError::ForceLength {
+            got: opts.force.len(),
+            expected: n,
+        });
     }
-    if !(opts.omega_start > 0.0 && opts.omega_end > 0.0 && opts.omega_start != opts.omega_end)
-        || !(opts.omega_start.is_finite() && opts.omega_end.is_finite())
-    {
-        return Err(NmaError::InvalidFrequencyRange { start: opts.omega_start, end: opts.omega_end });
+    let valid = |w: f64| w > 0.0 && w.is_finite();
+    if !valid(opts.omega_start) || !valid(opts.omega_end) || opts.omega_start == opts.omega_end {
+        return Err(NmaError::InvalidFrequencyRange {
+            start: opts.omega_start,
+            end: opts.omega_end,
+        });
     }
     let point_ids: Vec<usize> = if opts.points.is_empty() {
         (0..model.points.len()).collect()
     } else {
-        opts.points.iter().map(|p| find_point(model, p)).collect::<Result<_, _>>()?
+        opts.points
+            .iter()
+            .map(|p| find_point(model, p))
+            .collect::<Result<_, _>>()?
     };
     let basis = Arc::new(ModalBasis::new(model, false)?);
-    let res = ForcedResidual::new(basis, opts.harmonics, samples, &opts.force, opts.omega_start);
+    let res = ForcedResidual::new(
+        basis,
+        opts.harmonics,
+        samples,
+        &opts.force,
+        opts.omega_start,
+    );
     let m = res.n_coeffs();
     // scale: largest linear response norm over the range, and the range width
     let mut eta_scale: f64 = 0.0;
@@ -612,20 +791,33 @@ pub fn forced_response(model: &StructuralModel, opts: &ForcedResponseOptions) ->
     scale[m] = (opts.omega_end - opts.omega_start).abs();
     let mut out = ForcedResponse {
         harmonics: opts.harmonics,
-        point_names: point_ids.iter().map(|&p| model.points[p].name.clone()).collect(),
+        point_names: point_ids
+            .iter()
+            .map(|&p| model.points[p].name.clone())
+            .collect(),
         points: vec![],
         turning_points: vec![],
         newton_iterations: 0,
         stop: None,
     };
-    let outcome = continuation(&res, res.linear_guess(opts.omega_start), opts.omega_end, &scale, &opts.continuation, |s| {
-        out.points.push(ForcedResponsePoint {
-            omega_rad_s: s.x[m],
-            points: point_ids.iter().map(|&p| res.observe(s.x, &model.points[p].direction)).collect(),
-            newton_iterations: s.newton_iterations,
-        });
-        true
-    });
+    let outcome = continuation(
+        &res,
+        res.linear_guess(opts.omega_start),
+        opts.omega_end,
+        &scale,
+        &opts.continuation,
+        |s| {
+            out.points.push(ForcedResponsePoint {
+                omega_rad_s: s.x[m],
+                points: point_ids
+                    .iter()
+                    .map(|&p| res.observe(s.x, &model.points[p].direction))
+                    .collect(),
+                newton_iterations: s.newton_iterations,
+            });
+            true
+        },
+    );
     match outcome {
         Ok(s) => {
             out.turning_points = s.turning_points;
@@ -636,7 +828,11 @@ pub fn forced_response(model: &StructuralModel, opts: &ForcedResponseOptions) ->
         Err((failure, s)) => {
             out.turning_points = s.turning_points;
             out.newton_iterations = s.newton_iterations;
-            let omega = out.points.last().map(|p| p.omega_rad_s).unwrap_or(opts.omega_start);
+            let omega = out
+                .points
+                .last()
+                .map(|p| p.omega_rad_s)
+                .unwrap_or(opts.omega_start);
             Err(NmaError::ForcedResponseFailed {
                 omega_rad_s: omega,
                 reason: format!("{failure:?}"),
@@ -663,12 +859,20 @@ pub fn table_from_measured_csv(text: &str, point_name: &str) -> Result<ModalTabl
         .map(|(i, l)| (i + 1, l.trim()))
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
     let (hline, header) = lines.next().ok_or_else(|| err(0, "no header row".into()))?;
-    let cols: Vec<String> = header.split(',').map(|c| c.trim().to_ascii_lowercase()).collect();
+    let cols: Vec<String> = header
+        .split(',')
+        .map(|c| c.trim().to_ascii_lowercase())
+        .collect();
     let pn = point_name.to_ascii_lowercase();
     let find = |names: &[&str]| -> Result<usize, NmaError> {
-        cols.iter().position(|c| names.contains(&c.as_str())).ok_or_else(|| {
-            err(hline, format!("missing column {} (header: {header})", names.join(" or ")))
-        })
+        cols.iter()
+            .position(|c| names.contains(&c.as_str()))
+            .ok_or_else(|| {
+                err(
+                    hline,
+                    format!("missing column {} (header: {header})", names.join(" or ")),
+                )
+            })
     };
     let re_name = format!("{pn}_re");
     let im_name = format!("{pn}_im");
@@ -685,21 +889,36 @@ pub fn table_from_measured_csv(text: &str, point_name: &str) -> Result<ModalTabl
         amplitude: vec![],
         omega_rad_s: vec![],
         damping_ratio: vec![],
-        points: vec![PointShape { name: point_name.to_string(), re: vec![], im: vec![] }],
+        points: vec![PointShape {
+            name: point_name.to_string(),
+            re: vec![],
+            im: vec![],
+        }],
         coordinates: vec![],
         truncated_at_fold: None,
     };
     for (ln, line) in lines {
         let vals: Vec<&str> = line.split(',').map(|v| v.trim()).collect();
         if vals.len() != cols.len() {
-            return Err(err(ln, format!("{} fields, the header has {}", vals.len(), cols.len())));
+            return Err(err(
+                ln,
+                format!("{} fields, the header has {}", vals.len(), cols.len()),
+            ));
         }
         let get = |i: usize| -> Result<f64, NmaError> {
-            let v: f64 = vals[i].parse().map_err(|_| err(ln, format!("'{}' in column '{}' is not a number", vals[i], cols[i])))?;
+            let v: f64 = vals[i].parse().map_err(|_| {
+                err(
+                    ln,
+                    format!("'{}' in column '{}' is not a number", vals[i], cols[i]),
+                )
+            })?;
             if v.is_finite() {
                 Ok(v)
             } else {
-                Err(err(ln, format!("non-finite value {v} in column '{}'", cols[i])))
+                Err(err(
+                    ln,
+                    format!("non-finite value {v} in column '{}'", cols[i]),
+                ))
             }
         };
         let (a, om, d, re, im) = (get(ia)?, get(io)?, get(id)?, get(ir)?, get(ii)?);
@@ -708,11 +927,17 @@ pub fn table_from_measured_csv(text: &str, point_name: &str) -> Result<ModalTabl
         }
         if let Some(&prev) = t.amplitude.last() {
             if a <= prev {
-                return Err(err(ln, format!("amplitude a = {a} is not larger than the previous {prev}")));
+                return Err(err(
+                    ln,
+                    format!("amplitude a = {a} is not larger than the previous {prev}"),
+                ));
             }
         }
         if om <= 0.0 {
-            return Err(err(ln, format!("modal frequency omega = {om} rad/s must be positive")));
+            return Err(err(
+                ln,
+                format!("modal frequency omega = {om} rad/s must be positive"),
+            ));
         }
         t.amplitude.push(a);
         t.omega_rad_s.push(om);
@@ -721,7 +946,10 @@ pub fn table_from_measured_csv(text: &str, point_name: &str) -> Result<ModalTabl
         t.points[0].im.push(vec![0.0, im]);
     }
     if t.amplitude.len() < 2 {
-        return Err(err(hline, format!("need at least 2 data rows, got {}", t.amplitude.len())));
+        return Err(err(
+            hline,
+            format!("need at least 2 data rows, got {}", t.amplitude.len()),
+        ));
     }
     Ok(t)
 }

@@ -74,8 +74,16 @@ impl ModalBasis {
     pub fn new(model: &StructuralModel, conservative: bool) -> Result<Self, NmaError> {
         let n = model.mass.nrows();
         assert_eq!(model.mass.shape(), (n, n), "mass matrix must be square");
-        assert_eq!(model.stiffness.shape(), (n, n), "stiffness matrix must be n x n");
-        assert_eq!(model.damping.shape(), (n, n), "damping matrix must be n x n");
+        assert_eq!(
+            model.stiffness.shape(),
+            (n, n),
+            "stiffness matrix must be n x n"
+        );
+        assert_eq!(
+            model.damping.shape(),
+            (n, n),
+            "damping matrix must be n x n"
+        );
         if nalgebra::Cholesky::new(model.mass.clone()).is_none() {
             return Err(NmaError::MassNotPositiveDefinite);
         }
@@ -116,7 +124,8 @@ impl ModalBasis {
         for i in 0..n {
             for j in 0..n {
                 if i != j {
-                    let bound = (1e-9 * (cm[(i, i)].abs() * cm[(j, j)].abs()).sqrt()).max(1e4 * f64::EPSILON * c_max);
+                    let bound = (1e-9 * (cm[(i, i)].abs() * cm[(j, j)].abs()).sqrt())
+                        .max(1e4 * f64::EPSILON * c_max);
                     if cm[(i, j)].abs() > bound {
                         diagonal_damping = false;
                     }
@@ -126,11 +135,24 @@ impl ModalBasis {
         let ne = model.nonlinear.len();
         let mut w = DMatrix::zeros(n, ne);
         for (e, el) in model.nonlinear.iter().enumerate() {
-            assert_eq!(el.direction.len(), n, "nonlinear direction '{}' has wrong length", el.name);
+            assert_eq!(
+                el.direction.len(),
+                n,
+                "nonlinear direction '{}' has wrong length",
+                el.name
+            );
             w.set_column(e, &(phi.transpose() * &el.direction));
         }
         let laws = model.nonlinear.iter().map(|e| e.law.clone()).collect();
-        Ok(Self { phi, omega2, cm, diagonal_damping, w, laws, conservative })
+        Ok(Self {
+            phi,
+            omega2,
+            cm,
+            diagonal_damping,
+            w,
+            laws,
+            conservative,
+        })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -155,7 +177,10 @@ impl ModalBasis {
         for h in 0..nh {
             let nn = harmonic_of(h) as f64;
             for k in 0..n {
-                s[h * n + k] = self.omega2[k].abs().max((nn * omega_ref).powi(2)).max(1e-300);
+                s[h * n + k] = self.omega2[k]
+                    .abs()
+                    .max((nn * omega_ref).powi(2))
+                    .max(1e-300);
             }
         }
         s
@@ -183,7 +208,9 @@ impl ModalBasis {
         (0..self.w.ncols())
             .map(|e| {
                 let we = self.w.column(e);
-                DVector::from_fn(nh, |h, _| scale * (0..n).map(|k| we[k] * x[h * n + k]).sum::<f64>())
+                DVector::from_fn(nh, |h, _| {
+                    scale * (0..n).map(|k| we[k] * x[h * n + k]).sum::<f64>()
+                })
             })
             .collect()
     }
@@ -200,8 +227,12 @@ impl ModalBasis {
 /// L_K^-T u u^T L_K^-1` exact and only misstates their negligible inertia.
 fn flexibility_modes(m: &DMatrix<f64>, lk: &DMatrix<f64>) -> (DVector<f64>, DMatrix<f64>) {
     let n = m.nrows();
-    let linv_m = lk.solve_lower_triangular(m).expect("Cholesky factor is regular");
-    let b = lk.solve_lower_triangular(&linv_m.transpose()).expect("Cholesky factor is regular");
+    let linv_m = lk
+        .solve_lower_triangular(m)
+        .expect("Cholesky factor is regular");
+    let b = lk
+        .solve_lower_triangular(&linv_m.transpose())
+        .expect("Cholesky factor is regular");
     let b = (&b + b.transpose()) * 0.5;
     let eig = nalgebra::SymmetricEigen::new(b);
     let mu_max = eig.eigenvalues.max();
@@ -215,7 +246,10 @@ fn flexibility_modes(m: &DMatrix<f64>, lk: &DMatrix<f64>) -> (DVector<f64>, DMat
         u.set_column(c, &(eig.eigenvectors.column(i) / mu.sqrt()));
         omega2[c] = 1.0 / mu;
     }
-    let phi = lk.transpose().solve_upper_triangular(&u).expect("Cholesky factor is regular");
+    let phi = lk
+        .transpose()
+        .solve_upper_triangular(&u)
+        .expect("Cholesky factor is regular");
     (omega2, phi)
 }
 
@@ -223,9 +257,15 @@ fn flexibility_modes(m: &DMatrix<f64>, lk: &DMatrix<f64>) -> (DVector<f64>, DMat
 /// structures); low modes carry an absolute error of `eps omega_max^2`.
 fn stiffness_modes(m: &DMatrix<f64>, k: &DMatrix<f64>) -> (DVector<f64>, DMatrix<f64>) {
     let n = m.nrows();
-    let l = nalgebra::Cholesky::new(m.clone()).expect("mass checked positive definite").l();
-    let linv_k = l.solve_lower_triangular(k).expect("Cholesky factor is regular");
-    let a = l.solve_lower_triangular(&linv_k.transpose()).expect("Cholesky factor is regular");
+    let l = nalgebra::Cholesky::new(m.clone())
+        .expect("mass checked positive definite")
+        .l();
+    let linv_k = l
+        .solve_lower_triangular(k)
+        .expect("Cholesky factor is regular");
+    let a = l
+        .solve_lower_triangular(&linv_k.transpose())
+        .expect("Cholesky factor is regular");
     let a = (&a + a.transpose()) * 0.5;
     let eig = nalgebra::SymmetricEigen::new(a);
     let mut order: Vec<usize> = (0..n).collect();
@@ -236,7 +276,10 @@ fn stiffness_modes(m: &DMatrix<f64>, k: &DMatrix<f64>) -> (DVector<f64>, DMatrix
         v.set_column(c, &eig.eigenvectors.column(i));
         omega2[c] = eig.eigenvalues[i];
     }
-    let phi = l.transpose().solve_upper_triangular(&v).expect("Cholesky factor is regular");
+    let phi = l
+        .transpose()
+        .solve_upper_triangular(&v)
+        .expect("Cholesky factor is regular");
     (omega2, phi)
 }
 
@@ -345,7 +388,8 @@ impl HbJacobian {
         let m = self.m();
         let (r, p) = (self.border_rows.nrows(), self.border_cols.ncols());
         let mut a = DMatrix::zeros(m + p, m + p);
-        a.view_mut((0, 0), (m, m + p)).copy_from(&self.dense_unscaled_harmonic_rows());
+        a.view_mut((0, 0), (m, m + p))
+            .copy_from(&self.dense_unscaled_harmonic_rows());
         a.view_mut((m, 0), (r, m + p)).copy_from(&self.border_rows);
         a.row_mut(m + r).copy_from(&row.transpose());
         let mut b = rhs.clone();
@@ -370,7 +414,9 @@ impl HbJacobian {
         let w = &basis.w;
         // border rows incl. the continuation row: p x (m + p)
         let mut cfull = DMatrix::zeros(p, m + p);
-        cfull.view_mut((0, 0), (r, m + p)).copy_from(&self.border_rows);
+        cfull
+            .view_mut((0, 0), (r, m + p))
+            .copy_from(&self.border_rows);
         cfull.row_mut(r).copy_from(&row.transpose());
         let f: DVector<f64> = DVector::from_fn(m, |i, _| rhs[i] * self.row_scale[i]);
         let fb = rhs.rows(m, p).clone_owned();
@@ -384,7 +430,11 @@ impl HbJacobian {
                 let scale = self.row_scale[cos_index(nn) * n + k];
                 let forced = self.explicit.contains(&(k, nn));
                 if forced || a.hypot(b) < EXPLICIT_THRESHOLD * scale {
-                    let comps: &[usize] = if nn == 0 { &[0] } else { &[cos_index(nn), sin_index(nn)] };
+                    let comps: &[usize] = if nn == 0 {
+                        &[0]
+                    } else {
+                        &[cos_index(nn), sin_index(nn)]
+                    };
                     for &h in comps {
                         is_explicit[h * n + k] = true;
                         e_list.push(h * n + k);
@@ -401,7 +451,11 @@ impl HbJacobian {
         src.set_column(0, &f);
         src.view_mut((0, 1), (m, p)).copy_from(&self.border_cols);
         for nn in 0..=hmax {
-            let comps: Vec<usize> = if nn == 0 { vec![0] } else { vec![cos_index(nn), sin_index(nn)] };
+            let comps: Vec<usize> = if nn == 0 {
+                vec![0]
+            } else {
+                vec![cos_index(nn), sin_index(nn)]
+            };
             for k in 0..n {
                 if is_explicit[comps[0] * n + k] {
                     continue;
@@ -499,7 +553,11 @@ impl HbJacobian {
                     }
                     // Q couples only the two components of one harmonic
                     let nn2 = harmonic_of(h2);
-                    let comps2: &[usize] = if nn2 == 0 { &[0] } else { &[cos_index(nn2), sin_index(nn2)] };
+                    let comps2: &[usize] = if nn2 == 0 {
+                        &[0]
+                    } else {
+                        &[cos_index(nn2), sin_index(nn2)]
+                    };
                     for e2 in 0..ne {
                         for &hz in comps2 {
                             let cz = e2 * nh + hz;
@@ -544,14 +602,20 @@ impl HbJacobian {
             y[i] = v[(i, 0)] - vb_yb[i];
         }
         for nn in 0..=hmax {
-            let comps: Vec<usize> = if nn == 0 { vec![0] } else { vec![cos_index(nn), sin_index(nn)] };
+            let comps: Vec<usize> = if nn == 0 {
+                vec![0]
+            } else {
+                vec![cos_index(nn), sin_index(nn)]
+            };
             for k in 0..n {
                 if is_explicit[comps[0] * n + k] {
                     continue;
                 }
                 let (la, lb) = self.block(k, nn);
-                let pz: Vec<f64> =
-                    comps.iter().map(|&h| (0..ne).map(|e| w[(k, e)] * z[e * nh + h]).sum::<f64>()).collect();
+                let pz: Vec<f64> = comps
+                    .iter()
+                    .map(|&h| (0..ne).map(|e| w[(k, e)] * z[e * nh + h]).sum::<f64>())
+                    .collect();
                 if nn == 0 {
                     y[k] -= pz[0] / la;
                 } else {
@@ -572,7 +636,11 @@ impl HbJacobian {
 
     /// Solve with the dense fallback even when the condensed solver applies
     /// (for cross-checks and benchmarks).
-    pub fn solve_bordered_dense(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+    pub fn solve_bordered_dense(
+        &self,
+        row: &DVector<f64>,
+        rhs: &DVector<f64>,
+    ) -> Option<DVector<f64>> {
         self.solve_dense(row, rhs)
     }
 }
@@ -648,7 +716,12 @@ impl EpmcResidual {
         assert!(harmonics >= 1, "EPMC needs at least one harmonic");
         assert!(mode < basis.n_modes());
         let row_scale = Arc::new(basis.row_scale(harmonics, basis.omega(mode)));
-        Self { aft: Aft::new(harmonics, samples), basis, mode, row_scale }
+        Self {
+            aft: Aft::new(harmonics, samples),
+            basis,
+            mode,
+            row_scale,
+        }
     }
 
     pub fn basis(&self) -> &ModalBasis {
@@ -682,7 +755,9 @@ impl EpmcResidual {
         let mut e1 = 0.0;
         let mut total = 0.0;
         for nn in 1..=self.harmonics() {
-            let en: f64 = (cos_index(nn) * n..(sin_index(nn) + 1) * n).map(|i| x[i] * x[i]).sum();
+            let en: f64 = (cos_index(nn) * n..(sin_index(nn) + 1) * n)
+                .map(|i| x[i] * x[i])
+                .sum();
             if nn == 1 {
                 e1 = en;
             }
@@ -693,16 +768,23 @@ impl EpmcResidual {
 
     /// Complex harmonics `phi_n`, `n = 0..=H`, of the generalized coordinates
     /// (`q = Re(a sum phi_n e^{i n omega t})`), from a solution `x`.
-    pub fn shape_harmonics(&self, x: &DVector<f64>) -> Vec<nalgebra::DVector<num_complex::Complex64>> {
+    pub fn shape_harmonics(
+        &self,
+        x: &DVector<f64>,
+    ) -> Vec<nalgebra::DVector<num_complex::Complex64>> {
         let n = self.basis.n_modes();
         (0..=self.harmonics())
             .map(|nn| {
-                let c = DVector::from_column_slice(&x.as_slice()[cos_index(nn) * n..(cos_index(nn) + 1) * n]);
+                let c = DVector::from_column_slice(
+                    &x.as_slice()[cos_index(nn) * n..(cos_index(nn) + 1) * n],
+                );
                 let pc = &self.basis.phi * c;
                 if nn == 0 {
                     pc.map(|v| num_complex::Complex64::new(v, 0.0))
                 } else {
-                    let s = DVector::from_column_slice(&x.as_slice()[sin_index(nn) * n..(sin_index(nn) + 1) * n]);
+                    let s = DVector::from_column_slice(
+                        &x.as_slice()[sin_index(nn) * n..(sin_index(nn) + 1) * n],
+                    );
                     let ps = &self.basis.phi * s;
                     DVector::from_fn(n, |i, _| num_complex::Complex64::new(pc[i], -ps[i]))
                 }
@@ -751,7 +833,11 @@ impl super::continuation::Residual for EpmcResidual {
             let we = basis.w.column(e);
             let gu_minus_f = &out.jac_u * ue - &out.force;
             for h in 0..nh {
-                let (fh, fwh, glh) = (out.force[h] / amp, out.jac_omega[h] / amp, LN_10 * gu_minus_f[h] / amp);
+                let (fh, fwh, glh) = (
+                    out.force[h] / amp,
+                    out.jac_omega[h] / amp,
+                    LN_10 * gu_minus_f[h] / amp,
+                );
                 for k in 0..n {
                     r[h * n + k] += we[k] * fh;
                     dr_dom[h * n + k] += we[k] * fwh;
@@ -766,7 +852,10 @@ impl super::continuation::Residual for EpmcResidual {
         }
         let (ic, is) = (cos_index(1) * n, sin_index(1) * n);
         res[m] = psi[is + self.mode];
-        res[m + 1] = (0..n).map(|k| psi[ic + k].powi(2) + psi[is + k].powi(2)).sum::<f64>() - 1.0;
+        res[m + 1] = (0..n)
+            .map(|k| psi[ic + k].powi(2) + psi[is + k].powi(2))
+            .sum::<f64>()
+            - 1.0;
         let mut border_cols = DMatrix::zeros(m, 3);
         border_cols.set_column(0, &dr_dom);
         border_cols.set_column(1, &dr_dd);
@@ -807,11 +896,22 @@ pub struct ForcedResidual {
 impl ForcedResidual {
     /// `force` [N] in generalized coordinates (length `n`); `omega_ref` sets the
     /// row scaling (any frequency of the range of interest).
-    pub fn new(basis: Arc<ModalBasis>, harmonics: usize, samples: usize, force: &DVector<f64>, omega_ref: f64) -> Self {
+    pub fn new(
+        basis: Arc<ModalBasis>,
+        harmonics: usize,
+        samples: usize,
+        force: &DVector<f64>,
+        omega_ref: f64,
+    ) -> Self {
         assert_eq!(force.len(), basis.n_modes());
         let force_modal = basis.phi.transpose() * force;
         let row_scale = Arc::new(basis.row_scale(harmonics, omega_ref));
-        Self { aft: Aft::new(harmonics, samples), basis, force_modal, row_scale }
+        Self {
+            aft: Aft::new(harmonics, samples),
+            basis,
+            force_modal,
+            row_scale,
+        }
     }
 
     pub fn n_coeffs(&self) -> usize {

@@ -43,7 +43,7 @@ pub fn sin_index(n: usize) -> usize {
 /// Harmonic number of real coefficient index `h` (0 for the mean).
 #[inline]
 pub fn harmonic_of(h: usize) -> usize {
-    (h + 1) / 2
+    h.div_ceil(2)
 }
 
 /// Complex harmonic `n` of a real coefficient vector (`u_n = U_c - i U_s`).
@@ -92,7 +92,10 @@ impl Aft {
     /// drivers check user input against `4H+1` before getting here.
     pub fn new(harmonics: usize, samples: usize) -> Self {
         let nh = 2 * harmonics + 1;
-        assert!(samples >= nh, "AFT needs at least 2H+1 = {nh} samples, got {samples}");
+        assert!(
+            samples >= nh,
+            "AFT needs at least 2H+1 = {nh} samples, got {samples}"
+        );
         let mut inv = DMatrix::zeros(samples, nh);
         let mut dinv = DMatrix::zeros(samples, nh);
         let mut fwd = DMatrix::zeros(nh, samples);
@@ -112,7 +115,13 @@ impl Aft {
                 fwd[(is, t)] = 2.0 * s / nf;
             }
         }
-        Self { harmonics, samples, inv, dinv, fwd }
+        Self {
+            harmonics,
+            samples,
+            inv,
+            dinv,
+            fwd,
+        }
     }
 
     pub fn harmonics(&self) -> usize {
@@ -161,7 +170,11 @@ impl Aft {
         }
         let jac_u = &self.fwd * dft;
         let jac_omega = &self.fwd * fv.component_mul(&dut);
-        AftOutput { force, jac_u, jac_omega }
+        AftOutput {
+            force,
+            jac_u,
+            jac_omega,
+        }
     }
 }
 
@@ -176,7 +189,11 @@ mod tests {
             "poly"
         }
         fn eval(&self, u: f64, v: f64) -> (f64, f64, f64) {
-            (2.0 * u * u * u + 0.5 * u * v * v, 6.0 * u * u + 0.5 * v * v, u * v)
+            (
+                2.0 * u * u * u + 0.5 * u * v * v,
+                6.0 * u * u + 0.5 * v * v,
+                u * v,
+            )
         }
     }
 
@@ -208,7 +225,9 @@ mod tests {
     #[test]
     fn jacobians_match_finite_differences() {
         let aft = Aft::new(4, 23);
-        let u = DVector::from_fn(9, |i, _| 0.3 / (1.0 + i as f64) * if i % 2 == 0 { 1.0 } else { -1.0 });
+        let u = DVector::from_fn(9, |i, _| {
+            0.3 / (1.0 + i as f64) * if i % 2 == 0 { 1.0 } else { -1.0 }
+        });
         let omega = 1.7;
         let out = aft.eval(&Poly, &u, omega);
         let h = 1e-6;
@@ -217,11 +236,13 @@ mod tests {
             up[j] += h;
             let mut um = u.clone();
             um[j] -= h;
-            let fd = (aft.eval(&Poly, &up, omega).force - aft.eval(&Poly, &um, omega).force) / (2.0 * h);
+            let fd =
+                (aft.eval(&Poly, &up, omega).force - aft.eval(&Poly, &um, omega).force) / (2.0 * h);
             let err = (fd - out.jac_u.column(j)).norm();
             assert!(err < 1e-8, "column {j}: {err}");
         }
-        let fd = (aft.eval(&Poly, &u, omega + h).force - aft.eval(&Poly, &u, omega - h).force) / (2.0 * h);
+        let fd = (aft.eval(&Poly, &u, omega + h).force - aft.eval(&Poly, &u, omega - h).force)
+            / (2.0 * h);
         assert!((fd - &out.jac_omega).norm() < 1e-8);
     }
 }

@@ -10,7 +10,29 @@
 //! - this module: the drivers [`nonlinear_modal_analysis`] and
 //!   [`forced_response`], the branch result and its conversion to a
 //!   [`ModalTable`], and tables from measured modal data
-//!   ([`table_from_measured_csv`]).
+//!   ([`table_from_measured_csv`]),
+//! - [`problems`]: test problems with known answers (Duffing, chains), shared
+//!   by tests and benchmarks.
+//!
+//! Typical use:
+//!
+//! ```no_run
+//! use nlmode::nma::{nonlinear_modal_analysis, NmaOptions, TablePolicy};
+//! # fn model() -> nlmode::structure::StructuralModel { unimplemented!() }
+//! let result = nonlinear_modal_analysis(&model(), &NmaOptions::default())?;
+//! for fold in &result.folds {
+//!     println!("fold of a at a = {:e}, omega = {} rad/s", fold.amplitude, fold.omega_rad_s);
+//! }
+//! let table = result.to_table(TablePolicy::PrimaryBranch);
+//! # Ok::<(), nlmode::nma::NmaError>(())
+//! ```
+//!
+//! Cost: the Newton systems are condensed onto the nonlinear DOFs (see
+//! [`epmc`]), so a continuation point costs `O(n H)` for `n` DOFs plus a dense
+//! solve of size `~ E (2H+1)` for `E` nonlinear elements; the one-off modal
+//! decomposition is `O(n^3)`. Paper beam (CB, 11 DOF), `a = 1e-6` through the
+//! first loop: H = 3 in about 8 ms, H = 13 in about 40 ms (release build;
+//! `benches/nma.rs`).
 use serde::{Deserialize, Serialize};
 
 /// Identifier written into every modal-table file.

@@ -17,7 +17,11 @@ impl NonlinearLaw for CubicLaw {
         "cubic"
     }
     fn eval(&self, u: f64, v: f64) -> (f64, f64, f64) {
-        (self.k3 * u * u * u + self.c3 * v * v * v, 3.0 * self.k3 * u * u, 3.0 * self.c3 * v * v)
+        (
+            self.k3 * u * u * u + self.c3 * v * v * v,
+            3.0 * self.k3 * u * u,
+            3.0 * self.c3 * v * v,
+        )
     }
 }
 
@@ -34,7 +38,10 @@ pub fn duffing(m: f64, c: f64, k: f64, k3: f64) -> StructuralModel {
             direction: e.clone(),
             law: Arc::new(CubicLaw { k3, c3: 0.0 }),
         }],
-        points: vec![NamedPoint { name: "x".into(), direction: e }],
+        points: vec![NamedPoint {
+            name: "x".into(),
+            direction: e,
+        }],
     }
 }
 
@@ -79,7 +86,15 @@ pub fn ellip_k(m: f64) -> f64 {
 /// damping `C = alpha M + beta K` (or non-proportional if `extra_damper` adds a
 /// dashpot `c` between ground and mass 0), a cubic spring/damper at the last
 /// mass, and named points `first`, `last`.
-pub fn chain(n: usize, m: f64, k: f64, alpha: f64, beta: f64, law: CubicLaw, extra_damper: f64) -> StructuralModel {
+pub fn chain(
+    n: usize,
+    m: f64,
+    k: f64,
+    alpha: f64,
+    beta: f64,
+    law: CubicLaw,
+    extra_damper: f64,
+) -> StructuralModel {
     let mass = DMatrix::from_diagonal_element(n, n, m);
     let mut stiffness = DMatrix::zeros(n, n);
     for i in 0..n {
@@ -100,8 +115,21 @@ pub fn chain(n: usize, m: f64, k: f64, alpha: f64, beta: f64, law: CubicLaw, ext
         mass,
         stiffness,
         damping,
-        nonlinear: vec![NonlinearElement { name: "cubic".into(), direction: last.clone(), law: Arc::new(law) }],
-        points: vec![NamedPoint { name: "last".into(), direction: last }, NamedPoint { name: "first".into(), direction: first }],
+        nonlinear: vec![NonlinearElement {
+            name: "cubic".into(),
+            direction: last.clone(),
+            law: Arc::new(law),
+        }],
+        points: vec![
+            NamedPoint {
+                name: "last".into(),
+                direction: last,
+            },
+            NamedPoint {
+                name: "first".into(),
+                direction: first,
+            },
+        ],
     }
 }
 

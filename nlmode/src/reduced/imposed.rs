@@ -8,11 +8,11 @@ use num_complex::Complex64;
 /// Complex force amplitude against the excitation frequency.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ForceEnvelope {
-    /// Strictly increasing excitation frequencies [rad/s].
+    /// Strictly increasing excitation frequencies \[rad/s\].
     pub omega_rad_s: Vec<f64>,
-    /// Force amplitudes [N].
+    /// Force amplitudes \[N\].
     pub amplitude_n: Vec<f64>,
-    /// Force phases relative to `Phi` [rad], unwrapped (no jumps above pi).
+    /// Force phases relative to `Phi` \[rad\], unwrapped (no jumps above pi).
     pub phase_rad: Vec<f64>,
 }
 
@@ -114,7 +114,7 @@ impl ForceEnvelope {
         Self::new(&w, &a, &p)
     }
 
-    /// Frequency range `(min, max)` [rad/s].
+    /// Frequency range `(min, max)` \[rad/s\].
     pub fn range(&self) -> (f64, f64) {
         (self.omega_rad_s[0], *self.omega_rad_s.last().unwrap())
     }

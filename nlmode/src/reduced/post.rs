@@ -13,20 +13,20 @@ use serde::Serialize;
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TimeSignals {
     pub t_s: Vec<f64>,
-    /// Excitation frequency [rad/s].
+    /// Excitation frequency \[rad/s\].
     pub omega_rad_s: Vec<f64>,
-    /// Tip displacement with all harmonics [m].
+    /// Tip displacement with all harmonics \[m\].
     pub tip_m: Vec<f64>,
-    /// Drive-point displacement with all harmonics [m].
+    /// Drive-point displacement with all harmonics \[m\].
     pub drive_m: Vec<f64>,
-    /// Force on the structure at the drive point with all harmonics [N].
+    /// Force on the structure at the drive point with all harmonics \[N\].
     pub force_n: Vec<f64>,
 }
 
 impl ReducedModel {
     /// Displacement harmonics `q_n = a phi_n(a) e^{i n theta}`, `n = 0..=H`, of
     /// the named point for the complex modal amplitude `A = a e^{i theta}`
-    /// (`eq:ansatz`: `q(t) = Re(sum_n q_n e^{i n Phi})`) [m].
+    /// (`eq:ansatz`: `q(t) = Re(sum_n q_n e^{i n Phi})`) \[m\].
     pub fn displacement_harmonics(&self, point: &str, amp: Complex64) -> Result<Vec<Complex64>, ReducedError> {
         let p = self.table.point_index(point)?;
         self.harmonics_at(p, amp)
@@ -42,7 +42,7 @@ impl ReducedModel {
 
     /// Fundamental interface forces on the structure of every attachment,
     /// `F_G = -Z_G(Omega) u_G + T_G(Omega) u_hat` (`eq:fc1`), one vector per
-    /// attachment (one entry per interface point) [N].
+    /// attachment (one entry per interface point) \[N\].
     pub fn interface_forces(
         &self,
         omega_rad_s: f64,
@@ -72,7 +72,7 @@ impl ReducedModel {
 
     /// Harmonics `F_n`, `n = 0..=H`, of the force on the structure at the
     /// drive point (all attachments there, plus the imposed force at `n = 1`)
-    /// [N]: `F(t) = Re(sum_n F_n e^{i n Phi})`.
+    /// \[N\]: `F(t) = Re(sum_n F_n e^{i n Phi})`.
     pub fn force_harmonics(&self, omega_rad_s: f64, amplitude: f64, amp: Complex64) -> Result<Vec<Complex64>, ReducedError> {
         let h = self.table.harmonics();
         let mut chs = vec![vec![Complex64::new(0.0, 0.0); self.nch]; h + 1];

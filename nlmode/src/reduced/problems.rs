@@ -5,7 +5,7 @@ use crate::nma::{ModalTable, PointShape, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION
 use num_complex::Complex64;
 
 /// The modal table of a mode with constant shape `phi` and a cubic spring
-/// `k3` [N/m^3] at point `nonlinear_point`: by single-harmonic averaging,
+/// `k3` \[N/m^3\] at point `nonlinear_point`: by single-harmonic averaging,
 /// `omega(a)^2 = omega0^2 + 3/4 k3 |phi_nl|^4 a^2`, and with constant viscous
 /// modal damping `2 D(a) omega(a) = 2 D0 omega0`. `n` points uniform in
 /// `(0, a_max]`; shapes at `points` with the fundamental `phi` and zero
@@ -69,7 +69,7 @@ pub fn benchmark_points() -> [(&'static str, Complex64); 3] {
     ]
 }
 
-/// Linear natural frequency of the benchmark-like tables [rad/s].
+/// Linear natural frequency of the benchmark-like tables \[rad/s\].
 pub const BENCHMARK_OMEGA0: f64 = 356.2;
 
 /// The benchmark-like Duffing table (cubic spring `k3` at the tip) up to

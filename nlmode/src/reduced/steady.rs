@@ -10,26 +10,26 @@ use serde::Serialize;
 /// One steady-state solution.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SteadyPoint {
-    /// Excitation frequency [rad/s].
+    /// Excitation frequency \[rad/s\].
     pub omega_rad_s: f64,
-    /// Modal amplitude `a` [sqrt(kg) m].
+    /// Modal amplitude `a` \[sqrt(kg) m\].
     pub a: f64,
-    /// Phase lag `theta` [rad].
+    /// Phase lag `theta` \[rad\].
     pub theta_rad: f64,
     /// Stable as a fixed point of the slow flow (both Jacobian eigenvalues in
     /// the open left half plane).
     pub stable: bool,
-    /// Eigenvalues of the 2 x 2 slow-flow Jacobian at the fixed point [1/s].
+    /// Eigenvalues of the 2 x 2 slow-flow Jacobian at the fixed point \[1/s\].
     pub eigenvalues: [Complex64; 2],
-    /// `omega(a)` in force [rad/s].
+    /// `omega(a)` in force \[rad/s\].
     pub modal_frequency_rad_s: f64,
-    /// Fundamental tip amplitude [m].
+    /// Fundamental tip amplitude \[m\].
     pub tip_amplitude_m: f64,
-    /// Fundamental drive-point amplitude [m].
+    /// Fundamental drive-point amplitude \[m\].
     pub drive_amplitude_m: f64,
-    /// Fundamental drive-point force amplitude [N].
+    /// Fundamental drive-point force amplitude \[N\].
     pub force_amplitude_n: f64,
-    /// Force phase relative to the excitation [rad].
+    /// Force phase relative to the excitation \[rad\].
     pub force_phase_rad: f64,
 }
 
@@ -47,11 +47,11 @@ pub struct SteadyFrequency {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LinearSteady {
     pub points: Vec<SteadyPoint>,
-    /// Linear natural frequency used (`omega0`, frequency error applied) [rad/s].
+    /// Linear natural frequency used (`omega0`, frequency error applied) \[rad/s\].
     pub omega0_rad_s: f64,
-    /// `|F|` at the structural resonance `Omega = omega0` [N].
+    /// `|F|` at the structural resonance `Omega = omega0` \[N\].
     pub force_at_resonance_n: f64,
-    /// Blocked force `|F0| = |T_G u_hat|` at `omega0` [N].
+    /// Blocked force `|F0| = |T_G u_hat|` at `omega0` \[N\].
     pub blocked_force_at_resonance_n: f64,
     /// `1 - |F|/|F0|` at `Omega = omega0` (`eq:forcedrop`).
     pub force_drop: f64,
@@ -139,7 +139,8 @@ impl ReducedModel {
     ///
     /// Roots of `R(a) = a^2 |K(a, Omega)|^2 - |phi^H f_ex|^2` on `[0, a_max]` (the
     /// squared form has the same roots and needs no square roots): `R` is
-    /// sampled on the table's grid, the resonance dip
+    /// sampled on the table's grid refined adaptively where `K` or the modal
+    /// force vary (see `refine_scan`), the resonance dip
     /// (where `Re K` changes sign, i.e. `omega(a)^2 + Re Z_A = Omega^2`, often
     /// narrower than a grid cell) is located by Brent's method on `Re K` and
     /// added to the samples, and every sign change of `R` is refined by Brent's
@@ -159,7 +160,8 @@ impl ReducedModel {
         let xtol = 1e-14 * self.a_scale;
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut out = Vec::with_capacity(omegas.len());
-        let mut samples: Vec<(f64, f64, f64)> = Vec::with_capacity(2 * scan.len());
+        let mut samples: Vec<(f64, f64, f64)> = Vec::with_capacity(4 * scan.len());
+        let mut nodes: Vec<(f64, Complex64, Complex64)> = Vec::with_capacity(scan.len());
         for &w in omegas {
             self.fill_channels(w, amplitude, &mut ch)?;
             let fi = self.imposed_at(w)?;
@@ -167,10 +169,17 @@ impl ReducedModel {
                 let (k, f, _, _) = self.nm_terms(a, w, &ch, fi)?;
                 Ok((a * a * k.norm_sqr() - f.norm_sqr(), k.re))
             };
-            samples.clear();
+            // K and F at the nodes, then adaptive refinement between them
+            nodes.clear();
             for (&a, (p, phi)) in scan.iter().zip(&node_data) {
                 let (k, f, _) = self.terms_with(p, phi, w, &ch, fi);
-                samples.push((a, a * a * k.norm_sqr() - f.norm_sqr(), k.re));
+                nodes.push((a, k, f));
+            }
+            samples.clear();
+            let r_of = |a: f64, k: Complex64, f: Complex64| (a, a * a * k.norm_sqr() - f.norm_sqr(), k.re);
+            samples.push(r_of(nodes[0].0, nodes[0].1, nodes[0].2));
+            for j in 0..nodes.len() - 1 {
+                self.refine_scan(nodes[j], nodes[j + 1], 0, w, &ch, fi, &mut |a, k, f| samples.push(r_of(a, k, f)))?;
             }
             // resonance dips (often narrower than a grid cell): where Re K
             // changes sign, |K| is smallest
@@ -210,6 +219,42 @@ impl ReducedModel {
             out.push(SteadyFrequency { omega_rad_s: w, solutions: pts, exceeds_table });
         }
         Ok(out)
+    }
+
+    /// Adaptive sampling of `K(a)`, `F(a)` on `[p0.a, p1.a]` for the root scan:
+    /// an interval is bisected (geometrically) while `K` or `F` change by more
+    /// than 10 % of their smaller magnitude, so that `R(a)` is resolved wherever
+    /// the modal properties, the attachment impedance or the distance to
+    /// resonance vary (the table's own grid can be far coarser, e.g. where an
+    /// NMA took large steps). Where `K` and `F` are nearly constant,
+    /// `R = a^2 |K|^2 - |F|^2` increases monotonically and has at most one root.
+    /// Pushes the right end of every final sub-interval.
+    #[allow(clippy::too_many_arguments)]
+    fn refine_scan(
+        &self,
+        p0: (f64, Complex64, Complex64),
+        p1: (f64, Complex64, Complex64),
+        depth: usize,
+        w: f64,
+        ch: &[Complex64],
+        fi: Complex64,
+        push: &mut dyn FnMut(f64, Complex64, Complex64),
+    ) -> Result<(), ReducedError> {
+        let (a0, k0, f0) = p0;
+        let (a1, k1, f1) = p1;
+        let split = depth < 16
+            && a0 > 0.0
+            && ((k1 - k0).norm_sqr() > 0.01 * k0.norm_sqr().min(k1.norm_sqr())
+                || (f1 - f0).norm_sqr() > 0.01 * f0.norm_sqr().min(f1.norm_sqr()));
+        if !split {
+            push(a1, k1, f1);
+            return Ok(());
+        }
+        let am = (a0 * a1).sqrt();
+        let (km, fm, _, _) = self.nm_terms(am, w, ch, fi)?;
+        let pm = (am, km, fm);
+        self.refine_scan(p0, pm, depth + 1, w, ch, fi, push)?;
+        self.refine_scan(pm, p1, depth + 1, w, ch, fi, push)
     }
 
     /// Output quantities and stability of the fixed point `A` at `Omega`.

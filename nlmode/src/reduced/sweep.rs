@@ -56,23 +56,23 @@ impl SlowFlowOptions {
 /// One output sample of a slow-flow sweep.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SlowFlowSample {
-    /// Time since the start of the sweep [s].
+    /// Time since the start of the sweep \[s\].
     pub t_s: f64,
-    /// Excitation frequency `Omega(t)` [rad/s].
+    /// Excitation frequency `Omega(t)` \[rad/s\].
     pub omega_rad_s: f64,
-    /// Modal amplitude `a` [sqrt(kg) m].
+    /// Modal amplitude `a` \[sqrt(kg) m\].
     pub a: f64,
-    /// Phase lag `theta` [rad] (`q = Re(a phi e^{i(Phi + theta)})`).
+    /// Phase lag `theta` \[rad\] (`q = Re(a phi e^{i(Phi + theta)})`).
     pub theta_rad: f64,
-    /// Modal frequency `omega(a)` in force (frequency error applied) [rad/s].
+    /// Modal frequency `omega(a)` in force (frequency error applied) \[rad/s\].
     pub modal_frequency_rad_s: f64,
-    /// Fundamental tip amplitude `|q_tip,1| = a |phi_tip,1(a)|` [m].
+    /// Fundamental tip amplitude `|q_tip,1| = a |phi_tip,1(a)|` \[m\].
     pub tip_amplitude_m: f64,
-    /// Fundamental drive-point amplitude `a |phi_drive,1(a)|` [m].
+    /// Fundamental drive-point amplitude `a |phi_drive,1(a)|` \[m\].
     pub drive_amplitude_m: f64,
-    /// Fundamental force amplitude at the drive point `|F|` [N] (`eq:fc1`).
+    /// Fundamental force amplitude at the drive point `|F|` \[N\] (`eq:fc1`).
     pub force_amplitude_n: f64,
-    /// Phase of the force relative to the excitation phase `Phi` [rad]
+    /// Phase of the force relative to the excitation phase `Phi` \[rad\]
     /// (`F(t) = Re(|F| e^{i(Phi + phase)})`).
     pub force_phase_rad: f64,
 }
@@ -107,10 +107,10 @@ pub struct Envelope {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SweepSummary {
     pub peak_tip_amplitude_m: f64,
-    /// Excitation frequency at the peak [rad/s].
+    /// Excitation frequency at the peak \[rad/s\].
     pub peak_omega_rad_s: f64,
     /// Excitation frequency of the steepest drop of the tip envelope after the
-    /// peak (the jump-down of a hardening resonance) [rad/s]; `None` if the
+    /// peak (the jump-down of a hardening resonance) \[rad/s\]; `None` if the
     /// peak is the last sample.
     pub jump_down_omega_rad_s: Option<f64>,
     pub min_force_amplitude_n: f64,
@@ -403,9 +403,11 @@ impl ReducedModel {
         ch: &[Complex64],
         fi: Complex64,
     ) -> Result<SlowFlowSample, ReducedError> {
-        let a = amp.norm();
+        // plain sqrt instead of hypot: no overflow risk at these magnitudes
+        let abs = |z: Complex64| z.norm_sqr().sqrt();
+        let a = abs(amp);
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
-        let p = self.gather(a, &mut phi)?;
+        let (loc, p) = self.gather_loc(a, &mut phi)?;
         let f = self.drive_force_with(amp, &phi, ch, fi);
         Ok(SlowFlowSample {
             t_s: t,
@@ -413,13 +415,9 @@ impl ReducedModel {
             a,
             theta_rad: amp.arg(),
             modal_frequency_rad_s: p.omega_rad_s,
-            tip_amplitude_m: a * self.table.shape(self.tip, 1, a)?.norm(),
-            drive_amplitude_m: a * match self.phi_index(self.drive) {
-                Some(j) => phi[j],
-                None => self.table.shape(self.drive, 1, a)?,
-            }
-            .norm(),
-            force_amplitude_n: f.norm(),
+            tip_amplitude_m: a * abs(self.phi1(loc, self.tip)),
+            drive_amplitude_m: a * abs(self.phi1(loc, self.drive)),
+            force_amplitude_n: abs(f),
             force_phase_rad: f.arg(),
         })
     }

@@ -109,13 +109,13 @@ impl FirstOrderSystem {
     pub fn m(&self) -> usize {
         self.laws.len()
     }
-    /// Nonlinear forces `f_e` [N] at state `z`.
+    /// Nonlinear forces `f_e` \[N\] at state `z`.
     pub fn forces(&self, z: &DVector<f64>, f: &mut [f64]) {
         let m = self.m();
-        for e in 0..m {
-            let u = self.proj.row(e).dot(&z.transpose());
-            let v = self.proj.row(m + e).dot(&z.transpose());
-            f[e] = self.laws[e].eval(u, v).0;
+        for (e, fe) in f.iter_mut().enumerate().take(m) {
+            let u = self.proj.row(e).transpose().dot(z);
+            let v = self.proj.row(m + e).transpose().dot(z);
+            *fe = self.laws[e].eval(u, v).0;
         }
     }
     /// `z' = A z + b u + G f(z)`; `f` is scratch of length `m`.
@@ -139,7 +139,11 @@ struct LinearMap {
 
 impl LinearMap {
     fn zeros(rows: usize, nz: usize, m: usize) -> Self {
-        Self { z: DMatrix::zeros(rows, nz), u: DVector::zeros(rows), f: DMatrix::zeros(rows, m) }
+        Self {
+            z: DMatrix::zeros(rows, nz),
+            u: DVector::zeros(rows),
+            f: DMatrix::zeros(rows, m),
+        }
     }
 }
 
@@ -149,9 +153,9 @@ pub struct AttachmentObservation {
     pub name: String,
     pub interface_points: Vec<String>,
     pub state_names: Vec<String>,
-    /// Index of the first interface displacement `e_c^T q` [m] (`ncon` entries).
+    /// Index of the first interface displacement `e_c^T q` \[m\] (`ncon` entries).
     pub drive_index: usize,
-    /// Index of the first interface force `lambda_c` [N] on the structure
+    /// Index of the first interface force `lambda_c` \[N\] on the structure
     /// (`ncon` entries), `f_c1 = E lambda`.
     pub force_index: usize,
     /// Index of the first attachment state `x` (`ndim` entries).
@@ -195,13 +199,16 @@ fn point_direction<'a>(
     owner: &str,
     name: &str,
 ) -> Result<&'a DVector<f64>, ReferenceError> {
-    model.points.iter().find(|p| p.name == name).map(|p| &p.direction).ok_or_else(|| {
-        ReferenceError::UnknownPoint {
+    model
+        .points
+        .iter()
+        .find(|p| p.name == name)
+        .map(|p| &p.direction)
+        .ok_or_else(|| ReferenceError::UnknownPoint {
             owner: owner.to_string(),
             point: name.to_string(),
             known: model.points.iter().map(|p| p.name.clone()).collect(),
-        }
-    })
+        })
 }
 
 /// Basis of `null(B)` from the reduced row-echelon form (partial pivoting), and
@@ -266,9 +273,21 @@ impl AssembledSystem {
         tip_point: &str,
     ) -> Result<Self, ReferenceError> {
         let ndof = model.mass.nrows();
-        assert_eq!(model.mass.shape(), (ndof, ndof), "mass matrix must be square");
-        assert_eq!(model.stiffness.shape(), (ndof, ndof), "stiffness vs mass dimensions");
-        assert_eq!(model.damping.shape(), (ndof, ndof), "damping vs mass dimensions");
+        assert_eq!(
+            model.mass.shape(),
+            (ndof, ndof),
+            "mass matrix must be square"
+        );
+        assert_eq!(
+            model.stiffness.shape(),
+            (ndof, ndof),
+            "stiffness vs mass dimensions"
+        );
+        assert_eq!(
+            model.damping.shape(),
+            (ndof, ndof),
+            "damping vs mass dimensions"
+        );
         let tip_direction = point_direction(model, "options.tip_point", tip_point)?.clone();
         assert_eq!(tip_direction.len(), ndof, "tip direction length");
 
@@ -279,15 +298,37 @@ impl AssembledSystem {
         for att in attachments {
             let ndim = att.coefficients.first().map(|a| a.nrows()).unwrap_or(0);
             if att.coefficients.is_empty() || ndim == 0 {
-                return Err(ReferenceError::EmptyAttachment { attachment: att.name.clone() });
+                return Err(ReferenceError::EmptyAttachment {
+                    attachment: att.name.clone(),
+                });
             }
             for a in &att.coefficients {
-                assert_eq!(a.shape(), (ndim, ndim), "attachment '{}': A_k dimensions", att.name);
+                assert_eq!(
+                    a.shape(),
+                    (ndim, ndim),
+                    "attachment '{}': A_k dimensions",
+                    att.name
+                );
             }
             let ncon = att.b2.nrows();
-            assert_eq!(att.b2.ncols(), ndim, "attachment '{}': B2 columns", att.name);
-            assert_eq!(att.interface_points.len(), ncon, "attachment '{}': interface points", att.name);
-            assert_eq!(att.input_map.nrows(), ndim, "attachment '{}': input map rows", att.name);
+            assert_eq!(
+                att.b2.ncols(),
+                ndim,
+                "attachment '{}': B2 columns",
+                att.name
+            );
+            assert_eq!(
+                att.interface_points.len(),
+                ncon,
+                "attachment '{}': interface points",
+                att.name
+            );
+            assert_eq!(
+                att.input_map.nrows(),
+                ndim,
+                "attachment '{}': input map rows",
+                att.name
+            );
             let mut e = DMatrix::zeros(ndof, ncon);
             for (c, p) in att.interface_points.iter().enumerate() {
                 let dir = point_direction(model, &att.name, p)?;
@@ -303,11 +344,13 @@ impl AssembledSystem {
                 });
             }
             let gram = &att.b2 * att.b2.transpose();
-            let gram_inv = gram.try_inverse().ok_or_else(|| ReferenceError::CompatibilityRank {
-                attachment: att.name.clone(),
-                rank,
-                constraints: ncon,
-            })?;
+            let gram_inv = gram
+                .try_inverse()
+                .ok_or_else(|| ReferenceError::CompatibilityRank {
+                    attachment: att.name.clone(),
+                    rank,
+                    constraints: ncon,
+                })?;
             let pinv_b2 = att.b2.transpose() * gram_inv;
             let l1 = &pinv_b2 * e.transpose();
             let nr = l2.ncols();
@@ -315,7 +358,10 @@ impl AssembledSystem {
                 let col = l2.column(r);
                 let nonzero: Vec<usize> = (0..ndim).filter(|&i| col[i] != 0.0).collect();
                 let state = if nonzero.len() == 1 && col[nonzero[0]] == 1.0 {
-                    att.state_names.get(nonzero[0]).cloned().unwrap_or_else(|| format!("x[{}]", nonzero[0]))
+                    att.state_names
+                        .get(nonzero[0])
+                        .cloned()
+                        .unwrap_or_else(|| format!("x[{}]", nonzero[0]))
                 } else {
                     format!("x_r[{r}]")
                 };
@@ -346,11 +392,22 @@ impl AssembledSystem {
             .collect();
 
         // --- assembled coefficients (eq:finalassembly1-2)
-        let kmax = attachments.iter().map(|a| a.coefficients.len() - 1).max().unwrap_or(0).max(2);
+        let kmax = attachments
+            .iter()
+            .map(|a| a.coefficients.len() - 1)
+            .max()
+            .unwrap_or(0)
+            .max(2);
         let mut coeffs = vec![DMatrix::<f64>::zeros(n, n); kmax + 1];
-        coeffs[0].view_mut((0, 0), (ndof, ndof)).copy_from(&model.stiffness);
-        coeffs[1].view_mut((0, 0), (ndof, ndof)).copy_from(&model.damping);
-        coeffs[2].view_mut((0, 0), (ndof, ndof)).copy_from(&model.mass);
+        coeffs[0]
+            .view_mut((0, 0), (ndof, ndof))
+            .copy_from(&model.stiffness);
+        coeffs[1]
+            .view_mut((0, 0), (ndof, ndof))
+            .copy_from(&model.damping);
+        coeffs[2]
+            .view_mut((0, 0), (ndof, ndof))
+            .copy_from(&model.mass);
         let mut input = DVector::zeros(n);
         for (att, loc) in attachments.iter().zip(&locs) {
             for (k, a) in att.coefficients.iter().enumerate() {
@@ -362,7 +419,12 @@ impl AssembledSystem {
         let m = model.nonlinear.len();
         let mut w = DMatrix::zeros(n, m);
         for (e, el) in model.nonlinear.iter().enumerate() {
-            assert_eq!(el.direction.len(), ndof, "nonlinear element '{}' direction", el.name);
+            assert_eq!(
+                el.direction.len(),
+                ndof,
+                "nonlinear element '{}' direction",
+                el.name
+            );
             w.view_mut((0, e), (ndof, 1)).copy_from(&el.direction);
         }
 
@@ -370,13 +432,16 @@ impl AssembledSystem {
         // a column counts as non-zero against the largest entry of the same A_k
         // (entries of different A_k carry different units)
         let kmax_abs: Vec<f64> = coeffs.iter().map(|a| a.amax()).collect();
-        let nonzero = |k: usize, j: usize| coeffs[k].column(j).amax() > ZERO_COLUMN_RTOL * kmax_abs[k];
-        let mut orders = vec![0usize; n];
-        for j in 0..n {
-            orders[j] = (0..=kmax).rev().find(|&k| nonzero(k, j)).unwrap_or(0);
-        }
-        for i in 0..ndof {
-            assert!(orders[i] >= 2, "structural coordinate {i} has no mass (M must be positive definite)");
+        let nonzero =
+            |k: usize, j: usize| coeffs[k].column(j).amax() > ZERO_COLUMN_RTOL * kmax_abs[k];
+        let orders: Vec<usize> = (0..n)
+            .map(|j| (0..=kmax).rev().find(|&k| nonzero(k, j)).unwrap_or(0))
+            .collect();
+        for (i, &k) in orders.iter().enumerate().take(ndof) {
+            assert!(
+                k >= 2,
+                "structural coordinate {i} has no mass (M must be positive definite)"
+            );
         }
         let mut state_of = vec![Vec::new(); n];
         let mut nz = 0;
@@ -453,7 +518,11 @@ impl AssembledSystem {
 
     /// Equilibrate the leading matrix, check its reciprocal condition number and
     /// invert it.
-    fn check_and_invert_lead(lead: &DMatrix<f64>, names: &[String]) -> Result<DMatrix<f64>, ReferenceError> {
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(rcond > tol)` also rejects NaN
+    fn check_and_invert_lead(
+        lead: &DMatrix<f64>,
+        names: &[String],
+    ) -> Result<DMatrix<f64>, ReferenceError> {
         let n = lead.nrows();
         let mut scaled = lead.clone();
         let mut col_scale = DVector::from_element(n, 1.0);
@@ -475,18 +544,34 @@ impl AssembledSystem {
         let smax = svd.singular_values.max();
         let rcond = if smax > 0.0 { smin / smax } else { 0.0 };
         if !(rcond > SINGULAR_RCOND) {
-            let v = svd.v_t.as_ref().expect("requested V^T").row(imin).transpose();
+            let v = svd
+                .v_t
+                .as_ref()
+                .expect("requested V^T")
+                .row(imin)
+                .transpose();
             // null vector in unscaled variables
             let v = v.component_mul(&col_scale);
             let vmax = v.amax();
-            let variables = (0..n).filter(|&j| v[j].abs() > 0.1 * vmax).map(|j| names[j].clone()).collect();
+            let variables = (0..n)
+                .filter(|&j| v[j].abs() > 0.1 * vmax)
+                .map(|j| names[j].clone())
+                .collect();
             return Err(ReferenceError::SingularLeadingMatrix { rcond, variables });
         }
-        Ok(lead.clone().lu().try_inverse().expect("leading matrix checked regular"))
+        Ok(lead
+            .clone()
+            .lu()
+            .try_inverse()
+            .expect("leading matrix checked regular"))
     }
 
     /// Linear map of `y_j^(k)` in terms of `(z, u, f)`, or `None` when `k > k_j`.
-    fn derivative_map(&self, j: usize, k: usize) -> Option<(RowDVector<f64>, f64, RowDVector<f64>)> {
+    fn derivative_map(
+        &self,
+        j: usize,
+        k: usize,
+    ) -> Option<(RowDVector<f64>, f64, RowDVector<f64>)> {
         let nz = self.first_order.nz();
         let m = self.first_order.m();
         let kj = self.orders[j];
@@ -496,7 +581,11 @@ impl AssembledSystem {
             Some((r, 0.0, RowDVector::zeros(m)))
         } else if k == kj {
             let p = self.lead_inv.row(j);
-            Some((-(p * &self.lower), (p * &self.input)[0], -(p * &self.nonlinear_directions)))
+            Some((
+                -(p * &self.lower),
+                (p * &self.input)[0],
+                -(p * &self.nonlinear_directions),
+            ))
         } else {
             None
         }
@@ -512,29 +601,39 @@ impl AssembledSystem {
                 if col.amax() == 0.0 {
                     continue;
                 }
-                let (dz, du, df) = self.derivative_map(j, k).ok_or_else(|| ReferenceError::InterfaceForceOrder {
-                    attachment: owner.to_string(),
-                    variable: self.variable_names[j].clone(),
-                    order: k,
-                    available: self.orders[j],
+                let (dz, du, df) = self.derivative_map(j, k).ok_or_else(|| {
+                    ReferenceError::InterfaceForceOrder {
+                        attachment: owner.to_string(),
+                        variable: self.variable_names[j].clone(),
+                        order: k,
+                        available: self.orders[j],
+                    }
                 })?;
-                out.z += &col * dz;
+                out.z += col * dz;
                 out.u.axpy(du, &col, 1.0);
-                out.f += &col * df;
+                out.f += col * df;
             }
         }
         Ok(out)
     }
 
-    fn build_observations(&mut self, attachments: &[LinearAttachment]) -> Result<(), ReferenceError> {
+    fn build_observations(
+        &mut self,
+        attachments: &[LinearAttachment],
+    ) -> Result<(), ReferenceError> {
         let n = self.variable_names.len();
         let mut blocks: Vec<LinearMap> = Vec::new();
         let sel_q = |dirs: &DMatrix<f64>| -> DMatrix<f64> {
             let mut r = DMatrix::zeros(dirs.ncols(), n);
-            r.view_mut((0, 0), (dirs.ncols(), self.ndof)).copy_from(&dirs.transpose());
+            r.view_mut((0, 0), (dirs.ncols(), self.ndof))
+                .copy_from(&dirs.transpose());
             r
         };
-        let tip = sel_q(&DMatrix::from_column_slice(self.ndof, 1, self.tip_direction.as_slice()));
+        let tip = sel_q(&DMatrix::from_column_slice(
+            self.ndof,
+            1,
+            self.tip_direction.as_slice(),
+        ));
         let tip_map = self.combine(&[tip], "tip")?;
         blocks.push(tip_map);
         let mut index = 1;
@@ -544,17 +643,25 @@ impl AssembledSystem {
             let ndim = loc.l1.nrows();
             let drive = self.combine(&[sel_q(&loc.interface_directions)], &att.name)?;
             // lambda = pinv(B2)^T (input_map 1 u - sum_k A_k T y^(k))
-            let rk: Vec<DMatrix<f64>> =
-                att.coefficients.iter().map(|a| -(loc.pinv_b2.transpose() * a * &loc.t)).collect();
+            let rk: Vec<DMatrix<f64>> = att
+                .coefficients
+                .iter()
+                .map(|a| -(loc.pinv_b2.transpose() * a * &loc.t))
+                .collect();
             let mut force = self.combine(&rk, &att.name)?;
             let ones = DVector::from_element(att.input_map.ncols(), 1.0);
             force.u += loc.pinv_b2.transpose() * (&att.input_map * ones);
-            let states = self.combine(&[loc.t.clone()], &att.name)?;
+            let states = self.combine(std::slice::from_ref(&loc.t), &att.name)?;
             observations.push(AttachmentObservation {
                 name: att.name.clone(),
                 interface_points: loc.interface_points.clone(),
                 state_names: (0..ndim)
-                    .map(|i| att.state_names.get(i).cloned().unwrap_or_else(|| format!("x[{i}]")))
+                    .map(|i| {
+                        att.state_names
+                            .get(i)
+                            .cloned()
+                            .unwrap_or_else(|| format!("x[{i}]"))
+                    })
                     .collect(),
                 drive_index: index,
                 force_index: index + ncon,
@@ -586,7 +693,7 @@ impl AssembledSystem {
 
     /// Observed quantities at state `z`, input `u` and nonlinear forces `f`:
     /// `[tip displacement [m], then per attachment: interface displacements [m],
-    /// interface forces on the structure [N], attachment states x]` (indices in
+    /// interface forces on the structure \[N\], attachment states x]` (indices in
     /// [`Self::observations`]).
     pub fn observe(&self, z: &DVector<f64>, u: f64, f: &[f64], out: &mut DVector<f64>) {
         out.gemv(1.0, &self.obs.z, z, 0.0);
@@ -596,8 +703,8 @@ impl AssembledSystem {
         }
     }
 
-    /// First-order state for structural displacements `q0` [m] and velocities
-    /// `qd0` [m/s]; all attachment states zero.
+    /// First-order state for structural displacements `q0` \[m\] and velocities
+    /// `qd0` \[m/s\]; all attachment states zero.
     pub fn state_from_structure(&self, q0: &DVector<f64>, qd0: &DVector<f64>) -> DVector<f64> {
         let mut z = DVector::zeros(self.first_order.nz());
         for i in 0..self.ndof {
@@ -607,7 +714,7 @@ impl AssembledSystem {
         z
     }
 
-    /// Structural displacements `q` [m] and velocities `q'` [m/s] of state `z`.
+    /// Structural displacements `q` \[m\] and velocities `q'` \[m/s\] of state `z`.
     pub fn structure_state(&self, z: &DVector<f64>) -> (DVector<f64>, DVector<f64>) {
         let q = DVector::from_fn(self.ndof, |i, _| z[self.state_of[i][0]]);
         let qd = DVector::from_fn(self.ndof, |i, _| z[self.state_of[i][1]]);

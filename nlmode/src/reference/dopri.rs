@@ -12,7 +12,7 @@
 //! of the assembled system (stinger and Craig-Bampton modes), which is what makes
 //! it slow here and useless for the unreduced FE model.
 use super::assembly::FirstOrderSystem;
-use super::{IntegrationStats, ReferenceError, StepControl};
+use super::{IntegrationStats, ReferenceError, SampleGrid, StepControl};
 use nalgebra::DVector;
 
 const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
@@ -21,9 +21,30 @@ const A: [[f64; 6]; 7] = [
     [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
     [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
-    [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0, 0.0],
-    [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
-    [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
+    [
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+        0.0,
+        0.0,
+    ],
+    [
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+        0.0,
+    ],
+    [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
 ];
 /// Fifth-order solution minus the embedded fourth-order one.
 const E: [f64; 7] = [
@@ -36,18 +57,18 @@ const E: [f64; 7] = [
     -1.0 / 40.0,
 ];
 
-/// Integrate from `z0` at `t = 0` over `n` sample intervals of `dt` [s], calling
-/// `on_sample(i, z)` at `t = i dt`.
+/// Integrate from `z0` at `t = 0` over the sample grid, calling `on_sample(i, z)`
+/// at `t = i dt`.
 pub(crate) fn integrate(
     sys: &FirstOrderSystem,
     z0: &DVector<f64>,
-    dt: f64,
-    n: usize,
+    grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     ctl: &StepControl,
     on_sample: &mut dyn FnMut(usize, &DVector<f64>),
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
+    let (dt, n) = (grid.interval_s, grid.count);
     let nz = sys.nz();
     let mut f = vec![0.0; sys.m()];
     let mut stats = IntegrationStats::default();
@@ -67,10 +88,16 @@ pub(crate) fn integrate(
     let mut next_progress = 0.0;
     while next_sample <= n {
         if stats.steps + stats.rejected >= ctl.max_steps {
-            return Err(ReferenceError::TooManySteps { time_s: t, steps: ctl.max_steps });
+            return Err(ReferenceError::TooManySteps {
+                time_s: t,
+                steps: ctl.max_steps,
+            });
         }
         if h < 1e-14 * t.max(dt) {
-            return Err(ReferenceError::StepSizeCollapse { time_s: t, step_s: h });
+            return Err(ReferenceError::StepSizeCollapse {
+                time_s: t,
+                step_s: h,
+            });
         }
         h = h.min(t_end - t).max(0.0);
         if h <= 0.0 {
@@ -145,7 +172,11 @@ pub(crate) fn integrate(
             zinf = zinf.max(a);
         }
         if zinf > ctl.divergence_limit {
-            return Err(ReferenceError::BlowUp { time_s: t, norm: zinf, limit: ctl.divergence_limit });
+            return Err(ReferenceError::BlowUp {
+                time_s: t,
+                norm: zinf,
+                limit: ctl.divergence_limit,
+            });
         }
         let frac = t / t_end;
         if frac >= next_progress {

@@ -20,13 +20,20 @@ use num_complex::Complex64;
 
 /// Amplitudes `|X|` of `x` (sampled at phases `phase`, increasing) for windows
 /// centred at the samples `centers`; `None` where the window leaves the data.
-pub fn fundamental_amplitudes(phase: &[f64], x: &[f64], centers: &[usize], periods: f64) -> Vec<Option<f64>> {
+pub fn fundamental_amplitudes(
+    phase: &[f64],
+    x: &[f64],
+    centers: &[usize],
+    periods: f64,
+) -> Vec<Option<f64>> {
     assert_eq!(phase.len(), x.len(), "phase and signal lengths");
     let n = x.len();
     if n < 2 {
         return vec![None; centers.len()];
     }
-    let w: Vec<Complex64> = (0..n).map(|i| x[i] * Complex64::from_polar(1.0, -phase[i])).collect();
+    let w: Vec<Complex64> = (0..n)
+        .map(|i| x[i] * Complex64::from_polar(1.0, -phase[i]))
+        .collect();
     // cumulative trapezoid S_i = int_{Phi_0}^{Phi_i} w dPhi
     let mut cum = vec![Complex64::new(0.0, 0.0); n];
     for i in 1..n {
@@ -80,7 +87,11 @@ mod tests {
         for (k, &c) in centers.iter().enumerate() {
             if let Some(v) = res[k] {
                 // a slowly, linearly varying amplitude is recovered at the centre
-                assert!((v - amp(t[c])).abs() < 2e-3 * amp(t[c]), "{v} vs {}", amp(t[c]));
+                assert!(
+                    (v - amp(t[c])).abs() < 2e-3 * amp(t[c]),
+                    "{v} vs {}",
+                    amp(t[c])
+                );
                 checked += 1;
             }
         }

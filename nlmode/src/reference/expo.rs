@@ -40,7 +40,7 @@
 //! once per level and cached. Time is counted in integer ticks of
 //! `dt / 2^MAX_LEVEL`, not summed.
 use super::assembly::FirstOrderSystem;
-use super::{IntegrationStats, ReferenceError, StepControl};
+use super::{IntegrationStats, ReferenceError, SampleGrid, StepControl};
 use nalgebra::{DMatrix, DVector};
 
 /// Finest level: the smallest step is `dt / 2^MAX_LEVEL`.
@@ -54,9 +54,12 @@ const NEWTON_RTOL: f64 = 1e-11;
 /// Gaussian elimination with partial pivoting; `b` becomes `x`. Hand-written
 /// because it runs in the inner loop for systems of a handful of unknowns,
 /// where nalgebra's LU would allocate a matrix per call. `false` if singular.
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(|pivot| > 0)` also rejects NaN
 fn solve_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
     for c in 0..n {
-        let p = (c..n).max_by(|&i, &j| a[i * n + c].abs().total_cmp(&a[j * n + c].abs())).unwrap();
+        let p = (c..n)
+            .max_by(|&i, &j| a[i * n + c].abs().total_cmp(&a[j * n + c].abs()))
+            .unwrap();
         if !(a[p * n + c].abs() > 0.0) {
             return false;
         }
@@ -185,7 +188,9 @@ fn build_level(sys: &FirstOrderSystem, d: &DVector<f64>, h: f64, s: usize) -> Le
     // interpolation in the basis rho^{k-1}/(k-1)!: with nodes rho_l = l tau,
     // V = Vhat diag(tau^{k-1}), Vhat[l][k-1] = l^{k-1}/(k-1)!.
     let vhat = DMatrix::from_fn(s, s, |l, k| (l as f64).powi(k as i32) / factorial(k));
-    let vhat_inv = vhat.try_inverse().expect("equidistant Vandermonde is regular");
+    let vhat_inv = vhat
+        .try_inverse()
+        .expect("equidistant Vandermonde is regular");
     // node-value weights at time j tau: sum_k X_k(j tau) tau^{-(k-1)} VhatInv[k-1][l]
     let weights = |j: usize, ks: std::ops::Range<usize>| -> DMatrix<f64> {
         let p = &powers[j];
@@ -209,27 +214,37 @@ fn build_level(sys: &FirstOrderSystem, d: &DVector<f64>, h: f64, s: usize) -> Le
     let np = 2 * m;
     let mut pe_t = DMatrix::zeros(nz, (s - 1) * np);
     let mut pq_t = DMatrix::zeros(s * mf, (s - 1) * np);
-    for j in 1..s {
-        let pe = &sys.proj * powers[j].view((0, 0), (nz, nz));
+    for (j, pw) in powers.iter().enumerate().skip(1) {
+        let pe = &sys.proj * pw.view((0, 0), (nz, nz));
         let pq = &sys.proj * weights(j, 0..s);
-        pe_t.view_mut((0, (j - 1) * np), (nz, np)).copy_from(&pe.transpose());
-        pq_t.view_mut((0, (j - 1) * np), (s * mf, np)).copy_from(&pq.transpose());
+        pe_t.view_mut((0, (j - 1) * np), (nz, np))
+            .copy_from(&pe.transpose());
+        pq_t.view_mut((0, (j - 1) * np), (s * mf, np))
+            .copy_from(&pq.transpose());
     }
-    Level { e, zw, ew, pe_t, pq_t }
+    Level {
+        e,
+        zw,
+        ew,
+        pe_t,
+        pq_t,
+    }
 }
 
-/// Integrate `z' = A z + b u(t) + G f(z)` from `z0` at `t = 0` over `n` sample
-/// intervals of `dt` [s], calling `on_sample(i, z)` at `t = i dt`.
+/// Integrate `z' = A z + b u(t) + G f(z)` from `z0` at `t = 0` over the sample
+/// grid, calling `on_sample(i, z)` at `t = i dt`.
+// `!(enorm <= 1)` also rejects NaN; `%` kept for the workspace's rust-version 1.80
+#[allow(clippy::neg_cmp_op_on_partial_ord, clippy::manual_is_multiple_of)]
 pub(crate) fn integrate(
     sys: &FirstOrderSystem,
     z0: &DVector<f64>,
-    dt: f64,
-    n: usize,
+    grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     ctl: &StepControl,
     on_sample: &mut dyn FnMut(usize, &DVector<f64>),
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
+    let (dt, n) = (grid.interval_s, grid.count);
     let s = ctl.nodes;
     assert!(s >= 2, "at least two collocation nodes");
     let nz = sys.nz();
@@ -265,7 +280,10 @@ pub(crate) fn integrate(
     let mut next_progress = 0.0;
     while pos < end {
         if stats.steps + stats.rejected >= ctl.max_steps {
-            return Err(ReferenceError::TooManySteps { time_s: pos as f64 * tick, steps: ctl.max_steps });
+            return Err(ReferenceError::TooManySteps {
+                time_s: pos as f64 * tick,
+                steps: ctl.max_steps,
+            });
         }
         let ticks: u64 = 1 << (MAX_LEVEL - level);
         let t = pos as f64 * tick;
@@ -304,7 +322,9 @@ pub(crate) fn integrate(
             r[1 + e] = f0[e];
             for l in 1..s {
                 r[l * mf + 1 + e] = match prev {
-                    Some(_) => (0..s).map(|k| extrap.1[l * s + k] * prev_f[k * m + e]).sum(),
+                    Some(_) => (0..s)
+                        .map(|k| extrap.1[l * s + k] * prev_f[k * m + e])
+                        .sum(),
                     None => f0[e],
                 };
             }
@@ -373,7 +393,10 @@ pub(crate) fn integrate(
         if !(enorm <= 1.0) {
             stats.rejected += 1;
             if level == MAX_LEVEL {
-                return Err(ReferenceError::StepSizeCollapse { time_s: t, step_s: h });
+                return Err(ReferenceError::StepSizeCollapse {
+                    time_s: t,
+                    step_s: h,
+                });
             }
             level += 1;
             last_rejected = true;
@@ -399,7 +422,11 @@ pub(crate) fn integrate(
             zinf = zinf.max(a);
         }
         if zinf > ctl.divergence_limit {
-            return Err(ReferenceError::BlowUp { time_s: t_new, norm: zinf, limit: ctl.divergence_limit });
+            return Err(ReferenceError::BlowUp {
+                time_s: t_new,
+                norm: zinf,
+                limit: ctl.divergence_limit,
+            });
         }
         if pos % one == 0 {
             on_sample((pos / one) as usize, &z);

@@ -13,11 +13,29 @@
 //!   by the stiff modes, so it is slow on the Craig-Bampton model and unusable on
 //!   the unreduced one.
 //!
-//! diffsol (BDF/SDIRK) was evaluated and not used: version 0.18 pulls in faer
-//! 0.24 and a second nalgebra (0.35) next to the workspace's 0.33, so every
-//! matrix would be copied across types, and its implicit methods need an
-//! `nz x nz` Newton solve per stage although the exponential method needs none
-//! for the linear part here.
+//! # Choice of the default, measured on the paper's case (a)
+//!
+//! Case (a) (exciter at 2l/3, 10 V, 2 % per pseudo period, 0.8 -> 1.8 omega0,
+//! 0.88 s), Craig-Bampton model (25 states, eigenvalues up to 2.4e5 rad/s),
+//! release build, CPU time on one core of this machine:
+//!
+//! | method | CPU time | steps | tip deviation from a tight run |
+//! |---|---|---|---|
+//! | exponential, 8 nodes, rtol 1e-6 (default) | 6.6 ms | 3 627 | 3e-11 |
+//! | Dormand-Prince 5(4), rtol 1e-6 | 133 ms | 87 110 | 5e-10 |
+//! | diffsol 0.18 BDF, rtol 1e-6, atol 1e-9 | 56 ms | 28 439 | 1.3e-5 |
+//! | diffsol 0.18 ESDIRK34, rtol 1e-6, atol 1e-6 | 58 ms | 8 029 | 1.6e-4 |
+//! | diffsol 0.18 TR-BDF2, rtol 1e-6, atol 1e-6 | 52 ms | 12 077 | 1.0e-3 |
+//!
+//! (deviations relative to the peak tip displacement; diffsol with analytic
+//! Jacobian-vector products and its dense nalgebra LU; with atol 1e-12 its BDF,
+//! and with atol 1e-9 its ESDIRK34 and TR-BDF2, stopped with
+//! `TooManyNonlinearSolverFailures` at t = 0.15-0.25 s). The unreduced 100-node
+//! model (399 states, eigenvalues up to 8e10 rad/s) takes 0.3 s with the
+//! exponential method and gives the same envelopes as the Craig-Bampton model
+//! to 2e-4; no explicit method can integrate it. diffsol was therefore not
+//! added: besides being slower here it pulls in faer 0.24 and a second nalgebra
+//! (0.35) next to the workspace's 0.33 (a 13-minute build on this machine).
 //!
 //! Both integrators sample on a uniform grid of `samples_per_period` points per
 //! excitation period at the highest sweep frequency; the envelopes
@@ -32,7 +50,9 @@ mod dopri;
 pub mod envelope;
 pub mod expo;
 
-pub use assembly::{AssembledSystem, AttachmentLocalization, AttachmentObservation, FirstOrderSystem};
+pub use assembly::{
+    AssembledSystem, AttachmentLocalization, AttachmentObservation, FirstOrderSystem,
+};
 
 use crate::attachment::LinearAttachment;
 use crate::excitation::LinearSweep;
@@ -43,14 +63,22 @@ use nalgebra::DVector;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ReferenceError {
     #[error("{owner}: point '{point}' is not a named point of the structure (known: {known:?})")]
-    UnknownPoint { owner: String, point: String, known: Vec<String> },
+    UnknownPoint {
+        owner: String,
+        point: String,
+        known: Vec<String>,
+    },
     #[error("attachment '{attachment}' has no coefficient matrices A_k")]
     EmptyAttachment { attachment: String },
     #[error(
         "attachment '{attachment}': B2 has rank {rank} but {constraints} constraints; \
          eq:L1L2 needs full row rank"
     )]
-    CompatibilityRank { attachment: String, rank: usize, constraints: usize },
+    CompatibilityRank {
+        attachment: String,
+        rank: usize,
+        constraints: usize,
+    },
     #[error(
         "the leading-coefficient matrix of the assembled system is singular (reciprocal condition \
          {rcond:.3e}); the assembly is a DAE of index > 1 in the variables {variables:?} (e.g. an \
@@ -62,7 +90,12 @@ pub enum ReferenceError {
         "attachment '{attachment}': its interface force needs derivative {order} of '{variable}', \
          which has differential order {available} in the assembly"
     )]
-    InterfaceForceOrder { attachment: String, variable: String, order: usize, available: usize },
+    InterfaceForceOrder {
+        attachment: String,
+        variable: String,
+        order: usize,
+        available: usize,
+    },
     #[error("step size collapsed to {step_s:.3e} s at t = {time_s} s")]
     StepSizeCollapse { time_s: f64, step_s: f64 },
     #[error("non-finite state at t = {time_s} s")]
@@ -72,7 +105,11 @@ pub enum ReferenceError {
     #[error("step limit max_steps = {steps} reached at t = {time_s} s")]
     TooManySteps { time_s: f64, steps: usize },
     #[error("option {name} = {value}: expected {expected}")]
-    BadOption { name: &'static str, value: String, expected: &'static str },
+    BadOption {
+        name: &'static str,
+        value: String,
+        expected: &'static str,
+    },
 }
 
 /// Time integration method.
@@ -100,7 +137,7 @@ pub struct ReferenceOptions {
     /// (default 40): the envelope resolution and, for the exponential method,
     /// the largest step.
     pub samples_per_period: usize,
-    /// Interval of the returned time series and envelope points [s]; rounded to a
+    /// Interval of the returned time series and envelope points \[s\]; rounded to a
     /// multiple of the analysis interval; `None` = every analysis sample.
     pub output_interval_s: Option<f64>,
     /// Envelope window length in excitation periods (default 1).
@@ -145,7 +182,13 @@ pub(crate) struct StepControl {
 
 impl ReferenceOptions {
     fn validate(&self) -> Result<StepControl, ReferenceError> {
-        let bad = |name, value: String, expected| Err(ReferenceError::BadOption { name, value, expected });
+        let bad = |name, value: String, expected| {
+            Err(ReferenceError::BadOption {
+                name,
+                value,
+                expected,
+            })
+        };
         if !(self.rtol.is_finite() && self.rtol > 0.0 && self.rtol < 1.0) {
             return bad("rtol", self.rtol.to_string(), "a number in (0, 1)");
         }
@@ -153,24 +196,44 @@ impl ReferenceOptions {
             return bad("atol", self.atol.to_string(), "a positive number");
         }
         if self.samples_per_period < 4 {
-            return bad("samples_per_period", self.samples_per_period.to_string(), "an integer >= 4");
+            return bad(
+                "samples_per_period",
+                self.samples_per_period.to_string(),
+                "an integer >= 4",
+            );
         }
         if let Some(dt) = self.output_interval_s {
             if !(dt.is_finite() && dt > 0.0) {
-                return bad("output_interval_s", dt.to_string(), "a positive interval in seconds");
+                return bad(
+                    "output_interval_s",
+                    dt.to_string(),
+                    "a positive interval in seconds",
+                );
             }
         }
         if !(self.envelope_periods.is_finite() && self.envelope_periods > 0.0) {
-            return bad("envelope_periods", self.envelope_periods.to_string(), "a positive number of periods");
+            return bad(
+                "envelope_periods",
+                self.envelope_periods.to_string(),
+                "a positive number of periods",
+            );
         }
         if !(2..=12).contains(&self.collocation_nodes) {
-            return bad("collocation_nodes", self.collocation_nodes.to_string(), "an integer in 2..=12");
+            return bad(
+                "collocation_nodes",
+                self.collocation_nodes.to_string(),
+                "an integer in 2..=12",
+            );
         }
         if self.max_steps == 0 {
             return bad("max_steps", "0".into(), "a positive integer");
         }
         if !(self.divergence_limit.is_finite() && self.divergence_limit > 0.0) {
-            return bad("divergence_limit", self.divergence_limit.to_string(), "a positive number");
+            return bad(
+                "divergence_limit",
+                self.divergence_limit.to_string(),
+                "a positive number",
+            );
         }
         Ok(StepControl {
             rtol: self.rtol,
@@ -202,11 +265,11 @@ pub struct IntegrationStats {
 /// Fundamental-harmonic envelopes against the instantaneous excitation frequency.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Envelope {
-    /// `Omega` at the window centre [rad/s].
+    /// `Omega` at the window centre \[rad/s\].
     pub omega_rad_s: Vec<f64>,
-    /// Fundamental amplitude of the first attachment's first interface force [N].
+    /// Fundamental amplitude of the first attachment's first interface force \[N\].
     pub force_amplitude_n: Vec<f64>,
-    /// Fundamental amplitude of the tip displacement [m].
+    /// Fundamental amplitude of the tip displacement \[m\].
     pub tip_amplitude_m: Vec<f64>,
 }
 
@@ -215,9 +278,9 @@ pub struct Envelope {
 pub struct AttachmentSeries {
     pub name: String,
     pub interface_points: Vec<String>,
-    /// `drive_m[c][i]`: displacement of interface point `c` [m].
+    /// `drive_m[c][i]`: displacement of interface point `c` \[m\].
     pub drive_m: Vec<Vec<f64>>,
-    /// `force_n[c][i]`: interface force on the structure at point `c` [N],
+    /// `force_n[c][i]`: interface force on the structure at point `c` \[N\],
     /// positive along the point's positive displacement.
     pub force_n: Vec<Vec<f64>>,
     pub state_names: Vec<String>,
@@ -228,36 +291,46 @@ pub struct AttachmentSeries {
 /// Result of [`simulate_sweep`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SweepResult {
-    /// Sample times [s] (decimated).
+    /// Sample times \[s\] (decimated).
     pub time_s: Vec<f64>,
-    /// Instantaneous excitation frequency [rad/s].
+    /// Instantaneous excitation frequency \[rad/s\].
     pub omega_rad_s: Vec<f64>,
     /// Excitation signal `u(t)` (V for a shaker).
     pub input: Vec<f64>,
-    /// Tip displacement [m].
+    /// Tip displacement \[m\].
     pub tip_m: Vec<f64>,
-    /// Displacement of the first attachment's first interface point [m] (empty
+    /// Displacement of the first attachment's first interface point \[m\] (empty
     /// without attachments).
     pub drive_m: Vec<f64>,
     /// Force of the first attachment on the structure at its first interface
-    /// point [N] (empty without attachments).
+    /// point \[N\] (empty without attachments).
     pub force_n: Vec<f64>,
     /// Per-attachment series.
     pub attachments: Vec<AttachmentSeries>,
     /// Envelopes at the output times whose window lies inside the sweep.
     pub envelope: Envelope,
-    /// Analysis sample interval [s].
+    /// Analysis sample interval \[s\].
     pub sample_interval_s: f64,
     pub stats: IntegrationStats,
 }
 
-/// Integrate the assembled system from `z0` at `t = 0` over `n` intervals of
-/// `dt` [s], calling `on_sample(i, z)` at `t = i dt`.
+/// Uniform sample times `t_i = i interval_s`, `i = 0..=count`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleGrid {
+    /// Sample interval \[s\].
+    pub interval_s: f64,
+    /// Number of intervals (the integration ends at `count interval_s`).
+    pub count: usize,
+}
+
+/// Integrate the assembled system (first-order state `z`, see
+/// [`AssembledSystem::state_from_structure`]) from `z0` at `t = 0` with the
+/// input signal `input(t)` on every attachment input, calling `on_sample(i, z)` at
+/// every grid time and `progress(fraction)` now and then.
 pub fn integrate(
     system: &AssembledSystem,
     z0: &DVector<f64>,
-    dt: f64,
-    n: usize,
+    grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     options: &ReferenceOptions,
     on_sample: &mut dyn FnMut(usize, &DVector<f64>),
@@ -266,10 +339,24 @@ pub fn integrate(
     let ctl = options.validate()?;
     assert_eq!(z0.len(), system.first_order.nz(), "initial state length");
     match options.method {
-        Integrator::Exponential => expo::integrate(&system.first_order, z0, dt, n, input, &ctl, on_sample, progress),
-        Integrator::DormandPrince => {
-            dopri::integrate(&system.first_order, z0, dt, n, input, &ctl, on_sample, progress)
-        }
+        Integrator::Exponential => expo::integrate(
+            &system.first_order,
+            z0,
+            grid,
+            input,
+            &ctl,
+            on_sample,
+            progress,
+        ),
+        Integrator::DormandPrince => dopri::integrate(
+            &system.first_order,
+            z0,
+            grid,
+            input,
+            &ctl,
+            on_sample,
+            progress,
+        ),
     }
 }
 
@@ -312,7 +399,19 @@ pub fn simulate_sweep_with_progress(
             record[i * nobs..(i + 1) * nobs].copy_from_slice(obs.as_slice());
         };
         let input = |t: f64| sweep.value(t);
-        integrate(&system, &z0, dt, n, &input, options, &mut on_sample, progress)?
+        let grid = SampleGrid {
+            interval_s: dt,
+            count: n,
+        };
+        integrate(
+            &system,
+            &z0,
+            grid,
+            &input,
+            options,
+            &mut on_sample,
+            progress,
+        )?
     };
     progress(1.0);
 
@@ -337,11 +436,16 @@ pub fn simulate_sweep_with_progress(
                 drive_m: (0..ncon).map(|c| series(o.drive_index + c)).collect(),
                 force_n: (0..ncon).map(|c| series(o.force_index + c)).collect(),
                 state_names: o.state_names.clone(),
-                states: (0..o.state_names.len()).map(|k| series(o.state_index + k)).collect(),
+                states: (0..o.state_names.len())
+                    .map(|k| series(o.state_index + k))
+                    .collect(),
             }
         })
         .collect();
-    let first = system.observations.iter().find(|o| !o.interface_points.is_empty());
+    let first = system
+        .observations
+        .iter()
+        .find(|o| !o.interface_points.is_empty());
     let (drive_m, force_n) = match first {
         Some(o) => (series(o.drive_index), series(o.force_index)),
         None => (Vec::new(), Vec::new()),
@@ -349,9 +453,15 @@ pub fn simulate_sweep_with_progress(
 
     // envelopes from the full-rate samples
     let phase: Vec<f64> = (0..=n).map(|i| sweep.phase_rad(i as f64 * dt)).collect();
-    let tip_env = envelope::fundamental_amplitudes(&phase, &full(0), &out_idx, options.envelope_periods);
+    let tip_env =
+        envelope::fundamental_amplitudes(&phase, &full(0), &out_idx, options.envelope_periods);
     let force_env = match first {
-        Some(o) => envelope::fundamental_amplitudes(&phase, &full(o.force_index), &out_idx, options.envelope_periods),
+        Some(o) => envelope::fundamental_amplitudes(
+            &phase,
+            &full(o.force_index),
+            &out_idx,
+            options.envelope_periods,
+        ),
         None => vec![Some(0.0); out_idx.len()],
     };
     let mut env = Envelope::default();

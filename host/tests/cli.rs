@@ -1,0 +1,91 @@
+//! The `host` command line as a user runs it: the default run writes the
+//! output contract (DESIGN.md section 7), bad scenarios give one clear message
+//! and a non-zero exit, never a panic.
+use std::path::Path;
+use std::process::Command;
+
+fn host() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host"))
+}
+
+fn tmpdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("host-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn read_json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+#[test]
+fn default_run_writes_the_output_contract() {
+    let out = tmpdir("default");
+    let o = host().args(["run", "-o"]).arg(&out).output().unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "stdout: {stdout}\nstderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("omega0 = 356.2"), "{stdout}");
+    assert!(stdout.contains("times faster than reference"), "{stdout}");
+    let s = read_json(&out.join("summary.json"));
+    let w0 = s["omega0_rad_s"].as_f64().unwrap();
+    assert!((w0 - 356.2).abs() / 356.2 < 1e-3, "{w0}");
+    for m in ["reference", "nlmode", "linear-slowflow", "linear-steady", "linear-frf"] {
+        let ms = &s["methods"][m];
+        for key in ["wall_time_s", "peak_tip_amplitude_m", "peak_omega_rad_s", "min_force_amplitude_N", "max_force_amplitude_N"] {
+            assert!(ms[key].as_f64().is_some(), "{m}.{key} missing: {ms}");
+        }
+        let csv = std::fs::read_to_string(out.join(format!("{m}_envelope.csv"))).unwrap();
+        let header = csv.lines().next().unwrap();
+        assert!(header.starts_with("omega_rad_s,force_amplitude_N,tip_amplitude_m"), "{m}: {header}");
+        assert!(csv.lines().count() > 100, "{m}: too few rows");
+    }
+    for m in ["linear-frf", "linear-steady"] {
+        let d = s["methods"][m]["force_drop"].as_f64().unwrap();
+        assert!((d - 0.97).abs() < 0.01, "{m} force drop {d}");
+    }
+    // case (a): the paper's single-nonlinear-mode model follows the reference
+    let pr = s["methods"]["reference"]["peak_tip_amplitude_m"].as_f64().unwrap();
+    let pn = s["methods"]["nlmode"]["peak_tip_amplitude_m"].as_f64().unwrap();
+    assert!((pn - pr).abs() / pr < 0.02, "peak tip nlmode {pn} vs reference {pr}");
+    let jr = s["methods"]["reference"]["jump_down_omega_rad_s"].as_f64().unwrap();
+    let jn = s["methods"]["nlmode"]["jump_down_omega_rad_s"].as_f64().unwrap();
+    assert!((jn - jr).abs() / jr < 0.01, "jump-down nlmode {jn} vs reference {jr}");
+    assert!(jr > 1.3 * w0, "hardening: the jump-down lies far above omega0 ({jr})");
+    assert!(out.join("reference_timeseries.csv").is_file());
+    assert!(out.join("sweep.svg").is_file());
+    std::fs::remove_dir_all(&out).ok();
+}
+
+fn expect_failure(args: &[&str], toml: Option<&str>, needles: &[&str]) {
+    let dir = tmpdir("bad");
+    let mut cmd = host();
+    cmd.args(args);
+    if let Some(t) = toml {
+        let p = dir.join("bad.toml");
+        std::fs::write(&p, t).unwrap();
+        cmd.arg(&p);
+    }
+    cmd.arg("-o").arg(dir.join("out"));
+    let o = cmd.output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "expected '{n}' in: {err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_scenarios_give_a_clear_message_and_exit_2() {
+    expect_failure(&["run"], Some("[structure]\nlenght_m = 0.5\n"), &["bad.toml", "lenght_m"]);
+    expect_failure(&["run"], Some("[structure]\nlength_m = -0.5\n"), &["structure.length_m", "positive"]);
+    expect_failure(&["run"], Some("[[exciter]]\nlocation = \"7l/3\"\n"), &["exciter[0].location", "outside"]);
+    expect_failure(&["run"], Some("[[exciter]]\nlocation_m = 0.2\n"), &["between node"]);
+    expect_failure(&["run"], Some("[excitation]\nrate_per_pseudo_period = 0\n"), &["rate_per_pseudo_period"]);
+    expect_failure(&["run"], Some("[excitation]\neta_start = 1.2\neta_end = 1.2\n"), &["excitation.eta_end"]);
+    expect_failure(&["run"], Some("[[exciter]]\nlocation = \"2l/3\"\nresistance_ohm = 0\n"), &["resistance_ohm"]);
+    expect_failure(&["run"], Some("[run]\nmethods = [\"magic\"]\n"), &["magic"]);
+    expect_failure(&["run", "/nonexistent/scenario.toml"], None, &["/nonexistent/scenario.toml"]);
+}

@@ -1,0 +1,178 @@
+//! The modal table's PCHIP interpolant in power form for the hot loop.
+//!
+//! [`crate::table::TableInterpolator`] evaluates each quantity separately
+//! (one segment search per call, value and derivative each time). The slow
+//! flow needs `omega`, `D` and the fundamental shape at a few points at the same
+//! amplitude thousands of times per sweep, so the same piecewise cubics are
+//! converted once into power-form coefficients per segment (from four samples
+//! of the interpolant per segment, which determine a cubic exactly), and one
+//! segment search serves all quantities. The range policy is the table's:
+//! held below the first amplitude, [`TableError::AboveRange`] above the last.
+use crate::table::{TableError, TableInterpolator};
+use nalgebra::{Matrix4, Vector4};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+impl Clone for FastTable {
+    fn clone(&self) -> Self {
+        Self { x: self.x.clone(), hint: AtomicUsize::new(0), nq: self.nq, c: self.c.clone() }
+    }
+}
+
+/// Segment and local coordinate of an amplitude.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Loc {
+    k: usize,
+    t: f64,
+}
+
+#[derive(Debug)]
+pub(crate) struct FastTable {
+    x: Vec<f64>,
+    /// Segment of the previous lookup: the amplitude changes smoothly along a
+    /// sweep, so the next one is usually the same or a neighbour (relaxed
+    /// atomic: only a hint, any value is safe).
+    hint: AtomicUsize,
+    /// Quantities: 0 = omega, 1 = D, then `2 + 2 p`, `3 + 2 p` = Re, Im of the
+    /// fundamental shape at table point `p`.
+    nq: usize,
+    /// `c[k * nq + q]`: cubic in `t in [0, 1]` on segment `k`.
+    c: Vec<[f64; 4]>,
+}
+
+impl FastTable {
+    pub fn new(table: &TableInterpolator, grid: &[f64], npoints: usize) -> Result<Self, TableError> {
+        let nq = 2 + 2 * npoints;
+        let ts: [f64; 4] = [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0];
+        let v = Matrix4::from_fn(|i, j| ts[i].powi(j as i32));
+        let vinv = v.try_inverse().expect("Vandermonde matrix of distinct nodes is regular");
+        let mut c = Vec::with_capacity((grid.len() - 1) * nq);
+        let mut vals = vec![[0.0; 4]; nq];
+        for k in 0..grid.len() - 1 {
+            let h = grid[k + 1] - grid[k];
+            for (i, &t) in ts.iter().enumerate() {
+                let a = if i == 3 { grid[k + 1] } else { grid[k] + t * h };
+                let p = table.eval(a)?;
+                vals[0][i] = p.omega_rad_s;
+                vals[1][i] = p.damping_ratio;
+                for pt in 0..npoints {
+                    let s = table.shape(pt, 1, a)?;
+                    vals[2 + 2 * pt][i] = s.re;
+                    vals[3 + 2 * pt][i] = s.im;
+                }
+            }
+            for q in &vals {
+                let co = vinv * Vector4::from_column_slice(q);
+                // keep the node value exact at t = 0
+                c.push([q[0], co[1], co[2], co[3]]);
+            }
+        }
+        Ok(Self { x: grid.to_vec(), hint: AtomicUsize::new(0), nq, c })
+    }
+
+    #[inline]
+    pub fn locate(&self, a: f64) -> Result<Loc, TableError> {
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(TableError::BadAmplitude(a));
+        }
+        let n = self.x.len();
+        if a <= self.x[0] {
+            return Ok(Loc { k: 0, t: 0.0 });
+        }
+        if a > self.x[n - 1] {
+            return Err(TableError::AboveRange { a, max: self.x[n - 1] });
+        }
+        // segment k with x[k] <= a < x[k+1] (a node hit starts its segment: t = 0,
+        // exact node value); the last node belongs to the last segment
+        let inside = |k: usize| self.x[k] <= a && (a < self.x[k + 1] || k + 2 == n);
+        let h = self.hint.load(Ordering::Relaxed).min(n - 2);
+        let k = if inside(h) {
+            h
+        } else if h + 1 < n - 1 && inside(h + 1) {
+            h + 1
+        } else if h > 0 && inside(h - 1) {
+            h - 1
+        } else {
+            self.x.partition_point(|&v| v <= a).clamp(1, n - 1) - 1
+        };
+        self.hint.store(k, Ordering::Relaxed);
+        Ok(Loc { k, t: (a - self.x[k]) / (self.x[k + 1] - self.x[k]) })
+    }
+
+    /// Value of quantity `q` at `loc`.
+    #[inline]
+    pub fn value(&self, loc: Loc, q: usize) -> f64 {
+        let c = &self.c[loc.k * self.nq + q];
+        c[0] + loc.t * (c[1] + loc.t * (c[2] + loc.t * c[3]))
+    }
+
+    /// `d/da` of quantity `q` at `loc` (zero below the range).
+    #[inline]
+    pub fn derivative(&self, loc: Loc, a: f64, q: usize) -> f64 {
+        if a <= self.x[0] {
+            return 0.0;
+        }
+        let c = &self.c[loc.k * self.nq + q];
+        (c[1] + loc.t * (2.0 * c[2] + 3.0 * loc.t * c[3])) / (self.x[loc.k + 1] - self.x[loc.k])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nma::{ModalTable, PointShape, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
+
+    #[test]
+    fn power_form_reproduces_the_table_interpolant() {
+        let a: Vec<f64> = (0..23).map(|j| 1e-5 * 1.4f64.powi(j)).collect();
+        let omega: Vec<f64> = a.iter().map(|&a| (356.2f64.powi(2) + 5e10 * a * a).sqrt() - 3e4 * a * a).collect();
+        let damping: Vec<f64> = a.iter().map(|&a| 0.004 + 2.0 * a).collect();
+        let t = ModalTable {
+            format: MODAL_TABLE_FORMAT.into(),
+            version: MODAL_TABLE_VERSION,
+            description: "test".into(),
+            harmonics: 1,
+            amplitude: a.clone(),
+            omega_rad_s: omega,
+            damping_ratio: damping,
+            points: vec![
+                PointShape {
+                    name: "p".into(),
+                    re: a.iter().map(|&a| vec![0.0, 1.0 + 30.0 * a]).collect(),
+                    im: a.iter().map(|&a| vec![0.0, -(a * 1e3).sin()]).collect(),
+                },
+                PointShape {
+                    name: "q".into(),
+                    re: a.iter().map(|&a| vec![0.0, 0.3 - 50.0 * a * a]).collect(),
+                    im: a.iter().map(|_| vec![0.0, 0.1]).collect(),
+                },
+            ],
+            coordinates: vec![],
+            truncated_at_fold: None,
+        };
+        let ip = t.interpolator().unwrap();
+        let f = FastTable::new(&ip, &t.amplitude, 2).unwrap();
+        let amax = *a.last().unwrap();
+        let mut worst: f64 = 0.0;
+        for k in 0..=5000 {
+            let x = amax * (k as f64 / 5000.0).powi(3);
+            let loc = f.locate(x).unwrap();
+            let p = ip.eval(x).unwrap();
+            worst = worst.max((f.value(loc, 0) - p.omega_rad_s).abs() / p.omega_rad_s);
+            worst = worst.max((f.value(loc, 1) - p.damping_ratio).abs() / p.damping_ratio);
+            worst = worst.max((f.derivative(loc, x, 0) - p.domega_da).abs() / (1.0 + p.domega_da.abs()) * 1e-3);
+            for pt in 0..2 {
+                let s = ip.shape(pt, 1, x).unwrap();
+                let d = (f.value(loc, 2 + 2 * pt) - s.re).abs() + (f.value(loc, 3 + 2 * pt) - s.im).abs();
+                worst = worst.max(d / s.norm());
+            }
+        }
+        assert!(worst < 1e-12, "{worst:e}");
+        // nodes are exact and the range policy is the table's
+        for (j, &x) in a.iter().enumerate().take(a.len() - 1) {
+            assert_eq!(f.value(f.locate(x).unwrap(), 0), t.omega_rad_s[j]);
+        }
+        assert_eq!(f.value(f.locate(0.0).unwrap(), 0), t.omega_rad_s[0]);
+        assert!(matches!(f.locate(1.001 * amax), Err(TableError::AboveRange { .. })));
+        assert!(matches!(f.locate(f64::NAN), Err(TableError::BadAmplitude(_))));
+    }
+}
