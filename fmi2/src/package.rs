@@ -215,3 +215,42 @@ pub fn package_workspace_fmu(
     let _ = std::fs::remove_dir_all(&tmp);
     result.map(|()| path)
 }
+
+/// Build the cdylibs of the workspace `packages` with cargo (`--release` if
+/// `release`) and return (library target name, path of the `.so`) from cargo's
+/// JSON messages. The libraries of the whole workspace are built, so that the
+/// dependencies are compiled with the same features as by `cargo build` and
+/// an up-to-date tree makes this a no-op.
+pub fn build_libraries(root: &Path, packages: &[&str], release: bool) -> Result<Vec<(String, PathBuf)>, String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = std::process::Command::new(&cargo);
+    cmd.current_dir(root).args(["build", "--workspace", "--lib", "--message-format=json-render-diagnostics"]);
+    if release {
+        cmd.arg("--release");
+    }
+    let out = cmd
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot run cargo ({cargo}): {e}"))?;
+    if !out.status.success() {
+        return Err(format!("cargo build -p {} failed ({})", packages.join(" -p "), out.status));
+    }
+    let mut libs = Vec::new();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else { continue };
+        if v["reason"] != "compiler-artifact" {
+            continue;
+        }
+        let package = v["package_id"].as_str().unwrap_or_default();
+        if !packages.iter().any(|p| package.contains(&format!("/{p}#")) || package.contains(&format!("{p} "))) {
+            continue;
+        }
+        let name = v["target"]["name"].as_str().unwrap_or_default().to_string();
+        for f in v["filenames"].as_array().into_iter().flatten() {
+            if let Some(f) = f.as_str().filter(|f| f.ends_with(".so")) {
+                libs.push((name.clone(), PathBuf::from(f)));
+            }
+        }
+    }
+    Ok(libs)
+}

@@ -261,3 +261,48 @@ pub fn reference(setup: &Setup, sc: &crate::scenario::Scenario, progress: &mut d
     r.extra.insert("integrator".into(), json!(format!("{method:?}")));
     Ok(r)
 }
+
+/// `cosim`: the structure and shaker FMUs co-simulated by the host's master.
+pub fn cosim(
+    setup: &Setup,
+    sc: &crate::scenario::Scenario,
+    fmus: &(std::path::PathBuf, std::path::PathBuf),
+    progress: &mut dyn FnMut(f64),
+) -> Result<MethodResult> {
+    use crate::cosim::{run_cosim, Algorithm, CosimParams, SweepSpec};
+    use std::str::FromStr;
+    let structure = sc.cosim.structure_fmu.as_ref().map(std::path::PathBuf::from).unwrap_or_else(|| fmus.0.clone());
+    let shaker = sc.cosim.shaker_fmu.as_ref().map(std::path::PathBuf::from).unwrap_or_else(|| fmus.1.clone());
+    let mut p = CosimParams::new(setup.shakers[0], SweepSpec::from(&setup.sweep));
+    p.algorithm = Algorithm::from_str(&sc.cosim.algorithm).map_err(|e| anyhow::anyhow!("cosim.algorithm: {e}"))?;
+    p.macro_step_s = sc.cosim.macro_step_s;
+    p.drive_point = setup.exciter_points[0].clone();
+    let out = run_cosim(&structure, &shaker, &p, progress).context("cosim")?;
+    let e = &out.envelope;
+    let env = Envelope {
+        omega_rad_s: e.omega_rad_s.clone(),
+        force_amplitude_n: e.force_amplitude_n.clone(),
+        tip_amplitude_m: e.tip_amplitude_m.clone(),
+        extra: vec![("drive_amplitude_m".into(), e.drive_amplitude_m.clone())],
+    };
+    let mut r = MethodResult::new("cosim", out.wall_time_s, env, true);
+    r.time_series = Some(crate::results::TimeSeries {
+        columns: vec![
+            ("t_s".into(), out.time_s.clone()),
+            ("omega_rad_s".into(), out.omega_rad_s.clone()),
+            ("voltage_V".into(), out.voltage_v.clone()),
+            ("tip_m".into(), out.x_tip_m.clone()),
+            ("drive_m".into(), out.x_m.clone()),
+            ("force_N".into(), out.force_n.clone()),
+            ("current_A".into(), out.current_a.clone()),
+        ],
+    });
+    r.extra.insert("algorithm".into(), json!(sc.cosim.algorithm));
+    r.extra.insert("macro_step_s".into(), json!(p.macro_step_s));
+    r.extra.insert("macro_steps".into(), json!(out.stats.steps));
+    if let Some((t, msg)) = &out.stopped {
+        r.warnings.push(format!("cosim stopped at t = {t} s: {msg}"));
+        r.extra.insert("stopped_at_s".into(), json!(t));
+    }
+    Ok(r)
+}

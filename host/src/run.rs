@@ -74,6 +74,18 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     // Dependencies first: imposed-force takes its force from nlmode.
     let mut order: Vec<&str> = sc.run.methods.iter().map(|s| s.as_str()).collect();
     order.sort_by_key(|m| usize::from(*m == "imposed-force"));
+    // The FMUs: packaged before the methods when cosim needs them.
+    let mut fmus = None;
+    if wants("cosim") || sc.output.fmus {
+        match crate::package::package(&out.join("fmus")) {
+            Ok(paths) => {
+                println!("FMUs: {}", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+                fmus = Some((paths[0].clone(), paths[1].clone()));
+            }
+            Err(e) if !wants("cosim") => println!("warning: FMUs not packaged: {e:#}"),
+            Err(e) => return Err(e.context("cosim needs the FMUs")),
+        }
+    }
     for m in order {
         let table = || &nma.as_ref().expect("mode computed").table;
         match m {
@@ -134,7 +146,13 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
                 .with_frequency_error(error)?;
                 done.push(methods::slow_flow("imposed-force", &setup, &model)?.0);
             }
-            other => anyhow::bail!("run.methods: method '{other}' is not available in this build yet"),
+            "cosim" => {
+                let mut bar = Progress::new("cosim");
+                let f = fmus.as_ref().expect("packaged above");
+                done.push(methods::cosim(&setup, &sc, f, &mut |x| bar.set(x))?);
+                bar.finish();
+            }
+            other => anyhow::bail!("run.methods: unknown method '{other}'"),
         }
     }
     for r in &done {
@@ -143,12 +161,7 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
         }
     }
     write_outputs(&sc, &setup, out, &done)?;
-    if sc.output.fmus {
-        match crate::package::package(&out.join("fmus")) {
-            Ok(paths) => println!("FMUs: {}", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")),
-            Err(e) => println!("warning: FMUs not packaged: {e:#}"),
-        }
-    }
+
     print_summary(&setup, &done);
     Ok(())
 }

@@ -161,7 +161,13 @@ pub struct RunSpec {
 impl Default for RunSpec {
     fn default() -> Self {
         Self {
-            methods: vec!["reference".into(), "nlmode".into(), "linear-slowflow".into(), "linear-steady".into(), "linear-frf".into()],
+            methods: vec![
+                "reference".into(),
+                "nlmode".into(),
+                "linear-slowflow".into(),
+                "linear-steady".into(),
+                "linear-frf".into(),
+            ],
             frf_points: 500,
         }
     }
@@ -226,7 +232,7 @@ pub struct CosimSpec {
 
 impl Default for CosimSpec {
     fn default() -> Self {
-        Self { algorithm: "gauss-seidel".into(), macro_step_s: 1e-5, structure_fmu: None, shaker_fmu: None }
+        Self { algorithm: "jacobi".into(), macro_step_s: 1e-5, structure_fmu: None, shaker_fmu: None }
     }
 }
 

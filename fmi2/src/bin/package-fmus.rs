@@ -10,9 +10,9 @@
 //! * `documentation/`: the crate's `README.md` (equations, variable table) as
 //!   `README.md` and `index.html`, plus `modelDescription/<id>/documentation/`.
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode};
+use std::process::ExitCode;
 
-use fmi2::package::package_workspace_fmu;
+use fmi2::package::{build_libraries, package_workspace_fmu};
 
 /// (modelIdentifier = cdylib lib name, cargo package)
 const FMUS: &[(&str, &str)] = &[("shaker", "fmu-shaker"), ("structure", "fmu-structure")];
@@ -20,37 +20,6 @@ const FMUS: &[(&str, &str)] = &[("shaker", "fmu-shaker"), ("structure", "fmu-str
 fn usage() -> ! {
     eprintln!("usage: package-fmus --out DIR [--debug] [--resource ID=FILE]...");
     std::process::exit(2)
-}
-
-/// Build the libraries and return (lib name, path of the .so) from cargo's JSON messages.
-fn build(root: &Path, packages: &[&str], debug: bool) -> Result<Vec<(String, PathBuf)>, String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.current_dir(root).args(["build", "--lib", "--message-format=json-render-diagnostics"]);
-    if !debug {
-        cmd.arg("--release");
-    }
-    for p in packages {
-        cmd.args(["-p", p]);
-    }
-    let out = cmd.stderr(std::process::Stdio::inherit()).output().map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !out.status.success() {
-        return Err(format!("cargo build failed ({})", out.status));
-    }
-    let mut libs = Vec::new();
-    for line in String::from_utf8_lossy(&out.stdout).lines() {
-        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else { continue };
-        if v["reason"] != "compiler-artifact" {
-            continue;
-        }
-        let name = v["target"]["name"].as_str().unwrap_or_default().to_string();
-        for f in v["filenames"].as_array().into_iter().flatten() {
-            if let Some(f) = f.as_str().filter(|f| f.ends_with(".so")) {
-                libs.push((name.clone(), PathBuf::from(f)));
-            }
-        }
-    }
-    Ok(libs)
 }
 
 fn main() -> ExitCode {
@@ -81,7 +50,7 @@ fn main() -> ExitCode {
         eprintln!("no modelDescription/<id>/modelDescription.xml found under {}", root.display());
         return ExitCode::FAILURE;
     }
-    let libs = match build(&root, &present.iter().map(|p| p.1).collect::<Vec<_>>(), debug) {
+    let libs = match build_libraries(&root, &present.iter().map(|p| p.1).collect::<Vec<_>>(), !debug) {
         Ok(l) => l,
         Err(e) => {
             eprintln!("{e}");

@@ -2,15 +2,12 @@
 //! them (with `fmi2::package`) into `.fmu` files, so that `host run` can
 //! co-simulate on a fresh clone without a separate packaging step.
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 
-use fmi2::package::{write_fmu, FmuSpec, PackageError};
+use fmi2::package::PackageError;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RepoFmuError {
-    #[error("cannot run cargo ({cargo}): {source}")]
-    Cargo { cargo: String, source: std::io::Error },
-    #[error("building the FMU libraries failed (cargo build -p fmu-shaker -p fmu-structure: {0})")]
+    #[error("building or packaging the FMUs failed: {0}")]
     Build(String),
     #[error("cargo built no shared library for '{0}'")]
     NoLibrary(String),
@@ -37,50 +34,18 @@ pub fn package_repo_fmus(out_dir: &Path, modal_table: Option<&Path>) -> Result<(
     if !md("structure").is_file() || !md("shaker").is_file() {
         return Err(RepoFmuError::NoWorkspace(root));
     }
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(&cargo);
-    cmd.current_dir(&root).args(["build", "--lib", "--message-format=json-render-diagnostics", "-p", "fmu-shaker", "-p", "fmu-structure"]);
-    if !cfg!(debug_assertions) {
-        cmd.arg("--release");
-    }
-    let out = cmd
-        .stderr(Stdio::inherit())
-        .output()
-        .map_err(|source| RepoFmuError::Cargo { cargo: cargo.clone(), source })?;
-    if !out.status.success() {
-        return Err(RepoFmuError::Build(out.status.to_string()));
-    }
-    let mut libs: Vec<(String, PathBuf)> = Vec::new();
-    for line in String::from_utf8_lossy(&out.stdout).lines() {
-        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else { continue };
-        if v["reason"] != "compiler-artifact" {
-            continue;
-        }
-        let name = v["target"]["name"].as_str().unwrap_or_default().to_string();
-        for f in v["filenames"].as_array().into_iter().flatten() {
-            if let Some(f) = f.as_str().filter(|f| f.ends_with(".so")) {
-                libs.push((name.clone(), PathBuf::from(f)));
-            }
-        }
-    }
+    let libs = fmi2::package::build_libraries(&root, &["fmu-shaker", "fmu-structure"], !cfg!(debug_assertions))
+        .map_err(RepoFmuError::Build)?;
     std::fs::create_dir_all(out_dir).map_err(|source| RepoFmuError::Dir { path: out_dir.into(), source })?;
     let mut paths = Vec::new();
-    for id in ["structure", "shaker"] {
+    for (id, krate) in [("structure", "fmu-structure"), ("shaker", "fmu-shaker")] {
         let lib = libs.iter().find(|(n, _)| n == id).ok_or_else(|| RepoFmuError::NoLibrary(id.into()))?.1.clone();
-        let mut resources = Vec::new();
-        let res_dir = root.join("modelDescription").join(id).join("resources");
-        if res_dir.is_dir() {
-            resources = fmi2::package::files_below(&res_dir)?;
-        }
-        if id == "structure" {
-            if let Some(t) = modal_table {
-                resources.retain(|(_, rel)| rel != "modal_table.json");
-                resources.push((t.to_path_buf(), "modal_table.json".into()));
-            }
-        }
-        let spec = FmuSpec { model_identifier: id.into(), model_description: md(id), library: lib, resources, documentation: vec![] };
-        let p = out_dir.join(format!("{id}.fmu"));
-        write_fmu(&spec, &p)?;
+        let extra: Vec<PathBuf> = match (id, modal_table) {
+            ("structure", Some(t)) => vec![t.to_path_buf()],
+            _ => vec![],
+        };
+        let p = fmi2::package::package_workspace_fmu(&root, id, krate, &lib, &extra, out_dir)
+            .map_err(RepoFmuError::Build)?;
         paths.push(p);
     }
     Ok((paths[0].clone(), paths[1].clone()))
