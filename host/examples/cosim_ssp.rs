@@ -20,7 +20,7 @@
 //! An example rather than a `host` subcommand so that it needs no change to
 //! the CLI; it includes the self-contained `cosim` module by path, as the
 //! benches do.
-#[allow(unused_imports, dead_code)]
+#[allow(unused_imports)]
 #[path = "../src/cosim/mod.rs"]
 mod cosim;
 
