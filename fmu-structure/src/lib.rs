@@ -17,6 +17,7 @@
 //!   (name in the table, default `2l3`), `drive_point_index` (index into the
 //!   table's points, used when >= 0), `modal_table` (path; empty: the
 //!   `modal_table.json` of the FMU's `resources/` folder).
+use std::cell::Cell;
 use std::path::PathBuf;
 
 use fmi2::{
@@ -59,6 +60,17 @@ struct Outputs {
     omega: f64,
 }
 
+/// First time derivatives of the outputs along the flow at the current state
+/// and input (`fmi2GetRealOutputDerivatives`), computed together once.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct OutputRates {
+    x: f64,
+    v: f64,
+    x_tip: f64,
+    a: f64,
+    omega: f64,
+}
+
 /// One structure FMU instance.
 #[derive(Clone)]
 pub struct Structure {
@@ -73,6 +85,10 @@ pub struct Structure {
     osc: Option<ModalOscillator>,
     tip: usize,
     out: Outputs,
+    /// Output derivatives for the current state and `force.c0`, computed at the
+    /// first request (a master asks for them variable by variable); emptied by
+    /// everything that changes the state or `F`.
+    rates: Cell<Option<OutputRates>>,
 }
 
 const fn real(
@@ -129,11 +145,25 @@ impl Structure {
     }
 
     fn update_outputs(&mut self) -> Result<(), ModelError> {
+        self.rates.set(None);
         let Some(osc) = &self.osc else { return Ok(()) };
         let mut r = [PointResponse { x_m: 0.0, v_m_s: 0.0 }; 2];
         let m = osc.outputs(&[osc.drive_index(), self.tip], &mut r)?;
         self.out = Outputs { x: r[0].x_m, v: r[0].v_m_s, x_tip: r[1].x_m, a: m.amplitude, omega: m.omega_rad_s };
         Ok(())
+    }
+
+    /// All output derivatives at the current state and input (cached).
+    fn output_rates(&self) -> Result<OutputRates, ModelError> {
+        if let Some(r) = self.rates.get() {
+            return Ok(r);
+        }
+        let osc = self.oscillator()?;
+        let mut p = [PointResponse { x_m: 0.0, v_m_s: 0.0 }; 2];
+        let (a, omega) = osc.output_rates(&[osc.drive_index(), self.tip], self.force.c0, &mut p)?;
+        let r = OutputRates { x: p[0].x_m, v: p[0].v_m_s, x_tip: p[1].x_m, a, omega };
+        self.rates.set(Some(r));
+        Ok(r)
     }
 
     fn oscillator(&self) -> Result<&ModalOscillator, ModelError> {
@@ -196,6 +226,7 @@ impl CoSimModel for Structure {
             osc: None,
             tip: 0,
             out: Outputs::default(),
+            rates: Cell::new(None),
         })
     }
 
@@ -235,7 +266,10 @@ impl CoSimModel for Structure {
 
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
-            vr::F => self.force.c0 = value,
+            vr::F => {
+                self.force.c0 = value;
+                self.rates.set(None);
+            }
             vr::FREQUENCY_ERROR => {
                 if 1.0 + value <= 0.0 {
                     return Err(ModelError::error(format!(
@@ -310,14 +344,13 @@ impl CoSimModel for Structure {
         if order != 1 {
             return Err(ModelError::error(format!("output derivatives of order {order} are not supported (only 1)")));
         }
-        let osc = self.oscillator()?;
-        let c = self.force.c0;
+        let r = self.output_rates()?;
         Ok(match vr {
-            vr::X => osc.point_response_rate(osc.drive_index(), c)?.x_m,
-            vr::V => osc.point_response_rate(osc.drive_index(), c)?.v_m_s,
-            vr::X_TIP => osc.point_response_rate(self.tip, c)?.x_m,
-            vr::A => osc.modal_rate(c)?.0,
-            vr::OMEGA => osc.modal_rate(c)?.1,
+            vr::X => r.x,
+            vr::V => r.v,
+            vr::X_TIP => r.x_tip,
+            vr::A => r.a,
+            vr::OMEGA => r.omega,
             _ => return Err(ModelError::error(format!("value reference {vr} is not an output"))),
         })
     }

@@ -208,3 +208,63 @@ fn leaving_the_table_is_an_error_naming_the_amplitude() {
     let e = err.expect("leaves the table");
     assert!(e.message.contains("above the modal table's range"), "{}", e.message);
 }
+
+/// The output derivatives are computed once per state and input and cached:
+/// the cache must follow `F`, the step and a restored state. Linear limit at
+/// the drive point (`phi = -1.04`): `v = phi eta'`, so
+/// `dv/dt = phi (phi F - omega^2 eta - 2 D omega eta')` changes by `phi^2` per
+/// newton of `F`, and `dx/dt = v`.
+#[test]
+fn cached_output_derivatives_follow_the_input_the_step_and_the_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = linear_table(dir.path());
+    let log = Logger::silent();
+    let mut m = instantiate(None);
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    let (w, d, phi): (f64, f64, f64) = (356.2, 0.004, -1.04);
+    let mut t: f64 = 0.0;
+    for k in 0..300 {
+        m.set_real(vr::F, 4.0 * (300.0 * t).sin() + 1.0).unwrap();
+        if k == 150 {
+            // a derivative read mid-run must not disturb the cache of the next step
+            m.get_real_output_derivative(vr::V, 1).unwrap();
+        }
+        m.do_step(t, 1e-4, &log).unwrap();
+        t += 1e-4;
+    }
+    let (x, v) = (m.get_real(vr::X), m.get_real(vr::V));
+    assert!(v.abs() > 1e-4, "{v}");
+    // eta = x / phi, eta' = v / phi
+    let expected_dv = |f: f64| phi * (phi * f - w * w * x / phi - 2.0 * d * w * v / phi);
+    let mut state = StateWriter::new();
+    m.serialize_state(&mut state);
+    let state = state.into_bytes();
+    let f0 = m.get_real(vr::F);
+    let dv0 = m.get_real_output_derivative(vr::V, 1).unwrap();
+    let dx0 = m.get_real_output_derivative(vr::X, 1).unwrap();
+    let tol = |e: f64| 1e-6 * e.abs().max(w * v.abs());
+    assert!((dv0 - expected_dv(f0)).abs() < tol(dv0), "{dv0} vs {}", expected_dv(f0));
+    assert!((dx0 - v).abs() < 1e-6 * v.abs(), "{dx0} vs {v}");
+    // new input: the V derivative moves by phi^2 per newton, X's does not move
+    m.set_real(vr::F, f0 + 10.0).unwrap();
+    let dv1 = m.get_real_output_derivative(vr::V, 1).unwrap();
+    assert!((dv1 - dv0 - 10.0 * phi * phi).abs() < tol(dv1), "{dv1} - {dv0} vs {}", 10.0 * phi * phi);
+    assert!((dv1 - expected_dv(f0 + 10.0)).abs() < tol(dv1));
+    assert!((m.get_real_output_derivative(vr::X, 1).unwrap() - dx0).abs() < 1e-6 * dx0.abs());
+    // a step: the derivatives are those of the new state
+    m.do_step(t, 1e-4, &log).unwrap();
+    let (x2, v2) = (m.get_real(vr::X), m.get_real(vr::V));
+    assert!((m.get_real_output_derivative(vr::X, 1).unwrap() - v2).abs() < 1e-6 * v2.abs());
+    let f2 = m.get_real(vr::F);
+    let dv2 = m.get_real_output_derivative(vr::V, 1).unwrap();
+    let e2 = phi * (phi * f2 - w * w * x2 / phi - 2.0 * d * w * v2 / phi);
+    assert!((dv2 - e2).abs() < tol(e2), "{dv2} vs {e2}");
+    assert!((dv2 - dv1).abs() > 1e3 * tol(e2), "the step must change the derivative: {dv2} {dv1}");
+    // restoring the earlier state (with its F = f0) gives its derivatives back exactly
+    let mut r = StateReader::new(&state);
+    m.deserialize_state(&mut r).unwrap();
+    r.finish().unwrap();
+    assert_eq!(m.get_real_output_derivative(vr::V, 1).unwrap(), dv0);
+    assert_eq!(m.get_real_output_derivative(vr::X, 1).unwrap(), dx0);
+}

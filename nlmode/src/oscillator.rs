@@ -94,7 +94,7 @@
 //! (linear interpolation between two samples, or the value and the input
 //! derivatives an FMI master provides), which RK4 samples exactly at its stages.
 use crate::nma::ModalTable;
-use crate::table::{TableError, TableInterpolator};
+use crate::table::{TableError, TableInterpolator, TableLocation};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -267,15 +267,28 @@ impl ModalOscillator {
         Ok(())
     }
 
-    /// `(1 + eps) omega(a)`, `D(a)`, `|phi_ex(a)|` with range errors stamped with `time_s`.
+    /// Locate `a` in the table once, with range errors stamped with `time_s`.
     #[inline]
-    fn properties(&self, a: f64, time_s: f64) -> Result<(f64, f64, f64), OscillatorError> {
-        let m = self.interp.eval(a).map_err(|e| match e {
+    fn locate(&self, a: f64, time_s: f64) -> Result<TableLocation, OscillatorError> {
+        self.interp.locate(a).map_err(|e| match e {
             TableError::AboveRange { a, max } => OscillatorError::AboveRange { a, max, time_s },
             e => OscillatorError::Table(e),
-        })?;
-        let phi_ex = self.interp.shape(self.drive, 1, a)?.norm();
-        Ok((self.frequency_factor * m.omega_rad_s, m.damping_ratio, phi_ex))
+        })
+    }
+
+    /// `(1 + eps) omega(a)`, `D(a)` and `phi_ex(a)` (complex) at a located amplitude.
+    #[inline]
+    fn properties_at(&self, loc: &TableLocation) -> (f64, f64, Complex64) {
+        let (w, d) = self.interp.values_at(loc);
+        (self.frequency_factor * w, d, self.interp.shape_at(self.drive, 1, loc))
+    }
+
+    /// `(1 + eps) omega(a)`, `D(a)`, `|phi_ex(a)|` with range errors stamped with `time_s`
+    /// (one table look-up).
+    #[inline]
+    fn properties(&self, a: f64, time_s: f64) -> Result<(f64, f64, f64), OscillatorError> {
+        let (w, d, phi_ex) = self.properties_at(&self.locate(a, time_s)?);
+        Ok((w, d, phi_ex.norm()))
     }
 
     /// Right-hand side `(eta', u')` of the normal form.
@@ -330,12 +343,8 @@ impl ModalOscillator {
     /// Displacement and velocity of point `point` synthesized with all harmonics
     /// of the table (`eq:ansatz`, see the module docs).
     pub fn point_response(&self, point: usize) -> Result<PointResponse, OscillatorError> {
-        self.response_of(&self.state, point)
-    }
-
-    fn response_of(&self, s: &OscillatorState, point: usize) -> Result<PointResponse, OscillatorError> {
         let mut out = [PointResponse { x_m: 0.0, v_m_s: 0.0 }];
-        self.synthesize(s, &[point], &mut out)?;
+        self.synthesize(&self.state, &[point], &mut out)?;
         Ok(out[0])
     }
 
@@ -354,8 +363,8 @@ impl ModalOscillator {
         assert_eq!(points.len(), out.len());
         let z = s.z();
         let a = z.norm();
-        let (w_rad_s, d, _) = self.properties(a, s.time_s)?;
-        let g = self.interp.shape(self.drive, 1, a)?;
+        let loc = self.locate(a, s.time_s)?;
+        let (w_rad_s, d, g) = self.properties_at(&loc);
         let g = if g.norm() > 0.0 { g / g.norm() } else { Complex64::new(1.0, 0.0) };
         // w = e^{i psi} / g: unit phasor of the original gauge of the table
         let unit = if a > 0.0 { z / (a * g) } else { Complex64::new(1.0, 0.0) };
@@ -370,7 +379,7 @@ impl ModalOscillator {
             &mut heap
         };
         for (&point, o) in points.iter().zip(out.iter_mut()) {
-            self.interp.shape_all(point, a, phi)?;
+            self.interp.shape_all_at(point, &loc, phi);
             let mut x = 0.0;
             let mut v = 0.0;
             let mut wn = Complex64::new(1.0, 0.0);
@@ -396,27 +405,59 @@ impl ModalOscillator {
     /// Central difference along the flow with the time increment
     /// `1e-5 / omega(a)`: truncation error ~1e-10 relative, round-off ~1e-11.
     pub fn point_response_rate(&self, point: usize, c_n: f64) -> Result<PointResponse, OscillatorError> {
-        let (de, du) = self.state_rate(c_n)?;
-        let w = self.modal()?.omega_rad_s;
-        let eps = 1e-5 / w;
-        let s = self.state;
-        let plus = OscillatorState { time_s: s.time_s, eta: s.eta + eps * de, u: s.u + eps * du };
-        let minus = OscillatorState { time_s: s.time_s, eta: s.eta - eps * de, u: s.u - eps * du };
-        let (p, m) = (self.response_of(&plus, point)?, self.response_of(&minus, point)?);
-        Ok(PointResponse { x_m: (p.x_m - m.x_m) / (2.0 * eps), v_m_s: (p.v_m_s - m.v_m_s) / (2.0 * eps) })
+        let mut out = [PointResponse { x_m: 0.0, v_m_s: 0.0 }];
+        self.output_rates(&[point], c_n, &mut out)?;
+        Ok(out[0])
     }
 
     /// `(da/dt, d omega/dt)` along the flow under the force `c_n` [N].
     pub fn modal_rate(&self, c_n: f64) -> Result<(f64, f64), OscillatorError> {
-        let (de, du) = self.state_rate(c_n)?;
+        self.output_rates(&[], c_n, &mut [])
+    }
+
+    /// All output rates at once (the FMU's output-derivative path): the rates
+    /// [`Self::point_response_rate`] of several points written into `out`, and
+    /// [`Self::modal_rate`] returned, with one state rate, one table look-up
+    /// at the state and one synthesis of all points per side of the central
+    /// difference. Equal to the single-quantity functions bit for bit.
+    pub fn output_rates(
+        &self,
+        points: &[usize],
+        c_n: f64,
+        out: &mut [PointResponse],
+    ) -> Result<(f64, f64), OscillatorError> {
+        assert_eq!(points.len(), out.len());
         let s = self.state;
         let a = s.amplitude();
+        let loc = self.locate(a, s.time_s)?;
+        let (w, d, phi_ex) = self.properties_at(&loc);
+        // the normal form's right-hand side, as `rhs`
+        let (de, du) = (w * s.u, -w * s.eta - 2.0 * d * w * s.u + phi_ex.norm() * c_n / w);
+        if !points.is_empty() {
+            let eps = 1e-5 / w;
+            let plus = OscillatorState { time_s: s.time_s, eta: s.eta + eps * de, u: s.u + eps * du };
+            let minus = OscillatorState { time_s: s.time_s, eta: s.eta - eps * de, u: s.u - eps * du };
+            // two points (drive and tip) on the stack, more on the heap
+            let mut stack = [PointResponse { x_m: 0.0, v_m_s: 0.0 }; 4];
+            let mut heap = Vec::new();
+            let both: &mut [PointResponse] = if 2 * points.len() <= stack.len() {
+                &mut stack[..2 * points.len()]
+            } else {
+                heap.resize(2 * points.len(), PointResponse { x_m: 0.0, v_m_s: 0.0 });
+                &mut heap
+            };
+            let (p, m) = both.split_at_mut(points.len());
+            self.synthesize(&plus, points, p)?;
+            self.synthesize(&minus, points, m)?;
+            for ((o, p), m) in out.iter_mut().zip(p.iter()).zip(m.iter()) {
+                *o = PointResponse { x_m: (p.x_m - m.x_m) / (2.0 * eps), v_m_s: (p.v_m_s - m.v_m_s) / (2.0 * eps) };
+            }
+        }
         if a == 0.0 {
             return Ok((0.0, 0.0));
         }
         let a_dot = (s.eta * de + s.u * du) / a;
-        let m = self.interp.eval(a)?;
-        Ok((a_dot, self.frequency_factor * m.domega_da * a_dot))
+        Ok((a_dot, self.frequency_factor * self.interp.eval_at(&loc).domega_da * a_dot))
     }
 }
 

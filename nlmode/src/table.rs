@@ -229,6 +229,14 @@ impl Pchip {
         Self { y: y.to_vec(), d }
     }
 
+    /// Value on a located segment with the precomputed Hermite weights; the
+    /// same arithmetic, in the same order, as the value of [`Self::eval`].
+    #[inline]
+    fn value_at(&self, s: &Segment) -> f64 {
+        let k = s.k;
+        s.w[0] * self.y[k] + s.w[1] * self.d[k] + s.w[2] * self.y[k + 1] + s.w[3] * self.d[k + 1]
+    }
+
     /// Value and derivative on segment `k` at local coordinate `t in [0, 1]`.
     #[inline]
     fn eval(&self, k: usize, t: f64, h: f64) -> (f64, f64) {
@@ -248,6 +256,24 @@ impl Pchip {
         (v, dv)
     }
 }
+
+/// A table segment with the cubic Hermite weights `h00, h10 h, h01, h11 h` of
+/// one amplitude: found once ([`TableInterpolator::locate`]) and reused for
+/// every interpolated quantity at that amplitude (the hot path of the
+/// time-domain oscillator evaluates 60 or more interpolants per amplitude).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Segment {
+    k: usize,
+    t: f64,
+    h: f64,
+    w: [f64; 4],
+}
+
+/// Where an amplitude lies in the table (from [`TableInterpolator::locate`]):
+/// below the first node (properties held at their first values) or on one
+/// segment with its interpolation weights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TableLocation(Option<Segment>);
 
 /// Modal properties at one amplitude.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -316,58 +342,98 @@ impl TableInterpolator {
         })
     }
 
-    /// Segment and local coordinate of `a`; `None` below the range (hold).
+    /// Locate `a` in the table once for several interpolations
+    /// ([`Self::eval_at`], [`Self::values_at`], [`Self::shape_at`], [`Self::shape_all_at`]):
+    /// the results equal those of [`Self::eval`], [`Self::shape`] and
+    /// [`Self::shape_all`] bit for bit. Errors as [`Self::eval`].
     #[inline]
-    fn locate(&self, a: f64) -> Result<Option<(usize, f64, f64)>, TableError> {
+    pub fn locate(&self, a: f64) -> Result<TableLocation, TableError> {
         if !(a.is_finite() && a >= 0.0) {
             return Err(TableError::BadAmplitude(a));
         }
         let (amin, amax) = self.amplitude_range();
         if a <= amin {
-            return Ok(None);
+            return Ok(TableLocation(None));
         }
         if a > amax {
             return Err(TableError::AboveRange { a, max: amax });
         }
         let k = self.amplitude.partition_point(|&x| x < a).saturating_sub(1).min(self.amplitude.len() - 2);
         let h = self.amplitude[k + 1] - self.amplitude[k];
-        Ok(Some((k, (a - self.amplitude[k]) / h, h)))
+        let t = (a - self.amplitude[k]) / h;
+        let t2 = t * t;
+        let t3 = t2 * t;
+        let h00 = 2.0 * t3 - 3.0 * t2 + 1.0;
+        let h10 = t3 - 2.0 * t2 + t;
+        let h01 = -2.0 * t3 + 3.0 * t2;
+        let h11 = t3 - t2;
+        Ok(TableLocation(Some(Segment { k, t, h, w: [h00, h10 * h, h01, h11 * h] })))
+    }
+
+    /// `omega(a)`, `D(a)` and `d omega/d a` at a located amplitude.
+    #[inline]
+    pub fn eval_at(&self, loc: &TableLocation) -> ModalProperties {
+        match &loc.0 {
+            None => ModalProperties { omega_rad_s: self.omega.y[0], damping_ratio: self.damping.y[0], domega_da: 0.0 },
+            Some(s) => {
+                let (_, dw) = self.omega.eval(s.k, s.t, s.h);
+                ModalProperties { omega_rad_s: self.omega.value_at(s), damping_ratio: self.damping.value_at(s), domega_da: dw }
+            }
+        }
+    }
+
+    /// `(omega(a), D(a))` at a located amplitude (without the slope).
+    #[inline]
+    pub fn values_at(&self, loc: &TableLocation) -> (f64, f64) {
+        match &loc.0 {
+            None => (self.omega.y[0], self.damping.y[0]),
+            Some(s) => (self.omega.value_at(s), self.damping.value_at(s)),
+        }
+    }
+
+    /// Harmonic `n` of the shape at `point` at a located amplitude.
+    #[inline]
+    pub fn shape_at(&self, point: usize, n: usize, loc: &TableLocation) -> Complex64 {
+        let (re, im) = &self.shapes[point][n];
+        match &loc.0 {
+            None => Complex64::new(re.y[0], im.y[0]),
+            Some(s) => Complex64::new(re.value_at(s), im.value_at(s)),
+        }
+    }
+
+    /// All harmonics `phi_0..phi_H` at `point` at a located amplitude, written
+    /// into `out` (length `H+1`).
+    #[inline]
+    pub fn shape_all_at(&self, point: usize, loc: &TableLocation, out: &mut [Complex64]) {
+        let shapes = &self.shapes[point];
+        assert!(out.len() >= shapes.len(), "shape_all_at: out must hold H+1 harmonics");
+        match &loc.0 {
+            None => {
+                for (o, (re, im)) in out.iter_mut().zip(shapes) {
+                    *o = Complex64::new(re.y[0], im.y[0]);
+                }
+            }
+            Some(s) => {
+                for (o, (re, im)) in out.iter_mut().zip(shapes) {
+                    *o = Complex64::new(re.value_at(s), im.value_at(s));
+                }
+            }
+        }
     }
 
     /// `omega(a)`, `D(a)` and `d omega/d a`.
     pub fn eval(&self, a: f64) -> Result<ModalProperties, TableError> {
-        Ok(match self.locate(a)? {
-            None => ModalProperties {
-                omega_rad_s: self.omega.y[0],
-                damping_ratio: self.damping.y[0],
-                domega_da: 0.0,
-            },
-            Some((k, t, h)) => {
-                let (w, dw) = self.omega.eval(k, t, h);
-                let (d, _) = self.damping.eval(k, t, h);
-                ModalProperties { omega_rad_s: w, damping_ratio: d, domega_da: dw }
-            }
-        })
+        Ok(self.eval_at(&self.locate(a)?))
     }
 
     /// Harmonic `n` of the shape at point `point` (index from [`Self::point_index`]).
     pub fn shape(&self, point: usize, n: usize, a: f64) -> Result<Complex64, TableError> {
-        let (re, im) = &self.shapes[point][n];
-        Ok(match self.locate(a)? {
-            None => Complex64::new(re.y[0], im.y[0]),
-            Some((k, t, h)) => Complex64::new(re.eval(k, t, h).0, im.eval(k, t, h).0),
-        })
+        Ok(self.shape_at(point, n, &self.locate(a)?))
     }
 
     /// All harmonics `phi_0..phi_H` at a point, written into `out` (length `H+1`).
     pub fn shape_all(&self, point: usize, a: f64, out: &mut [Complex64]) -> Result<(), TableError> {
-        let loc = self.locate(a)?;
-        for (n, (re, im)) in self.shapes[point].iter().enumerate() {
-            out[n] = match loc {
-                None => Complex64::new(re.y[0], im.y[0]),
-                Some((k, t, h)) => Complex64::new(re.eval(k, t, h).0, im.eval(k, t, h).0),
-            };
-        }
+        self.shape_all_at(point, &self.locate(a)?, out);
         Ok(())
     }
 }
