@@ -5,6 +5,7 @@
 //! `host nma` computes the nonlinear mode; `host frf` the steady-state
 //! frequency responses; `host package` builds the FMUs.
 mod cosim;
+mod cosim_cmd;
 mod methods;
 mod model;
 mod nma_cmd;
@@ -57,6 +58,14 @@ enum Command {
         #[arg(short, long, default_value = "out/fmus")]
         out: PathBuf,
     },
+    /// Generic co-simulation: any FMI 2.0 CS FMUs and connections from a TOML file (docs/cosim.md).
+    Cosim {
+        /// Co-simulation file (TOML).
+        spec: PathBuf,
+        /// Output directory.
+        #[arg(short, long, default_value = "out")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -65,6 +74,7 @@ fn main() -> ExitCode {
         Command::Run { scenario, out } => run::run(scenario.as_deref(), &out),
         Command::Nma { scenario, out } => nma_cmd::nma(scenario.as_deref(), &out),
         Command::Frf { scenario, out } => nma_cmd::frf(scenario.as_deref(), &out),
+        Command::Cosim { spec, out } => cosim_cmd::cosim(&spec, &out),
         Command::Package { out } => package::package(&out).map(|paths| {
             for p in paths {
                 println!("wrote {}", p.display());

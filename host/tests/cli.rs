@@ -96,4 +96,7 @@ fn bad_scenarios_give_a_clear_message_and_exit_2() {
     expect_failure(&["run"], Some("[[exciter]]\nlocation = \"2l/3\"\nresistance_ohm = 0\n"), &["resistance_ohm"]);
     expect_failure(&["run"], Some("[run]\nmethods = [\"magic\"]\n"), &["magic"]);
     expect_failure(&["run", "/nonexistent/scenario.toml"], None, &["/nonexistent/scenario.toml"]);
+    expect_failure(&["cosim"], Some("[units]\na = \"/nonexistent.fmu\"\n"), &["/nonexistent.fmu"]);
+    expect_failure(&["cosim"], Some("[master]\nalgorithm = \"magic\"\n[units]\na = \"a.fmu\"\n"), &["master.algorithm"]);
+    expect_failure(&["cosim"], Some("[master]\nmacro_step_s = -1.0\n[units]\na = \"a.fmu\"\n"), &["macro_step_s"]);
 }
