@@ -6,14 +6,24 @@ use std::path::PathBuf;
 fn main() {
     println!("cargo:rerun-if-changed=csrc/logger.c");
     println!("cargo:rerun-if-changed=csrc/testosc.c");
-    cc::Build::new().file("csrc/logger.c").warnings(true).compile("host_fmi2_logger");
+    cc::Build::new()
+        .file("csrc/logger.c")
+        .warnings(true)
+        .compile("host_fmi2_logger");
 
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
     let so = out.join("libtestosc.so");
     let compiler = cc::Build::new().get_compiler();
     let status = compiler
         .to_command()
-        .args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-Wall", "-o"])
+        .args([
+            "-shared",
+            "-fPIC",
+            "-O2",
+            "-fvisibility=hidden",
+            "-Wall",
+            "-o",
+        ])
         .arg(&so)
         .arg("csrc/testosc.c")
         .arg("-lm")

@@ -45,9 +45,18 @@ impl State {
     }
     fn from_u64(v: u64) -> Option<State> {
         use State::*;
-        [Instantiated, InitializationMode, StepComplete, StepFailed, StepCanceled, Terminated, Error, Fatal]
-            .get(v as usize)
-            .copied()
+        [
+            Instantiated,
+            InitializationMode,
+            StepComplete,
+            StepFailed,
+            StepCanceled,
+            Terminated,
+            Error,
+            Fatal,
+        ]
+        .get(v as usize)
+        .copied()
     }
 }
 
@@ -58,7 +67,8 @@ const STEP_FAILED: u16 = 1 << 3;
 const STEP_CANCELED: u16 = 1 << 4;
 const TERMINATED: u16 = 1 << 5;
 const ERROR: u16 = 1 << 6;
-const ALIVE: u16 = INSTANTIATED | INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
+const ALIVE: u16 =
+    INSTANTIATED | INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
 const GETTABLE: u16 = INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
 const SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE;
 const STEPPED: u16 = STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED;
@@ -115,9 +125,9 @@ unsafe fn run<M: CoSimModel>(
     // importer's contract) and is not used concurrently (FMI 2.0 rule).
     let state = (*ptr).state;
     if state.bit() & allowed == 0 {
-        (*ptr)
-            .logger
-            .error(&format!("{func}: illegal call sequence (called in state {state:?})"));
+        (*ptr).logger.error(&format!(
+            "{func}: illegal call sequence (called in state {state:?})"
+        ));
         return Status::Error;
     }
     match catch_unwind(AssertUnwindSafe(|| f(&mut *ptr))) {
@@ -138,7 +148,10 @@ unsafe fn run<M: CoSimModel>(
         Err(p) => {
             let inst = &mut *ptr;
             inst.state = State::Error;
-            inst.logger.error(&format!("{func}: internal error (panic): {}", panic_message(&*p)));
+            inst.logger.error(&format!(
+                "{func}: internal error (panic): {}",
+                panic_message(&*p)
+            ));
             Status::Error
         }
     }
@@ -173,7 +186,11 @@ fn find<M: CoSimModel>(vr: u32, ty: VarType) -> Result<&'static Variable, ModelE
     M::VARIABLES
         .iter()
         .find(|v| v.vr == vr && v.ty == ty)
-        .ok_or_else(|| ModelError::error(format!("unknown value reference {vr} (no {ty:?} variable has it)")))
+        .ok_or_else(|| {
+            ModelError::error(format!(
+                "unknown value reference {vr} (no {ty:?} variable has it)"
+            ))
+        })
 }
 
 impl<M: CoSimModel> Instance<M> {
@@ -216,7 +233,9 @@ impl<M: CoSimModel> Instance<M> {
 
     fn deserialize(&self, bytes: &[u8]) -> Result<Saved<M>, ModelError> {
         if bytes.len() < 8 || &bytes[..8] != STATE_MAGIC {
-            return Err(ModelError::error("serialized FMU state: bad magic (not written by this FMU)"));
+            return Err(ModelError::error(
+                "serialized FMU state: bad magic (not written by this FMU)",
+            ));
         }
         let mut r = StateReader::new(&bytes[8..]);
         let glen = r.u64()? as usize;
@@ -229,8 +248,9 @@ impl<M: CoSimModel> Instance<M> {
         }
         let mut r = StateReader::new(&bytes[start + glen..]);
         let st = r.u64()?;
-        let state = State::from_u64(st)
-            .ok_or_else(|| ModelError::error(format!("serialized FMU state: bad state code {st}")))?;
+        let state = State::from_u64(st).ok_or_else(|| {
+            ModelError::error(format!("serialized FMU state: bad state code {st}"))
+        })?;
         let time = r.f64()?;
         let start_time = r.f64()?;
         let has_stop = r.bool()?;
@@ -283,7 +303,12 @@ pub unsafe fn instantiate<M: CoSimModel>(
     }
     let cb = *functions;
     let name = opt_str(instance_name);
-    let logger = Logger::new(cb.logger, cb.component_environment, name.unwrap_or("?"), logging_on != 0);
+    let logger = Logger::new(
+        cb.logger,
+        cb.component_environment,
+        name.unwrap_or("?"),
+        logging_on != 0,
+    );
     let result = catch_unwind(AssertUnwindSafe(|| -> Result<Instance<M>, String> {
         let name = match name {
             Some(n) if !n.is_empty() => n.to_string(),
@@ -314,7 +339,11 @@ pub unsafe fn instantiate<M: CoSimModel>(
                 }
             },
         };
-        let ctx = InstantiateContext { instance_name: &name, resource_dir: resource_dir.clone(), logger: &logger };
+        let ctx = InstantiateContext {
+            instance_name: &name,
+            resource_dir: resource_dir.clone(),
+            logger: &logger,
+        };
         let model = M::instantiate(&ctx).map_err(|e| format!("fmi2Instantiate: {}", e.message))?;
         Ok(Instance {
             state: State::Instantiated,
@@ -336,7 +365,10 @@ pub unsafe fn instantiate<M: CoSimModel>(
             std::ptr::null_mut()
         }
         Err(p) => {
-            logger.error(&format!("fmi2Instantiate: internal error (panic): {}", panic_message(&*p)));
+            logger.error(&format!(
+                "fmi2Instantiate: internal error (panic): {}",
+                panic_message(&*p)
+            ));
             std::ptr::null_mut()
         }
     }
@@ -364,9 +396,14 @@ pub unsafe fn set_debug_logging<M: CoSimModel>(
         let mut idx = Vec::with_capacity(n);
         for &p in cats {
             let name = opt_str(p).ok_or_else(|| null_arg("categories[i]"))?;
-            let i = LOG_CATEGORIES.iter().position(|&c| c == name).ok_or_else(|| {
-                ModelError::error(format!("unknown log category {name:?} (known: {LOG_CATEGORIES:?})"))
-            })?;
+            let i = LOG_CATEGORIES
+                .iter()
+                .position(|&c| c == name)
+                .ok_or_else(|| {
+                    ModelError::error(format!(
+                        "unknown log category {name:?} (known: {LOG_CATEGORIES:?})"
+                    ))
+                })?;
             idx.push(i);
         }
         inst.logger.logging_on = logging_on != 0;
@@ -386,7 +423,9 @@ pub unsafe fn setup_experiment<M: CoSimModel>(
 ) -> Status {
     run::<M>(c, "fmi2SetupExperiment", INSTANTIATED, |inst| {
         if !start_time.is_finite() {
-            return Err(ModelError::error(format!("startTime must be finite, got {start_time}")));
+            return Err(ModelError::error(format!(
+                "startTime must be finite, got {start_time}"
+            )));
         }
         let stop = if stop_time_defined != 0 {
             if !(stop_time.is_finite() && stop_time >= start_time) {
@@ -427,10 +466,15 @@ pub unsafe fn exit_initialization_mode<M: CoSimModel>(c: Component) -> Status {
 
 /// `fmi2Terminate`.
 pub unsafe fn terminate<M: CoSimModel>(c: Component) -> Status {
-    run::<M>(c, "fmi2Terminate", STEP_COMPLETE | STEP_FAILED | STEP_CANCELED, |inst| {
-        inst.state = State::Terminated;
-        Ok(Status::Ok)
-    })
+    run::<M>(
+        c,
+        "fmi2Terminate",
+        STEP_COMPLETE | STEP_FAILED | STEP_CANCELED,
+        |inst| {
+            inst.state = State::Terminated;
+            Ok(Status::Ok)
+        },
+    )
 }
 
 /// `fmi2Reset`: back to the freshly instantiated state (model rebuilt from its
@@ -455,7 +499,12 @@ pub unsafe fn reset<M: CoSimModel>(c: Component) -> Status {
 macro_rules! getter {
     ($fname:ident, $cname:literal, $ty:ty, $vt:expr, |$m:ident, $vr:ident| $get:expr) => {
         #[doc = concat!("`", $cname, "`.")]
-        pub unsafe fn $fname<M: CoSimModel>(c: Component, vr: *const ValueReference, n: usize, value: *mut $ty) -> Status {
+        pub unsafe fn $fname<M: CoSimModel>(
+            c: Component,
+            vr: *const ValueReference,
+            n: usize,
+            value: *mut $ty,
+        ) -> Status {
             run::<M>(c, $cname, GETTABLE, |inst| {
                 let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
                 let out = slice_mut(value, n).ok_or_else(|| null_arg("value"))?;
@@ -470,12 +519,30 @@ macro_rules! getter {
     };
 }
 
-getter!(get_real, "fmi2GetReal", Real, VarType::Real, |m, v| m.get_real(v));
-getter!(get_integer, "fmi2GetInteger", Integer, VarType::Integer, |m, v| m.get_integer(v)?);
-getter!(get_boolean, "fmi2GetBoolean", Boolean, VarType::Boolean, |m, v| m.get_boolean(v)? as Boolean);
+getter!(get_real, "fmi2GetReal", Real, VarType::Real, |m, v| m
+    .get_real(v));
+getter!(
+    get_integer,
+    "fmi2GetInteger",
+    Integer,
+    VarType::Integer,
+    |m, v| m.get_integer(v)?
+);
+getter!(
+    get_boolean,
+    "fmi2GetBoolean",
+    Boolean,
+    VarType::Boolean,
+    |m, v| m.get_boolean(v)? as Boolean
+);
 
 /// `fmi2GetString`: the returned pointers stay valid until the next call.
-pub unsafe fn get_string<M: CoSimModel>(c: Component, vr: *const ValueReference, n: usize, value: *mut FmiString) -> Status {
+pub unsafe fn get_string<M: CoSimModel>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *mut FmiString,
+) -> Status {
     run::<M>(c, "fmi2GetString", GETTABLE, |inst| {
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let out = slice_mut(value, n).ok_or_else(|| null_arg("value"))?;
@@ -483,7 +550,8 @@ pub unsafe fn get_string<M: CoSimModel>(c: Component, vr: *const ValueReference,
         for &v in vrs {
             find::<M>(v, VarType::String)?;
             let s = inst.model.get_string(v)?;
-            inst.string_buf.push(CString::new(s.replace('\0', " ")).expect("NUL replaced"));
+            inst.string_buf
+                .push(CString::new(s.replace('\0', " ")).expect("NUL replaced"));
         }
         for (o, s) in out.iter_mut().zip(&inst.string_buf) {
             *o = s.as_ptr();
@@ -494,7 +562,12 @@ pub unsafe fn get_string<M: CoSimModel>(c: Component, vr: *const ValueReference,
 
 /// `fmi2SetReal`: rejects unknown references, variables not settable now, and
 /// non-finite values.
-pub unsafe fn set_real<M: CoSimModel>(c: Component, vr: *const ValueReference, n: usize, value: *const Real) -> Status {
+pub unsafe fn set_real<M: CoSimModel>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const Real,
+) -> Status {
     run::<M>(c, "fmi2SetReal", SETTABLE, |inst| {
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
@@ -514,7 +587,12 @@ pub unsafe fn set_real<M: CoSimModel>(c: Component, vr: *const ValueReference, n
 }
 
 /// `fmi2SetInteger`.
-pub unsafe fn set_integer<M: CoSimModel>(c: Component, vr: *const ValueReference, n: usize, value: *const Integer) -> Status {
+pub unsafe fn set_integer<M: CoSimModel>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const Integer,
+) -> Status {
     run::<M>(c, "fmi2SetInteger", SETTABLE, |inst| {
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
@@ -528,7 +606,12 @@ pub unsafe fn set_integer<M: CoSimModel>(c: Component, vr: *const ValueReference
 }
 
 /// `fmi2SetBoolean`.
-pub unsafe fn set_boolean<M: CoSimModel>(c: Component, vr: *const ValueReference, n: usize, value: *const Boolean) -> Status {
+pub unsafe fn set_boolean<M: CoSimModel>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const Boolean,
+) -> Status {
     run::<M>(c, "fmi2SetBoolean", SETTABLE, |inst| {
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
@@ -542,7 +625,12 @@ pub unsafe fn set_boolean<M: CoSimModel>(c: Component, vr: *const ValueReference
 }
 
 /// `fmi2SetString`.
-pub unsafe fn set_string<M: CoSimModel>(c: Component, vr: *const ValueReference, n: usize, value: *const FmiString) -> Status {
+pub unsafe fn set_string<M: CoSimModel>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const FmiString,
+) -> Status {
     run::<M>(c, "fmi2SetString", SETTABLE, |inst| {
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
@@ -607,7 +695,11 @@ pub unsafe fn free_fmu_state<M: CoSimModel>(c: Component, state: *mut FmuState) 
 }
 
 /// `fmi2SerializedFMUstateSize`.
-pub unsafe fn serialized_fmu_state_size<M: CoSimModel>(c: Component, state: FmuState, size: *mut usize) -> Status {
+pub unsafe fn serialized_fmu_state_size<M: CoSimModel>(
+    c: Component,
+    state: FmuState,
+    size: *mut usize,
+) -> Status {
     run::<M>(c, "fmi2SerializedFMUstateSize", ALIVE, |inst| {
         if state.is_null() {
             return Err(null_arg("FMUstate"));
@@ -621,7 +713,12 @@ pub unsafe fn serialized_fmu_state_size<M: CoSimModel>(c: Component, state: FmuS
 }
 
 /// `fmi2SerializeFMUstate`.
-pub unsafe fn serialize_fmu_state<M: CoSimModel>(c: Component, state: FmuState, buf: *mut Byte, size: usize) -> Status {
+pub unsafe fn serialize_fmu_state<M: CoSimModel>(
+    c: Component,
+    state: FmuState,
+    buf: *mut Byte,
+    size: usize,
+) -> Status {
     run::<M>(c, "fmi2SerializeFMUstate", ALIVE, |inst| {
         if state.is_null() {
             return Err(null_arg("FMUstate"));
@@ -633,14 +730,20 @@ pub unsafe fn serialize_fmu_state<M: CoSimModel>(c: Component, state: FmuState, 
                 bytes.len()
             )));
         }
-        let out = slice_mut(buf as *mut u8, bytes.len()).ok_or_else(|| null_arg("serializedState"))?;
+        let out =
+            slice_mut(buf as *mut u8, bytes.len()).ok_or_else(|| null_arg("serializedState"))?;
         out.copy_from_slice(&bytes);
         Ok(Status::Ok)
     })
 }
 
 /// `fmi2DeSerializeFMUstate`.
-pub unsafe fn deserialize_fmu_state<M: CoSimModel>(c: Component, buf: *const Byte, size: usize, state: *mut FmuState) -> Status {
+pub unsafe fn deserialize_fmu_state<M: CoSimModel>(
+    c: Component,
+    buf: *const Byte,
+    size: usize,
+    state: *mut FmuState,
+) -> Status {
     run::<M>(c, "fmi2DeSerializeFMUstate", ALIVE, |inst| {
         if state.is_null() {
             return Err(null_arg("FMUstate"));
@@ -692,7 +795,9 @@ fn order_of(o: Integer) -> Result<u32, ModelError> {
     if o >= 1 {
         Ok(o as u32)
     } else {
-        Err(ModelError::error(format!("derivative order must be >= 1, got {o}")))
+        Err(ModelError::error(format!(
+            "derivative order must be >= 1, got {o}"
+        )))
     }
 }
 
@@ -711,7 +816,10 @@ pub unsafe fn set_real_input_derivatives<M: CoSimModel>(
         for ((&v, &o), &x) in vrs.iter().zip(ord).zip(vals) {
             let var = find::<M>(v, VarType::Real)?;
             if var.causality != Causality::Input {
-                return Err(ModelError::error(format!("{} (value reference {v}) is not an input", var.name)));
+                return Err(ModelError::error(format!(
+                    "{} (value reference {v}) is not an input",
+                    var.name
+                )));
             }
             let o = order_of(o)?;
             if !x.is_finite() {
@@ -741,7 +849,10 @@ pub unsafe fn get_real_output_derivatives<M: CoSimModel>(
         for ((o, &v), &k) in out.iter_mut().zip(vrs).zip(ord) {
             let var = find::<M>(v, VarType::Real)?;
             if var.causality != Causality::Output {
-                return Err(ModelError::error(format!("{} (value reference {v}) is not an output", var.name)));
+                return Err(ModelError::error(format!(
+                    "{} (value reference {v}) is not an output",
+                    var.name
+                )));
             }
             *o = inst.model.get_real_output_derivative(v, order_of(k)?)?;
         }
@@ -755,10 +866,17 @@ fn time_tol(t: f64) -> f64 {
 }
 
 /// `fmi2DoStep` (always synchronous).
-pub unsafe fn do_step<M: CoSimModel>(c: Component, t: f64, h: f64, _no_set_prior: Boolean) -> Status {
+pub unsafe fn do_step<M: CoSimModel>(
+    c: Component,
+    t: f64,
+    h: f64,
+    _no_set_prior: Boolean,
+) -> Status {
     run::<M>(c, "fmi2DoStep", STEP_COMPLETE, |inst| {
         if !(h.is_finite() && h > 0.0) {
-            return Err(ModelError::error(format!("communicationStepSize must be positive and finite, got {h}")));
+            return Err(ModelError::error(format!(
+                "communicationStepSize must be positive and finite, got {h}"
+            )));
         }
         if !t.is_finite() || (t - inst.time).abs() > time_tol(inst.time) {
             return Err(ModelError::error(format!(
@@ -797,11 +915,17 @@ pub unsafe fn cancel_step<M: CoSimModel>(c: Component) -> Status {
 }
 
 fn unsupported_kind(kind: StatusKind, what: &str) -> ModelError {
-    ModelError::discard(format!("status kind {kind} is not available from {what} (steps are synchronous)"))
+    ModelError::discard(format!(
+        "status kind {kind} is not available from {what} (steps are synchronous)"
+    ))
 }
 
 /// `fmi2GetStatus`: no status kind applies to synchronous steps (fmi2Discard).
-pub unsafe fn get_status<M: CoSimModel>(c: Component, kind: StatusKind, value: *mut Status) -> Status {
+pub unsafe fn get_status<M: CoSimModel>(
+    c: Component,
+    kind: StatusKind,
+    value: *mut Status,
+) -> Status {
     run::<M>(c, "fmi2GetStatus", STEPPED, |_| {
         if value.is_null() {
             return Err(null_arg("value"));
@@ -811,7 +935,11 @@ pub unsafe fn get_status<M: CoSimModel>(c: Component, kind: StatusKind, value: *
 }
 
 /// `fmi2GetRealStatus`: `fmi2LastSuccessfulTime`.
-pub unsafe fn get_real_status<M: CoSimModel>(c: Component, kind: StatusKind, value: *mut Real) -> Status {
+pub unsafe fn get_real_status<M: CoSimModel>(
+    c: Component,
+    kind: StatusKind,
+    value: *mut Real,
+) -> Status {
     run::<M>(c, "fmi2GetRealStatus", STEPPED, |inst| {
         if value.is_null() {
             return Err(null_arg("value"));
@@ -826,7 +954,11 @@ pub unsafe fn get_real_status<M: CoSimModel>(c: Component, kind: StatusKind, val
 }
 
 /// `fmi2GetIntegerStatus`: no integer status exists (fmi2Discard).
-pub unsafe fn get_integer_status<M: CoSimModel>(c: Component, kind: StatusKind, value: *mut Integer) -> Status {
+pub unsafe fn get_integer_status<M: CoSimModel>(
+    c: Component,
+    kind: StatusKind,
+    value: *mut Integer,
+) -> Status {
     run::<M>(c, "fmi2GetIntegerStatus", STEPPED, |_| {
         if value.is_null() {
             return Err(null_arg("value"));
@@ -837,7 +969,11 @@ pub unsafe fn get_integer_status<M: CoSimModel>(c: Component, kind: StatusKind, 
 
 /// `fmi2GetBooleanStatus`: `fmi2Terminated` is always false (the FMU never
 /// asks to end the simulation).
-pub unsafe fn get_boolean_status<M: CoSimModel>(c: Component, kind: StatusKind, value: *mut Boolean) -> Status {
+pub unsafe fn get_boolean_status<M: CoSimModel>(
+    c: Component,
+    kind: StatusKind,
+    value: *mut Boolean,
+) -> Status {
     run::<M>(c, "fmi2GetBooleanStatus", STEPPED, |_| {
         if value.is_null() {
             return Err(null_arg("value"));
@@ -852,7 +988,11 @@ pub unsafe fn get_boolean_status<M: CoSimModel>(c: Component, kind: StatusKind, 
 }
 
 /// `fmi2GetStringStatus`: only `fmi2PendingStatus` exists, never pending.
-pub unsafe fn get_string_status<M: CoSimModel>(c: Component, kind: StatusKind, value: *mut FmiString) -> Status {
+pub unsafe fn get_string_status<M: CoSimModel>(
+    c: Component,
+    kind: StatusKind,
+    value: *mut FmiString,
+) -> Status {
     run::<M>(c, "fmi2GetStringStatus", STEPPED, |_| {
         if value.is_null() {
             return Err(null_arg("value"));
@@ -866,7 +1006,9 @@ pub unsafe fn get_string_status<M: CoSimModel>(c: Component, kind: StatusKind, v
 /// `fmi2Error` and a log message since these FMUs are Co-Simulation only.
 pub unsafe fn model_exchange_only<M: CoSimModel>(c: Component, func: &str) -> Status {
     run::<M>(c, func, ALIVE, |_| {
-        Err(ModelError::error("this FMU implements Co-Simulation only (no Model Exchange functions)"))
+        Err(ModelError::error(
+            "this FMU implements Co-Simulation only (no Model Exchange functions)",
+        ))
     })
 }
 

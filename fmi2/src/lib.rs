@@ -72,8 +72,8 @@ macro_rules! export_fmu {
         mod __fmi2_exports {
             use super::*;
             use $crate::types::{
-                Boolean, Byte, CallbackFunctions, Component, FmiString, FmuState, FmuType, Integer, Real,
-                Status, StatusKind, ValueReference,
+                Boolean, Byte, CallbackFunctions, Component, FmiString, FmuState, FmuType, Integer,
+                Real, Status, StatusKind, ValueReference,
             };
             type M = $model;
 
@@ -86,7 +86,12 @@ macro_rules! export_fmu {
                 $crate::ffi::get_version()
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetDebugLogging(c: Component, on: Boolean, n: usize, cats: *const FmiString) -> Status {
+            pub unsafe extern "C" fn fmi2SetDebugLogging(
+                c: Component,
+                on: Boolean,
+                n: usize,
+                cats: *const FmiString,
+            ) -> Status {
                 $crate::ffi::set_debug_logging::<M>(c, on, n, cats)
             }
             #[no_mangle]
@@ -106,7 +111,14 @@ macro_rules! export_fmu {
                 $crate::ffi::free_instance::<M>(c)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetupExperiment(c: Component, tol_def: Boolean, tol: Real, t0: Real, stop_def: Boolean, stop: Real) -> Status {
+            pub unsafe extern "C" fn fmi2SetupExperiment(
+                c: Component,
+                tol_def: Boolean,
+                tol: Real,
+                t0: Real,
+                stop_def: Boolean,
+                stop: Real,
+            ) -> Status {
                 $crate::ffi::setup_experiment::<M>(c, tol_def, tol, t0, stop_def, stop)
             }
             #[no_mangle]
@@ -126,35 +138,75 @@ macro_rules! export_fmu {
                 $crate::ffi::reset::<M>(c)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetReal(c: Component, vr: *const ValueReference, n: usize, v: *mut Real) -> Status {
+            pub unsafe extern "C" fn fmi2GetReal(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                v: *mut Real,
+            ) -> Status {
                 $crate::ffi::get_real::<M>(c, vr, n, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetInteger(c: Component, vr: *const ValueReference, n: usize, v: *mut Integer) -> Status {
+            pub unsafe extern "C" fn fmi2GetInteger(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                v: *mut Integer,
+            ) -> Status {
                 $crate::ffi::get_integer::<M>(c, vr, n, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetBoolean(c: Component, vr: *const ValueReference, n: usize, v: *mut Boolean) -> Status {
+            pub unsafe extern "C" fn fmi2GetBoolean(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                v: *mut Boolean,
+            ) -> Status {
                 $crate::ffi::get_boolean::<M>(c, vr, n, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetString(c: Component, vr: *const ValueReference, n: usize, v: *mut FmiString) -> Status {
+            pub unsafe extern "C" fn fmi2GetString(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                v: *mut FmiString,
+            ) -> Status {
                 $crate::ffi::get_string::<M>(c, vr, n, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetReal(c: Component, vr: *const ValueReference, n: usize, v: *const Real) -> Status {
+            pub unsafe extern "C" fn fmi2SetReal(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                v: *const Real,
+            ) -> Status {
                 $crate::ffi::set_real::<M>(c, vr, n, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetInteger(c: Component, vr: *const ValueReference, n: usize, v: *const Integer) -> Status {
+            pub unsafe extern "C" fn fmi2SetInteger(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                v: *const Integer,
+            ) -> Status {
                 $crate::ffi::set_integer::<M>(c, vr, n, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetBoolean(c: Component, vr: *const ValueReference, n: usize, v: *const Boolean) -> Status {
+            pub unsafe extern "C" fn fmi2SetBoolean(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                v: *const Boolean,
+            ) -> Status {
                 $crate::ffi::set_boolean::<M>(c, vr, n, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetString(c: Component, vr: *const ValueReference, n: usize, v: *const FmiString) -> Status {
+            pub unsafe extern "C" fn fmi2SetString(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                v: *const FmiString,
+            ) -> Status {
                 $crate::ffi::set_string::<M>(c, vr, n, v)
             }
             #[no_mangle]
@@ -170,15 +222,29 @@ macro_rules! export_fmu {
                 $crate::ffi::free_fmu_state::<M>(c, s)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: Component, s: FmuState, size: *mut usize) -> Status {
+            pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
+                c: Component,
+                s: FmuState,
+                size: *mut usize,
+            ) -> Status {
                 $crate::ffi::serialized_fmu_state_size::<M>(c, s, size)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SerializeFMUstate(c: Component, s: FmuState, buf: *mut Byte, size: usize) -> Status {
+            pub unsafe extern "C" fn fmi2SerializeFMUstate(
+                c: Component,
+                s: FmuState,
+                buf: *mut Byte,
+                size: usize,
+            ) -> Status {
                 $crate::ffi::serialize_fmu_state::<M>(c, s, buf, size)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2DeSerializeFMUstate(c: Component, buf: *const Byte, size: usize, s: *mut FmuState) -> Status {
+            pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
+                c: Component,
+                buf: *const Byte,
+                size: usize,
+                s: *mut FmuState,
+            ) -> Status {
                 $crate::ffi::deserialize_fmu_state::<M>(c, buf, size, s)
             }
             #[no_mangle]
@@ -194,15 +260,32 @@ macro_rules! export_fmu {
                 $crate::ffi::get_directional_derivative::<M>(c, u, nu, k, nk, dk, du)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetRealInputDerivatives(c: Component, vr: *const ValueReference, n: usize, order: *const Integer, v: *const Real) -> Status {
+            pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                order: *const Integer,
+                v: *const Real,
+            ) -> Status {
                 $crate::ffi::set_real_input_derivatives::<M>(c, vr, n, order, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(c: Component, vr: *const ValueReference, n: usize, order: *const Integer, v: *mut Real) -> Status {
+            pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
+                c: Component,
+                vr: *const ValueReference,
+                n: usize,
+                order: *const Integer,
+                v: *mut Real,
+            ) -> Status {
                 $crate::ffi::get_real_output_derivatives::<M>(c, vr, n, order, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2DoStep(c: Component, t: Real, h: Real, no_set_prior: Boolean) -> Status {
+            pub unsafe extern "C" fn fmi2DoStep(
+                c: Component,
+                t: Real,
+                h: Real,
+                no_set_prior: Boolean,
+            ) -> Status {
                 $crate::ffi::do_step::<M>(c, t, h, no_set_prior)
             }
             #[no_mangle]
@@ -210,19 +293,35 @@ macro_rules! export_fmu {
                 $crate::ffi::cancel_step::<M>(c)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetStatus(c: Component, k: StatusKind, v: *mut Status) -> Status {
+            pub unsafe extern "C" fn fmi2GetStatus(
+                c: Component,
+                k: StatusKind,
+                v: *mut Status,
+            ) -> Status {
                 $crate::ffi::get_status::<M>(c, k, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetRealStatus(c: Component, k: StatusKind, v: *mut Real) -> Status {
+            pub unsafe extern "C" fn fmi2GetRealStatus(
+                c: Component,
+                k: StatusKind,
+                v: *mut Real,
+            ) -> Status {
                 $crate::ffi::get_real_status::<M>(c, k, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetIntegerStatus(c: Component, k: StatusKind, v: *mut Integer) -> Status {
+            pub unsafe extern "C" fn fmi2GetIntegerStatus(
+                c: Component,
+                k: StatusKind,
+                v: *mut Integer,
+            ) -> Status {
                 $crate::ffi::get_integer_status::<M>(c, k, v)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetBooleanStatus(c: Component, k: StatusKind, v: *mut Boolean) -> Status {
+            pub unsafe extern "C" fn fmi2GetBooleanStatus(
+                c: Component,
+                k: StatusKind,
+                v: *mut Boolean,
+            ) -> Status {
                 $crate::ffi::get_boolean_status::<M>(c, k, v)
             }
             #[no_mangle]
@@ -230,7 +329,10 @@ macro_rules! export_fmu {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2EnterEventMode")
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2NewDiscreteStates(c: Component, _info: *mut ::std::os::raw::c_void) -> Status {
+            pub unsafe extern "C" fn fmi2NewDiscreteStates(
+                c: Component,
+                _info: *mut ::std::os::raw::c_void,
+            ) -> Status {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2NewDiscreteStates")
             }
             #[no_mangle]
@@ -238,7 +340,12 @@ macro_rules! export_fmu {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2EnterContinuousTimeMode")
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(c: Component, _no_set: Boolean, _enter: *mut Boolean, _term: *mut Boolean) -> Status {
+            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
+                c: Component,
+                _no_set: Boolean,
+                _enter: *mut Boolean,
+                _term: *mut Boolean,
+            ) -> Status {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2CompletedIntegratorStep")
             }
             #[no_mangle]
@@ -246,27 +353,51 @@ macro_rules! export_fmu {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2SetTime")
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetContinuousStates(c: Component, _x: *const Real, _n: usize) -> Status {
+            pub unsafe extern "C" fn fmi2SetContinuousStates(
+                c: Component,
+                _x: *const Real,
+                _n: usize,
+            ) -> Status {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2SetContinuousStates")
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetDerivatives(c: Component, _dx: *mut Real, _n: usize) -> Status {
+            pub unsafe extern "C" fn fmi2GetDerivatives(
+                c: Component,
+                _dx: *mut Real,
+                _n: usize,
+            ) -> Status {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2GetDerivatives")
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetEventIndicators(c: Component, _z: *mut Real, _n: usize) -> Status {
+            pub unsafe extern "C" fn fmi2GetEventIndicators(
+                c: Component,
+                _z: *mut Real,
+                _n: usize,
+            ) -> Status {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2GetEventIndicators")
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetContinuousStates(c: Component, _x: *mut Real, _n: usize) -> Status {
+            pub unsafe extern "C" fn fmi2GetContinuousStates(
+                c: Component,
+                _x: *mut Real,
+                _n: usize,
+            ) -> Status {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2GetContinuousStates")
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(c: Component, _x: *mut Real, _n: usize) -> Status {
+            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
+                c: Component,
+                _x: *mut Real,
+                _n: usize,
+            ) -> Status {
                 $crate::ffi::model_exchange_only::<M>(c, "fmi2GetNominalsOfContinuousStates")
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2GetStringStatus(c: Component, k: StatusKind, v: *mut FmiString) -> Status {
+            pub unsafe extern "C" fn fmi2GetStringStatus(
+                c: Component,
+                k: StatusKind,
+                v: *mut FmiString,
+            ) -> Status {
                 $crate::ffi::get_string_status::<M>(c, k, v)
             }
         }

@@ -67,9 +67,7 @@ impl Variable {
     pub(crate) fn settable(&self, initialized: bool) -> bool {
         match self.causality {
             Causality::Input => true,
-            Causality::Parameter => {
-                !initialized || self.variability == Variability::Tunable
-            }
+            Causality::Parameter => !initialized || self.variability == Variability::Tunable,
             _ => false,
         }
     }
@@ -86,11 +84,17 @@ pub struct ModelError {
 impl ModelError {
     /// An error: the instance goes to the error state (`fmi2Error`).
     pub fn error(message: impl Into<String>) -> Self {
-        Self { status: Status::Error, message: message.into() }
+        Self {
+            status: Status::Error,
+            message: message.into(),
+        }
     }
     /// A step that could not be completed but may be retried (`fmi2Discard`).
     pub fn discard(message: impl Into<String>) -> Self {
-        Self { status: Status::Discard, message: message.into() }
+        Self {
+            status: Status::Discard,
+            message: message.into(),
+        }
     }
 }
 
@@ -170,9 +174,9 @@ impl Logger {
         if self.categories.is_empty() {
             return true;
         }
-        self.categories.iter().any(|&i| {
-            LOG_CATEGORIES[i] == category || LOG_CATEGORIES[i] == "logAll"
-        })
+        self.categories
+            .iter()
+            .any(|&i| LOG_CATEGORIES[i] == category || LOG_CATEGORIES[i] == "logAll")
     }
 
     /// Send `message` with `status` and `category` to the importer.
@@ -187,7 +191,15 @@ impl Logger {
         // SAFETY: the callback is the importer's fmi2CallbackLogger, called with
         // valid NUL-terminated strings and no variadic arguments (the message has
         // no unescaped conversion specifications).
-        unsafe { cb(self.env, self.instance_name.as_ptr(), status, cat.as_ptr(), msg.as_ptr()) }
+        unsafe {
+            cb(
+                self.env,
+                self.instance_name.as_ptr(),
+                status,
+                cat.as_ptr(),
+                msg.as_ptr(),
+            )
+        }
     }
 
     /// An informative message (category `logEvents`, status OK).
@@ -267,16 +279,22 @@ impl<'a> StateReader<'a> {
         Ok(s)
     }
     pub fn f64(&mut self) -> Result<f64, ModelError> {
-        Ok(f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+        Ok(f64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
     }
     pub fn u64(&mut self) -> Result<u64, ModelError> {
-        Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
     }
     pub fn bool(&mut self) -> Result<bool, ModelError> {
         match self.take(1)?[0] {
             0 => Ok(false),
             1 => Ok(true),
-            b => Err(ModelError::error(format!("serialized FMU state: bad boolean byte {b}"))),
+            b => Err(ModelError::error(format!(
+                "serialized FMU state: bad boolean byte {b}"
+            ))),
         }
     }
     pub fn f64s(&mut self, expected_len: usize) -> Result<Vec<f64>, ModelError> {
@@ -321,7 +339,11 @@ pub trait CoSimModel: Clone + Sized + 'static {
     fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError>;
 
     /// `fmi2SetupExperiment`: the start time (the model's time from then on).
-    fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>) -> Result<(), ModelError> {
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> Result<(), ModelError> {
         let _ = (start_time, stop_time);
         Ok(())
     }
@@ -341,32 +363,49 @@ pub trait CoSimModel: Clone + Sized + 'static {
     /// Set a Real input or parameter.
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError>;
     fn get_integer(&self, vr: u32) -> Result<i32, ModelError> {
-        Err(ModelError::error(format!("no Integer variable with value reference {vr}")))
+        Err(ModelError::error(format!(
+            "no Integer variable with value reference {vr}"
+        )))
     }
     fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), ModelError> {
         let _ = value;
-        Err(ModelError::error(format!("no Integer variable with value reference {vr}")))
+        Err(ModelError::error(format!(
+            "no Integer variable with value reference {vr}"
+        )))
     }
     fn get_boolean(&self, vr: u32) -> Result<bool, ModelError> {
-        Err(ModelError::error(format!("no Boolean variable with value reference {vr}")))
+        Err(ModelError::error(format!(
+            "no Boolean variable with value reference {vr}"
+        )))
     }
     fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), ModelError> {
         let _ = value;
-        Err(ModelError::error(format!("no Boolean variable with value reference {vr}")))
+        Err(ModelError::error(format!(
+            "no Boolean variable with value reference {vr}"
+        )))
     }
     fn get_string(&self, vr: u32) -> Result<String, ModelError> {
-        Err(ModelError::error(format!("no String variable with value reference {vr}")))
+        Err(ModelError::error(format!(
+            "no String variable with value reference {vr}"
+        )))
     }
     fn set_string(&mut self, vr: u32, value: &str) -> Result<(), ModelError> {
         let _ = value;
-        Err(ModelError::error(format!("no String variable with value reference {vr}")))
+        Err(ModelError::error(format!(
+            "no String variable with value reference {vr}"
+        )))
     }
 
     /// Advance from `t` to `t + h` (`fmi2DoStep`).
     fn do_step(&mut self, t: f64, h: f64, log: &Logger) -> Result<(), ModelError>;
 
     /// `fmi2SetRealInputDerivatives` for one input (`order >= 1`).
-    fn set_real_input_derivative(&mut self, vr: u32, order: u32, value: f64) -> Result<(), ModelError> {
+    fn set_real_input_derivative(
+        &mut self,
+        vr: u32,
+        order: u32,
+        value: f64,
+    ) -> Result<(), ModelError> {
         let _ = value;
         Err(ModelError::error(format!(
             "input derivatives are not supported (value reference {vr}, order {order})"

@@ -11,15 +11,28 @@ use zip::write::SimpleFileOptions;
 #[derive(Debug, thiserror::Error)]
 pub enum PackageError {
     #[error("cannot read {path}: {source}")]
-    Read { path: PathBuf, source: std::io::Error },
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("cannot write {path}: {source}")]
-    Write { path: PathBuf, source: std::io::Error },
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("zip error writing {path}: {source}")]
-    Zip { path: PathBuf, source: zip::result::ZipError },
+    Zip {
+        path: PathBuf,
+        source: zip::result::ZipError,
+    },
     #[error("{path}: invalid modelDescription: {reason}")]
     BadModelDescription { path: PathBuf, reason: String },
     #[error("{path}: modelIdentifier is {found:?}, expected {expected:?}")]
-    IdentifierMismatch { path: PathBuf, found: String, expected: String },
+    IdentifierMismatch {
+        path: PathBuf,
+        found: String,
+        expected: String,
+    },
 }
 
 /// The parts of one FMU.
@@ -40,7 +53,10 @@ fn read(path: &Path) -> Result<Vec<u8>, PackageError> {
     let mut v = Vec::new();
     File::open(path)
         .and_then(|mut f| f.read_to_end(&mut v))
-        .map_err(|source| PackageError::Read { path: path.to_path_buf(), source })?;
+        .map_err(|source| PackageError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
     Ok(v)
 }
 
@@ -49,9 +65,15 @@ pub fn files_below(dir: &Path) -> Result<Vec<(PathBuf, String)>, PackageError> {
     let mut out = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {
-        let rd = std::fs::read_dir(&d).map_err(|source| PackageError::Read { path: d.clone(), source })?;
+        let rd = std::fs::read_dir(&d).map_err(|source| PackageError::Read {
+            path: d.clone(),
+            source,
+        })?;
         for e in rd {
-            let e = e.map_err(|source| PackageError::Read { path: d.clone(), source })?;
+            let e = e.map_err(|source| PackageError::Read {
+                path: d.clone(),
+                source,
+            })?;
             let p = e.path();
             if p.is_dir() {
                 stack.push(p);
@@ -79,10 +101,11 @@ pub fn write_fmu(spec: &FmuSpec, out: &Path) -> Result<(), PackageError> {
         path: spec.model_description.clone(),
         reason: e.to_string(),
     })?;
-    let parsed = crate::xml::parse(&md_text).map_err(|reason| PackageError::BadModelDescription {
-        path: spec.model_description.clone(),
-        reason,
-    })?;
+    let parsed =
+        crate::xml::parse(&md_text).map_err(|reason| PackageError::BadModelDescription {
+            path: spec.model_description.clone(),
+            reason,
+        })?;
     if parsed.model_identifier != spec.model_identifier {
         return Err(PackageError::IdentifierMismatch {
             path: spec.model_description.clone(),
@@ -90,8 +113,14 @@ pub fn write_fmu(spec: &FmuSpec, out: &Path) -> Result<(), PackageError> {
             expected: spec.model_identifier.clone(),
         });
     }
-    let zerr = |source| PackageError::Zip { path: out.to_path_buf(), source };
-    let werr = |source| PackageError::Write { path: out.to_path_buf(), source };
+    let zerr = |source| PackageError::Zip {
+        path: out.to_path_buf(),
+        source,
+    };
+    let werr = |source| PackageError::Write {
+        path: out.to_path_buf(),
+        source,
+    };
     let file = File::create(out).map_err(werr)?;
     let mut z = zip::ZipWriter::new(file);
     let opts = SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
@@ -100,7 +129,10 @@ pub fn write_fmu(spec: &FmuSpec, out: &Path) -> Result<(), PackageError> {
         z.write_all(bytes).map_err(werr)
     };
     add("modelDescription.xml", &md)?;
-    add(&format!("binaries/linux64/{}.so", spec.model_identifier), &read(&spec.library)?)?;
+    add(
+        &format!("binaries/linux64/{}.so", spec.model_identifier),
+        &read(&spec.library)?,
+    )?;
     for (src, rel) in &spec.resources {
         add(&format!("resources/{rel}"), &read(src)?)?;
     }
@@ -114,7 +146,10 @@ pub fn write_fmu(spec: &FmuSpec, out: &Path) -> Result<(), PackageError> {
 /// Minimal HTML page showing a Markdown text verbatim (`documentation/index.html`
 /// is the entry point the standard names).
 pub fn markdown_as_html(title: &str, markdown: &str) -> String {
-    let esc = markdown.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+    let esc = markdown
+        .replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;");
     format!(
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{title}</title></head>\n<body><pre>\n{esc}\n</pre></body></html>\n"
     )
@@ -146,7 +181,9 @@ mod tests {
         };
         write_fmu(&spec, &p("m.fmu")).unwrap();
         let mut z = zip::ZipArchive::new(File::open(p("m.fmu")).unwrap()).unwrap();
-        let mut names: Vec<String> = (0..z.len()).map(|i| z.by_index(i).unwrap().name().to_string()).collect();
+        let mut names: Vec<String> = (0..z.len())
+            .map(|i| z.by_index(i).unwrap().name().to_string())
+            .collect();
         names.sort();
         assert_eq!(
             names,
@@ -159,10 +196,19 @@ mod tests {
             ]
         );
         let mut so = Vec::new();
-        z.by_name("binaries/linux64/m.so").unwrap().read_to_end(&mut so).unwrap();
+        z.by_name("binaries/linux64/m.so")
+            .unwrap()
+            .read_to_end(&mut so)
+            .unwrap();
         assert_eq!(so, b"\x7fELF...");
-        let bad = FmuSpec { model_identifier: "other".into(), ..spec };
-        assert!(matches!(write_fmu(&bad, &p("x.fmu")), Err(PackageError::IdentifierMismatch { .. })));
+        let bad = FmuSpec {
+            model_identifier: "other".into(),
+            ..spec
+        };
+        assert!(matches!(
+            write_fmu(&bad, &p("x.fmu")),
+            Err(PackageError::IdentifierMismatch { .. })
+        ));
     }
 }
 
@@ -185,15 +231,19 @@ pub fn package_workspace_fmu(
         resources = files_below(&md_dir.join("resources")).map_err(|e| e.to_string())?;
     }
     for f in extra_resources {
-        let name = f.file_name().ok_or(format!("resource {}: no file name", f.display()))?;
+        let name = f
+            .file_name()
+            .ok_or(format!("resource {}: no file name", f.display()))?;
         resources.push((f.clone(), name.to_string_lossy().into_owned()));
     }
-    std::fs::create_dir_all(out_dir).map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+    std::fs::create_dir_all(out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
     let tmp = out_dir.join(format!(".package-{id}-tmp"));
     let mut documentation = Vec::new();
     let readme = root.join(krate).join("README.md");
     if readme.is_file() {
-        let text = std::fs::read_to_string(&readme).map_err(|e| format!("{}: {e}", readme.display()))?;
+        let text =
+            std::fs::read_to_string(&readme).map_err(|e| format!("{}: {e}", readme.display()))?;
         std::fs::create_dir_all(&tmp).map_err(|e| e.to_string())?;
         let html = tmp.join("index.html");
         std::fs::write(&html, markdown_as_html(id, &text)).map_err(|e| e.to_string())?;
@@ -201,7 +251,8 @@ pub fn package_workspace_fmu(
         documentation.push((html, "index.html".to_string()));
     }
     if md_dir.join("documentation").is_dir() {
-        documentation.extend(files_below(&md_dir.join("documentation")).map_err(|e| e.to_string())?);
+        documentation
+            .extend(files_below(&md_dir.join("documentation")).map_err(|e| e.to_string())?);
     }
     let spec = FmuSpec {
         model_identifier: id.to_string(),
@@ -221,10 +272,19 @@ pub fn package_workspace_fmu(
 /// JSON messages. The libraries of the whole workspace are built, so that the
 /// dependencies are compiled with the same features as by `cargo build` and
 /// an up-to-date tree makes this a no-op.
-pub fn build_libraries(root: &Path, packages: &[&str], release: bool) -> Result<Vec<(String, PathBuf)>, String> {
+pub fn build_libraries(
+    root: &Path,
+    packages: &[&str],
+    release: bool,
+) -> Result<Vec<(String, PathBuf)>, String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = std::process::Command::new(&cargo);
-    cmd.current_dir(root).args(["build", "--workspace", "--lib", "--message-format=json-render-diagnostics"]);
+    cmd.current_dir(root).args([
+        "build",
+        "--workspace",
+        "--lib",
+        "--message-format=json-render-diagnostics",
+    ]);
     if release {
         cmd.arg("--release");
     }
@@ -233,16 +293,25 @@ pub fn build_libraries(root: &Path, packages: &[&str], release: bool) -> Result<
         .output()
         .map_err(|e| format!("cannot run cargo ({cargo}): {e}"))?;
     if !out.status.success() {
-        return Err(format!("cargo build -p {} failed ({})", packages.join(" -p "), out.status));
+        return Err(format!(
+            "cargo build -p {} failed ({})",
+            packages.join(" -p "),
+            out.status
+        ));
     }
     let mut libs = Vec::new();
     for line in String::from_utf8_lossy(&out.stdout).lines() {
-        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else { continue };
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else {
+            continue;
+        };
         if v["reason"] != "compiler-artifact" {
             continue;
         }
         let package = v["package_id"].as_str().unwrap_or_default();
-        if !packages.iter().any(|p| package.contains(&format!("/{p}#")) || package.contains(&format!("{p} "))) {
+        if !packages
+            .iter()
+            .any(|p| package.contains(&format!("/{p}#")) || package.contains(&format!("{p} ")))
+        {
             continue;
         }
         let name = v["target"]["name"].as_str().unwrap_or_default().to_string();

@@ -36,7 +36,10 @@ pub fn file_uri_to_path(uri: &str) -> Result<PathBuf, UriError> {
             if host.eq_ignore_ascii_case("localhost") {
                 tail
             } else {
-                return Err(UriError::RemoteHost { uri: uri.to_string(), host: host.to_string() });
+                return Err(UriError::RemoteHost {
+                    uri: uri.to_string(),
+                    host: host.to_string(),
+                });
             }
         }
         _ => &rest[slashes - 1..], // 1, 3, 4 (or more) slashes: one absolute root
@@ -91,9 +94,18 @@ mod tests {
     #[test]
     fn masters_variants_decode() {
         let p = |s: &str| file_uri_to_path(s).unwrap();
-        assert_eq!(p("file:///tmp/a%20b/resources"), PathBuf::from("/tmp/a b/resources"));
-        assert_eq!(p("file:/tmp/x/resources/"), PathBuf::from("/tmp/x/resources/"));
-        assert_eq!(p("file:////tmp/x y/resources"), PathBuf::from("/tmp/x y/resources"));
+        assert_eq!(
+            p("file:///tmp/a%20b/resources"),
+            PathBuf::from("/tmp/a b/resources")
+        );
+        assert_eq!(
+            p("file:/tmp/x/resources/"),
+            PathBuf::from("/tmp/x/resources/")
+        );
+        assert_eq!(
+            p("file:////tmp/x y/resources"),
+            PathBuf::from("/tmp/x y/resources")
+        );
         assert_eq!(p("file://localhost/tmp/r"), PathBuf::from("/tmp/r"));
         assert_eq!(p("file:///tmp/%C3%A4%25"), PathBuf::from("/tmp/\u{e4}%"));
         assert_eq!(p("file:///tmp/%c3%a4"), PathBuf::from("/tmp/\u{e4}"));
@@ -105,9 +117,21 @@ mod tests {
             file_uri_to_path("http://x/y"),
             Err(UriError::NotFile("http://x/y".into()))
         );
-        assert!(matches!(file_uri_to_path("file:///a%2"), Err(UriError::BadEscape { pos: 9, .. })));
-        assert!(matches!(file_uri_to_path("file:///a%zz"), Err(UriError::BadEscape { .. })));
-        assert!(matches!(file_uri_to_path("file://server/share"), Err(UriError::RemoteHost { .. })));
-        assert!(matches!(file_uri_to_path("file:relative"), Err(UriError::NotFile(_))));
+        assert!(matches!(
+            file_uri_to_path("file:///a%2"),
+            Err(UriError::BadEscape { pos: 9, .. })
+        ));
+        assert!(matches!(
+            file_uri_to_path("file:///a%zz"),
+            Err(UriError::BadEscape { .. })
+        ));
+        assert!(matches!(
+            file_uri_to_path("file://server/share"),
+            Err(UriError::RemoteHost { .. })
+        ));
+        assert!(matches!(
+            file_uri_to_path("file:relative"),
+            Err(UriError::NotFile(_))
+        ));
     }
 }

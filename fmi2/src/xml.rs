@@ -48,7 +48,11 @@ fn attr(e: &BytesStart<'_>, key: &str) -> Result<Option<String>, String> {
     for a in e.attributes() {
         let a = a.map_err(|err| err.to_string())?;
         if a.key.as_ref() == key.as_bytes() {
-            return Ok(Some(a.unescape_value().map_err(|err| err.to_string())?.into_owned()));
+            return Ok(Some(
+                a.unescape_value()
+                    .map_err(|err| err.to_string())?
+                    .into_owned(),
+            ));
         }
     }
     Ok(None)
@@ -60,7 +64,9 @@ fn all_attrs(e: &BytesStart<'_>) -> Result<Vec<(String, String)>, String> {
             let a = a.map_err(|err| err.to_string())?;
             Ok((
                 String::from_utf8_lossy(a.key.as_ref()).into_owned(),
-                a.unescape_value().map_err(|err| err.to_string())?.into_owned(),
+                a.unescape_value()
+                    .map_err(|err| err.to_string())?
+                    .into_owned(),
             ))
         })
         .collect()
@@ -68,7 +74,10 @@ fn all_attrs(e: &BytesStart<'_>) -> Result<Vec<(String, String)>, String> {
 
 fn parse_indices(s: &str) -> Result<Vec<usize>, String> {
     s.split_whitespace()
-        .map(|t| t.parse::<usize>().map_err(|e| format!("bad index {t:?}: {e}")))
+        .map(|t| {
+            t.parse::<usize>()
+                .map_err(|e| format!("bad index {t:?}: {e}"))
+        })
         .collect()
 }
 
@@ -80,7 +89,9 @@ pub fn parse(xml: &str) -> Result<ModelDescription, String> {
     let mut in_var: Option<XmlVariable> = None;
     let mut section = String::new();
     loop {
-        let ev = r.read_event().map_err(|e| format!("XML error at byte {}: {e}", r.buffer_position()))?;
+        let ev = r
+            .read_event()
+            .map_err(|e| format!("XML error at byte {}: {e}", r.buffer_position()))?;
         let (e, is_empty) = match &ev {
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
@@ -147,8 +158,13 @@ pub fn parse(xml: &str) -> Result<ModelDescription, String> {
                     .ok_or("Unknown without index")?
                     .parse::<usize>()
                     .map_err(|err| format!("bad Unknown index: {err}"))?;
-                let dependencies = attr(&e, "dependencies")?.map(|s| parse_indices(&s)).transpose()?;
-                let u = XmlUnknown { index, dependencies };
+                let dependencies = attr(&e, "dependencies")?
+                    .map(|s| parse_indices(&s))
+                    .transpose()?;
+                let u = XmlUnknown {
+                    index,
+                    dependencies,
+                };
                 match section.as_str() {
                     "Outputs" => md.outputs.push(u),
                     "InitialUnknowns" => md.initial_unknowns.push(u),
@@ -195,7 +211,10 @@ fn start_matches(s: &Start, xml: &str) -> bool {
     match s {
         Start::Real(x) => xml.trim().parse::<f64>().map(|y| y == *x).unwrap_or(false),
         Start::Integer(i) => xml.trim().parse::<i32>().map(|y| y == *i).unwrap_or(false),
-        Start::Boolean(b) => matches!((xml.trim(), b), ("true", true) | ("false", false) | ("1", true) | ("0", false)),
+        Start::Boolean(b) => matches!(
+            (xml.trim(), b),
+            ("true", true) | ("false", false) | ("1", true) | ("0", false)
+        ),
         Start::String(t) => xml == *t,
     }
 }
@@ -218,10 +237,17 @@ pub fn check_model_description(
         errs.push(format!("guid {:?} in XML, {:?} in code", md.guid, guid));
     }
     if md.model_identifier != model_identifier {
-        errs.push(format!("modelIdentifier {:?} in XML, {:?} in code", md.model_identifier, model_identifier));
+        errs.push(format!(
+            "modelIdentifier {:?} in XML, {:?} in code",
+            md.model_identifier, model_identifier
+        ));
     }
     if md.variables.len() != variables.len() {
-        errs.push(format!("{} variables in XML, {} in code", md.variables.len(), variables.len()));
+        errs.push(format!(
+            "{} variables in XML, {} in code",
+            md.variables.len(),
+            variables.len()
+        ));
     }
     for v in variables {
         let Some(x) = md.variables.iter().find(|x| x.name == v.name) else {
@@ -229,25 +255,43 @@ pub fn check_model_description(
             continue;
         };
         if x.vr != v.vr {
-            errs.push(format!("{}: valueReference {} in XML, {} in code", v.name, x.vr, v.vr));
+            errs.push(format!(
+                "{}: valueReference {} in XML, {} in code",
+                v.name, x.vr, v.vr
+            ));
         }
         if x.ty != type_name(v.ty) {
-            errs.push(format!("{}: type {} in XML, {:?} in code", v.name, x.ty, v.ty));
+            errs.push(format!(
+                "{}: type {} in XML, {:?} in code",
+                v.name, x.ty, v.ty
+            ));
         }
         if x.causality != causality_name(v.causality) {
-            errs.push(format!("{}: causality {} in XML, {:?} in code", v.name, x.causality, v.causality));
+            errs.push(format!(
+                "{}: causality {} in XML, {:?} in code",
+                v.name, x.causality, v.causality
+            ));
         }
         if x.variability != variability_name(v.variability) {
-            errs.push(format!("{}: variability {} in XML, {:?} in code", v.name, x.variability, v.variability));
+            errs.push(format!(
+                "{}: variability {} in XML, {:?} in code",
+                v.name, x.variability, v.variability
+            ));
         }
         match (&v.start, &x.start) {
             (None, None) => {}
             (Some(s), Some(xs)) if start_matches(s, xs) => {}
-            (s, xs) => errs.push(format!("{}: start {:?} in XML, {:?} in code", v.name, xs, s)),
+            (s, xs) => errs.push(format!(
+                "{}: start {:?} in XML, {:?} in code",
+                v.name, xs, s
+            )),
         }
         let unit = x.unit.as_deref().unwrap_or("");
         if unit != v.unit {
-            errs.push(format!("{}: unit {:?} in XML, {:?} in code", v.name, unit, v.unit));
+            errs.push(format!(
+                "{}: unit {:?} in XML, {:?} in code",
+                v.name, unit, v.unit
+            ));
         }
         if x.description.as_deref().unwrap_or("").is_empty() {
             errs.push(format!("{}: no description in XML", v.name));
@@ -255,17 +299,32 @@ pub fn check_model_description(
     }
     for x in &md.variables {
         if !variables.iter().any(|v| v.name == x.name) {
-            errs.push(format!("variable {} of the XML is unknown to the code", x.name));
+            errs.push(format!(
+                "variable {} of the XML is unknown to the code",
+                x.name
+            ));
         }
-        if md.variables.iter().filter(|y| y.vr == x.vr && y.ty == x.ty).count() > 1 {
+        if md
+            .variables
+            .iter()
+            .filter(|y| y.vr == x.vr && y.ty == x.ty)
+            .count()
+            > 1
+        {
             errs.push(format!("valueReference {} used twice for {}", x.vr, x.ty));
         }
     }
-    let outputs: Vec<usize> =
-        md.variables.iter().filter(|x| x.causality == "output").map(|x| x.index).collect();
+    let outputs: Vec<usize> = md
+        .variables
+        .iter()
+        .filter(|x| x.causality == "output")
+        .map(|x| x.index)
+        .collect();
     let listed: Vec<usize> = md.outputs.iter().map(|u| u.index).collect();
     if outputs != listed {
-        errs.push(format!("ModelStructure/Outputs lists {listed:?}, output variables are {outputs:?}"));
+        errs.push(format!(
+            "ModelStructure/Outputs lists {listed:?}, output variables are {outputs:?}"
+        ));
     }
     if errs.is_empty() {
         Ok(md)
@@ -286,11 +345,17 @@ pub fn check_start_values<M: CoSimModel>(model: &M) -> Vec<String> {
             }
             Some(Start::Boolean(b)) => match model.get_boolean(v.vr) {
                 Ok(got) if got == b => None,
-                other => Some(format!("{}: start {b} declared, model has {other:?}", v.name)),
+                other => Some(format!(
+                    "{}: start {b} declared, model has {other:?}",
+                    v.name
+                )),
             },
             Some(Start::Integer(i)) => match model.get_integer(v.vr) {
                 Ok(got) if got == i => None,
-                other => Some(format!("{}: start {i} declared, model has {other:?}", v.name)),
+                other => Some(format!(
+                    "{}: start {i} declared, model has {other:?}",
+                    v.name
+                )),
             },
             _ => None,
         })

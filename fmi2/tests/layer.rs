@@ -10,7 +10,8 @@ use std::os::raw::c_char;
 use std::sync::Mutex;
 
 /// The logger's fixed arguments without the C variadic tail.
-type PlainLogger = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
+type PlainLogger =
+    unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
 
 use fmi2::types::*;
 use fmi2::*;
@@ -38,24 +39,96 @@ impl CoSimModel for Lag {
     const MODEL_IDENTIFIER: &'static str = "lag";
     const GUID: &'static str = "{lag-test}";
     const VARIABLES: &'static [Variable] = &[
-        Variable { name: "tau", vr: VR_TAU, ty: VarType::Real, causality: Causality::Parameter, variability: Variability::Fixed, start: Some(Start::Real(0.5)), unit: "s" },
-        Variable { name: "u", vr: VR_U, ty: VarType::Real, causality: Causality::Input, variability: Variability::Continuous, start: Some(Start::Real(0.0)), unit: "" },
-        Variable { name: "y", vr: VR_Y, ty: VarType::Real, causality: Causality::Output, variability: Variability::Continuous, start: None, unit: "" },
-        Variable { name: "d", vr: VR_D, ty: VarType::Real, causality: Causality::Parameter, variability: Variability::Tunable, start: Some(Start::Real(2.0)), unit: "" },
-        Variable { name: "n", vr: 0, ty: VarType::Integer, causality: Causality::Parameter, variability: Variability::Fixed, start: Some(Start::Integer(3)), unit: "" },
-        Variable { name: "on", vr: 0, ty: VarType::Boolean, causality: Causality::Parameter, variability: Variability::Fixed, start: Some(Start::Boolean(true)), unit: "" },
-        Variable { name: "resources", vr: 0, ty: VarType::String, causality: Causality::Local, variability: Variability::Continuous, start: None, unit: "" },
+        Variable {
+            name: "tau",
+            vr: VR_TAU,
+            ty: VarType::Real,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::Real(0.5)),
+            unit: "s",
+        },
+        Variable {
+            name: "u",
+            vr: VR_U,
+            ty: VarType::Real,
+            causality: Causality::Input,
+            variability: Variability::Continuous,
+            start: Some(Start::Real(0.0)),
+            unit: "",
+        },
+        Variable {
+            name: "y",
+            vr: VR_Y,
+            ty: VarType::Real,
+            causality: Causality::Output,
+            variability: Variability::Continuous,
+            start: None,
+            unit: "",
+        },
+        Variable {
+            name: "d",
+            vr: VR_D,
+            ty: VarType::Real,
+            causality: Causality::Parameter,
+            variability: Variability::Tunable,
+            start: Some(Start::Real(2.0)),
+            unit: "",
+        },
+        Variable {
+            name: "n",
+            vr: 0,
+            ty: VarType::Integer,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::Integer(3)),
+            unit: "",
+        },
+        Variable {
+            name: "on",
+            vr: 0,
+            ty: VarType::Boolean,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::Boolean(true)),
+            unit: "",
+        },
+        Variable {
+            name: "resources",
+            vr: 0,
+            ty: VarType::String,
+            causality: Causality::Local,
+            variability: Variability::Continuous,
+            start: None,
+            unit: "",
+        },
     ];
     fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
-        let resources = ctx.resource_dir.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
-        Ok(Lag { tau: 0.5, d: 2.0, u: 0.0, x: 0.0, du: 0.0, n: 3, on: true, resources })
+        let resources = ctx
+            .resource_dir
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default();
+        Ok(Lag {
+            tau: 0.5,
+            d: 2.0,
+            u: 0.0,
+            x: 0.0,
+            du: 0.0,
+            n: 3,
+            on: true,
+            resources,
+        })
     }
     fn get_string(&self, _: u32) -> Result<String, ModelError> {
         Ok(self.resources.clone())
     }
     fn exit_initialization_mode(&mut self, _: &Logger) -> Result<(), ModelError> {
         if self.tau <= 0.0 {
-            return Err(ModelError::error(format!("tau must be positive, got {} s", self.tau)));
+            return Err(ModelError::error(format!(
+                "tau must be positive, got {} s",
+                self.tau
+            )));
         }
         Ok(())
     }
@@ -96,7 +169,9 @@ impl CoSimModel for Lag {
             panic!("unlucky input");
         }
         if h > 10.0 {
-            return Err(ModelError::discard(format!("step {h} s too large, 100% sure")));
+            return Err(ModelError::discard(format!(
+                "step {h} s too large, 100% sure"
+            )));
         }
         let e = (-h / self.tau).exp();
         self.x = e * self.x + (1.0 - e) * self.u;
@@ -104,7 +179,12 @@ impl CoSimModel for Lag {
         log.info("stepped");
         Ok(())
     }
-    fn set_real_input_derivative(&mut self, _vr: u32, order: u32, v: f64) -> Result<(), ModelError> {
+    fn set_real_input_derivative(
+        &mut self,
+        _vr: u32,
+        order: u32,
+        v: f64,
+    ) -> Result<(), ModelError> {
         if order != 1 {
             return Err(ModelError::error(format!("only order 1, got {order}")));
         }
@@ -112,7 +192,11 @@ impl CoSimModel for Lag {
         Ok(())
     }
     fn partial_derivative(&self, unknown: u32, known: u32) -> Result<f64, ModelError> {
-        Ok(if unknown == VR_Y && known == VR_U { self.d } else { 0.0 })
+        Ok(if unknown == VR_Y && known == VR_U {
+            self.d
+        } else {
+            0.0
+        })
     }
     fn serialize_state(&self, w: &mut StateWriter) {
         w.f64s(&[self.tau, self.d, self.u, self.x, self.du]);
@@ -129,7 +213,13 @@ fmi2::export_fmu!(Lag);
 /// Messages received by the logger: (instance, status, category, message).
 type Log = Mutex<Vec<(String, Status, String, String)>>;
 
-unsafe extern "C" fn record(env: *mut c_void, name: *const c_char, status: Status, cat: *const c_char, msg: *const c_char) {
+unsafe extern "C" fn record(
+    env: *mut c_void,
+    name: *const c_char,
+    status: Status,
+    cat: *const c_char,
+    msg: *const c_char,
+) {
     assert!(!env.is_null() && !name.is_null() && !cat.is_null() && !msg.is_null());
     let log = &*(env as *const Log);
     let s = |p| CStr::from_ptr(p).to_string_lossy().into_owned();
@@ -211,8 +301,14 @@ fn resources_of(log: &Log, uri: &str) -> String {
 #[test]
 fn resource_location_reaches_the_model_decoded() {
     let log = Log::default();
-    assert_eq!(resources_of(&log, "file:///tmp/my%20fmu%25/resources"), "/tmp/my fmu%/resources");
-    assert_eq!(resources_of(&log, "file:////tmp/x y/resources"), "/tmp/x y/resources");
+    assert_eq!(
+        resources_of(&log, "file:///tmp/my%20fmu%25/resources"),
+        "/tmp/my fmu%/resources"
+    );
+    assert_eq!(
+        resources_of(&log, "file:////tmp/x y/resources"),
+        "/tmp/x y/resources"
+    );
     assert_eq!(resources_of(&log, "file:/tmp/r"), "/tmp/r");
     assert!(log.lock().unwrap().is_empty());
 }
@@ -221,7 +317,10 @@ fn resource_location_reaches_the_model_decoded() {
 fn version_and_platform() {
     unsafe {
         assert_eq!(CStr::from_ptr(fmi2GetVersion()).to_str().unwrap(), "2.0");
-        assert_eq!(CStr::from_ptr(fmi2GetTypesPlatform()).to_str().unwrap(), "default");
+        assert_eq!(
+            CStr::from_ptr(fmi2GetTypesPlatform()).to_str().unwrap(),
+            "default"
+        );
     }
 }
 
@@ -240,14 +339,23 @@ fn steps_match_the_exact_solution() {
     let expect = 1.0 - (-1.0f64 / 0.5).exp() + 2.0;
     assert!((get(&i, VR_Y) - expect).abs() < 1e-14, "{}", get(&i, VR_Y));
     let mut ts = 0.0;
-    assert_eq!(unsafe { fmi2GetRealStatus(i.c, FMI2_LAST_SUCCESSFUL_TIME, &mut ts) }, Status::Ok);
+    assert_eq!(
+        unsafe { fmi2GetRealStatus(i.c, FMI2_LAST_SUCCESSFUL_TIME, &mut ts) },
+        Status::Ok
+    );
     assert!((ts - 1.0).abs() < 1e-12);
     let mut term = 7;
-    assert_eq!(unsafe { fmi2GetBooleanStatus(i.c, FMI2_TERMINATED, &mut term) }, Status::Ok);
+    assert_eq!(
+        unsafe { fmi2GetBooleanStatus(i.c, FMI2_TERMINATED, &mut term) },
+        Status::Ok
+    );
     assert_eq!(term, FMI2_FALSE);
     assert!(log.lock().unwrap().iter().all(|m| m.1 < Status::Warning));
     let mut st = Status::Ok;
-    assert_eq!(unsafe { fmi2GetStatus(i.c, FMI2_DO_STEP_STATUS, &mut st) }, Status::Discard);
+    assert_eq!(
+        unsafe { fmi2GetStatus(i.c, FMI2_DO_STEP_STATUS, &mut st) },
+        Status::Discard
+    );
     assert_eq!(last(&log).1, Status::Discard);
     // integer and boolean round trip with start values
     let (mut n, mut b) = (0, 0);
@@ -265,14 +373,38 @@ fn instantiate_rejects_bad_guid_type_and_name() {
     assert!(new(&log, "a", "{wrong}", None).is_none());
     let m = last(&log);
     assert_eq!(m.1, Status::Error);
-    assert!(m.3.contains("GUID mismatch") && m.3.contains("{wrong}") && m.3.contains(Lag::GUID), "{}", m.3);
+    assert!(
+        m.3.contains("GUID mismatch") && m.3.contains("{wrong}") && m.3.contains(Lag::GUID),
+        "{}",
+        m.3
+    );
     assert!(new(&log, "", Lag::GUID, None).is_none());
     assert!(last(&log).3.contains("instanceName"));
     let cb = callbacks(&log);
-    let c = unsafe { fmi2Instantiate(c"x".as_ptr(), FMI2_MODEL_EXCHANGE, c"{lag-test}".as_ptr(), std::ptr::null(), &cb, 0, 0) };
+    let c = unsafe {
+        fmi2Instantiate(
+            c"x".as_ptr(),
+            FMI2_MODEL_EXCHANGE,
+            c"{lag-test}".as_ptr(),
+            std::ptr::null(),
+            &cb,
+            0,
+            0,
+        )
+    };
     assert!(c.is_null());
     assert!(last(&log).3.contains("fmuType"));
-    let c = unsafe { fmi2Instantiate(c"x".as_ptr(), 1, c"{lag-test}".as_ptr(), std::ptr::null(), std::ptr::null(), 0, 0) };
+    let c = unsafe {
+        fmi2Instantiate(
+            c"x".as_ptr(),
+            1,
+            c"{lag-test}".as_ptr(),
+            std::ptr::null(),
+            std::ptr::null(),
+            0,
+            0,
+        )
+    };
     assert!(c.is_null());
     // a bad resource URI is only a warning
     assert!(new(&log, "r", Lag::GUID, Some("http://example/x")).is_some());
@@ -286,7 +418,10 @@ fn illegal_call_sequence_is_refused_and_logged() {
     unsafe {
         assert_eq!(fmi2DoStep(i.c, 0.0, 0.1, 0), Status::Error);
         let m = last(&log);
-        assert_eq!((m.0.as_str(), m.1, m.2.as_str()), ("seq", Status::Error, "logStatusError"));
+        assert_eq!(
+            (m.0.as_str(), m.1, m.2.as_str()),
+            ("seq", Status::Error, "logStatusError")
+        );
         assert!(m.3.contains("fmi2DoStep: illegal call sequence"), "{}", m.3);
         let mut v = 0.0;
         assert_eq!(fmi2GetReal(i.c, &VR_Y, 1, &mut v), Status::Error);
@@ -300,7 +435,11 @@ fn illegal_call_sequence_is_refused_and_logged() {
         assert_eq!(set(&i, VR_D, 3.0), Status::Ok);
         assert_eq!(get(&i, VR_D), 3.0);
         assert_eq!(set(&i, VR_TAU, 1.0), Status::Error);
-        assert!(last(&log).3.contains("tau (value reference 0"), "{}", last(&log).3);
+        assert!(
+            last(&log).3.contains("tau (value reference 0"),
+            "{}",
+            last(&log).3
+        );
         // now in the error state: only reset helps
         assert_eq!(fmi2DoStep(i.c, 0.1, 0.1, 0), Status::Error);
         assert_eq!(fmi2Reset(i.c), Status::Ok);
@@ -318,23 +457,71 @@ fn bad_arguments_are_errors_with_numbers() {
     let log = Log::default();
     let cases: Vec<Case> = vec![
         (Box::new(|i| set(i, 99, 1.0)), "unknown value reference 99"),
-        (Box::new(|i| set(i, VR_U, f64::NAN)), "must be finite, got NaN"),
-        (Box::new(|i| set(i, VR_U, f64::INFINITY)), "must be finite, got inf"),
+        (
+            Box::new(|i| set(i, VR_U, f64::NAN)),
+            "must be finite, got NaN",
+        ),
+        (
+            Box::new(|i| set(i, VR_U, f64::INFINITY)),
+            "must be finite, got inf",
+        ),
         (Box::new(|i| set(i, VR_Y, 1.0)), "cannot be set"),
-        (Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, -0.1, 0) }), "communicationStepSize must be positive and finite, got -0.1"),
-        (Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, 0.0, 0) }), "got 0"),
-        (Box::new(|i| unsafe { fmi2DoStep(i.c, 0.5, 0.1, 0) }), "expected currentCommunicationPoint = 0 but was 0.5"),
-        (Box::new(|i| unsafe { fmi2GetReal(i.c, std::ptr::null(), 1, &mut 0.0) }), "argument vr is a NULL pointer"),
-        (Box::new(|i| unsafe { fmi2SetReal(i.c, &VR_U, 1, std::ptr::null()) }), "argument value is a NULL pointer"),
-        (Box::new(|i| unsafe { fmi2GetReal(i.c, &7, 1, &mut 0.0) }), "unknown value reference 7"),
-        (Box::new(|i| unsafe { fmi2GetInteger(i.c, &5, 1, &mut 0) }), "unknown value reference 5"),
-        (Box::new(|i| unsafe { fmi2SetRealInputDerivatives(i.c, &VR_U, 1, &0, &1.0) }), "order must be >= 1, got 0"),
-        (Box::new(|i| unsafe { fmi2SetRealInputDerivatives(i.c, &VR_Y, 1, &1, &1.0) }), "y (value reference 2) is not an input"),
-        (Box::new(|i| unsafe { fmi2GetRealOutputDerivatives(i.c, &VR_Y, 1, &1, &mut 0.0) }), "output derivatives are not supported"),
-        (Box::new(|i| unsafe { fmi2SetDebugLogging(i.c, 1, 1, [c"logNope".as_ptr()].as_ptr()) }), "unknown log category \"logNope\""),
-        (Box::new(|i| unsafe { fmi2SetTime(i.c, 1.0) }), "fmi2SetTime: this FMU implements Co-Simulation only"),
-        (Box::new(|i| unsafe { fmi2GetDerivatives(i.c, std::ptr::null_mut(), 0) }), "fmi2GetDerivatives: this FMU implements Co-Simulation only"),
-        (Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, 11.0, 0) }), "too large, 100%% sure"),
+        (
+            Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, -0.1, 0) }),
+            "communicationStepSize must be positive and finite, got -0.1",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, 0.0, 0) }),
+            "got 0",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2DoStep(i.c, 0.5, 0.1, 0) }),
+            "expected currentCommunicationPoint = 0 but was 0.5",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2GetReal(i.c, std::ptr::null(), 1, &mut 0.0) }),
+            "argument vr is a NULL pointer",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2SetReal(i.c, &VR_U, 1, std::ptr::null()) }),
+            "argument value is a NULL pointer",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2GetReal(i.c, &7, 1, &mut 0.0) }),
+            "unknown value reference 7",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2GetInteger(i.c, &5, 1, &mut 0) }),
+            "unknown value reference 5",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2SetRealInputDerivatives(i.c, &VR_U, 1, &0, &1.0) }),
+            "order must be >= 1, got 0",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2SetRealInputDerivatives(i.c, &VR_Y, 1, &1, &1.0) }),
+            "y (value reference 2) is not an input",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2GetRealOutputDerivatives(i.c, &VR_Y, 1, &1, &mut 0.0) }),
+            "output derivatives are not supported",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2SetDebugLogging(i.c, 1, 1, [c"logNope".as_ptr()].as_ptr()) }),
+            "unknown log category \"logNope\"",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2SetTime(i.c, 1.0) }),
+            "fmi2SetTime: this FMU implements Co-Simulation only",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2GetDerivatives(i.c, std::ptr::null_mut(), 0) }),
+            "fmi2GetDerivatives: this FMU implements Co-Simulation only",
+        ),
+        (
+            Box::new(|i| unsafe { fmi2DoStep(i.c, 0.0, 11.0, 0) }),
+            "too large, 100%% sure",
+        ),
     ];
     for (f, expect) in cases {
         let i = new(&log, "bad", Lag::GUID, None).unwrap();
@@ -361,7 +548,9 @@ fn panics_never_cross_the_boundary() {
     init(&i);
     assert_eq!(set(&i, VR_U, 13.0), Status::Ok);
     assert_eq!(unsafe { fmi2DoStep(i.c, 0.0, 0.1, 0) }, Status::Error);
-    assert!(last(&log).3.contains("internal error (panic): unlucky input"));
+    assert!(last(&log)
+        .3
+        .contains("internal error (panic): unlucky input"));
     assert_eq!(unsafe { fmi2Reset(i.c) }, Status::Ok);
 }
 
@@ -393,7 +582,12 @@ fn fmu_state_round_trips_reproduce_the_trajectory() {
     let log = Log::default();
     let i = new(&log, "s", Lag::GUID, None).unwrap();
     init(&i);
-    unsafe { assert_eq!(fmi2SetRealInputDerivatives(i.c, &VR_U, 1, &1, &0.5), Status::Ok) };
+    unsafe {
+        assert_eq!(
+            fmi2SetRealInputDerivatives(i.c, &VR_U, 1, &1, &0.5),
+            Status::Ok
+        )
+    };
     run_steps(&i, 0.0, 7);
     let mut s: FmuState = std::ptr::null_mut();
     unsafe { assert_eq!(fmi2GetFMUstate(i.c, &mut s), Status::Ok) };
@@ -405,11 +599,19 @@ fn fmu_state_round_trips_reproduce_the_trajectory() {
     let mut size = 0usize;
     unsafe { assert_eq!(fmi2SerializedFMUstateSize(i.c, s, &mut size), Status::Ok) };
     let mut buf = vec![0 as Byte; size];
-    unsafe { assert_eq!(fmi2SerializeFMUstate(i.c, s, buf.as_mut_ptr(), size), Status::Ok) };
+    unsafe {
+        assert_eq!(
+            fmi2SerializeFMUstate(i.c, s, buf.as_mut_ptr(), size),
+            Status::Ok
+        )
+    };
     let j = new(&log, "other", Lag::GUID, None).unwrap();
     let mut s2: FmuState = std::ptr::null_mut();
     unsafe {
-        assert_eq!(fmi2DeSerializeFMUstate(j.c, buf.as_ptr(), size, &mut s2), Status::Ok);
+        assert_eq!(
+            fmi2DeSerializeFMUstate(j.c, buf.as_ptr(), size, &mut s2),
+            Status::Ok
+        );
         assert_eq!(fmi2SetFMUstate(j.c, s2), Status::Ok);
     }
     let c = run_steps(&j, 0.35, 10);
@@ -417,10 +619,16 @@ fn fmu_state_round_trips_reproduce_the_trajectory() {
     // corrupt buffers are rejected
     unsafe {
         let mut s3: FmuState = std::ptr::null_mut();
-        assert_eq!(fmi2DeSerializeFMUstate(j.c, buf.as_ptr(), size - 1, &mut s3), Status::Error);
+        assert_eq!(
+            fmi2DeSerializeFMUstate(j.c, buf.as_ptr(), size - 1, &mut s3),
+            Status::Error
+        );
         assert!(s3.is_null());
         assert!(last(&log).3.contains("truncated"), "{}", last(&log).3);
-        assert_eq!(fmi2SerializeFMUstate(i.c, s, buf.as_mut_ptr(), size - 1), Status::Error);
+        assert_eq!(
+            fmi2SerializeFMUstate(i.c, s, buf.as_mut_ptr(), size - 1),
+            Status::Error
+        );
         assert_eq!(fmi2FreeFMUstate(i.c, &mut s), Status::Ok);
         assert!(s.is_null());
         assert_eq!(fmi2FreeFMUstate(i.c, &mut s), Status::Ok);
@@ -436,7 +644,15 @@ fn directional_derivative_sums_partials() {
     let (mut out, known) = ([0.0; 2], [VR_U, VR_D]);
     unsafe {
         assert_eq!(
-            fmi2GetDirectionalDerivative(i.c, [VR_Y, VR_U].as_ptr(), 2, known.as_ptr(), 2, [2.0, 5.0].as_ptr(), out.as_mut_ptr()),
+            fmi2GetDirectionalDerivative(
+                i.c,
+                [VR_Y, VR_U].as_ptr(),
+                2,
+                known.as_ptr(),
+                2,
+                [2.0, 5.0].as_ptr(),
+                out.as_mut_ptr()
+            ),
             Status::Ok
         );
     }
@@ -479,9 +695,17 @@ fn debug_logging_switches_info_messages() {
     init(&i);
     unsafe { fmi2DoStep(i.c, 0.0, 0.1, 0) };
     assert!(log.lock().unwrap().is_empty());
-    unsafe { assert_eq!(fmi2SetDebugLogging(i.c, 1, 1, [c"logEvents".as_ptr()].as_ptr()), Status::Ok) };
+    unsafe {
+        assert_eq!(
+            fmi2SetDebugLogging(i.c, 1, 1, [c"logEvents".as_ptr()].as_ptr()),
+            Status::Ok
+        )
+    };
     unsafe { fmi2DoStep(i.c, 0.1, 0.1, 0) };
-    assert_eq!(last(&log), ("l".into(), Status::Ok, "logEvents".into(), "stepped".into()));
+    assert_eq!(
+        last(&log),
+        ("l".into(), Status::Ok, "logEvents".into(), "stepped".into())
+    );
 }
 
 #[test]
@@ -502,11 +726,26 @@ fn xml_checker_finds_drift() {
 </fmiModelDescription>"#;
     let md = fmi2::xml::check_model_description(xml, "lag", Lag::GUID, Lag::VARIABLES).unwrap();
     assert_eq!(md.outputs[0].dependencies, Some(vec![2]));
-    let m = Lag::instantiate(&InstantiateContext { instance_name: "x", resource_dir: None, logger: &Logger::silent() }).unwrap();
+    let m = Lag::instantiate(&InstantiateContext {
+        instance_name: "x",
+        resource_dir: None,
+        logger: &Logger::silent(),
+    })
+    .unwrap();
     assert!(fmi2::xml::check_start_values(&m).is_empty());
-    let drifted = xml.replace(r#"name="d" valueReference="3""#, r#"name="d" valueReference="4""#).replace("start=\"0.5\"", "start=\"0.6\"");
-    let errs = fmi2::xml::check_model_description(&drifted, "lag", Lag::GUID, Lag::VARIABLES).unwrap_err();
-    assert!(errs.iter().any(|e| e.contains("d: valueReference 4 in XML, 3 in code")), "{errs:?}");
+    let drifted = xml
+        .replace(
+            r#"name="d" valueReference="3""#,
+            r#"name="d" valueReference="4""#,
+        )
+        .replace("start=\"0.5\"", "start=\"0.6\"");
+    let errs =
+        fmi2::xml::check_model_description(&drifted, "lag", Lag::GUID, Lag::VARIABLES).unwrap_err();
+    assert!(
+        errs.iter()
+            .any(|e| e.contains("d: valueReference 4 in XML, 3 in code")),
+        "{errs:?}"
+    );
     assert!(errs.iter().any(|e| e.contains("tau: start")), "{errs:?}");
     let no_out = xml.replace(r#"<Unknown index="3" dependencies="2"/>"#, "");
     assert!(fmi2::xml::check_model_description(&no_out, "lag", Lag::GUID, Lag::VARIABLES).is_err());

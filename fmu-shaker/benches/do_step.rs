@@ -5,13 +5,21 @@ use std::ffi::{c_char, c_void, CString};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 /// The logger's fixed arguments without the C variadic tail.
-type PlainLogger = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
+type PlainLogger =
+    unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
 
 use fmi2::types::{CallbackFunctions, CallbackLogger, Status, FMI2_CO_SIMULATION};
 use shaker::model::{GUID, VR_F, VR_V, VR_X};
 use shaker::*;
 
-unsafe extern "C" fn quiet(_: *mut c_void, _: *const c_char, _: Status, _: *const c_char, _: *const c_char) {}
+unsafe extern "C" fn quiet(
+    _: *mut c_void,
+    _: *const c_char,
+    _: Status,
+    _: *const c_char,
+    _: *const c_char,
+) {
+}
 
 fn bench(c: &mut Criterion) {
     let f: PlainLogger = quiet;
@@ -25,7 +33,17 @@ fn bench(c: &mut Criterion) {
     };
     let guid = CString::new(GUID).unwrap();
     for h in [1e-5, 1e-3] {
-        let comp = unsafe { fmi2Instantiate(c"bench".as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), std::ptr::null(), &cb, 0, 0) };
+        let comp = unsafe {
+            fmi2Instantiate(
+                c"bench".as_ptr(),
+                FMI2_CO_SIMULATION,
+                guid.as_ptr(),
+                std::ptr::null(),
+                &cb,
+                0,
+                0,
+            )
+        };
         assert!(!comp.is_null());
         unsafe {
             assert_eq!(fmi2SetupExperiment(comp, 0, 0.0, 0.0, 0, 0.0), Status::Ok);
@@ -33,8 +51,10 @@ fn bench(c: &mut Criterion) {
             assert_eq!(fmi2ExitInitializationMode(comp), Status::Ok);
         }
         let mut t: f64 = 0.0;
-        c.bench_function(&format!("shaker fmi2DoStep h={h:e} s (set x, v; step; get F)"), |b| {
-            b.iter(|| unsafe {
+        c.bench_function(
+            &format!("shaker fmi2DoStep h={h:e} s (set x, v; step; get F)"),
+            |b| {
+                b.iter(|| unsafe {
                     let vrs = [VR_X, VR_V];
                     let xv = [1e-6 * (300.0 * t).sin(), 3e-4 * (300.0 * t).cos()];
                     fmi2SetReal(comp, vrs.as_ptr(), 2, xv.as_ptr());
@@ -44,7 +64,8 @@ fn bench(c: &mut Criterion) {
                     fmi2GetReal(comp, &VR_F, 1, &mut f);
                     (st, f)
                 })
-        });
+            },
+        );
         unsafe { fmi2FreeInstance(comp) };
     }
 }

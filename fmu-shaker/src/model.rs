@@ -1,8 +1,8 @@
 //! The shaker model behind the FMI layer: variables, parameters, the internal
 //! sweep source, exact stepping and the FMU state.
 use fmi2::{
-    Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader, StateWriter,
-    VarType as T, Variability as V, Variable,
+    Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader,
+    StateWriter, VarType as T, Variability as V, Variable,
 };
 use nalgebra::{Matrix3, Matrix3x2, Vector2, Vector3};
 use nlmode::attachment::{ArmatureDamping, ShakerParams, Stinger};
@@ -50,7 +50,14 @@ pub const DEFAULT_U_HAT: f64 = 10.0;
 /// `1 - (W h)^2/12` (2e-4 at 0.05 rad) and adds no phase lag.
 pub const MAX_PHASE_PER_SUBSTEP: f64 = 0.05;
 
-const fn real(name: &'static str, vr: u32, causality: C, variability: V, start: Option<f64>, unit: &'static str) -> Variable {
+const fn real(
+    name: &'static str,
+    vr: u32,
+    causality: C,
+    variability: V,
+    start: Option<f64>,
+    unit: &'static str,
+) -> Variable {
     Variable {
         name,
         vr,
@@ -68,16 +75,86 @@ const fn real(name: &'static str, vr: u32, causality: C, variability: V, start: 
 /// All variables (the modelDescription.xml is tested against this table).
 pub const VARIABLES: &[Variable] = &[
     real("L", VR_L, C::Parameter, V::Fixed, Some(bm::SHAKER_L_H), "H"),
-    real("R", VR_R, C::Parameter, V::Fixed, Some(bm::SHAKER_R_OHM), "Ohm"),
-    real("G", VR_G, C::Parameter, V::Fixed, Some(bm::SHAKER_G_N_PER_A), "N/A"),
-    real("m_a", VR_M_A, C::Parameter, V::Fixed, Some(bm::SHAKER_MA_KG), "kg"),
-    real("k_a", VR_K_A, C::Parameter, V::Fixed, Some(bm::SHAKER_KA_N_PER_M), "N/m"),
-    real("D_a", VR_D_A_RATIO, C::Parameter, V::Fixed, Some(bm::SHAKER_DA), "1"),
-    real("k_s", VR_K_S, C::Parameter, V::Fixed, Some(bm::STINGER_KS_N_PER_M), "N/m"),
-    real("u_hat", VR_U_HAT, C::Parameter, V::Fixed, Some(DEFAULT_U_HAT), "V"),
-    real("Omega_start", VR_OMEGA_START, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_START), "rad/s"),
-    real("Omega_end", VR_OMEGA_END, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_END), "rad/s"),
-    real("Omega_rate", VR_OMEGA_RATE, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_RATE), "rad/s2"),
+    real(
+        "R",
+        VR_R,
+        C::Parameter,
+        V::Fixed,
+        Some(bm::SHAKER_R_OHM),
+        "Ohm",
+    ),
+    real(
+        "G",
+        VR_G,
+        C::Parameter,
+        V::Fixed,
+        Some(bm::SHAKER_G_N_PER_A),
+        "N/A",
+    ),
+    real(
+        "m_a",
+        VR_M_A,
+        C::Parameter,
+        V::Fixed,
+        Some(bm::SHAKER_MA_KG),
+        "kg",
+    ),
+    real(
+        "k_a",
+        VR_K_A,
+        C::Parameter,
+        V::Fixed,
+        Some(bm::SHAKER_KA_N_PER_M),
+        "N/m",
+    ),
+    real(
+        "D_a",
+        VR_D_A_RATIO,
+        C::Parameter,
+        V::Fixed,
+        Some(bm::SHAKER_DA),
+        "1",
+    ),
+    real(
+        "k_s",
+        VR_K_S,
+        C::Parameter,
+        V::Fixed,
+        Some(bm::STINGER_KS_N_PER_M),
+        "N/m",
+    ),
+    real(
+        "u_hat",
+        VR_U_HAT,
+        C::Parameter,
+        V::Fixed,
+        Some(DEFAULT_U_HAT),
+        "V",
+    ),
+    real(
+        "Omega_start",
+        VR_OMEGA_START,
+        C::Parameter,
+        V::Fixed,
+        Some(DEFAULT_OMEGA_START),
+        "rad/s",
+    ),
+    real(
+        "Omega_end",
+        VR_OMEGA_END,
+        C::Parameter,
+        V::Fixed,
+        Some(DEFAULT_OMEGA_END),
+        "rad/s",
+    ),
+    real(
+        "Omega_rate",
+        VR_OMEGA_RATE,
+        C::Parameter,
+        V::Fixed,
+        Some(DEFAULT_OMEGA_RATE),
+        "rad/s2",
+    ),
     Variable {
         name: "use_external_voltage",
         vr: VR_USE_EXTERNAL,
@@ -87,7 +164,14 @@ pub const VARIABLES: &[Variable] = &[
         start: Some(Start::Boolean(false)),
         unit: "",
     },
-    real("d_a", VR_D_A, C::CalculatedParameter, V::Fixed, None, "N.s/m"),
+    real(
+        "d_a",
+        VR_D_A,
+        C::CalculatedParameter,
+        V::Fixed,
+        None,
+        "N.s/m",
+    ),
     real("x", VR_X, C::Input, V::Continuous, Some(0.0), "m"),
     real("v", VR_V, C::Input, V::Continuous, Some(0.0), "m/s"),
     real("u_ext", VR_U_EXT, C::Input, V::Continuous, Some(0.0), "V"),
@@ -123,7 +207,11 @@ impl SweepSource {
         }
     }
     fn signed_rate(&self) -> f64 {
-        if self.omega_end >= self.omega_start { self.rate } else { -self.rate }
+        if self.omega_end >= self.omega_start {
+            self.rate
+        } else {
+            -self.rate
+        }
     }
     /// Instantaneous frequency [rad/s].
     pub fn omega(&self, tau: f64) -> f64 {
@@ -137,7 +225,11 @@ impl SweepSource {
     }
     /// `dOmega/dt` [rad/s^2].
     pub fn omega_rate(&self, tau: f64) -> f64 {
-        if self.rate != 0.0 && tau < self.ramp_duration() { self.signed_rate() } else { 0.0 }
+        if self.rate != 0.0 && tau < self.ramp_duration() {
+            self.signed_rate()
+        } else {
+            0.0
+        }
     }
     /// Phase `int_0^tau Omega` [rad].
     pub fn phase(&self, tau: f64) -> f64 {
@@ -182,7 +274,11 @@ struct Held {
 
 impl Held {
     fn new(value: f64) -> Self {
-        Self { value, t_set: 0.0, der1: None }
+        Self {
+            value,
+            t_set: 0.0,
+            der1: None,
+        }
     }
 }
 
@@ -247,13 +343,21 @@ impl Shaker {
     /// Validate the parameters and build the state space (`exit_initialization_mode`).
     pub fn fix_parameters(&mut self) -> Result<(), ModelError> {
         let src = self.source;
-        for (name, v) in [("Omega_start", src.omega_start), ("Omega_end", src.omega_end)] {
+        for (name, v) in [
+            ("Omega_start", src.omega_start),
+            ("Omega_end", src.omega_end),
+        ] {
             if v.is_nan() || v < 0.0 {
-                return Err(ModelError::error(format!("{name} must be >= 0 rad/s, got {v}")));
+                return Err(ModelError::error(format!(
+                    "{name} must be >= 0 rad/s, got {v}"
+                )));
             }
         }
         if src.rate.is_nan() || src.rate < 0.0 {
-            return Err(ModelError::error(format!("Omega_rate must be >= 0 rad/s2, got {}", src.rate)));
+            return Err(ModelError::error(format!(
+                "Omega_rate must be >= 0 rad/s2, got {}",
+                src.rate
+            )));
         }
         let ss = self.params.state_space()?;
         self.ab = Some((ss.a, ss.b));
@@ -283,10 +387,9 @@ impl Shaker {
         if let Some(d) = self.cache.iter().find(|d| d.h == h) {
             return Ok(*d);
         }
-        let (a, b) = self
-            .ab
-            .as_ref()
-            .ok_or_else(|| ModelError::error("parameters not fixed (initialization not completed)"))?;
+        let (a, b) = self.ab.as_ref().ok_or_else(|| {
+            ModelError::error("parameters not fixed (initialization not completed)")
+        })?;
         let f = FohStep::new(a, b, h)?;
         let d = Disc {
             h,
@@ -306,7 +409,10 @@ impl Shaker {
         if self.use_external_voltage || self.source.u_hat == 0.0 {
             return 1;
         }
-        let w = self.source.omega(t - self.t0).max(self.source.omega(t + h - self.t0));
+        let w = self
+            .source
+            .omega(t - self.t0)
+            .max(self.source.omega(t + h - self.t0));
         ((w * h / MAX_PHASE_PER_SUBSTEP).ceil() as usize).max(1)
     }
 
@@ -333,7 +439,8 @@ impl Shaker {
         let (i, q, va) = (self.s[0], self.s[1], self.s[2]);
         let x = self.x_at(self.t);
         Vector3::new(
-            (self.u_at(self.t) - p.resistance_ohm * i - p.force_constant_n_per_a * va) / p.inductance_h,
+            (self.u_at(self.t) - p.resistance_ohm * i - p.force_constant_n_per_a * va)
+                / p.inductance_h,
             va,
             (p.force_constant_n_per_a * i
                 - p.d_a() * va
@@ -429,14 +536,36 @@ impl CoSimModel for Shaker {
             VR_M_A => p.armature_mass_kg = value,
             VR_K_A => p.armature_stiffness_n_per_m = value,
             VR_D_A_RATIO => p.armature_damping = ArmatureDamping::Ratio(value),
-            VR_K_S => p.stinger = Stinger::Elastic { stiffness_n_per_m: value },
+            VR_K_S => {
+                p.stinger = Stinger::Elastic {
+                    stiffness_n_per_m: value,
+                }
+            }
             VR_U_HAT => self.source.u_hat = value,
             VR_OMEGA_START => self.source.omega_start = value,
             VR_OMEGA_END => self.source.omega_end = value,
             VR_OMEGA_RATE => self.source.rate = value,
-            VR_X => self.x = Held { value, t_set: self.t, der1: None },
-            VR_V => self.v = Held { value, t_set: self.t, der1: None },
-            VR_U_EXT => self.u_ext = Held { value, t_set: self.t, der1: None },
+            VR_X => {
+                self.x = Held {
+                    value,
+                    t_set: self.t,
+                    der1: None,
+                }
+            }
+            VR_V => {
+                self.v = Held {
+                    value,
+                    t_set: self.t,
+                    der1: None,
+                }
+            }
+            VR_U_EXT => {
+                self.u_ext = Held {
+                    value,
+                    t_set: self.t,
+                    der1: None,
+                }
+            }
             _ => return Err(bad_vr(vr)),
         }
         Ok(())
@@ -466,7 +595,12 @@ impl CoSimModel for Shaker {
     /// Order 1 only: `der(x)` replaces `v` in the extrapolation of `x`,
     /// `der(u_ext)` makes the external voltage ramp; `der(v)` is accepted and
     /// has no effect (the displacement is extrapolated linearly).
-    fn set_real_input_derivative(&mut self, vr: u32, order: u32, value: f64) -> Result<(), ModelError> {
+    fn set_real_input_derivative(
+        &mut self,
+        vr: u32,
+        order: u32,
+        value: f64,
+    ) -> Result<(), ModelError> {
         if order != 1 {
             return Err(ModelError::error(format!(
                 "only first-order input derivatives are supported (maxOutputDerivativeOrder = 1), got order {order} for value reference {vr}"
@@ -571,8 +705,15 @@ impl CoSimModel for Shaker {
         self.params.armature_mass_kg = v[3];
         self.params.armature_stiffness_n_per_m = v[4];
         self.params.armature_damping = ArmatureDamping::Ratio(v[5]);
-        self.params.stinger = Stinger::Elastic { stiffness_n_per_m: v[6] };
-        self.source = SweepSource { u_hat: v[7], omega_start: v[8], omega_end: v[9], rate: v[10] };
+        self.params.stinger = Stinger::Elastic {
+            stiffness_n_per_m: v[6],
+        };
+        self.source = SweepSource {
+            u_hat: v[7],
+            omega_start: v[8],
+            omega_end: v[9],
+            rate: v[10],
+        };
         self.s = Vector3::new(v[11], v[12], v[13]);
         self.t = v[14];
         self.t0 = v[15];

@@ -22,7 +22,10 @@ fn shaker_params() -> nlmode::attachment::ShakerParams {
 
 /// Damping ratio of the structure-dominated mode (the slowest oscillating pair).
 fn structure_mode(lambdas: impl Iterator<Item = Complex64>) -> (f64, f64) {
-    let l = lambdas.filter(|l| l.im > 1.0).min_by(|a, b| a.norm().partial_cmp(&b.norm()).unwrap()).unwrap();
+    let l = lambdas
+        .filter(|l| l.im > 1.0)
+        .min_by(|a, b| a.norm().partial_cmp(&b.norm()).unwrap())
+        .unwrap();
     (-l.re / l.norm(), l.norm())
 }
 
@@ -47,20 +50,30 @@ fn monolithic(m: f64) -> (f64, f64) {
 /// One Jacobi macro step of the coupled system from z = [x, v, I, q_a, v_a].
 fn cosim_step(z: &DVector<f64>, m: f64, h: f64, feed_velocity: bool) -> DVector<f64> {
     let log = Logger::silent();
-    let mut sh = Shaker::instantiate(&InstantiateContext { instance_name: "c", resource_dir: None, logger: &log }).unwrap();
+    let mut sh = Shaker::instantiate(&InstantiateContext {
+        instance_name: "c",
+        resource_dir: None,
+        logger: &log,
+    })
+    .unwrap();
     sh.set_real(VR_U_HAT, 0.0).unwrap();
     sh.setup_experiment(0.0, None).unwrap();
     sh.exit_initialization_mode(&log).unwrap();
     sh.set_states([z[2], z[3], z[4]]);
     sh.set_real(VR_X, z[0]).unwrap();
-    sh.set_real(VR_V, if feed_velocity { z[1] } else { 0.0 }).unwrap();
+    sh.set_real(VR_V, if feed_velocity { z[1] } else { 0.0 })
+        .unwrap();
     let f = sh.get_real(VR_F);
     sh.do_step(0.0, h, &log).unwrap();
     let (k, c) = (m * OMEGA0 * OMEGA0, 2.0 * D0 * OMEGA0 * m);
     let a = dmatrix![0.0, 1.0; -k / m, -c / m];
     let b = dmatrix![0.0; 1.0 / m];
     let d = nlmode::lti::FohStep::new(&a, &b, h).unwrap();
-    let xs = d.step(&DVector::from_vec(vec![z[0], z[1]]), &DVector::from_element(1, f), &DVector::from_element(1, f));
+    let xs = d.step(
+        &DVector::from_vec(vec![z[0], z[1]]),
+        &DVector::from_element(1, f),
+        &DVector::from_element(1, f),
+    );
     let s = sh.states();
     DVector::from_vec(vec![xs[0], xs[1], s[0], s[1], s[2]])
 }
@@ -97,7 +110,10 @@ fn extrapolated_coupling_keeps_the_apparent_damping_zoh_does_not() {
         let d_expect = (D0 + mu * wa / OMEGA0 * 1.36) * OMEGA0 / ((1.0 + mu) * w);
         assert!((w_mono / w - 1.0).abs() < 0.01, "{w_mono} vs {w}");
         println!("m = {m} kg: monolithic D = {d_mono:.5} (simplified closed form {d_expect:.5}), omega = {w_mono:.2} rad/s");
-        assert!((d_mono / d_expect - 1.0).abs() < 0.05, "{d_mono} vs {d_expect}");
+        assert!(
+            (d_mono / d_expect - 1.0).abs() < 0.05,
+            "{d_mono} vs {d_expect}"
+        );
         for h in [1e-6, 1e-5, 2e-5, 5e-5, 1e-4] {
             let (d_ext, _, rho_ext) = cosim(m, h, true);
             let (d_zoh, _, rho_zoh) = cosim(m, h, false);
@@ -108,12 +124,25 @@ fn extrapolated_coupling_keeps_the_apparent_damping_zoh_does_not() {
                 100.0 * (d_zoh / d_mono - 1.0)
             );
             if h <= 2e-5 {
-                assert!(rho_ext < 1.0, "h={h}: co-simulation unstable, spectral radius {rho_ext}");
-                assert!((d_ext / d_mono - 1.0).abs() < 0.05, "h={h}: {d_ext} vs {d_mono}");
+                assert!(
+                    rho_ext < 1.0,
+                    "h={h}: co-simulation unstable, spectral radius {rho_ext}"
+                );
+                assert!(
+                    (d_ext / d_mono - 1.0).abs() < 0.05,
+                    "h={h}: {d_ext} vs {d_mono}"
+                );
                 // the zero-order-hold bias is the estimate k_s h / (4 sqrt(k m))
                 let r = (d_zoh - d_mono) / bias;
-                assert!(r > 0.8 && r < 1.05, "h={h}: ZOH bias {} vs estimate {bias}", d_zoh - d_mono);
-                assert!((d_zoh - d_mono).abs() > 50.0 * (d_ext - d_mono).abs(), "h={h}");
+                assert!(
+                    r > 0.8 && r < 1.05,
+                    "h={h}: ZOH bias {} vs estimate {bias}",
+                    d_zoh - d_mono
+                );
+                assert!(
+                    (d_zoh - d_mono).abs() > 50.0 * (d_ext - d_mono).abs(),
+                    "h={h}"
+                );
             }
         }
     }

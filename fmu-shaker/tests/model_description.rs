@@ -8,11 +8,28 @@ const XML: &str = include_str!("../../modelDescription/shaker/modelDescription.x
 
 #[test]
 fn xml_matches_the_code() {
-    let md = fmi2::xml::check_model_description(XML, Shaker::MODEL_IDENTIFIER, Shaker::GUID, Shaker::VARIABLES)
-        .unwrap_or_else(|e| panic!("modelDescription.xml drifted from the code:\n{}", e.join("\n")));
+    let md = fmi2::xml::check_model_description(
+        XML,
+        Shaker::MODEL_IDENTIFIER,
+        Shaker::GUID,
+        Shaker::VARIABLES,
+    )
+    .unwrap_or_else(|e| {
+        panic!(
+            "modelDescription.xml drifted from the code:\n{}",
+            e.join("\n")
+        )
+    });
     let index = |name: &str| md.variables.iter().find(|v| v.name == name).unwrap().index;
     // F = k_s (q_a - x) depends directly on x only; u on u_ext; the rest on no input
-    let deps = |name: &str| md.outputs.iter().find(|u| u.index == index(name)).unwrap().dependencies.clone();
+    let deps = |name: &str| {
+        md.outputs
+            .iter()
+            .find(|u| u.index == index(name))
+            .unwrap()
+            .dependencies
+            .clone()
+    };
     assert_eq!(deps("F"), Some(vec![index("x")]));
     assert_eq!(deps("u"), Some(vec![index("u_ext")]));
     for n in ["I", "q_a", "v_a", "Omega"] {
@@ -26,9 +43,20 @@ fn xml_matches_the_code() {
         .map(|v| v.index)
         .collect();
     expect.sort();
-    assert_eq!(md.initial_unknowns.iter().map(|u| u.index).collect::<Vec<_>>(), expect);
+    assert_eq!(
+        md.initial_unknowns
+            .iter()
+            .map(|u| u.index)
+            .collect::<Vec<_>>(),
+        expect
+    );
     // capability flags that the implementation backs
-    let flag = |k: &str| md.cosim_flags.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
+    let flag = |k: &str| {
+        md.cosim_flags
+            .iter()
+            .find(|(n, _)| n == k)
+            .map(|(_, v)| v.as_str())
+    };
     assert_eq!(flag("canHandleVariableCommunicationStepSize"), Some("true"));
     assert_eq!(flag("canGetAndSetFMUstate"), Some("true"));
     assert_eq!(flag("canSerializeFMUstate"), Some("true"));
@@ -40,7 +68,12 @@ fn xml_matches_the_code() {
 #[test]
 fn model_starts_from_the_xml_start_values() {
     let log = Logger::silent();
-    let m = Shaker::instantiate(&InstantiateContext { instance_name: "s", resource_dir: None, logger: &log }).unwrap();
+    let m = Shaker::instantiate(&InstantiateContext {
+        instance_name: "s",
+        resource_dir: None,
+        logger: &log,
+    })
+    .unwrap();
     let errs = fmi2::xml::check_start_values(&m);
     assert!(errs.is_empty(), "{errs:?}");
     // the calculated d_a follows the paper's relation (1.067 N s/m, see nlmode::benchmark)

@@ -7,7 +7,12 @@ use shaker::model::*;
 
 fn shaker() -> Shaker {
     let log = Logger::silent();
-    Shaker::instantiate(&InstantiateContext { instance_name: "t", resource_dir: None, logger: &log }).unwrap()
+    Shaker::instantiate(&InstantiateContext {
+        instance_name: "t",
+        resource_dir: None,
+        logger: &log,
+    })
+    .unwrap()
 }
 
 /// Complex amplitude `Z` of `y(t) ~ Re(Z e^{i W t})` by least squares on whole periods.
@@ -48,7 +53,8 @@ fn steady_force(w: f64, u_hat: f64, x_hat: Complex64, h: f64, with_velocity: boo
         let x = (x_hat * e).re;
         let v = (x_hat * Complex64::i() * w * e).re;
         m.set_real(VR_X, x).unwrap();
-        m.set_real(VR_V, if with_velocity { v } else { 0.0 }).unwrap();
+        m.set_real(VR_V, if with_velocity { v } else { 0.0 })
+            .unwrap();
         if k >= n_settle {
             ts.push(t);
             fs.push(m.get_real(VR_F));
@@ -94,7 +100,10 @@ fn moving_drive_point_sees_the_interface_impedance() {
         // hold): the k_s-stiff stinger turns the h/2 lag into a large force error
         let f_zoh = steady_force(w, 0.0, x_hat, 1e-5, false);
         let err_zoh = (f_zoh - exact).norm() / exact.norm();
-        assert!(err_zoh > 10.0 * err, "ZOH {err_zoh:e} vs extrapolated {err:e}");
+        assert!(
+            err_zoh > 10.0 * err,
+            "ZOH {err_zoh:e} vs extrapolated {err:e}"
+        );
     }
 }
 
@@ -117,7 +126,11 @@ fn external_dc_voltage_gives_the_static_blocked_force() {
         m.do_step(k as f64 * h, h, &log).unwrap();
     }
     let exact = 2.6e7 / (2.07e4 + 2.6e7) * 15.5 * 4.0 / 3.0;
-    assert!((m.get_real(VR_F) - exact).abs() < 1e-9 * exact, "{} vs {exact}", m.get_real(VR_F));
+    assert!(
+        (m.get_real(VR_F) - exact).abs() < 1e-9 * exact,
+        "{} vs {exact}",
+        m.get_real(VR_F)
+    );
     assert!((m.get_real(VR_I) - 4.0 / 3.0).abs() < 1e-12);
     assert_eq!(m.get_real(VR_U), 4.0);
     assert_eq!(m.get_real(VR_OMEGA), 0.0);
@@ -151,5 +164,8 @@ fn input_derivative_of_x_replaces_the_velocity() {
     assert!((dfdt - 2.6e7 * (b.get_real(VR_V_A) - 1e-3)).abs() < 1e-9 * dfdt.abs());
     // a new value of x without a derivative falls back to v (= 0 here)
     b.set_real(VR_X, 0.0).unwrap();
-    assert_eq!(b.get_real_output_derivative(VR_F, 1).unwrap(), 2.6e7 * b.get_real(VR_V_A));
+    assert_eq!(
+        b.get_real_output_derivative(VR_F, 1).unwrap(),
+        2.6e7 * b.get_real(VR_V_A)
+    );
 }

@@ -21,8 +21,8 @@ use std::cell::Cell;
 use std::path::PathBuf;
 
 use fmi2::{
-    Causality, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader, StateWriter, VarType,
-    Variability, Variable,
+    Causality, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader, StateWriter,
+    VarType, Variability, Variable,
 };
 use nlmode::nma::ModalTable;
 use nlmode::oscillator::{InputPolynomial, ModalOscillator, OscillatorState, PointResponse};
@@ -99,7 +99,15 @@ const fn real(
     start: Option<Start>,
     unit: &'static str,
 ) -> Variable {
-    Variable { name, vr, ty: VarType::Real, causality, variability, start, unit }
+    Variable {
+        name,
+        vr,
+        ty: VarType::Real,
+        causality,
+        variability,
+        start,
+        unit,
+    }
 }
 
 impl Structure {
@@ -121,7 +129,10 @@ impl Structure {
     fn build(&mut self) -> Result<(), ModelError> {
         let path = self.table_path()?;
         if !path.is_file() {
-            return Err(ModelError::error(format!("modal table {} does not exist", path.display())));
+            return Err(ModelError::error(format!(
+                "modal table {} does not exist",
+                path.display()
+            )));
         }
         let table = ModalTable::read(&path)?;
         let drive = if self.drive_point_index >= 0 {
@@ -139,7 +150,11 @@ impl Structure {
         };
         let mut osc = ModalOscillator::new(&table, &drive, self.frequency_error)?;
         self.tip = osc.point_index(TIP_POINT)?;
-        osc.set_state(OscillatorState { time_s: self.start_time_s, eta: 0.0, u: 0.0 })?;
+        osc.set_state(OscillatorState {
+            time_s: self.start_time_s,
+            eta: 0.0,
+            u: 0.0,
+        })?;
         self.osc = Some(osc);
         self.update_outputs()
     }
@@ -147,9 +162,18 @@ impl Structure {
     fn update_outputs(&mut self) -> Result<(), ModelError> {
         self.rates.set(None);
         let Some(osc) = &self.osc else { return Ok(()) };
-        let mut r = [PointResponse { x_m: 0.0, v_m_s: 0.0 }; 2];
+        let mut r = [PointResponse {
+            x_m: 0.0,
+            v_m_s: 0.0,
+        }; 2];
         let m = osc.outputs(&[osc.drive_index(), self.tip], &mut r)?;
-        self.out = Outputs { x: r[0].x_m, v: r[0].v_m_s, x_tip: r[1].x_m, a: m.amplitude, omega: m.omega_rad_s };
+        self.out = Outputs {
+            x: r[0].x_m,
+            v: r[0].v_m_s,
+            x_tip: r[1].x_m,
+            a: m.amplitude,
+            omega: m.omega_rad_s,
+        };
         Ok(())
     }
 
@@ -159,15 +183,26 @@ impl Structure {
             return Ok(r);
         }
         let osc = self.oscillator()?;
-        let mut p = [PointResponse { x_m: 0.0, v_m_s: 0.0 }; 2];
+        let mut p = [PointResponse {
+            x_m: 0.0,
+            v_m_s: 0.0,
+        }; 2];
         let (a, omega) = osc.output_rates(&[osc.drive_index(), self.tip], self.force.c0, &mut p)?;
-        let r = OutputRates { x: p[0].x_m, v: p[0].v_m_s, x_tip: p[1].x_m, a, omega };
+        let r = OutputRates {
+            x: p[0].x_m,
+            v: p[0].v_m_s,
+            x_tip: p[1].x_m,
+            a,
+            omega,
+        };
         self.rates.set(Some(r));
         Ok(r)
     }
 
     fn oscillator(&self) -> Result<&ModalOscillator, ModelError> {
-        self.osc.as_ref().ok_or_else(|| ModelError::error("the modal table is loaded at fmi2ExitInitializationMode"))
+        self.osc.as_ref().ok_or_else(|| {
+            ModelError::error("the modal table is loaded at fmi2ExitInitializationMode")
+        })
     }
 }
 
@@ -175,13 +210,62 @@ impl CoSimModel for Structure {
     const MODEL_IDENTIFIER: &'static str = "structure";
     const GUID: &'static str = "{60aa93fb-2eb2-4b1e-a6da-f73a230326bf}";
     const VARIABLES: &'static [Variable] = &[
-        real("F", vr::F, Causality::Input, Variability::Continuous, Some(Start::Real(0.0)), "N"),
-        real("x", vr::X, Causality::Output, Variability::Continuous, None, "m"),
-        real("v", vr::V, Causality::Output, Variability::Continuous, None, "m/s"),
-        real("x_tip", vr::X_TIP, Causality::Output, Variability::Continuous, None, "m"),
-        real("a", vr::A, Causality::Output, Variability::Continuous, None, "sqrt(kg).m"),
-        real("omega", vr::OMEGA, Causality::Output, Variability::Continuous, None, "rad/s"),
-        real("frequency_error", vr::FREQUENCY_ERROR, Causality::Parameter, Variability::Fixed, Some(Start::Real(0.0)), ""),
+        real(
+            "F",
+            vr::F,
+            Causality::Input,
+            Variability::Continuous,
+            Some(Start::Real(0.0)),
+            "N",
+        ),
+        real(
+            "x",
+            vr::X,
+            Causality::Output,
+            Variability::Continuous,
+            None,
+            "m",
+        ),
+        real(
+            "v",
+            vr::V,
+            Causality::Output,
+            Variability::Continuous,
+            None,
+            "m/s",
+        ),
+        real(
+            "x_tip",
+            vr::X_TIP,
+            Causality::Output,
+            Variability::Continuous,
+            None,
+            "m",
+        ),
+        real(
+            "a",
+            vr::A,
+            Causality::Output,
+            Variability::Continuous,
+            None,
+            "sqrt(kg).m",
+        ),
+        real(
+            "omega",
+            vr::OMEGA,
+            Causality::Output,
+            Variability::Continuous,
+            None,
+            "rad/s",
+        ),
+        real(
+            "frequency_error",
+            vr::FREQUENCY_ERROR,
+            Causality::Parameter,
+            Variability::Fixed,
+            Some(Start::Real(0.0)),
+            "",
+        ),
         Variable {
             name: "drive_point",
             vr: vr::DRIVE_POINT,
@@ -213,7 +297,9 @@ impl CoSimModel for Structure {
 
     fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
         if ctx.resource_dir.is_none() {
-            ctx.logger.info("no resource location given: set the parameter modal_table to a modal-table file");
+            ctx.logger.info(
+                "no resource location given: set the parameter modal_table to a modal-table file",
+            );
         }
         Ok(Structure {
             resource_dir: ctx.resource_dir.clone(),
@@ -230,7 +316,11 @@ impl CoSimModel for Structure {
         })
     }
 
-    fn setup_experiment(&mut self, start_time: f64, _stop_time: Option<f64>) -> Result<(), ModelError> {
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        _stop_time: Option<f64>,
+    ) -> Result<(), ModelError> {
         self.start_time_s = start_time;
         Ok(())
     }
@@ -286,7 +376,9 @@ impl CoSimModel for Structure {
     fn get_integer(&self, vr: u32) -> Result<i32, ModelError> {
         match vr {
             vr::DRIVE_POINT_INDEX => Ok(self.drive_point_index),
-            _ => Err(ModelError::error(format!("no Integer variable with value reference {vr}"))),
+            _ => Err(ModelError::error(format!(
+                "no Integer variable with value reference {vr}"
+            ))),
         }
     }
 
@@ -296,7 +388,9 @@ impl CoSimModel for Structure {
                 self.drive_point_index = value;
                 Ok(())
             }
-            _ => Err(ModelError::error(format!("no Integer variable with value reference {vr}"))),
+            _ => Err(ModelError::error(format!(
+                "no Integer variable with value reference {vr}"
+            ))),
         }
     }
 
@@ -304,7 +398,9 @@ impl CoSimModel for Structure {
         match vr {
             vr::DRIVE_POINT => Ok(self.drive_point.clone()),
             vr::MODAL_TABLE => Ok(self.modal_table.clone()),
-            _ => Err(ModelError::error(format!("no String variable with value reference {vr}"))),
+            _ => Err(ModelError::error(format!(
+                "no String variable with value reference {vr}"
+            ))),
         }
     }
 
@@ -312,13 +408,20 @@ impl CoSimModel for Structure {
         match vr {
             vr::DRIVE_POINT => self.drive_point = value.to_string(),
             vr::MODAL_TABLE => self.modal_table = value.to_string(),
-            _ => return Err(ModelError::error(format!("no String variable with value reference {vr}"))),
+            _ => {
+                return Err(ModelError::error(format!(
+                    "no String variable with value reference {vr}"
+                )))
+            }
         }
         Ok(())
     }
 
     fn do_step(&mut self, _t: f64, h: f64, _log: &Logger) -> Result<(), ModelError> {
-        let osc = self.osc.as_mut().ok_or_else(|| ModelError::error("not initialized"))?;
+        let osc = self
+            .osc
+            .as_mut()
+            .ok_or_else(|| ModelError::error("not initialized"))?;
         osc.step(h, self.force)?;
         // the input continues from the polynomial's end value until the master sets it;
         // derivatives apply to one step only
@@ -327,7 +430,12 @@ impl CoSimModel for Structure {
         self.update_outputs()
     }
 
-    fn set_real_input_derivative(&mut self, vr: u32, order: u32, value: f64) -> Result<(), ModelError> {
+    fn set_real_input_derivative(
+        &mut self,
+        vr: u32,
+        order: u32,
+        value: f64,
+    ) -> Result<(), ModelError> {
         match (vr, order) {
             (vr::F, 1) => self.force.c1 = value,
             (vr::F, 2) => self.force.c2 = value,
@@ -342,7 +450,9 @@ impl CoSimModel for Structure {
 
     fn get_real_output_derivative(&self, vr: u32, order: u32) -> Result<f64, ModelError> {
         if order != 1 {
-            return Err(ModelError::error(format!("output derivatives of order {order} are not supported (only 1)")));
+            return Err(ModelError::error(format!(
+                "output derivatives of order {order} are not supported (only 1)"
+            )));
         }
         let r = self.output_rates()?;
         Ok(match vr {
@@ -351,7 +461,11 @@ impl CoSimModel for Structure {
             vr::X_TIP => r.x_tip,
             vr::A => r.a,
             vr::OMEGA => r.omega,
-            _ => return Err(ModelError::error(format!("value reference {vr} is not an output"))),
+            _ => {
+                return Err(ModelError::error(format!(
+                    "value reference {vr} is not an output"
+                )))
+            }
         })
     }
 
@@ -381,7 +495,11 @@ impl CoSimModel for Structure {
     }
 
     fn deserialize_state(&mut self, r: &mut StateReader<'_>) -> Result<(), ModelError> {
-        self.force = InputPolynomial { c0: r.f64()?, c1: r.f64()?, c2: r.f64()? };
+        self.force = InputPolynomial {
+            c0: r.f64()?,
+            c1: r.f64()?,
+            c2: r.f64()?,
+        };
         let eps = r.f64()?;
         let initialized = r.bool()?;
         if eps != self.frequency_error || initialized != self.osc.is_some() {
@@ -400,7 +518,11 @@ impl CoSimModel for Structure {
                     osc.drive_index()
                 )));
             }
-            let s = OscillatorState { time_s: r.f64()?, eta: r.f64()?, u: r.f64()? };
+            let s = OscillatorState {
+                time_s: r.f64()?,
+                eta: r.f64()?,
+                u: r.f64()?,
+            };
             osc.set_state(s)?;
         }
         self.update_outputs()

@@ -14,7 +14,11 @@ fn linear_table(dir: &std::path::Path) -> std::path::PathBuf {
     let t = ModalTable::linear(
         356.2,
         0.004,
-        &[("tip", Complex64::new(1.43, 0.0)), ("l3", Complex64::new(0.3, 0.0)), ("2l3", Complex64::new(-1.04, 0.0))],
+        &[
+            ("tip", Complex64::new(1.43, 0.0)),
+            ("l3", Complex64::new(0.3, 0.0)),
+            ("2l3", Complex64::new(-1.04, 0.0)),
+        ],
         1e-9,
         1.0,
     );
@@ -25,19 +29,39 @@ fn linear_table(dir: &std::path::Path) -> std::path::PathBuf {
 
 fn instantiate(resource_dir: Option<std::path::PathBuf>) -> Structure {
     let log = Logger::silent();
-    Structure::instantiate(&InstantiateContext { instance_name: "s", resource_dir, logger: &log }).unwrap()
+    Structure::instantiate(&InstantiateContext {
+        instance_name: "s",
+        resource_dir,
+        logger: &log,
+    })
+    .unwrap()
 }
 
 #[test]
 fn xml_and_code_agree() {
-    let md = fmi2::xml::check_model_description(XML, Structure::MODEL_IDENTIFIER, Structure::GUID, Structure::VARIABLES)
-        .unwrap_or_else(|e| panic!("{e:#?}"));
+    let md = fmi2::xml::check_model_description(
+        XML,
+        Structure::MODEL_IDENTIFIER,
+        Structure::GUID,
+        Structure::VARIABLES,
+    )
+    .unwrap_or_else(|e| panic!("{e:#?}"));
     // no output depends directly on F (no algebraic loop with the shaker)
     assert_eq!(md.outputs.len(), 5);
     for u in &md.outputs {
-        assert_eq!(u.dependencies.as_deref(), Some(&[][..]), "output index {}", u.index);
+        assert_eq!(
+            u.dependencies.as_deref(),
+            Some(&[][..]),
+            "output index {}",
+            u.index
+        );
     }
-    let flag = |k: &str| md.cosim_flags.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
+    let flag = |k: &str| {
+        md.cosim_flags
+            .iter()
+            .find(|(n, _)| n == k)
+            .map(|(_, v)| v.as_str())
+    };
     assert_eq!(flag("canGetAndSetFMUstate"), Some("true"));
     assert_eq!(flag("canSerializeFMUstate"), Some("true"));
     assert_eq!(flag("canHandleVariableCommunicationStepSize"), Some("true"));
@@ -45,7 +69,11 @@ fn xml_and_code_agree() {
     assert_eq!(flag("maxOutputDerivativeOrder"), Some("1"));
     assert_eq!(flag("providesDirectionalDerivative"), Some("false"));
     let m = instantiate(None);
-    assert!(fmi2::xml::check_start_values(&m).is_empty(), "{:?}", fmi2::xml::check_start_values(&m));
+    assert!(
+        fmi2::xml::check_start_values(&m).is_empty(),
+        "{:?}",
+        fmi2::xml::check_start_values(&m)
+    );
     assert_eq!(m.get_string(vr::DRIVE_POINT).unwrap(), "2l3");
     assert_eq!(m.get_string(vr::MODAL_TABLE).unwrap(), "");
 }
@@ -68,17 +96,28 @@ fn table_from_resources_or_parameter_and_clear_errors() {
     assert!(e.message.contains("no modal table"), "{}", e.message);
     // explicit path, unknown drive point, index out of range
     let mut m = instantiate(None);
-    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+        .unwrap();
     m.set_string(vr::DRIVE_POINT, "mid").unwrap();
     let e = m.exit_initialization_mode(&log).unwrap_err();
-    assert!(e.message.contains("no point named 'mid'") && e.message.contains("2l3"), "{}", e.message);
+    assert!(
+        e.message.contains("no point named 'mid'") && e.message.contains("2l3"),
+        "{}",
+        e.message
+    );
     let mut m = instantiate(None);
-    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+        .unwrap();
     m.set_integer(vr::DRIVE_POINT_INDEX, 7).unwrap();
-    assert!(m.exit_initialization_mode(&log).unwrap_err().message.contains("drive_point_index = 7"));
+    assert!(m
+        .exit_initialization_mode(&log)
+        .unwrap_err()
+        .message
+        .contains("drive_point_index = 7"));
     // frequency error
     let mut m = instantiate(None);
-    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+        .unwrap();
     assert!(m.set_real(vr::FREQUENCY_ERROR, -1.5).is_err());
     m.set_real(vr::FREQUENCY_ERROR, 0.05).unwrap();
     m.exit_initialization_mode(&log).unwrap();
@@ -94,7 +133,8 @@ fn static_limit_by_name_and_by_index() {
     let log = Logger::silent();
     for (name, index, phi_ex) in [("l3", -1, 0.3), ("2l3", -1, -1.04), ("ignored", 1, 0.3)] {
         let mut m = instantiate(None);
-        m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+        m.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+            .unwrap();
         m.set_string(vr::DRIVE_POINT, name).unwrap();
         m.set_integer(vr::DRIVE_POINT_INDEX, index).unwrap();
         m.exit_initialization_mode(&log).unwrap();
@@ -107,9 +147,15 @@ fn static_limit_by_name_and_by_index() {
         }
         let w2 = 356.2f64 * 356.2;
         let x = m.get_real(vr::X);
-        assert!((x - phi_ex * phi_ex * f / w2).abs() < 2e-3 * (phi_ex * phi_ex * f / w2), "{name}: {x}");
+        assert!(
+            (x - phi_ex * phi_ex * f / w2).abs() < 2e-3 * (phi_ex * phi_ex * f / w2),
+            "{name}: {x}"
+        );
         let xt = m.get_real(vr::X_TIP);
-        assert!((xt - 1.43 * phi_ex * f / w2).abs() < 2e-3 * (1.43 * phi_ex * f / w2).abs(), "{name}: {xt}");
+        assert!(
+            (xt - 1.43 * phi_ex * f / w2).abs() < 2e-3 * (1.43 * phi_ex * f / w2).abs(),
+            "{name}: {xt}"
+        );
         assert!(m.get_real(vr::V).abs() < 1e-3 * x.abs() * 356.2);
     }
 }
@@ -123,7 +169,8 @@ fn input_derivatives_are_honoured_and_state_round_trips_exactly() {
     let log = Logger::silent();
     let mk = || {
         let mut m = instantiate(None);
-        m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+        m.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+            .unwrap();
         m.exit_initialization_mode(&log).unwrap();
         m
     };
@@ -159,7 +206,10 @@ fn input_derivatives_are_honoured_and_state_round_trips_exactly() {
     assert!(a.set_real_input_derivative(vr::F, 3, 1.0).is_err());
     // output derivative of x equals v in the linear limit
     let dx = a.get_real_output_derivative(vr::X, 1).unwrap();
-    assert!((dx - a.get_real(vr::V)).abs() < 1e-6 * a.get_real(vr::V).abs(), "{dx}");
+    assert!(
+        (dx - a.get_real(vr::V)).abs() < 1e-6 * a.get_real(vr::V).abs(),
+        "{dx}"
+    );
 
     // serialize, continue, restore, continue: identical bit for bit
     let mut w = StateWriter::new();
@@ -169,9 +219,15 @@ fn input_derivatives_are_honoured_and_state_round_trips_exactly() {
         let mut out = vec![];
         for k in 0..200 {
             let tk = t0 + k as f64 * 1e-4;
-            m.set_real(vr::F, 3.0 * (2.0 * PI * 57.0 * tk).cos()).unwrap();
+            m.set_real(vr::F, 3.0 * (2.0 * PI * 57.0 * tk).cos())
+                .unwrap();
             m.do_step(tk, 1e-4, &log).unwrap();
-            out.push([m.get_real(vr::X), m.get_real(vr::V), m.get_real(vr::X_TIP), m.get_real(vr::A)]);
+            out.push([
+                m.get_real(vr::X),
+                m.get_real(vr::V),
+                m.get_real(vr::X_TIP),
+                m.get_real(vr::A),
+            ]);
         }
         out
     };
@@ -183,7 +239,8 @@ fn input_derivatives_are_honoured_and_state_round_trips_exactly() {
     assert_eq!(run(&mut c, t), first);
     // a state of another configuration is refused
     let mut d = instantiate(None);
-    d.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    d.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+        .unwrap();
     d.set_real(vr::FREQUENCY_ERROR, 0.05).unwrap();
     d.exit_initialization_mode(&log).unwrap();
     assert!(d.deserialize_state(&mut StateReader::new(&bytes)).is_err());
@@ -192,7 +249,16 @@ fn input_derivatives_are_honoured_and_state_round_trips_exactly() {
 #[test]
 fn leaving_the_table_is_an_error_naming_the_amplitude() {
     let dir = tempfile::tempdir().unwrap();
-    let t = ModalTable::linear(100.0, 0.01, &[("tip", Complex64::new(1.0, 0.0)), ("2l3", Complex64::new(1.0, 0.0))], 1e-9, 1e-3);
+    let t = ModalTable::linear(
+        100.0,
+        0.01,
+        &[
+            ("tip", Complex64::new(1.0, 0.0)),
+            ("2l3", Complex64::new(1.0, 0.0)),
+        ],
+        1e-9,
+        1e-3,
+    );
     t.write(&dir.path().join("modal_table.json")).unwrap();
     let log = Logger::silent();
     let mut m = instantiate(Some(dir.path().to_path_buf()));
@@ -206,7 +272,11 @@ fn leaving_the_table_is_an_error_naming_the_amplitude() {
         }
     }
     let e = err.expect("leaves the table");
-    assert!(e.message.contains("above the modal table's range"), "{}", e.message);
+    assert!(
+        e.message.contains("above the modal table's range"),
+        "{}",
+        e.message
+    );
 }
 
 /// The output derivatives are computed once per state and input and cached:
@@ -220,7 +290,8 @@ fn cached_output_derivatives_follow_the_input_the_step_and_the_state() {
     let path = linear_table(dir.path());
     let log = Logger::silent();
     let mut m = instantiate(None);
-    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap()).unwrap();
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+        .unwrap();
     m.exit_initialization_mode(&log).unwrap();
     let (w, d, phi): (f64, f64, f64) = (356.2, 0.004, -1.04);
     let mut t: f64 = 0.0;
@@ -244,12 +315,20 @@ fn cached_output_derivatives_follow_the_input_the_step_and_the_state() {
     let dv0 = m.get_real_output_derivative(vr::V, 1).unwrap();
     let dx0 = m.get_real_output_derivative(vr::X, 1).unwrap();
     let tol = |e: f64| 1e-6 * e.abs().max(w * v.abs());
-    assert!((dv0 - expected_dv(f0)).abs() < tol(dv0), "{dv0} vs {}", expected_dv(f0));
+    assert!(
+        (dv0 - expected_dv(f0)).abs() < tol(dv0),
+        "{dv0} vs {}",
+        expected_dv(f0)
+    );
     assert!((dx0 - v).abs() < 1e-6 * v.abs(), "{dx0} vs {v}");
     // new input: the V derivative moves by phi^2 per newton, X's does not move
     m.set_real(vr::F, f0 + 10.0).unwrap();
     let dv1 = m.get_real_output_derivative(vr::V, 1).unwrap();
-    assert!((dv1 - dv0 - 10.0 * phi * phi).abs() < tol(dv1), "{dv1} - {dv0} vs {}", 10.0 * phi * phi);
+    assert!(
+        (dv1 - dv0 - 10.0 * phi * phi).abs() < tol(dv1),
+        "{dv1} - {dv0} vs {}",
+        10.0 * phi * phi
+    );
     assert!((dv1 - expected_dv(f0 + 10.0)).abs() < tol(dv1));
     assert!((m.get_real_output_derivative(vr::X, 1).unwrap() - dx0).abs() < 1e-6 * dx0.abs());
     // a step: the derivatives are those of the new state
@@ -260,7 +339,10 @@ fn cached_output_derivatives_follow_the_input_the_step_and_the_state() {
     let dv2 = m.get_real_output_derivative(vr::V, 1).unwrap();
     let e2 = phi * (phi * f2 - w * w * x2 / phi - 2.0 * d * w * v2 / phi);
     assert!((dv2 - e2).abs() < tol(e2), "{dv2} vs {e2}");
-    assert!((dv2 - dv1).abs() > 1e3 * tol(e2), "the step must change the derivative: {dv2} {dv1}");
+    assert!(
+        (dv2 - dv1).abs() > 1e3 * tol(e2),
+        "the step must change the derivative: {dv2} {dv1}"
+    );
     // restoring the earlier state (with its F = f0) gives its derivatives back exactly
     let mut r = StateReader::new(&state);
     m.deserialize_state(&mut r).unwrap();

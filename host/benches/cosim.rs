@@ -44,21 +44,34 @@ fn null_fmu(dir: &Path, name: &str) -> Fmu {
     z.start_file("modelDescription.xml", o).unwrap();
     z.write_all(TEST_MD.as_bytes()).unwrap();
     z.start_file("binaries/linux64/testosc.so", o).unwrap();
-    z.write_all(&std::fs::read(env!("HOST_TEST_FMU_LIB")).unwrap()).unwrap();
+    z.write_all(&std::fs::read(env!("HOST_TEST_FMU_LIB")).unwrap())
+        .unwrap();
     z.finish().unwrap();
     Fmu::load(&p).unwrap()
 }
 
 fn null_master(dir: &Path, alg: Algorithm, extrapolate: bool) -> Master {
-    let c = vec![("a.x".to_string(), "b.F".to_string()), ("b.x".to_string(), "a.F".to_string())];
+    let c = vec![
+        ("a.x".to_string(), "b.F".to_string()),
+        ("b.x".to_string(), "a.F".to_string()),
+    ];
     let mut m = Master::new(
-        vec![("a".into(), null_fmu(dir, "a.fmu")), ("b".into(), null_fmu(dir, "b.fmu"))],
+        vec![
+            ("a".into(), null_fmu(dir, "a.fmu")),
+            ("b".into(), null_fmu(dir, "b.fmu")),
+        ],
         &c,
-        MasterOptions { algorithm: alg, macro_step_s: 1e-5, extrapolate, ..Default::default() },
+        MasterOptions {
+            algorithm: alg,
+            macro_step_s: 1e-5,
+            extrapolate,
+            ..Default::default()
+        },
     )
     .unwrap();
     for u in 0..2 {
-        m.set_parameter(u, "substeps", &ParamValue::Real(0.0)).unwrap();
+        m.set_parameter(u, "substeps", &ParamValue::Real(0.0))
+            .unwrap();
     }
     m.initialize(0.0, None).unwrap();
     m
@@ -104,7 +117,9 @@ fn compare(o: &CosimOutput, r_om: &[f64], r_f: &[f64], r_tip: &[f64]) -> (f64, f
     let e = &o.envelope;
     let peak = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
     let jump = |om: &[f64], tip: &[f64]| {
-        let i = (0..tip.len()).max_by(|&a, &b| tip[a].total_cmp(&tip[b])).unwrap();
+        let i = (0..tip.len())
+            .max_by(|&a, &b| tip[a].total_cmp(&tip[b]))
+            .unwrap();
         let w = (om.len() / 400).max(1);
         let mut best = (0.0, om[i]);
         for k in i..om.len().saturating_sub(w) {
@@ -148,20 +163,31 @@ fn case_a() {
         &ps.model,
         &NmaOptions {
             harmonics: 3,
-            amplitude: AmplitudeRange::Point { name: "tip".into(), start_m: 1e-6, end_m: 0.02 },
+            amplitude: AmplitudeRange::Point {
+                name: "tip".into(),
+                start_m: 1e-6,
+                end_m: 0.02,
+            },
             store_coordinates: false,
             ..Default::default()
         },
     )
     .unwrap();
     let table = nma.to_table(TablePolicy::PrimaryBranch);
-    println!("NMA (H = 3): {} points in {:.2} s", table.amplitude.len(), t0.elapsed().as_secs_f64());
+    println!(
+        "NMA (H = 3): {} points in {:.2} s",
+        table.amplitude.len(),
+        t0.elapsed().as_secs_f64()
+    );
     let att = LinearAttachment::shaker("shaker", &shaker, "2l3").unwrap();
     let t0 = Instant::now();
     let r = simulate_sweep(&ps.model, &[att], &sweep, &ReferenceOptions::default()).unwrap();
     let ref_wall = t0.elapsed().as_secs_f64();
     let re = &r.envelope;
-    println!("reference: {} envelope points, wall {ref_wall:.2} s", re.omega_rad_s.len());
+    println!(
+        "reference: {} envelope points, wall {ref_wall:.2} s",
+        re.omega_rad_s.len()
+    );
     let dir = tempfile::tempdir().unwrap();
     let (st, sh) = release_fmus(dir.path(), &table);
     let base = CosimParams::new(shaker, SweepSpec::from(&sweep));
@@ -173,7 +199,12 @@ fn case_a() {
     let fine = run_cosim(&st, &sh, &pf, &mut |_| {}).unwrap();
     assert!(fine.stopped.is_none(), "{:?}", fine.stopped);
     let fe = &fine.envelope;
-    let e0 = compare(&fine, &re.omega_rad_s, &re.force_amplitude_n, &re.tip_amplitude_m);
+    let e0 = compare(
+        &fine,
+        &re.omega_rad_s,
+        &re.force_amplitude_n,
+        &re.tip_amplitude_m,
+    );
     println!(
         "finest cosim (iterative, h = 2e-6 s) vs reference: peak tip {:+.2} %, jump-down {:+.2} %, RMS tip {:.2} %, RMS force {:.2} %, wall {:.2} s",
         100.0 * e0.0, 100.0 * e0.1, 100.0 * e0.2, 100.0 * e0.3, fine.wall_time_s
@@ -184,7 +215,12 @@ fn case_a() {
         ("jacobi (ZOH)", Algorithm::Jacobi, false, false),
         ("jacobi", Algorithm::Jacobi, true, false),
         ("gauss-seidel", Algorithm::GaussSeidel, true, false),
-        ("gauss-seidel (shaker first)", Algorithm::GaussSeidel, true, true),
+        (
+            "gauss-seidel (shaker first)",
+            Algorithm::GaussSeidel,
+            true,
+            true,
+        ),
         ("iterative", Algorithm::Iterative, true, false),
     ] {
         for h in [5e-6, 1e-5, 2e-5, 5e-5, 1e-4, 2e-4] {
@@ -196,11 +232,25 @@ fn case_a() {
             p.output_interval_s = 2.5e-4;
             let o = run_cosim(&st, &sh, &p, &mut |_| {}).unwrap();
             if let Some((t, msg)) = &o.stopped {
-                println!("| {name} | {h:e} | stopped at t = {t:.4} s: {} | | | | {:.2} | |", msg.chars().take(90).collect::<String>(), o.wall_time_s);
+                println!(
+                    "| {name} | {h:e} | stopped at t = {t:.4} s: {} | | | | {:.2} | |",
+                    msg.chars().take(90).collect::<String>(),
+                    o.wall_time_s
+                );
                 continue;
             }
-            let a = compare(&o, &re.omega_rad_s, &re.force_amplitude_n, &re.tip_amplitude_m);
-            let b = compare(&o, &fe.omega_rad_s, &fe.force_amplitude_n, &fe.tip_amplitude_m);
+            let a = compare(
+                &o,
+                &re.omega_rad_s,
+                &re.force_amplitude_n,
+                &re.tip_amplitude_m,
+            );
+            let b = compare(
+                &o,
+                &fe.omega_rad_s,
+                &fe.force_amplitude_n,
+                &fe.tip_amplitude_m,
+            );
             println!(
                 "| {name} | {h:e} | {:+.2} / {:+.2} / {:.2} / {:.2} | {:+.2} / {:.2} / {:.2} | {} | {} | {:.3} | {:.2} |",
                 100.0 * a.0, 100.0 * a.1, 100.0 * a.2, 100.0 * a.3,

@@ -32,11 +32,14 @@ use cosim::paper::{export_ssp, run_cosim, CosimParams, SweepSpec};
 use cosim::Algorithm;
 use nlmode::attachment::ShakerParams;
 
-const USAGE: &str = "usage: cosim_ssp STRUCTURE.fmu SHAKER.fmu OUT_DIR U_HAT_V OMEGA_START_RAD_S OMEGA_END_RAD_S \
+const USAGE: &str =
+    "usage: cosim_ssp STRUCTURE.fmu SHAKER.fmu OUT_DIR U_HAT_V OMEGA_START_RAD_S OMEGA_END_RAD_S \
                      RATE_RAD_S2 MACRO_STEP_S STOP_TIME_S [zoh|extrapolate]";
 
 fn number(args: &[String], i: usize, name: &str) -> Result<f64, String> {
-    let s = args.get(i).ok_or_else(|| format!("missing {name}\n{USAGE}"))?;
+    let s = args
+        .get(i)
+        .ok_or_else(|| format!("missing {name}\n{USAGE}"))?;
     s.parse::<f64>().map_err(|e| format!("{name} = '{s}': {e}"))
 }
 
@@ -59,7 +62,11 @@ fn main_inner() -> Result<(), String> {
     let extrapolate = match args.get(9).map(String::as_str) {
         None | Some("zoh") => false,
         Some("extrapolate") => true,
-        Some(other) => return Err(format!("input mode '{other}': expected zoh or extrapolate\n{USAGE}")),
+        Some(other) => {
+            return Err(format!(
+                "input mode '{other}': expected zoh or extrapolate\n{USAGE}"
+            ))
+        }
     };
     let mut p = CosimParams::new(ShakerParams::paper(), sweep);
     p.algorithm = Algorithm::Jacobi;
@@ -76,19 +83,29 @@ fn main_inner() -> Result<(), String> {
         return Err(format!("cosim stopped at t = {t} s: {msg}"));
     }
     let csv = out.join("host_jacobi.csv");
-    let f = std::fs::File::create(&csv).map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
+    let f =
+        std::fs::File::create(&csv).map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
     let mut w = std::io::BufWriter::new(f);
     let werr = |e: std::io::Error| format!("cannot write {}: {e}", csv.display());
     writeln!(w, "t_s,x_tip_m,x_m,force_N").map_err(werr)?;
     for k in 0..o.time_s.len() {
-        writeln!(w, "{:e},{:e},{:e},{:e}", o.time_s[k], o.x_tip_m[k], o.x_m[k], o.force_n[k]).map_err(werr)?;
+        writeln!(
+            w,
+            "{:e},{:e},{:e},{:e}",
+            o.time_s[k], o.x_tip_m[k], o.x_m[k], o.force_n[k]
+        )
+        .map_err(werr)?;
     }
     w.flush().map_err(werr)?;
     println!(
         "wrote {} ({} rows; Jacobi, {}, h = {h:e} s, {} macro steps, wall {:.3} s)",
         csv.display(),
         o.time_s.len(),
-        if extrapolate { "first-order extrapolation" } else { "zero-order hold" },
+        if extrapolate {
+            "first-order extrapolation"
+        } else {
+            "zero-order hold"
+        },
         o.stats.steps,
         o.wall_time_s
     );

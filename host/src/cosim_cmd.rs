@@ -55,7 +55,11 @@ impl Default for MasterSpec {
 fn param(key: &str, v: &toml::Value) -> Result<ParamValue> {
     Ok(match v {
         toml::Value::Float(x) => ParamValue::Real(*x),
-        toml::Value::Integer(i) => ParamValue::Integer(i32::try_from(*i).with_context(|| format!("parameters.\"{key}\": {i} does not fit an fmi2Integer"))?),
+        toml::Value::Integer(i) => {
+            ParamValue::Integer(i32::try_from(*i).with_context(|| {
+                format!("parameters.\"{key}\": {i} does not fit an fmi2Integer")
+            })?)
+        }
         toml::Value::Boolean(b) => ParamValue::Boolean(*b),
         toml::Value::String(s) => ParamValue::String(s.clone()),
         other => bail!("parameters.\"{key}\": expected a number, boolean or string, got {other}"),
@@ -64,18 +68,33 @@ fn param(key: &str, v: &toml::Value) -> Result<ParamValue> {
 
 /// Run the generic co-simulation described by the TOML file `path`.
 pub fn cosim(path: &Path, out: &Path) -> Result<()> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let spec: Spec = toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let spec: Spec =
+        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     let m = &spec.master;
-    let algorithm = Algorithm::from_str(&m.algorithm).map_err(|e| anyhow::anyhow!("{}: master.algorithm: {e}", path.display()))?;
+    let algorithm = Algorithm::from_str(&m.algorithm)
+        .map_err(|e| anyhow::anyhow!("{}: master.algorithm: {e}", path.display()))?;
     if !(m.macro_step_s.is_finite() && m.macro_step_s > 0.0) {
-        bail!("{}: master.macro_step_s: expected a positive step, got {}", path.display(), m.macro_step_s);
+        bail!(
+            "{}: master.macro_step_s: expected a positive step, got {}",
+            path.display(),
+            m.macro_step_s
+        );
     }
     if !(m.stop_time_s > m.start_time_s) {
-        bail!("{}: master.stop_time_s: expected > start_time_s ({}), got {}", path.display(), m.start_time_s, m.stop_time_s);
+        bail!(
+            "{}: master.stop_time_s: expected > start_time_s ({}), got {}",
+            path.display(),
+            m.start_time_s,
+            m.stop_time_s
+        );
     }
     if spec.units.is_empty() {
-        bail!("{}: units: expected at least one `name = \"file.fmu\"`", path.display());
+        bail!(
+            "{}: units: expected at least one `name = \"file.fmu\"`",
+            path.display()
+        );
     }
     let base = path.parent().unwrap_or(Path::new("."));
     let units = spec
@@ -86,18 +105,32 @@ pub fn cosim(path: &Path, out: &Path) -> Result<()> {
             (n.clone(), if p.is_absolute() { p } else { base.join(p) })
         })
         .collect();
-    let parameters = spec.parameters.iter().map(|(k, v)| Ok((k.clone(), param(k, v)?))).collect::<Result<Vec<_>>>()?;
+    let parameters = spec
+        .parameters
+        .iter()
+        .map(|(k, v)| Ok((k.clone(), param(k, v)?)))
+        .collect::<Result<Vec<_>>>()?;
     let g = GenericSpec {
         units,
-        connections: spec.connections.iter().map(|[a, b]| (a.clone(), b.clone())).collect(),
+        connections: spec
+            .connections
+            .iter()
+            .map(|[a, b]| (a.clone(), b.clone()))
+            .collect(),
         parameters,
-        options: MasterOptions { algorithm, macro_step_s: m.macro_step_s, extrapolate: m.extrapolate, ..Default::default() },
+        options: MasterOptions {
+            algorithm,
+            macro_step_s: m.macro_step_s,
+            extrapolate: m.extrapolate,
+            ..Default::default()
+        },
         start_time_s: m.start_time_s,
         stop_time_s: m.stop_time_s,
         record: spec.record.clone(),
         record_every: m.record_every.max(1),
     };
-    let rec = run_generic(&g, &mut |_| {}).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let rec =
+        run_generic(&g, &mut |_| {}).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut header = vec!["t_s".to_string()];
     let mut cols: Vec<&[f64]> = vec![&rec.time_s];

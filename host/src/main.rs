@@ -20,7 +20,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "host", version, about = "Nonlinear vibration testing with attached exciters: sweeps, NMA, FMUs")]
+#[command(
+    name = "host",
+    version,
+    about = "Nonlinear vibration testing with attached exciters: sweeps, NMA, FMUs"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -12,7 +12,9 @@ use std::time::Instant;
 /// Excitation frequencies of the steady-state methods: the sweep's range.
 pub fn frf_omegas(setup: &Setup, n: usize) -> Vec<f64> {
     let (a, b) = (setup.sweep.omega_start_rad_s, setup.sweep.omega_end_rad_s);
-    (0..n).map(|i| a + (b - a) * i as f64 / (n - 1) as f64).collect()
+    (0..n)
+        .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
+        .collect()
 }
 
 /// `linear-frf`: the assembled linear frequency response (structure + all
@@ -23,23 +25,45 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
     let omegas = frf_omegas(setup, n);
     let u = DVector::from_element(1, Complex64::new(setup.sweep.amplitude, 0.0));
     let inputs = vec![u; setup.attachments.len()];
-    let pts = frf::assembled_frf(&setup.model, &setup.attachments, &inputs, &omegas).context("linear-frf")?;
-    let tip = setup.model.points.iter().position(|p| p.name == TIP).context("tip point")?;
-    let drive = setup.model.points.iter().position(|p| p.name == setup.exciter_points[0]).context("drive point")?;
+    let pts = frf::assembled_frf(&setup.model, &setup.attachments, &inputs, &omegas)
+        .context("linear-frf")?;
+    let tip = setup
+        .model
+        .points
+        .iter()
+        .position(|p| p.name == TIP)
+        .context("tip point")?;
+    let drive = setup
+        .model
+        .points
+        .iter()
+        .position(|p| p.name == setup.exciter_points[0])
+        .context("drive point")?;
     let env = Envelope {
         omega_rad_s: omegas.clone(),
         force_amplitude_n: pts.iter().map(|p| p.force_n[0].norm()).collect(),
         tip_amplitude_m: pts.iter().map(|p| p.points[tip].norm()).collect(),
         extra: vec![
-            ("force_phase_rad".into(), pts.iter().map(|p| p.force_n[0].arg()).collect()),
-            ("drive_amplitude_m".into(), pts.iter().map(|p| p.points[drive].norm()).collect()),
+            (
+                "force_phase_rad".into(),
+                pts.iter().map(|p| p.force_n[0].arg()).collect(),
+            ),
+            (
+                "drive_amplitude_m".into(),
+                pts.iter().map(|p| p.points[drive].norm()).collect(),
+            ),
         ],
     };
     let wall = t0.elapsed().as_secs_f64();
     let mut r = MethodResult::new("linear-frf", wall, env, false);
     let shaker = &setup.shakers[0];
-    let drop = frf::linear_force_drop(&setup.model, shaker, &setup.exciter_points[0], setup.omega0_rad_s)
-        .context("linear-frf: force drop")?;
+    let drop = frf::linear_force_drop(
+        &setup.model,
+        shaker,
+        &setup.exciter_points[0],
+        setup.omega0_rad_s,
+    )
+    .context("linear-frf: force drop")?;
     let (m_mod, mu) = setup.modal_masses()?[0];
     let closed = 1.0
         - frf::force_drop_closed_form(
@@ -49,7 +73,8 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
             shaker.damping_ratio(),
         );
     r.extra.insert("force_drop".into(), json!(drop));
-    r.extra.insert("force_drop_closed_form".into(), json!(closed));
+    r.extra
+        .insert("force_drop_closed_form".into(), json!(closed));
     r.extra.insert("modal_mass_kg".into(), json!(m_mod));
     r.extra.insert("mass_ratio".into(), json!(mu));
     Ok(r)
@@ -78,7 +103,12 @@ pub fn closed_form(setup: &Setup, n: usize) -> Result<MethodResult> {
         f.push(force.norm());
         tip.push((force * phi_tip * phi_ex / h).norm());
     }
-    let env = Envelope { omega_rad_s: omegas, force_amplitude_n: f, tip_amplitude_m: tip, extra: vec![] };
+    let env = Envelope {
+        omega_rad_s: omegas,
+        force_amplitude_n: f,
+        tip_amplitude_m: tip,
+        extra: vec![],
+    };
     let mut r = MethodResult::new("closed-form", t0.elapsed().as_secs_f64(), env, false);
     let drop = 1.0 - frf::force_drop_closed_form(setup.d0, mu, ra, shaker.damping_ratio());
     r.extra.insert("force_drop".into(), json!(drop));
@@ -97,30 +127,51 @@ pub struct Nma {
 
 /// NMA of the scenario's structure (or the table file it names): points `tip`
 /// and every named point of the model (the exciter locations).
-pub fn nma_table(setup: &Setup, sc: &crate::scenario::Scenario, conservative: bool) -> Result<(Nma, Option<nlmode::nma::NmaResult>)> {
+pub fn nma_table(
+    setup: &Setup,
+    sc: &crate::scenario::Scenario,
+    conservative: bool,
+) -> Result<(Nma, Option<nlmode::nma::NmaResult>)> {
     use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, NmaOptions, TablePolicy};
     let t0 = Instant::now();
     if let Some(path) = &sc.nma.table {
-        let table = nlmode::nma::ModalTable::read(std::path::Path::new(path)).with_context(|| "nma.table".to_string())?;
-        let note = format!("modal table read from {path} ({} points)", table.amplitude.len());
-        return Ok((Nma { table, wall_time_s: t0.elapsed().as_secs_f64(), note }, None));
+        let table = nlmode::nma::ModalTable::read(std::path::Path::new(path))
+            .with_context(|| "nma.table".to_string())?;
+        let note = format!(
+            "modal table read from {path} ({} points)",
+            table.amplitude.len()
+        );
+        return Ok((
+            Nma {
+                table,
+                wall_time_s: t0.elapsed().as_secs_f64(),
+                note,
+            },
+            None,
+        ));
     }
     let opts = NmaOptions {
         harmonics: sc.nma.harmonics,
-        amplitude: AmplitudeRange::Point { name: TIP.into(), start_m: 1e-7, end_m: sc.nma.max_tip_amplitude_m },
+        amplitude: AmplitudeRange::Point {
+            name: TIP.into(),
+            start_m: 1e-7,
+            end_m: sc.nma.max_tip_amplitude_m,
+        },
         conservative,
         points: setup.model.points.iter().map(|p| p.name.clone()).collect(),
         store_coordinates: false,
         ..Default::default()
     };
-    let res = nonlinear_modal_analysis(&setup.model, &opts).map_err(|e| anyhow::anyhow!("nma: {e}"))?;
+    let res =
+        nonlinear_modal_analysis(&setup.model, &opts).map_err(|e| anyhow::anyhow!("nma: {e}"))?;
     let table = res.to_table(TablePolicy::PrimaryBranch);
     let wall = t0.elapsed().as_secs_f64();
     let fold = match table.truncated_at_fold {
         Some(a) => format!(", primary branch truncated at the first fold a = {a:.4e}"),
         None => String::new(),
     };
-    let note = format!(
+    let note =
+        format!(
         "NMA (H = {}, {}): {} branch points, {} in the table, {} Newton iterations, {:.1} ms{fold}",
         res.harmonics,
         if conservative { "conservative" } else { "damped" },
@@ -129,7 +180,14 @@ pub fn nma_table(setup: &Setup, sc: &crate::scenario::Scenario, conservative: bo
         res.newton_iterations,
         1e3 * wall
     );
-    Ok((Nma { table, wall_time_s: wall, note }, Some(res)))
+    Ok((
+        Nma {
+            table,
+            wall_time_s: wall,
+            note,
+        },
+        Some(res),
+    ))
 }
 
 /// The single-nonlinear-mode model with the scenario's shakers (`eq:NM`).
@@ -150,7 +208,8 @@ pub fn reduced_model(
 
 fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult) -> MethodResult {
     let s = &res.samples;
-    let col = |f: fn(&nlmode::reduced::SlowFlowSample) -> f64| s.iter().map(f).collect::<Vec<f64>>();
+    let col =
+        |f: fn(&nlmode::reduced::SlowFlowSample) -> f64| s.iter().map(f).collect::<Vec<f64>>();
     let env = Envelope {
         omega_rad_s: col(|x| x.omega_rad_s),
         force_amplitude_n: col(|x| x.force_amplitude_n),
@@ -159,7 +218,10 @@ fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult)
             ("force_phase_rad".into(), col(|x| x.force_phase_rad)),
             ("drive_amplitude_m".into(), col(|x| x.drive_amplitude_m)),
             ("modal_amplitude".into(), col(|x| x.a)),
-            ("modal_frequency_rad_s".into(), col(|x| x.modal_frequency_rad_s)),
+            (
+                "modal_frequency_rad_s".into(),
+                col(|x| x.modal_frequency_rad_s),
+            ),
         ],
     };
     let mut r = MethodResult::new(name, wall, env, true);
@@ -169,16 +231,22 @@ fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult)
             ("omega_rad_s".into(), col(|x| x.omega_rad_s)),
             ("a".into(), col(|x| x.a)),
             ("theta_rad".into(), col(|x| x.theta_rad)),
-            ("modal_frequency_rad_s".into(), col(|x| x.modal_frequency_rad_s)),
+            (
+                "modal_frequency_rad_s".into(),
+                col(|x| x.modal_frequency_rad_s),
+            ),
             ("tip_amplitude_m".into(), col(|x| x.tip_amplitude_m)),
             ("force_amplitude_N".into(), col(|x| x.force_amplitude_n)),
             ("force_phase_rad".into(), col(|x| x.force_phase_rad)),
         ],
     });
-    r.extra.insert("steps".into(), json!(res.stats.accepted_steps));
-    r.extra.insert("status".into(), json!(format!("{:?}", res.status)));
+    r.extra
+        .insert("steps".into(), json!(res.stats.accepted_steps));
+    r.extra
+        .insert("status".into(), json!(format!("{:?}", res.status)));
     if !matches!(res.status, nlmode::reduced::SweepStatus::Completed) {
-        r.warnings.push(format!("{name}: sweep stopped early: {:?}", res.status));
+        r.warnings
+            .push(format!("{name}: sweep stopped early: {:?}", res.status));
     }
     r
 }
@@ -198,10 +266,16 @@ pub fn slow_flow(
 }
 
 /// `linear-steady`: the paper's single-mode linear steady state.
-pub fn linear_steady(setup: &Setup, model: &nlmode::reduced::ReducedModel, n: usize) -> Result<MethodResult> {
+pub fn linear_steady(
+    setup: &Setup,
+    model: &nlmode::reduced::ReducedModel,
+    n: usize,
+) -> Result<MethodResult> {
     let t0 = Instant::now();
     let omegas = frf_omegas(setup, n);
-    let ls = model.linear_steady(&omegas, setup.sweep.amplitude).context("linear-steady")?;
+    let ls = model
+        .linear_steady(&omegas, setup.sweep.amplitude)
+        .context("linear-steady")?;
     let wall = t0.elapsed().as_secs_f64();
     let p = &ls.points;
     let env = Envelope {
@@ -209,34 +283,54 @@ pub fn linear_steady(setup: &Setup, model: &nlmode::reduced::ReducedModel, n: us
         force_amplitude_n: p.iter().map(|x| x.force_amplitude_n).collect(),
         tip_amplitude_m: p.iter().map(|x| x.tip_amplitude_m).collect(),
         extra: vec![
-            ("force_phase_rad".into(), p.iter().map(|x| x.force_phase_rad).collect()),
-            ("drive_amplitude_m".into(), p.iter().map(|x| x.drive_amplitude_m).collect()),
+            (
+                "force_phase_rad".into(),
+                p.iter().map(|x| x.force_phase_rad).collect(),
+            ),
+            (
+                "drive_amplitude_m".into(),
+                p.iter().map(|x| x.drive_amplitude_m).collect(),
+            ),
         ],
     };
     let mut r = MethodResult::new("linear-steady", wall, env, false);
     r.extra.insert("force_drop".into(), json!(ls.force_drop));
-    r.extra.insert("omega0_single_mode_rad_s".into(), json!(ls.omega0_rad_s));
+    r.extra
+        .insert("omega0_single_mode_rad_s".into(), json!(ls.omega0_rad_s));
     Ok(r)
 }
 
 /// `reference`: direct time integration of the assembled full-order model.
-pub fn reference(setup: &Setup, sc: &crate::scenario::Scenario, progress: &mut dyn FnMut(f64)) -> Result<MethodResult> {
+pub fn reference(
+    setup: &Setup,
+    sc: &crate::scenario::Scenario,
+    progress: &mut dyn FnMut(f64),
+) -> Result<MethodResult> {
     use nlmode::reference::{simulate_sweep_with_progress, Integrator, ReferenceOptions};
     let method = match sc.reference.integrator.as_str() {
         "" | "exponential" => Integrator::Exponential,
         "dormand-prince" => Integrator::DormandPrince,
-        other => anyhow::bail!("reference.integrator: expected 'exponential' or 'dormand-prince', got '{other}'"),
+        other => anyhow::bail!(
+            "reference.integrator: expected 'exponential' or 'dormand-prince', got '{other}'"
+        ),
     };
     let opts = ReferenceOptions {
         method,
         rtol: sc.reference.rtol,
-        output_interval_s: (sc.reference.output_interval_s > 0.0).then_some(sc.reference.output_interval_s),
+        output_interval_s: (sc.reference.output_interval_s > 0.0)
+            .then_some(sc.reference.output_interval_s),
         tip_point: TIP.into(),
         ..Default::default()
     };
     let t0 = Instant::now();
-    let res = simulate_sweep_with_progress(&setup.model, &setup.attachments, &setup.sweep, &opts, progress)
-        .context("reference")?;
+    let res = simulate_sweep_with_progress(
+        &setup.model,
+        &setup.attachments,
+        &setup.sweep,
+        &opts,
+        progress,
+    )
+    .context("reference")?;
     let wall = t0.elapsed().as_secs_f64();
     let e = &res.envelope;
     let env = Envelope {
@@ -257,8 +351,10 @@ pub fn reference(setup: &Setup, sc: &crate::scenario::Scenario, progress: &mut d
         ],
     });
     r.extra.insert("steps".into(), json!(res.stats.steps));
-    r.extra.insert("rejected_steps".into(), json!(res.stats.rejected));
-    r.extra.insert("integrator".into(), json!(format!("{method:?}")));
+    r.extra
+        .insert("rejected_steps".into(), json!(res.stats.rejected));
+    r.extra
+        .insert("integrator".into(), json!(format!("{method:?}")));
     Ok(r)
 }
 
@@ -271,10 +367,21 @@ pub fn cosim(
 ) -> Result<MethodResult> {
     use crate::cosim::{run_cosim, Algorithm, CosimParams, SweepSpec};
     use std::str::FromStr;
-    let structure = sc.cosim.structure_fmu.as_ref().map(std::path::PathBuf::from).unwrap_or_else(|| fmus.0.clone());
-    let shaker = sc.cosim.shaker_fmu.as_ref().map(std::path::PathBuf::from).unwrap_or_else(|| fmus.1.clone());
+    let structure = sc
+        .cosim
+        .structure_fmu
+        .as_ref()
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| fmus.0.clone());
+    let shaker = sc
+        .cosim
+        .shaker_fmu
+        .as_ref()
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| fmus.1.clone());
     let mut p = CosimParams::new(setup.shakers[0], SweepSpec::from(&setup.sweep));
-    p.algorithm = Algorithm::from_str(&sc.cosim.algorithm).map_err(|e| anyhow::anyhow!("cosim.algorithm: {e}"))?;
+    p.algorithm = Algorithm::from_str(&sc.cosim.algorithm)
+        .map_err(|e| anyhow::anyhow!("cosim.algorithm: {e}"))?;
     p.macro_step_s = sc.cosim.macro_step_s;
     p.drive_point = setup.exciter_points[0].clone();
     let out = run_cosim(&structure, &shaker, &p, progress).context("cosim")?;
@@ -297,11 +404,13 @@ pub fn cosim(
             ("current_A".into(), out.current_a.clone()),
         ],
     });
-    r.extra.insert("algorithm".into(), json!(sc.cosim.algorithm));
+    r.extra
+        .insert("algorithm".into(), json!(sc.cosim.algorithm));
     r.extra.insert("macro_step_s".into(), json!(p.macro_step_s));
     r.extra.insert("macro_steps".into(), json!(out.stats.steps));
     if let Some((t, msg)) = &out.stopped {
-        r.warnings.push(format!("cosim stopped at t = {t} s: {msg}"));
+        r.warnings
+            .push(format!("cosim stopped at t = {t} s: {msg}"));
         r.extra.insert("stopped_at_s".into(), json!(t));
     }
     Ok(r)

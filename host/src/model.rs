@@ -5,8 +5,8 @@ use anyhow::{bail, Context, Result};
 use nlmode::attachment::{ArmatureDamping, LinearAttachment, ShakerParams, Stinger};
 use nlmode::excitation::LinearSweep;
 use nlmode::structure::{
-    craig_bampton, modal_analysis, stiffness_proportional_damping, BeamSpec, BoundaryCondition, CubicSpring,
-    StructuralModel,
+    craig_bampton, modal_analysis, stiffness_proportional_damping, BeamSpec, BoundaryCondition,
+    CubicSpring, StructuralModel,
 };
 
 /// Name of the tip point.
@@ -58,13 +58,18 @@ pub fn shaker_params(ex: &ExciterSpec) -> ShakerParams {
         stinger: if ex.stinger == "rigid" {
             Stinger::Rigid
         } else {
-            Stinger::Elastic { stiffness_n_per_m: ex.stinger_stiffness_n_per_m }
+            Stinger::Elastic {
+                stiffness_n_per_m: ex.stinger_stiffness_n_per_m,
+            }
         },
     }
 }
 
 /// The structure of the scenario with the named points `extra_points` (name, x).
-pub fn build_structure(sc: &Scenario, extra_points: &[(String, f64)]) -> Result<(StructuralModel, f64, usize)> {
+pub fn build_structure(
+    sc: &Scenario,
+    extra_points: &[(String, f64)],
+) -> Result<(StructuralModel, f64, usize)> {
     let st = &sc.structure;
     let boundary = match st.boundary.as_str() {
         "clamped-free" => BoundaryCondition::ClampedFree,
@@ -91,18 +96,25 @@ pub fn build_structure(sc: &Scenario, extra_points: &[(String, f64)]) -> Result<
     beam.add_point(TIP, l).context("structure: tip point")?;
     for (name, x) in extra_points {
         if name != TIP && beam.model.points.iter().all(|p| &p.name != name) {
-            beam.add_point(name, *x).with_context(|| format!("exciter location {x} m"))?;
+            beam.add_point(name, *x)
+                .with_context(|| format!("exciter location {x} m"))?;
         }
     }
     if st.k3_n_per_m3 > 0.0 {
         let e_tip = beam.translation_vector("cubic_spring", l)?;
-        beam.model.add_nonlinear("cubic_spring", e_tip, CubicSpring::new(st.k3_n_per_m3)?)?;
+        beam.model
+            .add_nonlinear("cubic_spring", e_tip, CubicSpring::new(st.k3_n_per_m3)?)?;
     }
-    stiffness_proportional_damping(&mut beam.model, 0, st.damping_ratio).context("structure.damping_ratio")?;
-    let omega0 = modal_analysis(&beam.model, 1).context("structure: modal analysis")?.omega_rad_s[0];
+    stiffness_proportional_damping(&mut beam.model, 0, st.damping_ratio)
+        .context("structure.damping_ratio")?;
+    let omega0 = modal_analysis(&beam.model, 1)
+        .context("structure: modal analysis")?
+        .omega_rad_s[0];
     let full_ndof = beam.model.ndof();
     let model = if st.reduction == "craig-bampton" {
-        craig_bampton(&beam.model, &[tip_dof], st.cb_modes).context("structure.cb_modes")?.reduced
+        craig_bampton(&beam.model, &[tip_dof], st.cb_modes)
+            .context("structure.cb_modes")?
+            .reduced
     } else {
         beam.model
     };
@@ -131,14 +143,32 @@ impl Setup {
             let p = shaker_params(ex);
             p.validate().with_context(|| format!("exciter[{i}]"))?;
             let point = pts[i].0.clone();
-            attachments.push(LinearAttachment::shaker(&ex.name, &p, &point).with_context(|| format!("exciter[{i}]"))?);
+            attachments.push(
+                LinearAttachment::shaker(&ex.name, &p, &point)
+                    .with_context(|| format!("exciter[{i}]"))?,
+            );
             shakers.push(p);
             exciter_points.push(point);
         }
         let e = &sc.excitation;
-        let sweep = LinearSweep::per_pseudo_period(omega0, e.eta_start, e.eta_end, e.rate_per_pseudo_period, e.voltage_v)
-            .context("excitation")?;
-        Ok(Self { model, omega0_rad_s: omega0, full_ndof, shakers, attachments, exciter_points, sweep, d0: sc.structure.damping_ratio })
+        let sweep = LinearSweep::per_pseudo_period(
+            omega0,
+            e.eta_start,
+            e.eta_end,
+            e.rate_per_pseudo_period,
+            e.voltage_v,
+        )
+        .context("excitation")?;
+        Ok(Self {
+            model,
+            omega0_rad_s: omega0,
+            full_ndof,
+            shakers,
+            attachments,
+            exciter_points,
+            sweep,
+            d0: sc.structure.damping_ratio,
+        })
     }
 
     /// Modal mass `1/phi(x)^2` of mode 1 at each exciter [kg] and the mass ratio `m_a/m_mod`.

@@ -48,11 +48,20 @@ pub struct Signal<'a> {
 }
 
 /// Force (top) and tip displacement (bottom) against Omega/omega0.
-pub fn sweep_plot(path: &Path, title: &str, omega0: f64, results: &[&MethodResult], signal: Option<Signal>) -> Result<()> {
+pub fn sweep_plot(
+    path: &Path,
+    title: &str,
+    omega0: f64,
+    results: &[&MethodResult],
+    signal: Option<Signal>,
+) -> Result<()> {
     let root = SVGBackend::new(path, (900, 800)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
+    root.fill(&WHITE)
+        .map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
     let (top, bottom) = root.split_vertically(400);
-    let all_eta = results.iter().flat_map(|r| r.envelope.omega_rad_s.iter().map(move |w| w / omega0));
+    let all_eta = results
+        .iter()
+        .flat_map(|r| r.envelope.omega_rad_s.iter().map(move |w| w / omega0));
     let (x0, x1) = range(all_eta, 0.0, false);
     for (panel, area) in [(0, &top), (1, &bottom)] {
         let get = |r: &MethodResult| -> Vec<f64> {
@@ -72,7 +81,11 @@ pub fn sweep_plot(path: &Path, title: &str, omega0: f64, results: &[&MethodResul
         }
         let (y0, y1) = range(ys.into_iter(), 0.05, true);
         let y0 = if signal.is_some() { -y1 } else { y0 };
-        let ylabel = if panel == 0 { "force amplitude |F| [N]" } else { "tip displacement |q_tip| [mm]" };
+        let ylabel = if panel == 0 {
+            "force amplitude |F| [N]"
+        } else {
+            "tip displacement |q_tip| [mm]"
+        };
         let mut chart = ChartBuilder::on(area)
             .caption(if panel == 0 { title } else { "" }, ("sans-serif", 18))
             .margin(12)
@@ -88,7 +101,11 @@ pub fn sweep_plot(path: &Path, title: &str, omega0: f64, results: &[&MethodResul
             .draw()
             .map_err(|e| anyhow!("plot: {e}"))?;
         if let Some(s) = &signal {
-            let y: Vec<f64> = if panel == 0 { s.force_n.to_vec() } else { s.tip_m.iter().map(|v| v * 1e3).collect() };
+            let y: Vec<f64> = if panel == 0 {
+                s.force_n.to_vec()
+            } else {
+                s.tip_m.iter().map(|v| v * 1e3).collect()
+            };
             chart
                 .draw_series(LineSeries::new(
                     s.eta.iter().zip(&y).map(|(&x, &y)| (x, y)),
@@ -96,7 +113,9 @@ pub fn sweep_plot(path: &Path, title: &str, omega0: f64, results: &[&MethodResul
                 ))
                 .map_err(|e| anyhow!("plot: {e}"))?
                 .label("reference (time signal)")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(200, 200, 200)));
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(200, 200, 200))
+                });
         }
         for (i, r) in results.iter().enumerate() {
             let c = color(i);
@@ -113,7 +132,9 @@ pub fn sweep_plot(path: &Path, title: &str, omega0: f64, results: &[&MethodResul
                 .draw_series(LineSeries::new(pts, c.stroke_width(2)))
                 .map_err(|e| anyhow!("plot: {e}"))?
                 .label(r.name.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
         }
         if panel == 0 {
             chart
@@ -125,7 +146,8 @@ pub fn sweep_plot(path: &Path, title: &str, omega0: f64, results: &[&MethodResul
                 .map_err(|e| anyhow!("plot: {e}"))?;
         }
     }
-    root.present().map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
+    root.present()
+        .map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
     Ok(())
 }
 
@@ -146,14 +168,34 @@ pub enum Style {
 }
 
 /// A single-panel x-y plot (backbone, damping, steady-state branches).
-pub fn xy_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[Curve], style: Style) -> Result<()> {
+pub fn xy_plot(
+    path: &Path,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    curves: &[Curve],
+    style: Style,
+) -> Result<()> {
     let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
+    root.fill(&WHITE)
+        .map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
     let log_x = style == Style::LinesLogX;
     let tx = |v: f64| if log_x { v.log10() } else { v };
-    let (x0, x1) = range(curves.iter().flat_map(|c| c.x.iter().map(|&v| tx(v))), 0.02, false);
-    let (y0, y1) = range(curves.iter().flat_map(|c| c.y.iter().cloned()), 0.05, style == Style::Dots);
-    let xdesc = if log_x { format!("log10 {xlabel}") } else { xlabel.to_string() };
+    let (x0, x1) = range(
+        curves.iter().flat_map(|c| c.x.iter().map(|&v| tx(v))),
+        0.02,
+        false,
+    );
+    let (y0, y1) = range(
+        curves.iter().flat_map(|c| c.y.iter().cloned()),
+        0.05,
+        style == Style::Dots,
+    );
+    let xdesc = if log_x {
+        format!("log10 {xlabel}")
+    } else {
+        xlabel.to_string()
+    };
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 18))
         .margin(12)
@@ -161,11 +203,20 @@ pub fn xy_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[C
         .y_label_area_size(70)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(|e| anyhow!("plot: {e}"))?;
-    chart.configure_mesh().x_desc(xdesc).y_desc(ylabel).draw().map_err(|e| anyhow!("plot: {e}"))?;
+    chart
+        .configure_mesh()
+        .x_desc(xdesc)
+        .y_desc(ylabel)
+        .draw()
+        .map_err(|e| anyhow!("plot: {e}"))?;
     for (i, c) in curves.iter().enumerate() {
         let col = color(i);
         let pts: Vec<(f64, f64)> =
-            c.x.iter().zip(c.y).filter(|(x, y)| x.is_finite() && y.is_finite()).map(|(&x, &y)| (tx(x), y)).collect();
+            c.x.iter()
+                .zip(c.y)
+                .filter(|(x, y)| x.is_finite() && y.is_finite())
+                .map(|(&x, &y)| (tx(x), y))
+                .collect();
         if style == Style::Dots {
             chart
                 .draw_series(pts.into_iter().map(|p| Circle::new(p, 2, col.filled())))
@@ -177,7 +228,9 @@ pub fn xy_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[C
                 .draw_series(LineSeries::new(pts, col.stroke_width(2)))
                 .map_err(|e| anyhow!("plot: {e}"))?
                 .label(c.label.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                });
         }
     }
     chart
@@ -186,6 +239,7 @@ pub fn xy_plot(path: &Path, title: &str, xlabel: &str, ylabel: &str, curves: &[C
         .border_style(BLACK)
         .draw()
         .map_err(|e| anyhow!("plot: {e}"))?;
-    root.present().map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
+    root.present()
+        .map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
     Ok(())
 }

@@ -78,8 +78,16 @@ impl MethodResult {
     pub fn summary(&self) -> Value {
         let (peak, peak_w) = self.peak();
         let f = &self.envelope.force_amplitude_n;
-        let fmin = f.iter().cloned().filter(|v| v.is_finite()).fold(f64::INFINITY, f64::min);
-        let fmax = f.iter().cloned().filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
+        let fmin = f
+            .iter()
+            .cloned()
+            .filter(|v| v.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        let fmax = f
+            .iter()
+            .cloned()
+            .filter(|v| v.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max);
         let mut m = Map::new();
         m.insert("wall_time_s".into(), json!(self.wall_time_s));
         m.insert("peak_tip_amplitude_m".into(), num(peak));
@@ -115,7 +123,9 @@ pub fn jump_down(x: &[f64], y: &[f64]) -> Option<f64> {
     if n < 8 {
         return None;
     }
-    let ipk = (0..n).filter(|&i| y[i].is_finite()).max_by(|&a, &b| y[a].total_cmp(&y[b]))?;
+    let ipk = (0..n)
+        .filter(|&i| y[i].is_finite())
+        .max_by(|&a, &b| y[a].total_cmp(&y[b]))?;
     let w = (n / 400).max(1);
     let mut best: Option<(f64, f64)> = None;
     for i in ipk..n.saturating_sub(w) {
@@ -134,13 +144,21 @@ pub fn jump_down(x: &[f64], y: &[f64]) -> Option<f64> {
 /// Write `<name>_envelope.csv`.
 pub fn write_envelope(dir: &Path, r: &MethodResult) -> Result<()> {
     let e = &r.envelope;
-    let mut header = vec!["omega_rad_s".to_string(), "force_amplitude_N".into(), "tip_amplitude_m".into()];
+    let mut header = vec![
+        "omega_rad_s".to_string(),
+        "force_amplitude_N".into(),
+        "tip_amplitude_m".into(),
+    ];
     let mut cols: Vec<&[f64]> = vec![&e.omega_rad_s, &e.force_amplitude_n, &e.tip_amplitude_m];
     for (n, v) in &e.extra {
         header.push(n.clone());
         cols.push(v);
     }
-    write_csv(&dir.join(format!("{}_envelope.csv", r.name)), &header, &cols)
+    write_csv(
+        &dir.join(format!("{}_envelope.csv", r.name)),
+        &header,
+        &cols,
+    )
 }
 
 /// Write `<name>_timeseries.csv` if the method has one.
@@ -148,14 +166,19 @@ pub fn write_time_series(dir: &Path, r: &MethodResult) -> Result<()> {
     if let Some(ts) = &r.time_series {
         let header: Vec<String> = ts.columns.iter().map(|(n, _)| n.clone()).collect();
         let cols: Vec<&[f64]> = ts.columns.iter().map(|(_, v)| v.as_slice()).collect();
-        write_csv(&dir.join(format!("{}_timeseries.csv", r.name)), &header, &cols)?;
+        write_csv(
+            &dir.join(format!("{}_timeseries.csv", r.name)),
+            &header,
+            &cols,
+        )?;
     }
     Ok(())
 }
 
 pub fn write_csv(path: &Path, header: &[String], cols: &[&[f64]]) -> Result<()> {
     let n = cols.iter().map(|c| c.len()).min().unwrap_or(0);
-    let f = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    let f =
+        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
     let mut w = std::io::BufWriter::new(f);
     writeln!(w, "{}", header.join(","))?;
     let mut line = String::new();
@@ -170,7 +193,8 @@ pub fn write_csv(path: &Path, header: &[String], cols: &[&[f64]]) -> Result<()> 
         }
         writeln!(w, "{line}")?;
     }
-    w.flush().with_context(|| format!("cannot write {}", path.display()))?;
+    w.flush()
+        .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
 }
 
@@ -181,7 +205,10 @@ mod tests {
     #[test]
     fn jump_down_finds_the_drop() {
         let x: Vec<f64> = (0..1000).map(|i| i as f64).collect();
-        let y: Vec<f64> = x.iter().map(|&x| if x < 700.0 { x / 700.0 } else { 0.1 }).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .map(|&x| if x < 700.0 { x / 700.0 } else { 0.1 })
+            .collect();
         let j = jump_down(&x, &y).unwrap();
         assert!((j - 700.0).abs() < 3.0, "{j}");
     }
@@ -191,7 +218,12 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("host-csv-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join("a.csv");
-        write_csv(&p, &["a".into(), "b".into()], &[&[1.0, 2.0], &[3.5, -4.25e-7]]).unwrap();
+        write_csv(
+            &p,
+            &["a".into(), "b".into()],
+            &[&[1.0, 2.0], &[3.5, -4.25e-7]],
+        )
+        .unwrap();
         let text = std::fs::read_to_string(&p).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], "a,b");

@@ -11,10 +11,15 @@ use std::path::Path;
 /// Read a scenario file or take the embedded default.
 pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
     match path {
-        None => Ok((Scenario::default_scenario(), "embedded default (sweep.toml)".into())),
+        None => Ok((
+            Scenario::default_scenario(),
+            "embedded default (sweep.toml)".into(),
+        )),
         Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("cannot read scenario file {}", p.display()))?;
-            let sc = Scenario::parse(&text).map_err(|e| anyhow::anyhow!("scenario {}: {e}", p.display()))?;
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read scenario file {}", p.display()))?;
+            let sc = Scenario::parse(&text)
+                .map_err(|e| anyhow::anyhow!("scenario {}: {e}", p.display()))?;
             Ok((sc, p.display().to_string()))
         }
     }
@@ -22,7 +27,8 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
 
 pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     let (sc, source) = load_scenario(path)?;
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
     let setup = Setup::new(&sc).with_context(|| format!("scenario {source}"))?;
     let masses = setup.modal_masses()?;
     println!("scenario: {source}");
@@ -57,7 +63,14 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     );
     let mut done: Vec<MethodResult> = Vec::new();
     let wants = |m: &str| sc.run.methods.iter().any(|x| x == m);
-    let needs_mode = ["nlmode", "linear-slowflow", "linear-steady", "imposed-force"].iter().any(|m| wants(m));
+    let needs_mode = [
+        "nlmode",
+        "linear-slowflow",
+        "linear-steady",
+        "imposed-force",
+    ]
+    .iter()
+    .any(|m| wants(m));
     let mut nma = None;
     if needs_mode {
         let (n, _) = methods::nma_table(&setup, &sc, false)?;
@@ -79,7 +92,14 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     if wants("cosim") || sc.output.fmus {
         match crate::package::package(&out.join("fmus")) {
             Ok(paths) => {
-                println!("FMUs: {}", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+                println!(
+                    "FMUs: {}",
+                    paths
+                        .iter()
+                        .map(|p| p.display().to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
                 fmus = Some((paths[0].clone(), paths[1].clone()));
             }
             Err(e) if !wants("cosim") => println!("warning: FMUs not packaged: {e:#}"),
@@ -131,8 +151,9 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
                         nlmode::reduced::ForceEnvelope::from_result(&flow)?
                     }
                     path => {
-                        let text = std::fs::read_to_string(path)
-                            .with_context(|| format!("imposed_force.source: cannot read CSV file '{path}'"))?;
+                        let text = std::fs::read_to_string(path).with_context(|| {
+                            format!("imposed_force.source: cannot read CSV file '{path}'")
+                        })?;
                         nlmode::reduced::ForceEnvelope::from_csv(&text)
                             .with_context(|| format!("imposed_force.source: CSV file '{path}'"))?
                     }
@@ -195,18 +216,46 @@ fn write_outputs(sc: &Scenario, setup: &Setup, out: &Path, done: &[MethodResult]
         "speedup_nlmode_over_reference": speedup(done),
     });
     let path = out.join("summary.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&summary)?).with_context(|| format!("cannot write {}", path.display()))?;
+    std::fs::write(&path, serde_json::to_string_pretty(&summary)?)
+        .with_context(|| format!("cannot write {}", path.display()))?;
     if sc.output.plots {
         let refs: Vec<&MethodResult> = done.iter().collect();
-        let title = if sc.title.is_empty() { "sweep".to_string() } else { sc.title.clone() };
+        let title = if sc.title.is_empty() {
+            "sweep".to_string()
+        } else {
+            sc.title.clone()
+        };
         // The reference's time signals in grey under the envelopes, as in the paper's figures.
-        let signal_cols = done.iter().find(|r| r.name == "reference").and_then(|r| r.time_series.as_ref()).map(|ts| {
-            let col = |n: &str| ts.columns.iter().find(|(c, _)| c == n).map(|(_, v)| v.clone()).unwrap_or_default();
-            let eta: Vec<f64> = col("omega_rad_s").iter().map(|w| w / setup.omega0_rad_s).collect();
-            (eta, col("force_N"), col("tip_m"))
+        let signal_cols = done
+            .iter()
+            .find(|r| r.name == "reference")
+            .and_then(|r| r.time_series.as_ref())
+            .map(|ts| {
+                let col = |n: &str| {
+                    ts.columns
+                        .iter()
+                        .find(|(c, _)| c == n)
+                        .map(|(_, v)| v.clone())
+                        .unwrap_or_default()
+                };
+                let eta: Vec<f64> = col("omega_rad_s")
+                    .iter()
+                    .map(|w| w / setup.omega0_rad_s)
+                    .collect();
+                (eta, col("force_N"), col("tip_m"))
+            });
+        let signal = signal_cols.as_ref().map(|(eta, f, x)| plot::Signal {
+            eta,
+            force_n: f,
+            tip_m: x,
         });
-        let signal = signal_cols.as_ref().map(|(eta, f, x)| plot::Signal { eta, force_n: f, tip_m: x });
-        plot::sweep_plot(&out.join("sweep.svg"), &title, setup.omega0_rad_s, &refs, signal)?;
+        plot::sweep_plot(
+            &out.join("sweep.svg"),
+            &title,
+            setup.omega0_rad_s,
+            &refs,
+            signal,
+        )?;
     }
     Ok(())
 }
@@ -223,18 +272,26 @@ impl Progress {
         let bar = indicatif::ProgressBar::hidden();
         bar.set_length(1000);
         bar.set_message(name.to_string());
-        if let Ok(style) = indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}% {elapsed}") {
+        if let Ok(style) =
+            indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}% {elapsed}")
+        {
             bar.set_style(style.progress_chars("=> "));
         }
-        Self { bar, start: std::time::Instant::now(), shown: false }
+        Self {
+            bar,
+            start: std::time::Instant::now(),
+            shown: false,
+        }
     }
 
     fn set(&mut self, fraction: f64) {
         if !self.shown && self.start.elapsed().as_secs_f64() > 1.0 {
-            self.bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            self.bar
+                .set_draw_target(indicatif::ProgressDrawTarget::stderr());
             self.shown = true;
         }
-        self.bar.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+        self.bar
+            .set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
     }
 
     fn finish(&self) {
@@ -256,12 +313,22 @@ fn print_summary(setup: &Setup, done: &[MethodResult]) {
     println!();
     println!(
         "{:<18} {:>10} {:>14} {:>12} {:>12} {:>12} {:>10}",
-        "method", "wall [s]", "peak tip [mm]", "at Omega/w0", "min |F| [N]", "max |F| [N]", "drop [%]"
+        "method",
+        "wall [s]",
+        "peak tip [mm]",
+        "at Omega/w0",
+        "min |F| [N]",
+        "max |F| [N]",
+        "drop [%]"
     );
     for r in done {
         let s = r.summary();
         let g = |k: &str| s.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
-        let drop = s.get("force_drop").and_then(|v| v.as_f64()).map(|d| format!("{:.1}", 100.0 * d)).unwrap_or_default();
+        let drop = s
+            .get("force_drop")
+            .and_then(|v| v.as_f64())
+            .map(|d| format!("{:.1}", 100.0 * d))
+            .unwrap_or_default();
         println!(
             "{:<18} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",
             r.name,

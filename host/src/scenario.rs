@@ -10,8 +10,15 @@ use serde::{Deserialize, Serialize};
 pub const DEFAULT_SCENARIO: &str = include_str!("../../sweep.toml");
 
 /// All method names the host knows.
-pub const METHODS: &[&str] =
-    &["reference", "linear-frf", "nlmode", "linear-slowflow", "linear-steady", "imposed-force", "cosim"];
+pub const METHODS: &[&str] = &[
+    "reference",
+    "linear-frf",
+    "nlmode",
+    "linear-slowflow",
+    "linear-steady",
+    "imposed-force",
+    "cosim",
+];
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -112,7 +119,10 @@ impl Default for ExciterSpec {
 }
 
 fn default_exciters() -> Vec<ExciterSpec> {
-    vec![ExciterSpec { location: Some(toml::Value::String("2l/3".into())), ..Default::default() }]
+    vec![ExciterSpec {
+        location: Some(toml::Value::String("2l/3".into())),
+        ..Default::default()
+    }]
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -128,7 +138,12 @@ pub struct ExcitationSpec {
 
 impl Default for ExcitationSpec {
     fn default() -> Self {
-        Self { voltage_v: 10.0, eta_start: 0.8, eta_end: 1.8, rate_per_pseudo_period: 0.02 }
+        Self {
+            voltage_v: 10.0,
+            eta_start: 0.8,
+            eta_end: 1.8,
+            rate_per_pseudo_period: 0.02,
+        }
     }
 }
 
@@ -146,7 +161,12 @@ pub struct NmaSpec {
 
 impl Default for NmaSpec {
     fn default() -> Self {
-        Self { harmonics: 3, max_tip_amplitude_m: 0.02, table: None, conservative: true }
+        Self {
+            harmonics: 3,
+            max_tip_amplitude_m: 0.02,
+            table: None,
+            conservative: true,
+        }
     }
 }
 
@@ -215,7 +235,11 @@ pub struct ReferenceSpec {
 
 impl Default for ReferenceSpec {
     fn default() -> Self {
-        Self { integrator: String::new(), rtol: 1e-6, output_interval_s: 0.0 }
+        Self {
+            integrator: String::new(),
+            rtol: 1e-6,
+            output_interval_s: 0.0,
+        }
     }
 }
 
@@ -232,7 +256,12 @@ pub struct CosimSpec {
 
 impl Default for CosimSpec {
     fn default() -> Self {
-        Self { algorithm: "jacobi".into(), macro_step_s: 1e-5, structure_fmu: None, shaker_fmu: None }
+        Self {
+            algorithm: "jacobi".into(),
+            macro_step_s: 1e-5,
+            structure_fmu: None,
+            shaker_fmu: None,
+        }
     }
 }
 
@@ -247,7 +276,11 @@ pub struct OutputSpec {
 
 impl Default for OutputSpec {
     fn default() -> Self {
-        Self { time_series: true, plots: true, fmus: true }
+        Self {
+            time_series: true,
+            plots: true,
+            fmus: true,
+        }
     }
 }
 
@@ -260,14 +293,20 @@ pub struct ScenarioError {
 }
 
 fn bad(key: &str, message: impl Into<String>) -> ScenarioError {
-    ScenarioError { key: key.into(), message: message.into() }
+    ScenarioError {
+        key: key.into(),
+        message: message.into(),
+    }
 }
 
 fn positive(key: &str, v: f64) -> Result<(), ScenarioError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(bad(key, format!("expected a positive finite number, got {v}")))
+        Err(bad(
+            key,
+            format!("expected a positive finite number, got {v}"),
+        ))
     }
 }
 
@@ -293,25 +332,47 @@ impl Scenario {
         positive("structure.youngs_modulus_pa", st.youngs_modulus_pa)?;
         positive("structure.density_kg_m3", st.density_kg_m3)?;
         if st.n_nodes < 3 {
-            return Err(bad("structure.n_nodes", format!("expected at least 3 nodes, got {}", st.n_nodes)));
+            return Err(bad(
+                "structure.n_nodes",
+                format!("expected at least 3 nodes, got {}", st.n_nodes),
+            ));
         }
-        if !["clamped-free", "clamped-clamped", "pinned-pinned", "clamped-pinned"].contains(&st.boundary.as_str()) {
+        if ![
+            "clamped-free",
+            "clamped-clamped",
+            "pinned-pinned",
+            "clamped-pinned",
+        ]
+        .contains(&st.boundary.as_str())
+        {
             return Err(bad(
                 "structure.boundary",
                 format!("expected clamped-free, clamped-clamped, pinned-pinned or clamped-pinned, got '{}'", st.boundary),
             ));
         }
         if !(st.k3_n_per_m3.is_finite() && st.k3_n_per_m3 >= 0.0) {
-            return Err(bad("structure.k3_n_per_m3", format!("expected a finite number >= 0, got {}", st.k3_n_per_m3)));
+            return Err(bad(
+                "structure.k3_n_per_m3",
+                format!("expected a finite number >= 0, got {}", st.k3_n_per_m3),
+            ));
         }
         if !(st.damping_ratio.is_finite() && st.damping_ratio >= 0.0 && st.damping_ratio < 1.0) {
-            return Err(bad("structure.damping_ratio", format!("expected 0 <= D0 < 1, got {}", st.damping_ratio)));
+            return Err(bad(
+                "structure.damping_ratio",
+                format!("expected 0 <= D0 < 1, got {}", st.damping_ratio),
+            ));
         }
         if !["craig-bampton", "none"].contains(&st.reduction.as_str()) {
-            return Err(bad("structure.reduction", format!("expected 'craig-bampton' or 'none', got '{}'", st.reduction)));
+            return Err(bad(
+                "structure.reduction",
+                format!("expected 'craig-bampton' or 'none', got '{}'", st.reduction),
+            ));
         }
         if st.reduction == "craig-bampton" && st.cb_modes == 0 {
-            return Err(bad("structure.cb_modes", "expected at least 1 fixed-interface mode"));
+            return Err(bad(
+                "structure.cb_modes",
+                "expected at least 1 fixed-interface mode",
+            ));
         }
         if self.exciter.is_empty() {
             return Err(bad("exciter", "expected at least one [[exciter]] table"));
@@ -323,68 +384,127 @@ impl Scenario {
             positive(&k("resistance_ohm"), ex.resistance_ohm)?;
             positive(&k("force_constant_n_per_a"), ex.force_constant_n_per_a)?;
             positive(&k("armature_mass_kg"), ex.armature_mass_kg)?;
-            positive(&k("armature_stiffness_n_per_m"), ex.armature_stiffness_n_per_m)?;
+            positive(
+                &k("armature_stiffness_n_per_m"),
+                ex.armature_stiffness_n_per_m,
+            )?;
             match (ex.armature_damping_ratio, ex.armature_damping_n_s_per_m) {
-                (Some(_), Some(_)) => {
-                    return Err(bad(&k("armature_damping_ratio"), "give either armature_damping_ratio or armature_damping_n_s_per_m, not both"))
-                }
+                (Some(_), Some(_)) => return Err(bad(
+                    &k("armature_damping_ratio"),
+                    "give either armature_damping_ratio or armature_damping_n_s_per_m, not both",
+                )),
                 (Some(d), None) => positive(&k("armature_damping_ratio"), d)?,
                 (None, Some(d)) if !(d.is_finite() && d >= 0.0) => {
-                    return Err(bad(&k("armature_damping_n_s_per_m"), format!("expected a finite number >= 0, got {d}")))
+                    return Err(bad(
+                        &k("armature_damping_n_s_per_m"),
+                        format!("expected a finite number >= 0, got {d}"),
+                    ))
                 }
                 _ => {}
             }
             if !["elastic", "rigid"].contains(&ex.stinger.as_str()) {
-                return Err(bad(&k("stinger"), format!("expected 'elastic' or 'rigid', got '{}'", ex.stinger)));
+                return Err(bad(
+                    &k("stinger"),
+                    format!("expected 'elastic' or 'rigid', got '{}'", ex.stinger),
+                ));
             }
-            positive(&k("stinger_stiffness_n_per_m"), ex.stinger_stiffness_n_per_m)?;
+            positive(
+                &k("stinger_stiffness_n_per_m"),
+                ex.stinger_stiffness_n_per_m,
+            )?;
             if self.exciter[..i].iter().any(|o| o.name == ex.name) {
-                return Err(bad(&k("name"), format!("exciter names must be unique, '{}' repeats", ex.name)));
+                return Err(bad(
+                    &k("name"),
+                    format!("exciter names must be unique, '{}' repeats", ex.name),
+                ));
             }
         }
         let e = &self.excitation;
         if !(e.voltage_v.is_finite() && e.voltage_v >= 0.0) {
-            return Err(bad("excitation.voltage_v", format!("expected a finite voltage >= 0, got {}", e.voltage_v)));
+            return Err(bad(
+                "excitation.voltage_v",
+                format!("expected a finite voltage >= 0, got {}", e.voltage_v),
+            ));
         }
         positive("excitation.eta_start", e.eta_start)?;
         positive("excitation.eta_end", e.eta_end)?;
         if e.eta_start == e.eta_end {
-            return Err(bad("excitation.eta_end", format!("expected eta_end != eta_start (both {})", e.eta_start)));
+            return Err(bad(
+                "excitation.eta_end",
+                format!("expected eta_end != eta_start (both {})", e.eta_start),
+            ));
         }
-        positive("excitation.rate_per_pseudo_period", e.rate_per_pseudo_period)?;
+        positive(
+            "excitation.rate_per_pseudo_period",
+            e.rate_per_pseudo_period,
+        )?;
         if !(1..=64).contains(&self.nma.harmonics) {
-            return Err(bad("nma.harmonics", format!("expected 1 <= H <= 64, got {}", self.nma.harmonics)));
+            return Err(bad(
+                "nma.harmonics",
+                format!("expected 1 <= H <= 64, got {}", self.nma.harmonics),
+            ));
         }
         positive("nma.max_tip_amplitude_m", self.nma.max_tip_amplitude_m)?;
         if self.run.methods.is_empty() {
-            return Err(bad("run.methods", format!("expected a non-empty list from {METHODS:?}")));
+            return Err(bad(
+                "run.methods",
+                format!("expected a non-empty list from {METHODS:?}"),
+            ));
         }
         for (i, m) in self.run.methods.iter().enumerate() {
             if !METHODS.contains(&m.as_str()) {
-                return Err(bad(&format!("run.methods[{i}]"), format!("unknown method '{m}', expected one of {METHODS:?}")));
+                return Err(bad(
+                    &format!("run.methods[{i}]"),
+                    format!("unknown method '{m}', expected one of {METHODS:?}"),
+                ));
             }
         }
         if self.run.frf_points < 2 {
-            return Err(bad("run.frf_points", format!("expected at least 2, got {}", self.run.frf_points)));
+            return Err(bad(
+                "run.frf_points",
+                format!("expected at least 2, got {}", self.run.frf_points),
+            ));
         }
-        if !self.imposed_force.frequency_error.is_finite() || self.imposed_force.frequency_error <= -1.0 {
-            return Err(bad("imposed_force.frequency_error", "expected a finite number > -1"));
+        if !self.imposed_force.frequency_error.is_finite()
+            || self.imposed_force.frequency_error <= -1.0
+        {
+            return Err(bad(
+                "imposed_force.frequency_error",
+                "expected a finite number > -1",
+            ));
         }
         for (k, v) in [
-            ("imposed_force.frequency_offset_rad_s", self.imposed_force.frequency_offset_rad_s),
-            ("imposed_force.frequency_offset_omega0", self.imposed_force.frequency_offset_omega0),
+            (
+                "imposed_force.frequency_offset_rad_s",
+                self.imposed_force.frequency_offset_rad_s,
+            ),
+            (
+                "imposed_force.frequency_offset_omega0",
+                self.imposed_force.frequency_offset_omega0,
+            ),
         ] {
             if !v.is_finite() {
                 return Err(bad(k, format!("expected a finite number, got {v}")));
             }
         }
         positive("reference.rtol", self.reference.rtol)?;
-        if !(self.reference.output_interval_s.is_finite() && self.reference.output_interval_s >= 0.0) {
-            return Err(bad("reference.output_interval_s", "expected a finite number >= 0"));
+        if !(self.reference.output_interval_s.is_finite()
+            && self.reference.output_interval_s >= 0.0)
+        {
+            return Err(bad(
+                "reference.output_interval_s",
+                "expected a finite number >= 0",
+            ));
         }
         positive("cosim.macro_step_s", self.cosim.macro_step_s)?;
         if !["jacobi", "gauss-seidel", "iterative"].contains(&self.cosim.algorithm.as_str()) {
-            return Err(bad("cosim.algorithm", format!("expected jacobi, gauss-seidel or iterative, got '{}'", self.cosim.algorithm)));
+            return Err(bad(
+                "cosim.algorithm",
+                format!(
+                    "expected jacobi, gauss-seidel or iterative, got '{}'",
+                    self.cosim.algorithm
+                ),
+            ));
         }
         Ok(())
     }
@@ -403,7 +523,10 @@ impl Scenario {
             })?,
         };
         if !(x.is_finite() && x > 0.0 && x <= l * (1.0 + 1e-12)) {
-            return Err(bad(&key, format!("location {x} m lies outside the beam (0, {l}] m")));
+            return Err(bad(
+                &key,
+                format!("location {x} m lies outside the beam (0, {l}] m"),
+            ));
         }
         Ok(x.min(l))
     }
@@ -421,7 +544,11 @@ fn parse_fraction(v: &toml::Value) -> Option<f64> {
                 None => (s.clone(), 1.0),
             };
             let num = num.strip_suffix('l').or_else(|| num.strip_suffix('L'))?;
-            let k = if num.is_empty() { 1.0 } else { num.parse::<f64>().ok()? };
+            let k = if num.is_empty() {
+                1.0
+            } else {
+                num.parse::<f64>().ok()?
+            };
             if den == 0.0 {
                 return None;
             }
@@ -461,9 +588,15 @@ mod tests {
         let e = Scenario::parse("[structure]\nlenght_m = 1.0\n").unwrap_err();
         assert!(e.contains("lenght_m"), "{e}");
         let e = Scenario::parse("[structure]\nlength_m = -1.0\n").unwrap_err();
-        assert!(e.contains("structure.length_m") && e.contains("positive"), "{e}");
+        assert!(
+            e.contains("structure.length_m") && e.contains("positive"),
+            "{e}"
+        );
         let e = Scenario::parse("[[exciter]]\nlocation = \"4l/3\"\n").unwrap_err();
-        assert!(e.contains("exciter[0].location") && e.contains("outside"), "{e}");
+        assert!(
+            e.contains("exciter[0].location") && e.contains("outside"),
+            "{e}"
+        );
         let e = Scenario::parse("[excitation]\neta_start = 1.0\neta_end = 1.0\n").unwrap_err();
         assert!(e.contains("excitation.eta_end"), "{e}");
         let e = Scenario::parse("[excitation]\nrate_per_pseudo_period = 0.0\n").unwrap_err();

@@ -24,20 +24,41 @@ fn default_run_writes_the_output_contract() {
     let out = tmpdir("default");
     let o = host().args(["run", "-o"]).arg(&out).output().unwrap();
     let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success(), "stdout: {stdout}\nstderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "stdout: {stdout}\nstderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     assert!(stdout.contains("omega0 = 356.2"), "{stdout}");
     assert!(stdout.contains("times faster than reference"), "{stdout}");
     let s = read_json(&out.join("summary.json"));
     let w0 = s["omega0_rad_s"].as_f64().unwrap();
     assert!((w0 - 356.2).abs() / 356.2 < 1e-3, "{w0}");
-    for m in ["reference", "nlmode", "linear-slowflow", "linear-steady", "linear-frf", "closed-form", "cosim"] {
+    for m in [
+        "reference",
+        "nlmode",
+        "linear-slowflow",
+        "linear-steady",
+        "linear-frf",
+        "closed-form",
+        "cosim",
+    ] {
         let ms = &s["methods"][m];
-        for key in ["wall_time_s", "peak_tip_amplitude_m", "peak_omega_rad_s", "min_force_amplitude_N", "max_force_amplitude_N"] {
+        for key in [
+            "wall_time_s",
+            "peak_tip_amplitude_m",
+            "peak_omega_rad_s",
+            "min_force_amplitude_N",
+            "max_force_amplitude_N",
+        ] {
             assert!(ms[key].as_f64().is_some(), "{m}.{key} missing: {ms}");
         }
         let csv = std::fs::read_to_string(out.join(format!("{m}_envelope.csv"))).unwrap();
         let header = csv.lines().next().unwrap();
-        assert!(header.starts_with("omega_rad_s,force_amplitude_N,tip_amplitude_m"), "{m}: {header}");
+        assert!(
+            header.starts_with("omega_rad_s,force_amplitude_N,tip_amplitude_m"),
+            "{m}: {header}"
+        );
         assert!(csv.lines().count() > 100, "{m}: too few rows");
     }
     for m in ["linear-frf", "linear-steady"] {
@@ -45,19 +66,50 @@ fn default_run_writes_the_output_contract() {
         assert!((d - 0.97).abs() < 0.01, "{m} force drop {d}");
     }
     // case (a): the paper's single-nonlinear-mode model follows the reference
-    let pr = s["methods"]["reference"]["peak_tip_amplitude_m"].as_f64().unwrap();
-    let pn = s["methods"]["nlmode"]["peak_tip_amplitude_m"].as_f64().unwrap();
-    assert!((pn - pr).abs() / pr < 0.02, "peak tip nlmode {pn} vs reference {pr}");
-    let jr = s["methods"]["reference"]["jump_down_omega_rad_s"].as_f64().unwrap();
-    let jn = s["methods"]["nlmode"]["jump_down_omega_rad_s"].as_f64().unwrap();
-    assert!((jn - jr).abs() / jr < 0.01, "jump-down nlmode {jn} vs reference {jr}");
-    assert!(jr > 1.3 * w0, "hardening: the jump-down lies far above omega0 ({jr})");
+    let pr = s["methods"]["reference"]["peak_tip_amplitude_m"]
+        .as_f64()
+        .unwrap();
+    let pn = s["methods"]["nlmode"]["peak_tip_amplitude_m"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (pn - pr).abs() / pr < 0.02,
+        "peak tip nlmode {pn} vs reference {pr}"
+    );
+    let jr = s["methods"]["reference"]["jump_down_omega_rad_s"]
+        .as_f64()
+        .unwrap();
+    let jn = s["methods"]["nlmode"]["jump_down_omega_rad_s"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (jn - jr).abs() / jr < 0.01,
+        "jump-down nlmode {jn} vs reference {jr}"
+    );
+    assert!(
+        jr > 1.3 * w0,
+        "hardening: the jump-down lies far above omega0 ({jr})"
+    );
     // the co-simulated FMUs follow the reference too (issue: 3 % peak, 1 % jump-down)
-    let pc = s["methods"]["cosim"]["peak_tip_amplitude_m"].as_f64().unwrap();
-    let jc = s["methods"]["cosim"]["jump_down_omega_rad_s"].as_f64().unwrap();
-    assert!((pc - pr).abs() / pr < 0.03, "peak tip cosim {pc} vs reference {pr}");
-    assert!((jc - jr).abs() / jr < 0.01, "jump-down cosim {jc} vs reference {jr}");
-    for f in ["fmus/structure.fmu", "fmus/shaker.fmu", "cosim_timeseries.csv"] {
+    let pc = s["methods"]["cosim"]["peak_tip_amplitude_m"]
+        .as_f64()
+        .unwrap();
+    let jc = s["methods"]["cosim"]["jump_down_omega_rad_s"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (pc - pr).abs() / pr < 0.03,
+        "peak tip cosim {pc} vs reference {pr}"
+    );
+    assert!(
+        (jc - jr).abs() / jr < 0.01,
+        "jump-down cosim {jc} vs reference {jr}"
+    );
+    for f in [
+        "fmus/structure.fmu",
+        "fmus/shaker.fmu",
+        "cosim_timeseries.csv",
+    ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     assert!(out.join("reference_timeseries.csv").is_file());
@@ -87,16 +139,60 @@ fn expect_failure(args: &[&str], toml: Option<&str>, needles: &[&str]) {
 
 #[test]
 fn bad_scenarios_give_a_clear_message_and_exit_2() {
-    expect_failure(&["run"], Some("[structure]\nlenght_m = 0.5\n"), &["bad.toml", "lenght_m"]);
-    expect_failure(&["run"], Some("[structure]\nlength_m = -0.5\n"), &["structure.length_m", "positive"]);
-    expect_failure(&["run"], Some("[[exciter]]\nlocation = \"7l/3\"\n"), &["exciter[0].location", "outside"]);
-    expect_failure(&["run"], Some("[[exciter]]\nlocation_m = 0.2\n"), &["between node"]);
-    expect_failure(&["run"], Some("[excitation]\nrate_per_pseudo_period = 0\n"), &["rate_per_pseudo_period"]);
-    expect_failure(&["run"], Some("[excitation]\neta_start = 1.2\neta_end = 1.2\n"), &["excitation.eta_end"]);
-    expect_failure(&["run"], Some("[[exciter]]\nlocation = \"2l/3\"\nresistance_ohm = 0\n"), &["resistance_ohm"]);
+    expect_failure(
+        &["run"],
+        Some("[structure]\nlenght_m = 0.5\n"),
+        &["bad.toml", "lenght_m"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[structure]\nlength_m = -0.5\n"),
+        &["structure.length_m", "positive"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[[exciter]]\nlocation = \"7l/3\"\n"),
+        &["exciter[0].location", "outside"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[[exciter]]\nlocation_m = 0.2\n"),
+        &["between node"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[excitation]\nrate_per_pseudo_period = 0\n"),
+        &["rate_per_pseudo_period"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[excitation]\neta_start = 1.2\neta_end = 1.2\n"),
+        &["excitation.eta_end"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[[exciter]]\nlocation = \"2l/3\"\nresistance_ohm = 0\n"),
+        &["resistance_ohm"],
+    );
     expect_failure(&["run"], Some("[run]\nmethods = [\"magic\"]\n"), &["magic"]);
-    expect_failure(&["run", "/nonexistent/scenario.toml"], None, &["/nonexistent/scenario.toml"]);
-    expect_failure(&["cosim"], Some("[units]\na = \"/nonexistent.fmu\"\n"), &["/nonexistent.fmu"]);
-    expect_failure(&["cosim"], Some("[master]\nalgorithm = \"magic\"\n[units]\na = \"a.fmu\"\n"), &["master.algorithm"]);
-    expect_failure(&["cosim"], Some("[master]\nmacro_step_s = -1.0\n[units]\na = \"a.fmu\"\n"), &["macro_step_s"]);
+    expect_failure(
+        &["run", "/nonexistent/scenario.toml"],
+        None,
+        &["/nonexistent/scenario.toml"],
+    );
+    expect_failure(
+        &["cosim"],
+        Some("[units]\na = \"/nonexistent.fmu\"\n"),
+        &["/nonexistent.fmu"],
+    );
+    expect_failure(
+        &["cosim"],
+        Some("[master]\nalgorithm = \"magic\"\n[units]\na = \"a.fmu\"\n"),
+        &["master.algorithm"],
+    );
+    expect_failure(
+        &["cosim"],
+        Some("[master]\nmacro_step_s = -1.0\n[units]\na = \"a.fmu\"\n"),
+        &["macro_step_s"],
+    );
 }

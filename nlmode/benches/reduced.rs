@@ -10,9 +10,11 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use nlmode::attachment::{LinearAttachment, ShakerParams};
 use nlmode::excitation::LinearSweep;
-use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy};
-use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
+use nlmode::nma::{
+    nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy,
+};
 use nlmode::reduced::{ReducedModel, SlowFlowOptions};
+use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
 use nlmode::Complex64;
 use std::hint::black_box;
 use std::time::Duration;
@@ -20,13 +22,22 @@ use std::time::Duration;
 fn paper_table(ps: &PaperStructure) -> nlmode::nma::ModalTable {
     let opts = NmaOptions {
         harmonics: 3,
-        amplitude: AmplitudeRange::Modal { log10_start: -6.0, log10_end: -2.0 },
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -6.0,
+            log10_end: -2.0,
+        },
         points: vec!["tip".into(), "2l3".into(), "l3".into()],
         store_coordinates: false,
-        continuation: ContinuationOptions { ds: 0.02, dsmax: Some(0.05), ..Default::default() },
+        continuation: ContinuationOptions {
+            ds: 0.02,
+            dsmax: Some(0.05),
+            ..Default::default()
+        },
         ..Default::default()
     };
-    nonlinear_modal_analysis(&ps.model, &opts).unwrap().to_table(TablePolicy::PrimaryBranch)
+    nonlinear_modal_analysis(&ps.model, &opts)
+        .unwrap()
+        .to_table(TablePolicy::PrimaryBranch)
 }
 
 fn model(table: &nlmode::nma::ModalTable) -> ReducedModel {
@@ -61,7 +72,10 @@ fn timing(m: &ReducedModel, sweep: &LinearSweep, omegas: &[f64], ps: &PaperStruc
     let sw = cpu_per_call(2000, || {
         black_box(m.simulate_sweep(sweep, &opts).unwrap());
     });
-    let coarse = SlowFlowOptions { output_samples: 201, ..Default::default() };
+    let coarse = SlowFlowOptions {
+        output_samples: 201,
+        ..Default::default()
+    };
     let sw_coarse = cpu_per_call(2000, || {
         black_box(m.simulate_sweep(sweep, &coarse).unwrap());
     });
@@ -71,8 +85,13 @@ fn timing(m: &ReducedModel, sweep: &LinearSweep, omegas: &[f64], ps: &PaperStruc
     let atts = [LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap()];
     let rf = cpu_per_call(20, || {
         black_box(
-            nlmode::reference::simulate_sweep(&ps.model, &atts, sweep, &nlmode::reference::ReferenceOptions::default())
-                .unwrap(),
+            nlmode::reference::simulate_sweep(
+                &ps.model,
+                &atts,
+                sweep,
+                &nlmode::reference::ReferenceOptions::default(),
+            )
+            .unwrap(),
         );
     });
     eprintln!(
@@ -104,9 +123,15 @@ fn bench(c: &mut Criterion) {
         "case (a) sweep: {:?}, {} accepted / {} rejected steps, {} rhs evaluations, {} channel nodes",
         r.status, r.stats.accepted_steps, r.stats.rejected_steps, r.stats.rhs_evaluations, r.channel_nodes
     );
-    c.bench_function("nlmode_sweep_case_a", |b| b.iter(|| m.simulate_sweep(black_box(&sweep), &opts).unwrap()));
-    c.bench_function("steady_state_frf_500", |b| b.iter(|| m.steady_state(black_box(&omegas), 10.0).unwrap()));
-    c.bench_function("linear_steady_500", |b| b.iter(|| m.linear_steady(black_box(&omegas), 10.0).unwrap()));
+    c.bench_function("nlmode_sweep_case_a", |b| {
+        b.iter(|| m.simulate_sweep(black_box(&sweep), &opts).unwrap())
+    });
+    c.bench_function("steady_state_frf_500", |b| {
+        b.iter(|| m.steady_state(black_box(&omegas), 10.0).unwrap())
+    });
+    c.bench_function("linear_steady_500", |b| {
+        b.iter(|| m.linear_steady(black_box(&omegas), 10.0).unwrap())
+    });
 }
 
 criterion_group! {

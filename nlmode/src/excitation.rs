@@ -54,7 +54,12 @@ impl LinearSweep {
         if !(rate_rad_s2.is_finite() && rate_rad_s2 != 0.0) {
             return Err(SweepError::BadRate(rate_rad_s2));
         }
-        Ok(Self { omega_start_rad_s, omega_end_rad_s, rate_rad_s2: rate_rad_s2.abs(), amplitude })
+        Ok(Self {
+            omega_start_rad_s,
+            omega_end_rad_s,
+            rate_rad_s2: rate_rad_s2.abs(),
+            amplitude,
+        })
     }
 
     /// The paper's definition: from `eta_start omega0` to `eta_end omega0` with a
@@ -71,7 +76,12 @@ impl LinearSweep {
             return Err(SweepError::BadOmega0(omega0_rad_s));
         }
         let rate = r * omega0_rad_s * omega0_rad_s / (2.0 * std::f64::consts::PI);
-        Self::new(eta_start * omega0_rad_s, eta_end * omega0_rad_s, rate, amplitude)
+        Self::new(
+            eta_start * omega0_rad_s,
+            eta_end * omega0_rad_s,
+            rate,
+            amplitude,
+        )
     }
 
     /// `+1` for a forward (up) sweep, `-1` for a backward one.
@@ -150,10 +160,22 @@ mod tests {
 
     #[test]
     fn bad_inputs_are_rejected() {
-        assert_eq!(LinearSweep::new(-1.0, 2.0, 1.0, 1.0), Err(SweepError::BadStart(-1.0)));
-        assert_eq!(LinearSweep::new(1.0, 0.0, 1.0, 1.0), Err(SweepError::BadEnd(0.0)));
-        assert_eq!(LinearSweep::new(1.0, 1.0, 1.0, 1.0), Err(SweepError::EmptyRange(1.0)));
-        assert_eq!(LinearSweep::new(1.0, 2.0, 0.0, 1.0), Err(SweepError::BadRate(0.0)));
+        assert_eq!(
+            LinearSweep::new(-1.0, 2.0, 1.0, 1.0),
+            Err(SweepError::BadStart(-1.0))
+        );
+        assert_eq!(
+            LinearSweep::new(1.0, 0.0, 1.0, 1.0),
+            Err(SweepError::BadEnd(0.0))
+        );
+        assert_eq!(
+            LinearSweep::new(1.0, 1.0, 1.0, 1.0),
+            Err(SweepError::EmptyRange(1.0))
+        );
+        assert_eq!(
+            LinearSweep::new(1.0, 2.0, 0.0, 1.0),
+            Err(SweepError::BadRate(0.0))
+        );
         assert!(LinearSweep::new(1.0, 2.0, f64::NAN, 1.0).is_err());
     }
 }

@@ -74,11 +74,22 @@ impl FohStep {
         // the third block column multiplies (u1 - u0): it is Gamma1 / h
         let gamma1_over_h = e.view((0, n + m), (n, m)).into_owned();
         let p = &gamma0 - &gamma1_over_h;
-        Ok(Self { h, phi, p, q: gamma1_over_h })
+        Ok(Self {
+            h,
+            phi,
+            p,
+            q: gamma1_over_h,
+        })
     }
 
     /// `out = phi x0 + p u0 + q u1` (no allocation).
-    pub fn step_into(&self, x0: &DVector<f64>, u0: &DVector<f64>, u1: &DVector<f64>, out: &mut DVector<f64>) {
+    pub fn step_into(
+        &self,
+        x0: &DVector<f64>,
+        u0: &DVector<f64>,
+        u1: &DVector<f64>,
+        out: &mut DVector<f64>,
+    ) {
         out.gemv(1.0, &self.phi, x0, 0.0);
         out.gemv(1.0, &self.p, u0, 1.0);
         out.gemv(1.0, &self.q, u1, 1.0);
@@ -108,7 +119,11 @@ impl LtiFoh {
     pub fn new(a: DMatrix<f64>, b: DMatrix<f64>) -> Self {
         assert_eq!(a.nrows(), a.ncols(), "A must be square");
         assert_eq!(a.nrows(), b.nrows(), "B must have as many rows as A");
-        Self { a, b, cache: Vec::with_capacity(CACHE_SIZE) }
+        Self {
+            a,
+            b,
+            cache: Vec::with_capacity(CACHE_SIZE),
+        }
     }
 
     /// The discretization for step `h` (computed once, then cached; the most
@@ -129,7 +144,13 @@ impl LtiFoh {
     }
 
     /// Advance `x` by `h` with inputs going linearly from `u0` to `u1`.
-    pub fn step(&mut self, x: &mut DVector<f64>, u0: &DVector<f64>, u1: &DVector<f64>, h: f64) -> Result<(), LtiError> {
+    pub fn step(
+        &mut self,
+        x: &mut DVector<f64>,
+        u0: &DVector<f64>,
+        u1: &DVector<f64>,
+        h: f64,
+    ) -> Result<(), LtiError> {
         let d = self.discretization(h)?;
         let x1 = d.step(x, u0, u1);
         x.copy_from(&x1);
@@ -161,7 +182,10 @@ mod tests {
             let exact = u0 + w * h + (x0 - u0) * (-h / tau).exp() + w * tau * (-h / tau).exp_m1();
             let s = FohStep::new(&a, &b, h).unwrap();
             let x = s.step(&dvector![x0], &dvector![u0], &dvector![u1])[0];
-            assert!((x - exact).abs() < 1e-12 * (1.0 + exact.abs()), "h={h}: {x} vs {exact}");
+            assert!(
+                (x - exact).abs() < 1e-12 * (1.0 + exact.abs()),
+                "h={h}: {x} vs {exact}"
+            );
         }
     }
 
@@ -192,8 +216,16 @@ mod tests {
                 let (xe, ve) = oscillator_exact(w, z, x0, v0, u0, r, h);
                 let xs = 1e-6_f64.max(xe.abs());
                 let vs = (w * 1e-6).max(ve.abs());
-                assert!((x[0] - xe).abs() < 1e-9 * xs, "w={w} h={h}: x {} vs {xe}", x[0]);
-                assert!((x[1] - ve).abs() < 1e-9 * vs, "w={w} h={h}: v {} vs {ve}", x[1]);
+                assert!(
+                    (x[0] - xe).abs() < 1e-9 * xs,
+                    "w={w} h={h}: x {} vs {xe}",
+                    x[0]
+                );
+                assert!(
+                    (x[1] - ve).abs() < 1e-9 * vs,
+                    "w={w} h={h}: v {} vs {ve}",
+                    x[1]
+                );
             }
         }
     }
@@ -213,9 +245,15 @@ mod tests {
             sys.step(&mut x, &u(t), &u(t + h), h).unwrap();
         }
         let mut y = x_start;
-        sys.step(&mut y, &u(0.0), &u(1000.0 * h), 1000.0 * h).unwrap();
+        sys.step(&mut y, &u(0.0), &u(1000.0 * h), 1000.0 * h)
+            .unwrap();
         for i in 0..3 {
-            assert!((x[i] - y[i]).abs() < 1e-9 * y[i].abs().max(1e-9), "{i}: {} vs {}", x[i], y[i]);
+            assert!(
+                (x[i] - y[i]).abs() < 1e-9 * y[i].abs().max(1e-9),
+                "{i}: {} vs {}",
+                x[i],
+                y[i]
+            );
         }
         assert_eq!(sys.cached(), 2);
     }
@@ -228,7 +266,10 @@ mod tests {
         }
         assert_eq!(sys.cached(), 4);
         assert_eq!(sys.discretization(-1.0), Err(LtiError::BadStep { h: -1.0 }));
-        assert_eq!(sys.discretization(f64::NAN).unwrap_err().to_string(), "step size must be positive and finite, got NaN s");
+        assert_eq!(
+            sys.discretization(f64::NAN).unwrap_err().to_string(),
+            "step size must be positive and finite, got NaN s"
+        );
         let mut bad = LtiFoh::new(dmatrix![f64::NAN], dmatrix![1.0]);
         assert_eq!(bad.discretization(1.0), Err(LtiError::NonFiniteSystem));
     }

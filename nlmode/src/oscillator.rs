@@ -151,12 +151,24 @@ pub struct InputPolynomial {
 impl InputPolynomial {
     /// Constant force (zero-order hold).
     pub fn constant(c0: f64) -> Self {
-        Self { c0, c1: 0.0, c2: 0.0 }
+        Self {
+            c0,
+            c1: 0.0,
+            c2: 0.0,
+        }
     }
     /// Linear interpolation from `c_start` at `t0` to `c_end` at `t0 + dt`.
     pub fn linear(c_start: f64, c_end: f64, dt_s: f64) -> Self {
-        let c1 = if dt_s > 0.0 { (c_end - c_start) / dt_s } else { 0.0 };
-        Self { c0: c_start, c1, c2: 0.0 }
+        let c1 = if dt_s > 0.0 {
+            (c_end - c_start) / dt_s
+        } else {
+            0.0
+        };
+        Self {
+            c0: c_start,
+            c1,
+            c2: 0.0,
+        }
     }
     #[inline]
     fn at(&self, s: f64) -> f64 {
@@ -207,7 +219,11 @@ pub struct ModalOscillator {
 impl ModalOscillator {
     /// Oscillator for `table`, driven at the named point, with modal frequency
     /// `(1 + frequency_error) omega(a)` (the paper's frequency-error study), at rest at `t = 0`.
-    pub fn new(table: &ModalTable, drive_point: &str, frequency_error: f64) -> Result<Self, OscillatorError> {
+    pub fn new(
+        table: &ModalTable,
+        drive_point: &str,
+        frequency_error: f64,
+    ) -> Result<Self, OscillatorError> {
         let interp = table.interpolator()?;
         let drive = interp.point_index(drive_point)?;
         let factor = 1.0 + frequency_error;
@@ -261,7 +277,11 @@ impl ModalOscillator {
         }
         let a = state.amplitude();
         if a > self.a_max {
-            return Err(OscillatorError::AboveRange { a, max: self.a_max, time_s: state.time_s });
+            return Err(OscillatorError::AboveRange {
+                a,
+                max: self.a_max,
+                time_s: state.time_s,
+            });
         }
         self.state = state;
         Ok(())
@@ -280,7 +300,11 @@ impl ModalOscillator {
     #[inline]
     fn properties_at(&self, loc: &TableLocation) -> (f64, f64, Complex64) {
         let (w, d) = self.interp.values_at(loc);
-        (self.frequency_factor * w, d, self.interp.shape_at(self.drive, 1, loc))
+        (
+            self.frequency_factor * w,
+            d,
+            self.interp.shape_at(self.drive, 1, loc),
+        )
     }
 
     /// `(1 + eps) omega(a)`, `D(a)`, `|phi_ex(a)|` with range errors stamped with `time_s`
@@ -319,17 +343,27 @@ impl ModalOscillator {
             let c_mid = input.at(s + 0.5 * h);
             let c_end = input.at(s + h);
             let (k1e, k1u) = self.rhs(eta, u, c_start, t)?;
-            let (k2e, k2u) = self.rhs(eta + 0.5 * h * k1e, u + 0.5 * h * k1u, c_mid, t + 0.5 * h)?;
-            let (k3e, k3u) = self.rhs(eta + 0.5 * h * k2e, u + 0.5 * h * k2u, c_mid, t + 0.5 * h)?;
+            let (k2e, k2u) =
+                self.rhs(eta + 0.5 * h * k1e, u + 0.5 * h * k1u, c_mid, t + 0.5 * h)?;
+            let (k3e, k3u) =
+                self.rhs(eta + 0.5 * h * k2e, u + 0.5 * h * k2u, c_mid, t + 0.5 * h)?;
             let (k4e, k4u) = self.rhs(eta + h * k3e, u + h * k3u, c_end, t + h)?;
             eta += h / 6.0 * (k1e + 2.0 * k2e + 2.0 * k3e + k4e);
             u += h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u);
         }
         let a = eta.hypot(u);
         if a > self.a_max {
-            return Err(OscillatorError::AboveRange { a, max: self.a_max, time_s: t0 + dt_s });
+            return Err(OscillatorError::AboveRange {
+                a,
+                max: self.a_max,
+                time_s: t0 + dt_s,
+            });
         }
-        self.state = OscillatorState { time_s: t0 + dt_s, eta, u };
+        self.state = OscillatorState {
+            time_s: t0 + dt_s,
+            eta,
+            u,
+        };
         Ok(())
     }
 
@@ -337,20 +371,32 @@ impl ModalOscillator {
     pub fn modal(&self) -> Result<ModalSnapshot, OscillatorError> {
         let a = self.state.amplitude();
         let (w, d, _) = self.properties(a, self.state.time_s)?;
-        Ok(ModalSnapshot { amplitude: a, omega_rad_s: w, damping_ratio: d, eta_dot: w * self.state.u })
+        Ok(ModalSnapshot {
+            amplitude: a,
+            omega_rad_s: w,
+            damping_ratio: d,
+            eta_dot: w * self.state.u,
+        })
     }
 
     /// Displacement and velocity of point `point` synthesized with all harmonics
     /// of the table (`eq:ansatz`, see the module docs).
     pub fn point_response(&self, point: usize) -> Result<PointResponse, OscillatorError> {
-        let mut out = [PointResponse { x_m: 0.0, v_m_s: 0.0 }];
+        let mut out = [PointResponse {
+            x_m: 0.0,
+            v_m_s: 0.0,
+        }];
         self.synthesize(&self.state, &[point], &mut out)?;
         Ok(out[0])
     }
 
     /// Modal quantities and the responses of several points at once (one table
     /// look-up for all of them; the FMU's output path).
-    pub fn outputs(&self, points: &[usize], out: &mut [PointResponse]) -> Result<ModalSnapshot, OscillatorError> {
+    pub fn outputs(
+        &self,
+        points: &[usize],
+        out: &mut [PointResponse],
+    ) -> Result<ModalSnapshot, OscillatorError> {
         self.synthesize(&self.state, points, out)
     }
 
@@ -365,9 +411,17 @@ impl ModalOscillator {
         let a = z.norm();
         let loc = self.locate(a, s.time_s)?;
         let (w_rad_s, d, g) = self.properties_at(&loc);
-        let g = if g.norm() > 0.0 { g / g.norm() } else { Complex64::new(1.0, 0.0) };
+        let g = if g.norm() > 0.0 {
+            g / g.norm()
+        } else {
+            Complex64::new(1.0, 0.0)
+        };
         // w = e^{i psi} / g: unit phasor of the original gauge of the table
-        let unit = if a > 0.0 { z / (a * g) } else { Complex64::new(1.0, 0.0) };
+        let unit = if a > 0.0 {
+            z / (a * g)
+        } else {
+            Complex64::new(1.0, 0.0)
+        };
         let nh = self.interp.harmonics() + 1;
         // harmonics on the stack up to H = 31 (the paper uses H <= 13)
         let mut stack = [Complex64::new(0.0, 0.0); 32];
@@ -392,7 +446,12 @@ impl ModalOscillator {
             }
             *o = PointResponse { x_m: x, v_m_s: v };
         }
-        Ok(ModalSnapshot { amplitude: a, omega_rad_s: w_rad_s, damping_ratio: d, eta_dot: w_rad_s * s.u })
+        Ok(ModalSnapshot {
+            amplitude: a,
+            omega_rad_s: w_rad_s,
+            damping_ratio: d,
+            eta_dot: w_rad_s * s.u,
+        })
     }
 
     /// Rates `(eta', u')` of the state under the force `c_n` [N].
@@ -404,8 +463,15 @@ impl ModalOscillator {
     /// oscillator's flow under the force `c_n` [N] (for extrapolating masters).
     /// Central difference along the flow with the time increment
     /// `1e-5 / omega(a)`: truncation error ~1e-10 relative, round-off ~1e-11.
-    pub fn point_response_rate(&self, point: usize, c_n: f64) -> Result<PointResponse, OscillatorError> {
-        let mut out = [PointResponse { x_m: 0.0, v_m_s: 0.0 }];
+    pub fn point_response_rate(
+        &self,
+        point: usize,
+        c_n: f64,
+    ) -> Result<PointResponse, OscillatorError> {
+        let mut out = [PointResponse {
+            x_m: 0.0,
+            v_m_s: 0.0,
+        }];
         self.output_rates(&[point], c_n, &mut out)?;
         Ok(out[0])
     }
@@ -432,32 +498,58 @@ impl ModalOscillator {
         let loc = self.locate(a, s.time_s)?;
         let (w, d, phi_ex) = self.properties_at(&loc);
         // the normal form's right-hand side, as `rhs`
-        let (de, du) = (w * s.u, -w * s.eta - 2.0 * d * w * s.u + phi_ex.norm() * c_n / w);
+        let (de, du) = (
+            w * s.u,
+            -w * s.eta - 2.0 * d * w * s.u + phi_ex.norm() * c_n / w,
+        );
         if !points.is_empty() {
             let eps = 1e-5 / w;
-            let plus = OscillatorState { time_s: s.time_s, eta: s.eta + eps * de, u: s.u + eps * du };
-            let minus = OscillatorState { time_s: s.time_s, eta: s.eta - eps * de, u: s.u - eps * du };
+            let plus = OscillatorState {
+                time_s: s.time_s,
+                eta: s.eta + eps * de,
+                u: s.u + eps * du,
+            };
+            let minus = OscillatorState {
+                time_s: s.time_s,
+                eta: s.eta - eps * de,
+                u: s.u - eps * du,
+            };
             // two points (drive and tip) on the stack, more on the heap
-            let mut stack = [PointResponse { x_m: 0.0, v_m_s: 0.0 }; 4];
+            let mut stack = [PointResponse {
+                x_m: 0.0,
+                v_m_s: 0.0,
+            }; 4];
             let mut heap = Vec::new();
             let both: &mut [PointResponse] = if 2 * points.len() <= stack.len() {
                 &mut stack[..2 * points.len()]
             } else {
-                heap.resize(2 * points.len(), PointResponse { x_m: 0.0, v_m_s: 0.0 });
+                heap.resize(
+                    2 * points.len(),
+                    PointResponse {
+                        x_m: 0.0,
+                        v_m_s: 0.0,
+                    },
+                );
                 &mut heap
             };
             let (p, m) = both.split_at_mut(points.len());
             self.synthesize(&plus, points, p)?;
             self.synthesize(&minus, points, m)?;
             for ((o, p), m) in out.iter_mut().zip(p.iter()).zip(m.iter()) {
-                *o = PointResponse { x_m: (p.x_m - m.x_m) / (2.0 * eps), v_m_s: (p.v_m_s - m.v_m_s) / (2.0 * eps) };
+                *o = PointResponse {
+                    x_m: (p.x_m - m.x_m) / (2.0 * eps),
+                    v_m_s: (p.v_m_s - m.v_m_s) / (2.0 * eps),
+                };
             }
         }
         if a == 0.0 {
             return Ok((0.0, 0.0));
         }
         let a_dot = (s.eta * de + s.u * du) / a;
-        Ok((a_dot, self.frequency_factor * self.interp.eval_at(&loc).domega_da * a_dot))
+        Ok((
+            a_dot,
+            self.frequency_factor * self.interp.eval_at(&loc).domega_da * a_dot,
+        ))
     }
 }
 
@@ -469,9 +561,19 @@ mod tests {
 
     /// Duffing-like table: omega(a)^2 = omega0^2 + c a^2, constant D and fundamental
     /// shape, optional third harmonic at the tip.
-    fn duffing(omega0: f64, c: f64, d: f64, phi_ex: Complex64, phi_tip: Complex64, phi3_tip: Complex64, a_max: f64) -> ModalTable {
+    fn duffing(
+        omega0: f64,
+        c: f64,
+        d: f64,
+        phi_ex: Complex64,
+        phi_tip: Complex64,
+        phi3_tip: Complex64,
+        a_max: f64,
+    ) -> ModalTable {
         let n = 120;
-        let amplitude: Vec<f64> = (0..n).map(|j| a_max * (j as f64 + 1.0) / n as f64).collect();
+        let amplitude: Vec<f64> = (0..n)
+            .map(|j| a_max * (j as f64 + 1.0) / n as f64)
+            .collect();
         let shape = |phi: Complex64, phi3: Complex64| PointShape {
             name: String::new(),
             re: vec![vec![0.0, phi.re, 0.0, phi3.re]; n],
@@ -482,12 +584,21 @@ mod tests {
             version: MODAL_TABLE_VERSION,
             description: "Duffing-like test table".into(),
             harmonics: 3,
-            omega_rad_s: amplitude.iter().map(|a| (omega0 * omega0 + c * a * a).sqrt()).collect(),
+            omega_rad_s: amplitude
+                .iter()
+                .map(|a| (omega0 * omega0 + c * a * a).sqrt())
+                .collect(),
             damping_ratio: vec![d; n],
             amplitude,
             points: vec![
-                PointShape { name: "ex".into(), ..shape(phi_ex, Complex64::new(0.0, 0.0)) },
-                PointShape { name: "tip".into(), ..shape(phi_tip, phi3_tip) },
+                PointShape {
+                    name: "ex".into(),
+                    ..shape(phi_ex, Complex64::new(0.0, 0.0))
+                },
+                PointShape {
+                    name: "tip".into(),
+                    ..shape(phi_tip, phi3_tip)
+                },
             ],
             coordinates: vec![],
             truncated_at_fold: None,
@@ -516,7 +627,10 @@ mod tests {
         let t = ModalTable::linear(
             w,
             d,
-            &[("ex", Complex64::new(phi_ex, 0.0)), ("tip", Complex64::new(phi_tip, 0.0))],
+            &[
+                ("ex", Complex64::new(phi_ex, 0.0)),
+                ("tip", Complex64::new(phi_tip, 0.0)),
+            ],
             1e-9,
             1.0,
         );
@@ -526,7 +640,9 @@ mod tests {
             let ex = osc.drive_index();
             let phi = exact_linear_step(w, d, phi_ex, dt);
             // an irregular input: two incommensurate sines and a step
-            let c = |t: f64| 3.0 * (250.0 * t).sin() + 1.5 * (901.0 * t).cos() + if t > 0.01 { 2.0 } else { 0.0 };
+            let c = |t: f64| {
+                3.0 * (250.0 * t).sin() + 1.5 * (901.0 * t).cos() + if t > 0.01 { 2.0 } else { 0.0 }
+            };
             let mut y = Vector4::new(0.0, 0.0, c(0.0), 0.0);
             let (mut ex_err, mut ev_err, mut max_x, mut max_v) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
             let steps = (0.1 / dt) as usize;
@@ -542,12 +658,19 @@ mod tests {
                 let (x, v) = (phi_ex * y[0], phi_ex * y[1]);
                 max_x = max_x.max(x.abs());
                 max_v = max_v.max(v.abs());
-                ex_err = ex_err.max((r.x_m - x).abs()).max((rt.x_m - phi_tip / phi_ex * x).abs());
-                ev_err = ev_err.max((r.v_m_s - v).abs()).max((rt.v_m_s - phi_tip / phi_ex * v).abs());
+                ex_err = ex_err
+                    .max((r.x_m - x).abs())
+                    .max((rt.x_m - phi_tip / phi_ex * x).abs());
+                ev_err = ev_err
+                    .max((r.v_m_s - v).abs())
+                    .max((rt.v_m_s - phi_tip / phi_ex * v).abs());
             }
             assert!(max_x > 1e-5, "{max_x}");
             // RK4 accuracy (module docs): < 3.2e-5 rad phase error per period, 5.7 periods here
-            assert!(ex_err < 2e-4 * max_x && ev_err < 2e-4 * max_v, "dt = {dt}: errors {ex_err} m, {ev_err} m/s of {max_x} m, {max_v} m/s");
+            assert!(
+                ex_err < 2e-4 * max_x && ev_err < 2e-4 * max_v,
+                "dt = {dt}: errors {ex_err} m, {ev_err} m/s of {max_x} m, {max_v} m/s"
+            );
             assert!((osc.state().time_s - steps as f64 * dt).abs() < 1e-12);
         }
     }
@@ -563,7 +686,12 @@ mod tests {
         let phi_tip_real = Complex64::from_polar(1.3, 0.7 + PI);
         let phi_tip_complex = Complex64::from_polar(1.3, -0.4);
         let f0 = 2.0;
-        for &(om, phi_tip) in &[(0.3 * w, phi_tip_real), (0.97 * w, phi_tip_real), (1.5 * w, phi_tip_real), (w, phi_tip_complex)] {
+        for &(om, phi_tip) in &[
+            (0.3 * w, phi_tip_real),
+            (0.97 * w, phi_tip_real),
+            (1.5 * w, phi_tip_real),
+            (w, phi_tip_complex),
+        ] {
             let t = ModalTable::linear(w, d, &[("ex", phi_ex), ("tip", phi_tip)], 1e-9, 1.0);
             let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
             let tip = osc.point_index("tip").unwrap();
@@ -611,12 +739,16 @@ mod tests {
         let res = |a: f64| {
             let m = ip.eval(a).unwrap();
             let w = m.omega_rad_s;
-            Complex64::new(w * w - omega * omega, 2.0 * m.damping_ratio * w * omega).norm() * a - phi_ex * f
+            Complex64::new(w * w - omega * omega, 2.0 * m.damping_ratio * w * omega).norm() * a
+                - phi_ex * f
         };
         let n = 20000;
         let mut roots = vec![];
         for j in 0..n {
-            let (mut lo, mut hi) = (a_max * j as f64 / n as f64, a_max * (j + 1) as f64 / n as f64);
+            let (mut lo, mut hi) = (
+                a_max * j as f64 / n as f64,
+                a_max * (j + 1) as f64 / n as f64,
+            );
             if res(lo).signum() != res(hi).signum() {
                 for _ in 0..100 {
                     let mid = 0.5 * (lo + hi);
@@ -637,11 +769,23 @@ mod tests {
         let (w0, d) = (100.0, 0.01);
         let c = 3.0e6; // omega^2 = w0^2 + c a^2
         let phi_ex = 0.9;
-        let t = duffing(w0, c, d, Complex64::new(phi_ex, 0.0), Complex64::new(1.2, 0.0), Complex64::new(0.0, 0.0), 0.1);
+        let t = duffing(
+            w0,
+            c,
+            d,
+            Complex64::new(phi_ex, 0.0),
+            Complex64::new(1.2, 0.0),
+            Complex64::new(0.0, 0.0),
+            0.1,
+        );
         let f = 16.0; // [N]: linear peak a = phi F/(2 D w0^2) = 0.072, where omega = 1.45 w0
         for &om in &[1.0 * w0, 1.02 * w0, 1.04 * w0] {
             let roots = nm_steady_roots(&t, om, phi_ex, f);
-            assert_eq!(roots.len(), 1, "Omega = {om}: steady state not unique: {roots:?}");
+            assert_eq!(
+                roots.len(),
+                1,
+                "Omega = {om}: steady state not unique: {roots:?}"
+            );
             let a_nm = roots[0];
             let a_lin = phi_ex * f / Complex64::new(w0 * w0 - om * om, 2.0 * d * w0 * om).norm();
             let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
@@ -664,11 +808,17 @@ mod tests {
             let a_td = (2.0 * eta1 / n_meas as f64).norm();
             let err = (a_td - a_nm).abs() / a_nm;
             // the nonlinearity matters here: the linear answer is far off
-            assert!((a_lin - a_nm).abs() / a_nm > 0.15, "Omega = {om}: a_lin {a_lin} ~ a_nm {a_nm}");
+            assert!(
+                (a_lin - a_nm).abs() / a_nm > 0.15,
+                "Omega = {om}: a_lin {a_lin} ~ a_nm {a_nm}"
+            );
             // measured 1.0-1.2 %: the time-domain unit evaluates omega(|z|) on the ellipse
             // |z| in [A Omega/omega, A] when Omega != omega(a) (here by 3-4 %); the difference
             // to eq:NM is of the order detuning x nonlinearity and vanishes at resonance
-            assert!(err < 2e-2, "Omega = {om}: time domain {a_td} vs eq:NM {a_nm} (err {err}), linear {a_lin}");
+            assert!(
+                err < 2e-2,
+                "Omega = {om}: time domain {a_td} vs eq:NM {a_nm} (err {err}), linear {a_lin}"
+            );
         }
     }
 
@@ -677,7 +827,15 @@ mod tests {
         let (w0, d) = (100.0, 0.01);
         let c = 3.0e6;
         let phi_ex = 0.9;
-        let t = duffing(w0, c, d, Complex64::new(phi_ex, 0.0), Complex64::new(1.2, 0.0), Complex64::new(0.0, 0.0), 0.1);
+        let t = duffing(
+            w0,
+            c,
+            d,
+            Complex64::new(phi_ex, 0.0),
+            Complex64::new(1.2, 0.0),
+            Complex64::new(0.0, 0.0),
+            0.1,
+        );
         let f = 16.0;
         let om = 1.09 * w0;
         let roots = nm_steady_roots(&t, om, phi_ex, f);
@@ -685,11 +843,19 @@ mod tests {
         let a_nm = roots[2];
         let ip = t.interpolator().unwrap();
         let w = ip.eval(a_nm).unwrap().omega_rad_s;
-        assert!((w - om).abs() / om < 0.03, "not near the peak: omega(a) = {w}");
+        assert!(
+            (w - om).abs() / om < 0.03,
+            "not near the peak: omega(a) = {w}"
+        );
         // start on the upper branch: a e^{i theta} (omega^2 - Omega^2 + 2 i D omega Omega) = phi F
         let z0 = phi_ex * f / Complex64::new(w * w - om * om, 2.0 * d * w * om);
         let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
-        osc.set_state(OscillatorState { time_s: 0.0, eta: z0.re, u: -z0.im }).unwrap();
+        osc.set_state(OscillatorState {
+            time_s: 0.0,
+            eta: z0.re,
+            u: -z0.im,
+        })
+        .unwrap();
         let dt = 1e-3;
         let (n_settle, n_meas) = (10000, (40.0 * 2.0 * PI / om / dt).round() as usize);
         let mut eta1 = Complex64::new(0.0, 0.0);
@@ -708,9 +874,18 @@ mod tests {
         let eta1 = 2.0 * eta1 / n_meas as f64;
         let err = (eta1.norm() - a_nm).abs() / a_nm;
         // measured 0.78 % at omega(a) - Omega = 1.9 % (see the comment in the previous test)
-        assert!(err < 1.5e-2, "time domain {} vs eq:NM {a_nm} ({err})", eta1.norm());
+        assert!(
+            err < 1.5e-2,
+            "time domain {} vs eq:NM {a_nm} ({err})",
+            eta1.norm()
+        );
         // and the phase of eq:NM (response lags the force by about 90 degrees at resonance)
-        assert!((eta1.arg() - z0.arg()).abs() < 0.02, "phase {} vs {}", eta1.arg(), z0.arg());
+        assert!(
+            (eta1.arg() - z0.arg()).abs() < 0.02,
+            "phase {} vs {}",
+            eta1.arg(),
+            z0.arg()
+        );
     }
 
     #[test]
@@ -718,10 +893,23 @@ mod tests {
         // slow flow of eq:NMpre without force: a' = -D(a) omega(a) a, psi' = omega(a)
         let (w0, d) = (100.0, 0.005);
         let c = 3.0e4;
-        let t = duffing(w0, c, d, Complex64::new(1.0, 0.0), Complex64::new(1.0, 0.0), Complex64::new(0.0, 0.0), 2.0);
+        let t = duffing(
+            w0,
+            c,
+            d,
+            Complex64::new(1.0, 0.0),
+            Complex64::new(1.0, 0.0),
+            Complex64::new(0.0, 0.0),
+            2.0,
+        );
         let a0 = 1.5; // kappa = a omega'/omega = c a^2/omega^2 = 0.87
         let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
-        osc.set_state(OscillatorState { time_s: 0.0, eta: a0, u: 0.0 }).unwrap();
+        osc.set_state(OscillatorState {
+            time_s: 0.0,
+            eta: a0,
+            u: 0.0,
+        })
+        .unwrap();
         // reference: RK4 of the scalar slow flow, fine steps
         let mut a_ref = a0;
         let dt = 1e-3;
@@ -734,7 +922,8 @@ mod tests {
             let k3 = f(a_ref + 0.5 * dt * k2);
             let k4 = f(a_ref + dt * k3);
             let a_new = a_ref + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-            phase_ref += dt * (omega(a_ref) + 4.0 * omega(0.5 * (a_ref + a_new)) + omega(a_new)) / 6.0;
+            phase_ref +=
+                dt * (omega(a_ref) + 4.0 * omega(0.5 * (a_ref + a_new)) + omega(a_new)) / 6.0;
             a_ref = a_new;
             osc.step(dt, InputPolynomial::constant(0.0)).unwrap();
         }
@@ -742,12 +931,19 @@ mod tests {
         let a = s.amplitude();
         // after 1 s: a decayed to about exp(-D omega t) ~ 0.45 a0; ripple of a is O(D)
         assert!(a_ref < 0.7 * a0);
-        assert!((a - a_ref).abs() / a_ref < 2.0 * d, "a = {a}, slow flow {a_ref}");
+        assert!(
+            (a - a_ref).abs() / a_ref < 2.0 * d,
+            "a = {a}, slow flow {a_ref}"
+        );
         // phase: the accumulated phase of some 25 periods agrees to O(D)
         let psi = (-s.u).atan2(s.eta);
         let dpsi = (psi - phase_ref).rem_euclid(2.0 * PI);
         let dpsi = dpsi.min(2.0 * PI - dpsi);
-        assert!(dpsi < 0.05, "phase error {dpsi} rad after {} rad", phase_ref);
+        assert!(
+            dpsi < 0.05,
+            "phase error {dpsi} rad after {} rad",
+            phase_ref
+        );
     }
 
     /// Why the normal form: the literal second-order form
@@ -793,16 +989,35 @@ mod tests {
             a_ref += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
         }
         // the normal form
-        let t = duffing(w0, c, d, Complex64::new(1.0, 0.0), Complex64::new(1.0, 0.0), Complex64::new(0.0, 0.0), 2.0);
+        let t = duffing(
+            w0,
+            c,
+            d,
+            Complex64::new(1.0, 0.0),
+            Complex64::new(1.0, 0.0),
+            Complex64::new(0.0, 0.0),
+            2.0,
+        );
         let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
-        osc.set_state(OscillatorState { time_s: 0.0, eta: a0, u: 0.0 }).unwrap();
+        osc.set_state(OscillatorState {
+            time_s: 0.0,
+            eta: a0,
+            u: 0.0,
+        })
+        .unwrap();
         for _ in 0..1000 {
             osc.step(1e-3, InputPolynomial::constant(0.0)).unwrap();
         }
         let err_normal = (osc.state().amplitude() - a_ref).abs() / a_ref;
         let err_literal = (a_literal - a_ref).abs() / a_ref;
-        assert!(a_literal > a_ref && err_literal > 0.15, "literal {a_literal}, slow flow {a_ref}");
-        assert!(err_normal < 0.01 && err_normal < err_literal / 20.0, "{err_normal} vs {err_literal}");
+        assert!(
+            a_literal > a_ref && err_literal > 0.15,
+            "literal {a_literal}, slow flow {a_ref}"
+        );
+        assert!(
+            err_normal < 0.01 && err_normal < err_literal / 20.0,
+            "{err_normal} vs {err_literal}"
+        );
     }
 
     #[test]
@@ -817,7 +1032,12 @@ mod tests {
         let a0 = 1.0;
         let w = 1.05 * (w0 * w0 + c * a0 * a0).sqrt();
         // start at psi = 0 in the oscillator's gauge; in the table's gauge psi - beta
-        osc.set_state(OscillatorState { time_s: 0.0, eta: a0, u: 0.0 }).unwrap();
+        osc.set_state(OscillatorState {
+            time_s: 0.0,
+            eta: a0,
+            u: 0.0,
+        })
+        .unwrap();
         let beta = phi_ex.arg();
         let dt = 1e-3;
         let mut max_err: f64 = 0.0;
@@ -826,14 +1046,24 @@ mod tests {
             let tk = k as f64 * dt;
             let m = osc.modal().unwrap();
             // RK4 amplitude loss (w h)^6/144 per sub-step: ~4e-6 over the 6000 sub-steps
-            assert!((m.amplitude - a0).abs() < 1e-5 && (m.omega_rad_s - w).abs() < 1e-5 * w, "{m:?}");
+            assert!(
+                (m.amplitude - a0).abs() < 1e-5 && (m.omega_rad_s - w).abs() < 1e-5 * w,
+                "{m:?}"
+            );
             let e = Complex64::from_polar(1.0, w * tk - beta);
             let x = (a0 * phi_tip * e + a0 * phi3 * e.powi(3)).re;
-            let v = (Complex64::new(0.0, w) * a0 * phi_tip * e + Complex64::new(0.0, 3.0 * w) * a0 * phi3 * e.powi(3)).re;
+            let v = (Complex64::new(0.0, w) * a0 * phi_tip * e
+                + Complex64::new(0.0, 3.0 * w) * a0 * phi3 * e.powi(3))
+            .re;
             let r = osc.point_response(tip).unwrap();
             max_err = max_err.max((r.x_m - x).abs()).max((r.v_m_s - v).abs() / w);
             let rex = osc.point_response(osc.drive_index()).unwrap();
-            assert!((rex.x_m - a0 * phi_ex.norm() * (w * tk).cos()).abs() < 1e-3 * a0, "{tk}: {} vs {}", rex.x_m, a0 * phi_ex.norm() * (w * tk).cos());
+            assert!(
+                (rex.x_m - a0 * phi_ex.norm() * (w * tk).cos()).abs() < 1e-3 * a0,
+                "{tk}: {} vs {}",
+                rex.x_m,
+                a0 * phi_ex.norm() * (w * tk).cos()
+            );
         }
         // 2 s = 33 periods at w h = 0.17: RK4 phase error ~ 33 * 40 * (0.17)^5/120 = 1.5e-3 rad
         assert!(max_err < 3e-3, "{max_err}");
@@ -857,20 +1087,48 @@ mod tests {
             }
         }
         let e = err.expect("must leave the table");
-        assert!(matches!(e, OscillatorError::AboveRange { max, .. } if max == 1e-3), "{e}");
+        assert!(
+            matches!(e, OscillatorError::AboveRange { max, .. } if max == 1e-3),
+            "{e}"
+        );
         assert!(e.to_string().contains("above the modal table's range"));
-        assert!(matches!(osc.step(-1.0, InputPolynomial::constant(0.0)), Err(OscillatorError::BadStep(_))));
-        assert!(matches!(osc.step(1e-3, InputPolynomial::constant(f64::NAN)), Err(OscillatorError::BadInput { name: "c0", .. })));
-        assert!(matches!(ModalOscillator::new(&t, "ex", -1.0), Err(OscillatorError::BadFrequencyError(_))));
-        assert!(matches!(ModalOscillator::new(&t, "nope", 0.0), Err(OscillatorError::Table(TableError::UnknownPoint { .. }))));
+        assert!(matches!(
+            osc.step(-1.0, InputPolynomial::constant(0.0)),
+            Err(OscillatorError::BadStep(_))
+        ));
+        assert!(matches!(
+            osc.step(1e-3, InputPolynomial::constant(f64::NAN)),
+            Err(OscillatorError::BadInput { name: "c0", .. })
+        ));
+        assert!(matches!(
+            ModalOscillator::new(&t, "ex", -1.0),
+            Err(OscillatorError::BadFrequencyError(_))
+        ));
+        assert!(matches!(
+            ModalOscillator::new(&t, "nope", 0.0),
+            Err(OscillatorError::Table(TableError::UnknownPoint { .. }))
+        ));
     }
 
     #[test]
     fn output_rates_are_the_derivatives_along_the_flow() {
-        let t = duffing(100.0, 3.0e4, 0.02, Complex64::new(0.9, 0.2), Complex64::new(1.2, -0.1), Complex64::new(0.05, 0.01), 2.0);
+        let t = duffing(
+            100.0,
+            3.0e4,
+            0.02,
+            Complex64::new(0.9, 0.2),
+            Complex64::new(1.2, -0.1),
+            Complex64::new(0.05, 0.01),
+            2.0,
+        );
         let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
         let tip = osc.point_index("tip").unwrap();
-        osc.set_state(OscillatorState { time_s: 0.0, eta: 0.6, u: -0.5 }).unwrap();
+        osc.set_state(OscillatorState {
+            time_s: 0.0,
+            eta: 0.6,
+            u: -0.5,
+        })
+        .unwrap();
         let c = 30.0;
         let r0 = osc.point_response(tip).unwrap();
         let m0 = osc.modal().unwrap();
@@ -882,7 +1140,12 @@ mod tests {
         let m1 = osc.modal().unwrap();
         let fd = |y1: f64, y0: f64| (y1 - y0) / dt;
         // forward difference over dt: error ~ dt * second derivative ~ 1e-6 * omega ~ 2e-4 relative
-        assert!((fd(r1.x_m, r0.x_m) - rate.x_m).abs() < 1e-3 * rate.x_m.abs(), "{} vs {}", fd(r1.x_m, r0.x_m), rate.x_m);
+        assert!(
+            (fd(r1.x_m, r0.x_m) - rate.x_m).abs() < 1e-3 * rate.x_m.abs(),
+            "{} vs {}",
+            fd(r1.x_m, r0.x_m),
+            rate.x_m
+        );
         assert!((fd(r1.v_m_s, r0.v_m_s) - rate.v_m_s).abs() < 1e-3 * rate.v_m_s.abs());
         assert!((fd(m1.amplitude, m0.amplitude) - a_dot).abs() < 1e-3 * a_dot.abs().max(1e-3));
         assert!((fd(m1.omega_rad_s, m0.omega_rad_s) - w_dot).abs() < 1e-3 * w_dot.abs().max(1e-3));
@@ -892,7 +1155,12 @@ mod tests {
     fn frequency_error_scales_the_natural_frequency() {
         let t = ModalTable::linear(300.0, 0.0, &[("ex", Complex64::new(1.0, 0.0))], 1e-9, 1.0);
         let mut osc = ModalOscillator::new(&t, "ex", 0.05).unwrap();
-        osc.set_state(OscillatorState { time_s: 0.0, eta: 1e-3, u: 0.0 }).unwrap();
+        osc.set_state(OscillatorState {
+            time_s: 0.0,
+            eta: 1e-3,
+            u: 0.0,
+        })
+        .unwrap();
         let w = 315.0;
         let dt = 1e-4;
         let mut y = Vector2::new(1e-3, 0.0);
@@ -901,11 +1169,17 @@ mod tests {
             osc.step(dt, InputPolynomial::constant(0.0)).unwrap();
             y = phi * y;
         }
-        assert!((osc.state().eta - y[0]).abs() < 1e-8, "{} vs {}", osc.state().eta, y[0]);
+        assert!(
+            (osc.state().eta - y[0]).abs() < 1e-8,
+            "{} vs {}",
+            osc.state().eta,
+            y[0]
+        );
         assert!((osc.modal().unwrap().eta_dot - y[1]).abs() < 1e-8 * w);
         // the state serializes exactly
         let s = osc.state();
-        let back: OscillatorState = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+        let back: OscillatorState =
+            serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
         assert_eq!(s, back);
     }
 }

@@ -97,7 +97,9 @@ pub use dopri::IntegratorStats;
 pub use imposed::ForceEnvelope;
 pub use post::TimeSignals;
 pub use steady::{LinearSteady, SteadyFrequency, SteadyPoint};
-pub use sweep::{Envelope, SlowFlowOptions, SlowFlowResult, SlowFlowSample, SweepStatus, SweepSummary};
+pub use sweep::{
+    Envelope, SlowFlowOptions, SlowFlowResult, SlowFlowSample, SweepStatus, SweepSummary,
+};
 
 /// Boxed error of an attachment model.
 pub type AttachmentModelError = Box<dyn std::error::Error + Send + Sync>;
@@ -115,19 +117,43 @@ pub enum ReducedError {
         source: AttachmentModelError,
     },
     #[error("attachment '{attachment}': {what} has size {found}, expected {expected}")]
-    AttachmentSize { attachment: String, what: &'static str, found: usize, expected: usize },
+    AttachmentSize {
+        attachment: String,
+        what: &'static str,
+        found: usize,
+        expected: usize,
+    },
     #[error("attachment '{attachment}': {found} input amplitudes given, the attachment has {expected} inputs")]
-    InputCount { attachment: String, expected: usize, found: usize },
+    InputCount {
+        attachment: String,
+        expected: usize,
+        found: usize,
+    },
     #[error("option '{name}' = {value} is invalid: {why}")]
-    BadOption { name: &'static str, value: f64, why: &'static str },
+    BadOption {
+        name: &'static str,
+        value: f64,
+        why: &'static str,
+    },
     #[error("excitation frequency Omega = {0} rad/s must be positive and finite")]
     BadOmega(f64),
     #[error("force envelope: {0}")]
     Envelope(String),
-    #[error("force envelope covers Omega in [{min}, {max}] rad/s, but {omega_rad_s} rad/s is needed")]
-    EnvelopeRange { omega_rad_s: f64, min: f64, max: f64 },
+    #[error(
+        "force envelope covers Omega in [{min}, {max}] rad/s, but {omega_rad_s} rad/s is needed"
+    )]
+    EnvelopeRange {
+        omega_rad_s: f64,
+        min: f64,
+        max: f64,
+    },
     #[error("frequency error: omega(a) = {omega_rad_s} rad/s at a = {a} is not positive after (1 + {eps}) omega + {offset_rad_s}")]
-    FrequencyError { a: f64, omega_rad_s: f64, eps: f64, offset_rad_s: f64 },
+    FrequencyError {
+        a: f64,
+        omega_rad_s: f64,
+        eps: f64,
+        offset_rad_s: f64,
+    },
     #[error("the slow-flow result has no samples")]
     EmptyResult,
 }
@@ -148,7 +174,10 @@ pub trait InterfaceModel: Debug + Send + Sync {
     /// `(Z_G, T_G)` at `Omega` \[rad/s\]: interface impedance (`ncon x ncon`) and
     /// input-force map (`ncon x ninput`), such that the force on the structure
     /// at the interface points is `F_G = -Z_G u_G + T_G u_hat`.
-    fn condense(&self, omega_rad_s: f64) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError>;
+    fn condense(
+        &self,
+        omega_rad_s: f64,
+    ) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError>;
 }
 
 /// A natural-frequency error applied to the table (paper Section 5.3):
@@ -273,7 +302,8 @@ impl ReducedModel {
                 expected: 1,
             });
         }
-        let total: usize = self.ports.iter().map(|p| p.points.len()).sum::<usize>() + points.len() + 1;
+        let total: usize =
+            self.ports.iter().map(|p| p.points.len()).sum::<usize>() + points.len() + 1;
         if total > MAX_PHI {
             return Err(ReducedError::AttachmentSize {
                 attachment: model.name().into(),
@@ -282,7 +312,12 @@ impl ReducedModel {
                 expected: MAX_PHI - 1,
             });
         }
-        let port = Port { model, points, input: input_per_unit.to_vec(), offset: self.nch };
+        let port = Port {
+            model,
+            points,
+            input: input_per_unit.to_vec(),
+            offset: self.nch,
+        };
         self.nch += port.nchannels();
         self.ports.push(port);
         Ok(self)
@@ -290,7 +325,11 @@ impl ReducedModel {
 
     /// Adds an imposed force with complex amplitude `F(Omega)` \[N\] at table
     /// point `point` (`f_ex^(1)`, independent of the sweep amplitude).
-    pub fn with_imposed_force(mut self, point: &str, envelope: ForceEnvelope) -> Result<Self, ReducedError> {
+    pub fn with_imposed_force(
+        mut self,
+        point: &str,
+        envelope: ForceEnvelope,
+    ) -> Result<Self, ReducedError> {
         let point = self.table.point_index(point)?;
         self.imposed = Some(Imposed { point, envelope });
         Ok(self)
@@ -310,7 +349,11 @@ impl ReducedModel {
     /// Applies a natural-frequency error (see [`FrequencyError`]).
     pub fn with_frequency_error(mut self, error: FrequencyError) -> Result<Self, ReducedError> {
         if !error.eps.is_finite() || error.eps <= -1.0 {
-            return Err(ReducedError::BadOption { name: "eps", value: error.eps, why: "must be finite and > -1" });
+            return Err(ReducedError::BadOption {
+                name: "eps",
+                value: error.eps,
+                why: "must be finite and > -1",
+            });
         }
         if !error.offset_rad_s.is_finite() {
             return Err(ReducedError::BadOption {
@@ -362,7 +405,8 @@ impl ReducedModel {
             .enumerate()
             .map(|(j, n)| Ok((n.as_str(), self.table.shape(j, 1, 0.0)?)))
             .collect::<Result<Vec<_>, TableError>>()?;
-        let table = ModalTable::linear(p0.omega_rad_s, p0.damping_ratio, &shapes, amin, 1e12 * amax);
+        let table =
+            ModalTable::linear(p0.omega_rad_s, p0.damping_ratio, &shapes, amin, 1e12 * amax);
         let mut m = ReducedModel::new(&table, &self.tip_name, &self.drive_name)?;
         m.ports = self.ports.clone();
         m.nch = self.nch;
@@ -405,12 +449,20 @@ impl ReducedModel {
     /// Fundamental shape at table point `pt` (fast path).
     #[inline]
     pub(crate) fn phi1(&self, loc: fast::Loc, pt: usize) -> Complex64 {
-        Complex64::new(self.fast.value(loc, 2 + 2 * pt), self.fast.value(loc, 3 + 2 * pt))
+        Complex64::new(
+            self.fast.value(loc, 2 + 2 * pt),
+            self.fast.value(loc, 3 + 2 * pt),
+        )
     }
 
     /// Fills the channel vector at `Omega` exactly from the attachment models:
     /// per port `Z_G` (row major) then `T_G u_hat` with `u_hat = amplitude * input`.
-    pub(crate) fn fill_channels(&self, omega: f64, amplitude: f64, out: &mut [Complex64]) -> Result<(), ReducedError> {
+    pub(crate) fn fill_channels(
+        &self,
+        omega: f64,
+        amplitude: f64,
+        out: &mut [Complex64],
+    ) -> Result<(), ReducedError> {
         if !(omega.is_finite() && omega > 0.0) {
             return Err(ReducedError::BadOmega(omega));
         }
@@ -418,15 +470,23 @@ impl ReducedModel {
     }
 
     /// As [`Self::fill_channels`] but allows any real `Omega` (harmonics `n = 0`).
-    pub(crate) fn fill_channels_at(&self, omega: f64, amplitude: f64, out: &mut [Complex64]) -> Result<(), ReducedError> {
+    pub(crate) fn fill_channels_at(
+        &self,
+        omega: f64,
+        amplitude: f64,
+        out: &mut [Complex64],
+    ) -> Result<(), ReducedError> {
         assert_eq!(out.len(), self.nch);
         for port in &self.ports {
             let name = port.model.name();
-            let (zg, tg) = port.model.condense(omega).map_err(|source| ReducedError::Attachment {
-                attachment: name.into(),
-                omega_rad_s: omega,
-                source,
-            })?;
+            let (zg, tg) =
+                port.model
+                    .condense(omega)
+                    .map_err(|source| ReducedError::Attachment {
+                        attachment: name.into(),
+                        omega_rad_s: omega,
+                        source,
+                    })?;
             let nc = port.ncon();
             if zg.nrows() != nc || zg.ncols() != nc {
                 return Err(ReducedError::AttachmentSize {
@@ -479,7 +539,11 @@ impl ReducedModel {
     /// Modal properties at `a` and the fundamental shapes at all attachment
     /// interface points (ports in order) followed by the imposed-force point.
     #[inline]
-    pub(crate) fn gather(&self, a: f64, phi: &mut [Complex64; MAX_PHI]) -> Result<ModalProperties, ReducedError> {
+    pub(crate) fn gather(
+        &self,
+        a: f64,
+        phi: &mut [Complex64; MAX_PHI],
+    ) -> Result<ModalProperties, ReducedError> {
         Ok(self.gather_loc(a, phi)?.1)
     }
 
@@ -632,7 +696,11 @@ impl ReducedModel {
 
     /// The blocked force at the drive point, `F0 = sum T_G u_hat` \[N\] (the force
     /// with the structure held at rest).
-    pub fn blocked_force(&self, omega_rad_s: f64, amplitude: f64) -> Result<Complex64, ReducedError> {
+    pub fn blocked_force(
+        &self,
+        omega_rad_s: f64,
+        amplitude: f64,
+    ) -> Result<Complex64, ReducedError> {
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         self.fill_channels(omega_rad_s, amplitude, &mut ch)?;
         let fi = self.imposed_at(omega_rad_s)?;
@@ -650,10 +718,15 @@ pub struct PreparedAttachment {
 
 impl PreparedAttachment {
     /// Validates and localizes the attachment.
-    pub fn new(attachment: crate::attachment::LinearAttachment) -> Result<Self, crate::attachment::AttachmentError> {
+    pub fn new(
+        attachment: crate::attachment::LinearAttachment,
+    ) -> Result<Self, crate::attachment::AttachmentError> {
         attachment.validate()?;
         let condenser = crate::attachment::Condenser::new(&attachment)?;
-        Ok(Self { attachment, condenser })
+        Ok(Self {
+            attachment,
+            condenser,
+        })
     }
 
     /// The underlying attachment.
@@ -672,7 +745,10 @@ impl InterfaceModel for PreparedAttachment {
     fn ninput(&self) -> usize {
         self.attachment.ninput()
     }
-    fn condense(&self, omega_rad_s: f64) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError> {
+    fn condense(
+        &self,
+        omega_rad_s: f64,
+    ) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError> {
         let c = self.condenser.condense(omega_rad_s)?;
         Ok((c.z_g, c.t_g))
     }
@@ -686,11 +762,12 @@ impl ReducedModel {
         attachment: &crate::attachment::LinearAttachment,
         input_per_unit: &[Complex64],
     ) -> Result<Self, ReducedError> {
-        let prepared = PreparedAttachment::new(attachment.clone()).map_err(|e| ReducedError::Attachment {
-            attachment: attachment.name.clone(),
-            omega_rad_s: f64::NAN,
-            source: Box::new(e),
-        })?;
+        let prepared =
+            PreparedAttachment::new(attachment.clone()).map_err(|e| ReducedError::Attachment {
+                attachment: attachment.name.clone(),
+                omega_rad_s: f64::NAN,
+                source: Box::new(e),
+            })?;
         self.with_attachment(Arc::new(prepared), input_per_unit)
     }
 }

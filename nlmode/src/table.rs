@@ -31,11 +31,26 @@ pub enum TableError {
     #[error("modal table: need at least 2 amplitude points, got {0}")]
     TooFewPoints(usize),
     #[error("modal table: field '{field}' has {got} entries, expected {expected}")]
-    Length { field: String, got: usize, expected: usize },
+    Length {
+        field: String,
+        got: usize,
+        expected: usize,
+    },
     #[error("modal table: amplitude must be positive and strictly increasing; amplitude[{index}] = {value} after {previous}")]
-    NotIncreasing { index: usize, value: f64, previous: f64 },
-    #[error("modal table: field '{field}' entry {index} is {value}, expected a finite{positive} number")]
-    BadValue { field: String, index: usize, value: f64, positive: &'static str },
+    NotIncreasing {
+        index: usize,
+        value: f64,
+        previous: f64,
+    },
+    #[error(
+        "modal table: field '{field}' entry {index} is {value}, expected a finite{positive} number"
+    )]
+    BadValue {
+        field: String,
+        index: usize,
+        value: f64,
+        positive: &'static str,
+    },
     #[error("modal table: no point named '{name}' (available: {available})")]
     UnknownPoint { name: String, available: String },
     #[error("modal amplitude a = {a:.6e} lies above the table's range (max {max:.6e}); the single-nonlinear-mode model is not defined there")]
@@ -43,9 +58,15 @@ pub enum TableError {
     #[error("modal amplitude a = {0} is not a finite non-negative number")]
     BadAmplitude(f64),
     #[error("modal table '{path}': {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("modal table '{path}': invalid JSON: {source}")]
-    Json { path: String, source: serde_json::Error },
+    Json {
+        path: String,
+        source: serde_json::Error,
+    },
 }
 
 impl ModalTable {
@@ -72,7 +93,9 @@ impl ModalTable {
         ModalTable {
             format: MODAL_TABLE_FORMAT.into(),
             version: MODAL_TABLE_VERSION,
-            description: format!("linear mode: omega0 = {omega0_rad_s} rad/s, D0 = {damping_ratio}"),
+            description: format!(
+                "linear mode: omega0 = {omega0_rad_s} rad/s, D0 = {damping_ratio}"
+            ),
             harmonics: 1,
             amplitude,
             omega_rad_s: vec![omega0_rad_s; n],
@@ -97,7 +120,11 @@ impl ModalTable {
         }
         let len = |field: &str, got: usize, expected: usize| {
             if got != expected {
-                Err(TableError::Length { field: field.into(), got, expected })
+                Err(TableError::Length {
+                    field: field.into(),
+                    got,
+                    expected,
+                })
             } else {
                 Ok(())
             }
@@ -107,7 +134,11 @@ impl ModalTable {
         for (j, &a) in self.amplitude.iter().enumerate() {
             let prev = if j == 0 { 0.0 } else { self.amplitude[j - 1] };
             if !a.is_finite() || a <= prev {
-                return Err(TableError::NotIncreasing { index: j, value: a, previous: prev });
+                return Err(TableError::NotIncreasing {
+                    index: j,
+                    value: a,
+                    previous: prev,
+                });
             }
         }
         for (j, &w) in self.omega_rad_s.iter().enumerate() {
@@ -134,8 +165,16 @@ impl ModalTable {
             len(&format!("points[{}].re", p.name), p.re.len(), n)?;
             len(&format!("points[{}].im", p.name), p.im.len(), n)?;
             for (j, (re, im)) in p.re.iter().zip(&p.im).enumerate() {
-                len(&format!("points[{}].re[{j}]", p.name), re.len(), self.harmonics + 1)?;
-                len(&format!("points[{}].im[{j}]", p.name), im.len(), self.harmonics + 1)?;
+                len(
+                    &format!("points[{}].re[{j}]", p.name),
+                    re.len(),
+                    self.harmonics + 1,
+                )?;
+                len(
+                    &format!("points[{}].im[{j}]", p.name),
+                    im.len(),
+                    self.harmonics + 1,
+                )?;
                 if let Some(v) = re.iter().chain(im).find(|v| !v.is_finite()) {
                     return Err(TableError::BadValue {
                         field: format!("points[{}]", p.name),
@@ -162,24 +201,38 @@ impl ModalTable {
     /// Read and validate a table file.
     pub fn read(path: &Path) -> Result<Self, TableError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| TableError::Io { path: p.clone(), source })?;
-        let table = Self::from_json(&text).map_err(|source| TableError::Json { path: p, source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| TableError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        let table =
+            Self::from_json(&text).map_err(|source| TableError::Json { path: p, source })?;
         table.validate()?;
         Ok(table)
     }
 
     /// Write the table as JSON.
     pub fn write(&self, path: &Path) -> Result<(), TableError> {
-        std::fs::write(path, self.to_json())
-            .map_err(|source| TableError::Io { path: path.display().to_string(), source })
+        std::fs::write(path, self.to_json()).map_err(|source| TableError::Io {
+            path: path.display().to_string(),
+            source,
+        })
     }
 
     /// Index of the named point.
     pub fn point_index(&self, name: &str) -> Result<usize, TableError> {
-        self.points.iter().position(|p| p.name == name).ok_or_else(|| TableError::UnknownPoint {
-            name: name.into(),
-            available: self.points.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
-        })
+        self.points
+            .iter()
+            .position(|p| p.name == name)
+            .ok_or_else(|| TableError::UnknownPoint {
+                name: name.into(),
+                available: self
+                    .points
+                    .iter()
+                    .map(|p| p.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
     }
 
     /// Build the PCHIP interpolator (validates the table first).
@@ -336,10 +389,13 @@ impl TableInterpolator {
 
     /// Index of a named point.
     pub fn point_index(&self, name: &str) -> Result<usize, TableError> {
-        self.point_names.iter().position(|p| p == name).ok_or_else(|| TableError::UnknownPoint {
-            name: name.into(),
-            available: self.point_names.join(", "),
-        })
+        self.point_names
+            .iter()
+            .position(|p| p == name)
+            .ok_or_else(|| TableError::UnknownPoint {
+                name: name.into(),
+                available: self.point_names.join(", "),
+            })
     }
 
     /// Locate `a` in the table once for several interpolations
@@ -358,7 +414,11 @@ impl TableInterpolator {
         if a > amax {
             return Err(TableError::AboveRange { a, max: amax });
         }
-        let k = self.amplitude.partition_point(|&x| x < a).saturating_sub(1).min(self.amplitude.len() - 2);
+        let k = self
+            .amplitude
+            .partition_point(|&x| x < a)
+            .saturating_sub(1)
+            .min(self.amplitude.len() - 2);
         let h = self.amplitude[k + 1] - self.amplitude[k];
         let t = (a - self.amplitude[k]) / h;
         let t2 = t * t;
@@ -367,17 +427,30 @@ impl TableInterpolator {
         let h10 = t3 - 2.0 * t2 + t;
         let h01 = -2.0 * t3 + 3.0 * t2;
         let h11 = t3 - t2;
-        Ok(TableLocation(Some(Segment { k, t, h, w: [h00, h10 * h, h01, h11 * h] })))
+        Ok(TableLocation(Some(Segment {
+            k,
+            t,
+            h,
+            w: [h00, h10 * h, h01, h11 * h],
+        })))
     }
 
     /// `omega(a)`, `D(a)` and `d omega/d a` at a located amplitude.
     #[inline]
     pub fn eval_at(&self, loc: &TableLocation) -> ModalProperties {
         match &loc.0 {
-            None => ModalProperties { omega_rad_s: self.omega.y[0], damping_ratio: self.damping.y[0], domega_da: 0.0 },
+            None => ModalProperties {
+                omega_rad_s: self.omega.y[0],
+                damping_ratio: self.damping.y[0],
+                domega_da: 0.0,
+            },
             Some(s) => {
                 let (_, dw) = self.omega.eval(s.k, s.t, s.h);
-                ModalProperties { omega_rad_s: self.omega.value_at(s), damping_ratio: self.damping.value_at(s), domega_da: dw }
+                ModalProperties {
+                    omega_rad_s: self.omega.value_at(s),
+                    damping_ratio: self.damping.value_at(s),
+                    domega_da: dw,
+                }
             }
         }
     }
@@ -406,7 +479,10 @@ impl TableInterpolator {
     #[inline]
     pub fn shape_all_at(&self, point: usize, loc: &TableLocation, out: &mut [Complex64]) {
         let shapes = &self.shapes[point];
-        assert!(out.len() >= shapes.len(), "shape_all_at: out must hold H+1 harmonics");
+        assert!(
+            out.len() >= shapes.len(),
+            "shape_all_at: out must hold H+1 harmonics"
+        );
         match &loc.0 {
             None => {
                 for (o, (re, im)) in out.iter_mut().zip(shapes) {
@@ -444,9 +520,18 @@ mod tests {
 
     fn sample() -> ModalTable {
         let a: Vec<f64> = (0..18).map(|j| 1e-4 * 1.35f64.powi(j)).collect();
-        let omega: Vec<f64> = a.iter().map(|&a| (356.2f64.powi(2) + 0.75 * 6e9 * 0.9 * a * a).sqrt()).collect();
-        let damping: Vec<f64> = a.iter().map(|&a| 0.004 * 356.2 / (356.2f64.powi(2) + 0.75 * 6e9 * 0.9 * a * a).sqrt()).collect();
-        let re = a.iter().map(|&a| vec![0.0, 1.05 + 10.0 * a, 0.01 * a]).collect();
+        let omega: Vec<f64> = a
+            .iter()
+            .map(|&a| (356.2f64.powi(2) + 0.75 * 6e9 * 0.9 * a * a).sqrt())
+            .collect();
+        let damping: Vec<f64> = a
+            .iter()
+            .map(|&a| 0.004 * 356.2 / (356.2f64.powi(2) + 0.75 * 6e9 * 0.9 * a * a).sqrt())
+            .collect();
+        let re = a
+            .iter()
+            .map(|&a| vec![0.0, 1.05 + 10.0 * a, 0.01 * a])
+            .collect();
         let im = a.iter().map(|&a| vec![0.0, -2.0 * a, 0.0]).collect();
         ModalTable {
             format: MODAL_TABLE_FORMAT.into(),
@@ -456,7 +541,11 @@ mod tests {
             amplitude: a,
             omega_rad_s: omega,
             damping_ratio: damping,
-            points: vec![PointShape { name: "tip".into(), re, im }],
+            points: vec![PointShape {
+                name: "tip".into(),
+                re,
+                im,
+            }],
             coordinates: vec![],
             truncated_at_fold: Some(0.5),
         }
@@ -477,7 +566,10 @@ mod tests {
             assert_eq!(p.omega_rad_s, t.omega_rad_s[j]);
             assert_eq!(p.damping_ratio, t.damping_ratio[j]);
             let phi = ip.shape(tip, 1, t.amplitude[j]).unwrap();
-            assert_eq!(phi, Complex64::new(t.points[0].re[j][1], t.points[0].im[j][1]));
+            assert_eq!(
+                phi,
+                Complex64::new(t.points[0].re[j][1], t.points[0].im[j][1])
+            );
         }
     }
 
@@ -500,7 +592,8 @@ mod tests {
         // derivative consistent with finite differences
         let a = 0.3 * amax;
         let h = 1e-7 * amax;
-        let fd = (ip.eval(a + h).unwrap().omega_rad_s - ip.eval(a - h).unwrap().omega_rad_s) / (2.0 * h);
+        let fd =
+            (ip.eval(a + h).unwrap().omega_rad_s - ip.eval(a - h).unwrap().omega_rad_s) / (2.0 * h);
         assert!((ip.eval(a).unwrap().domega_da - fd).abs() < 1e-5 * fd.abs());
     }
 
@@ -524,16 +617,28 @@ mod tests {
         let (amin, amax) = ip.amplitude_range();
         assert_eq!(ip.eval(0.0).unwrap().omega_rad_s, t.omega_rad_s[0]);
         assert_eq!(ip.eval(0.5 * amin).unwrap().omega_rad_s, t.omega_rad_s[0]);
-        assert!(matches!(ip.eval(1.01 * amax), Err(TableError::AboveRange { .. })));
-        assert!(matches!(ip.eval(f64::NAN), Err(TableError::BadAmplitude(_))));
-        assert!(matches!(ip.point_index("nope"), Err(TableError::UnknownPoint { .. })));
+        assert!(matches!(
+            ip.eval(1.01 * amax),
+            Err(TableError::AboveRange { .. })
+        ));
+        assert!(matches!(
+            ip.eval(f64::NAN),
+            Err(TableError::BadAmplitude(_))
+        ));
+        assert!(matches!(
+            ip.point_index("nope"),
+            Err(TableError::UnknownPoint { .. })
+        ));
     }
 
     #[test]
     fn validation_names_the_problem() {
         let mut t = sample();
         t.amplitude[3] = t.amplitude[2];
-        assert!(matches!(t.validate(), Err(TableError::NotIncreasing { index: 3, .. })));
+        assert!(matches!(
+            t.validate(),
+            Err(TableError::NotIncreasing { index: 3, .. })
+        ));
         let mut t = sample();
         t.omega_rad_s.pop();
         assert!(matches!(t.validate(), Err(TableError::Length { .. })));
@@ -547,7 +652,13 @@ mod tests {
 
     #[test]
     fn linear_table_is_constant() {
-        let t = ModalTable::linear(356.2, 0.004, &[("tip", Complex64::new(1.4, 0.0))], 1e-6, 1.0);
+        let t = ModalTable::linear(
+            356.2,
+            0.004,
+            &[("tip", Complex64::new(1.4, 0.0))],
+            1e-6,
+            1.0,
+        );
         let ip = t.interpolator().unwrap();
         let p = ip.eval(0.37).unwrap();
         assert_eq!(p.omega_rad_s, 356.2);

@@ -888,20 +888,34 @@ fn paper_beam_conservative_small_steps_find_the_1_to_5_loop() {
     let ps = paper_beam();
     let lin = modal_analysis(&ps.model, 2).unwrap();
     let mut opts = beam_opts(7, true, -6.0, 6e-3f64.log10());
-    opts.continuation = ContinuationOptions { ds: 0.005, dsmax: Some(0.01), ..Default::default() };
+    opts.continuation = ContinuationOptions {
+        ds: 0.005,
+        dsmax: Some(0.01),
+        ..Default::default()
+    };
     opts.store_coordinates = false;
     let r = nonlinear_modal_analysis(&ps.model, &opts).unwrap();
     let f = r.first_fold().expect("a fold").clone();
     assert_eq!(f.kind, FoldKind::AmplitudeMaximum);
     let w5 = lin.omega_rad_s[1] / 5.0;
-    assert!(f.omega_rad_s > w5 && f.omega_rad_s < 1.05 * w5, "{f:?}, omega2/5 = {w5}");
-    assert!(matches!(r.warnings.as_slice(), [NmaWarning::FundamentalLost { .. }]), "{:?}", r.warnings);
+    assert!(
+        f.omega_rad_s > w5 && f.omega_rad_s < 1.05 * w5,
+        "{f:?}, omega2/5 = {w5}"
+    );
+    assert!(
+        matches!(r.warnings.as_slice(), [NmaWarning::FundamentalLost { .. }]),
+        "{:?}",
+        r.warnings
+    );
     let t = r.to_table(TablePolicy::PrimaryBranch);
     assert_eq!(t.truncated_at_fold, Some(f.amplitude));
     // the damped branch has no such loop at this amplitude
     let mut opts_d = opts.clone();
     opts_d.conservative = false;
-    opts_d.amplitude = AmplitudeRange::Modal { log10_start: -6.0, log10_end: 2e-3f64.log10() };
+    opts_d.amplitude = AmplitudeRange::Modal {
+        log10_start: -6.0,
+        log10_end: 2e-3f64.log10(),
+    };
     let rd = nonlinear_modal_analysis(&ps.model, &opts_d).unwrap();
     assert!(rd.folds.is_empty(), "{:?}", rd.folds);
 }

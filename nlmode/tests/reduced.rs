@@ -6,7 +6,9 @@ use nlmode::attachment::{LinearAttachment, ShakerParams};
 use nlmode::benchmark as bm;
 use nlmode::excitation::LinearSweep;
 use nlmode::nma::ModalTable;
-use nlmode::reduced::problems::{benchmark_duffing_table, benchmark_points, duffing_table, BENCHMARK_OMEGA0};
+use nlmode::reduced::problems::{
+    benchmark_duffing_table, benchmark_points, duffing_table, BENCHMARK_OMEGA0,
+};
 use nlmode::reduced::{
     ForceEnvelope, FrequencyError, ReducedModel, SlowFlowOptions, SlowFlowResult, SweepStatus,
 };
@@ -23,7 +25,9 @@ fn c(re: f64, im: f64) -> Complex64 {
 fn z_a(w: f64) -> Complex64 {
     let i = c(0.0, 1.0);
     let g = bm::SHAKER_G_N_PER_A;
-    -w * w * bm::SHAKER_MA_KG + i * w * bm::shaker_da_n_s_per_m() + bm::SHAKER_KA_N_PER_M
+    -w * w * bm::SHAKER_MA_KG
+        + i * w * bm::shaker_da_n_s_per_m()
+        + bm::SHAKER_KA_N_PER_M
         + i * w * g * g / c(bm::SHAKER_R_OHM, w * bm::SHAKER_L_H)
 }
 /// `Z_q` scalar `k_s z_a / (z_a + k_s)`.
@@ -39,7 +43,10 @@ fn f_blocked(w: f64, u: f64) -> Complex64 {
 
 fn shaker_model(table: &ModalTable, point: &str) -> ReducedModel {
     let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), point).unwrap();
-    ReducedModel::new(table, "tip", point).unwrap().with_linear_attachment(&shaker, &[c(1.0, 0.0)]).unwrap()
+    ReducedModel::new(table, "tip", point)
+        .unwrap()
+        .with_linear_attachment(&shaker, &[c(1.0, 0.0)])
+        .unwrap()
 }
 
 fn rel(a: Complex64, b: Complex64) -> f64 {
@@ -50,7 +57,16 @@ fn rel(a: Complex64, b: Complex64) -> f64 {
 fn modal_impedance_and_force_from_the_generic_attachment_equal_the_closed_forms() {
     // complex shape at the drive point, to catch a missing conjugate
     let phi_ex = c(1.0426, 0.31);
-    let table = duffing_table(W0, 0.004, 6e9, &[("tip", c(1.9, 0.0)), ("2l3", phi_ex)], "tip", 3e-3, 50, 1);
+    let table = duffing_table(
+        W0,
+        0.004,
+        6e9,
+        &[("tip", c(1.9, 0.0)), ("2l3", phi_ex)],
+        "tip",
+        3e-3,
+        50,
+        1,
+    );
     let m = shaker_model(&table, "2l3");
     let mut worst: f64 = 0.0;
     for &w in &[100.0, 285.0, 356.2, 500.0, 700.0, 2000.0] {
@@ -74,15 +90,26 @@ fn linear_table_slow_sweep_nlmode_equals_linear_slowflow_and_approaches_linear_s
     let m = shaker_model(&table, "2l3");
     let lin = m.linear().unwrap();
     let sweep = LinearSweep::per_pseudo_period(W0, 0.8, 1.2, 5e-5, 10.0).unwrap();
-    let opts = SlowFlowOptions { output_samples: 801, ..Default::default() };
+    let opts = SlowFlowOptions {
+        output_samples: 801,
+        ..Default::default()
+    };
     let nl = m.simulate_sweep(&sweep, &opts).unwrap();
     let ls = lin.simulate_sweep(&sweep, &opts).unwrap();
     assert_eq!(nl.status, SweepStatus::Completed);
     assert_eq!(ls.status, SweepStatus::Completed);
     let omegas: Vec<f64> = nl.samples.iter().map(|s| s.omega_rad_s).collect();
     let st = m.linear_steady(&omegas, 10.0).unwrap();
-    let peak_tip = st.points.iter().map(|p| p.tip_amplitude_m).fold(0.0, f64::max);
-    let peak_f = st.points.iter().map(|p| p.force_amplitude_n).fold(0.0, f64::max);
+    let peak_tip = st
+        .points
+        .iter()
+        .map(|p| p.tip_amplitude_m)
+        .fold(0.0, f64::max);
+    let peak_f = st
+        .points
+        .iter()
+        .map(|p| p.force_amplitude_n)
+        .fold(0.0, f64::max);
     let (mut d_nl_ls, mut d_tip, mut d_f): (f64, f64, f64) = (0.0, 0.0, 0.0);
     for ((x, y), s) in nl.samples.iter().zip(&ls.samples).zip(&st.points) {
         d_nl_ls = d_nl_ls.max((x.tip_amplitude_m - y.tip_amplitude_m).abs() / peak_tip);
@@ -111,7 +138,12 @@ fn linear_steady_state_matches_eq_fhlinear_and_the_force_drop_of_eq_forcedrop() 
             let zq = z_shaker(p.omega_rad_s);
             let dyn_stiff = W0 * W0 * c(1.0 - eta * eta, 2.0 * 0.004 * eta) + zq * phi.norm_sqr();
             let f = f_blocked(p.omega_rad_s, 10.0) * (1.0 - zq * phi.norm_sqr() / dyn_stiff);
-            assert!((p.force_amplitude_n - f.norm()).abs() < 1e-10 * f.norm(), "{} vs {}", p.force_amplitude_n, f.norm());
+            assert!(
+                (p.force_amplitude_n - f.norm()).abs() < 1e-10 * f.norm(),
+                "{} vs {}",
+                p.force_amplitude_n,
+                f.norm()
+            );
             // drive-point FRF of the structure alone: q_ex / F = |phi|^2 / (w0^2 (1 - eta^2 + 2 i D0 eta))
             let frf = phi.norm_sqr() / (W0 * W0 * c(1.0 - eta * eta, 2.0 * 0.004 * eta)).norm();
             assert!((p.drive_amplitude_m / p.force_amplitude_n - frf).abs() < 1e-10 * frf);
@@ -122,9 +154,19 @@ fn linear_steady_state_matches_eq_fhlinear_and_the_force_drop_of_eq_forcedrop() 
         let wa = (bm::SHAKER_KA_N_PER_M / bm::SHAKER_MA_KG).sqrt();
         let r = wa / W0;
         let ratio = 2.0 * 0.004
-            / (mu * mu * (r * r - 1.0).powi(2) + 4.0 * (0.004 + mu * r * bm::SHAKER_DA).powi(2)).sqrt();
-        eprintln!("{point}: force drop {:.4} (eq:forcedrop {:.4}, DESIGN about {drop_design})", st.force_drop, 1.0 - ratio);
-        assert!((st.force_drop - (1.0 - ratio)).abs() < 0.01, "{} vs {}", st.force_drop, 1.0 - ratio);
+            / (mu * mu * (r * r - 1.0).powi(2) + 4.0 * (0.004 + mu * r * bm::SHAKER_DA).powi(2))
+                .sqrt();
+        eprintln!(
+            "{point}: force drop {:.4} (eq:forcedrop {:.4}, DESIGN about {drop_design})",
+            st.force_drop,
+            1.0 - ratio
+        );
+        assert!(
+            (st.force_drop - (1.0 - ratio)).abs() < 0.01,
+            "{} vs {}",
+            st.force_drop,
+            1.0 - ratio
+        );
         assert!((st.force_drop - drop_design).abs() < 0.015);
         assert_eq!(st.omega0_rad_s, W0);
         // the steady-state root finder on the linear model finds the same unique solution
@@ -147,7 +189,11 @@ fn duffing_roots(kappa: f64, d0: f64, f: f64, w: f64) -> Vec<f64> {
     let cc = 2.0 * d0 * W0 * w;
     // scaled unknown X = x / xs, xs = (f / kappa)^(2/3): X^3 + p2 X^2 + p1 X - 1 = 0
     let xs = (f * f / (kappa * kappa)).cbrt();
-    let (p2, p1, p0) = (2.0 * s / (kappa * xs), (s * s + cc * cc) / (kappa * kappa * xs * xs), -1.0);
+    let (p2, p1, p0) = (
+        2.0 * s / (kappa * xs),
+        (s * s + cc * cc) / (kappa * kappa * xs * xs),
+        -1.0,
+    );
     let comp = nalgebra::Matrix3::new(-p2, -p1, -p0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
     let poly = |x: f64| ((x + p2) * x + p1) * x + p0;
     let dpoly = |x: f64| (3.0 * x + 2.0 * p2) * x + p1;
@@ -194,11 +240,18 @@ fn duffing_steady_state_has_three_roots_inside_the_hysteresis_and_one_outside() 
             hyst = (hyst.0.min(r.omega_rad_s), hyst.1.max(r.omega_rad_s));
         }
         // close to a fold two roots merge; the count must agree elsewhere
-        let near_fold = exact.len() == 3 && (exact[1] - exact[0]).min(exact[2] - exact[1]) < 2e-3 * exact[2];
+        let near_fold =
+            exact.len() == 3 && (exact[1] - exact[0]).min(exact[2] - exact[1]) < 2e-3 * exact[2];
         if near_fold {
             continue;
         }
-        assert_eq!(r.solutions.len(), exact.len(), "Omega/w0 = {}: {:?} vs {exact:?}", r.omega_rad_s / W0, r.solutions.iter().map(|s| s.a).collect::<Vec<_>>());
+        assert_eq!(
+            r.solutions.len(),
+            exact.len(),
+            "Omega/w0 = {}: {:?} vs {exact:?}",
+            r.omega_rad_s / W0,
+            r.solutions.iter().map(|s| s.a).collect::<Vec<_>>()
+        );
         for (s, e) in r.solutions.iter().zip(&exact) {
             worst = worst.max((s.a - e).abs() / e);
         }
@@ -206,7 +259,12 @@ fn duffing_steady_state_has_three_roots_inside_the_hysteresis_and_one_outside() 
             3 => {
                 n3 += 1;
                 let st: Vec<bool> = r.solutions.iter().map(|s| s.stable).collect();
-                assert_eq!(st, vec![true, false, true], "Omega/w0 = {}", r.omega_rad_s / W0);
+                assert_eq!(
+                    st,
+                    vec![true, false, true],
+                    "Omega/w0 = {}",
+                    r.omega_rad_s / W0
+                );
             }
             1 => {
                 n1 += 1;
@@ -224,21 +282,37 @@ fn duffing_steady_state_has_three_roots_inside_the_hysteresis_and_one_outside() 
 fn slow_flow_at_a_tiny_sweep_rate_settles_on_the_stable_steady_state_branch() {
     let (m, kappa, f) = imposed_duffing(1.0);
     let sweep = LinearSweep::per_pseudo_period(W0, 0.9, 1.5, 5e-5, 1.0).unwrap();
-    let opts = SlowFlowOptions { output_samples: 1201, ..Default::default() };
+    let opts = SlowFlowOptions {
+        output_samples: 1201,
+        ..Default::default()
+    };
     let r = m.simulate_sweep(&sweep, &opts).unwrap();
     assert_eq!(r.status, SweepStatus::Completed);
     let omegas: Vec<f64> = r.samples.iter().map(|s| s.omega_rad_s).collect();
     let ss = m.steady_state(&omegas, 1.0).unwrap();
     // upper fold (jump-down) of the exact Duffing curve
-    let fold = omegas.iter().rev().find(|&&w| duffing_roots(kappa, 0.004, f, w).len() == 3).copied().unwrap();
+    let fold = omegas
+        .iter()
+        .rev()
+        .find(|&&w| duffing_roots(kappa, 0.004, f, w).len() == 3)
+        .copied()
+        .unwrap();
     let mut worst: f64 = 0.0;
     let mut on_upper = 0;
     for (s, st) in r.samples.iter().zip(&ss) {
         if s.t_s < 10.0 || (s.omega_rad_s > fold - 3.0 && s.omega_rad_s < fold + 15.0) {
             continue; // start-up transient; the jump and its decay
         }
-        let stable: Vec<f64> = st.solutions.iter().filter(|p| p.stable).map(|p| p.a).collect();
-        let nearest = stable.iter().map(|a| (s.a - a).abs() / a).fold(f64::INFINITY, f64::min);
+        let stable: Vec<f64> = st
+            .solutions
+            .iter()
+            .filter(|p| p.stable)
+            .map(|p| p.a)
+            .collect();
+        let nearest = stable
+            .iter()
+            .map(|a| (s.a - a).abs() / a)
+            .fold(f64::INFINITY, f64::min);
         worst = worst.max(nearest);
         if st.solutions.len() == 3 && (s.a - st.solutions[2].a).abs() < 0.02 * s.a {
             on_upper += 1;
@@ -253,7 +327,10 @@ fn slow_flow_at_a_tiny_sweep_rate_settles_on_the_stable_steady_state_branch() {
     assert!(worst < 0.02, "{worst}");
     assert!(on_upper > 100);
     let jd = sum.jump_down_omega_rad_s.unwrap();
-    assert!(jd > fold - 1.0 && jd < fold + 0.01 * fold, "jump-down {jd} vs fold {fold}");
+    assert!(
+        jd > fold - 1.0 && jd < fold + 0.01 * fold,
+        "jump-down {jd} vs fold {fold}"
+    );
 }
 
 fn case_sweep(volts: f64) -> LinearSweep {
@@ -261,7 +338,11 @@ fn case_sweep(volts: f64) -> LinearSweep {
 }
 
 fn max_rel_diff(a: &SlowFlowResult, b: &SlowFlowResult) -> f64 {
-    let peak = a.samples.iter().map(|s| s.tip_amplitude_m).fold(0.0, f64::max);
+    let peak = a
+        .samples
+        .iter()
+        .map(|s| s.tip_amplitude_m)
+        .fold(0.0, f64::max);
     a.samples
         .iter()
         .zip(&b.samples)
@@ -276,7 +357,10 @@ fn imposed_force_from_the_shaker_run_reproduces_its_amplitude() {
     let sweep = case_sweep(10.0);
     // a dense output so that the linear interpolation of the force in Omega is
     // accurate enough not to move the (sensitive) jump-down
-    let opts = SlowFlowOptions { output_samples: 20001, ..Default::default() };
+    let opts = SlowFlowOptions {
+        output_samples: 20001,
+        ..Default::default()
+    };
     let sh = m.simulate_sweep(&sweep, &opts).unwrap();
     assert_eq!(sh.status, SweepStatus::Completed);
     let env = ForceEnvelope::from_result(&sh).unwrap();
@@ -301,7 +385,9 @@ fn imposed_force_from_the_shaker_run_reproduces_its_amplitude() {
     assert!(d < 2e-3, "{d}");
     // the force the imposed model reports is the prescribed one
     for (x, y) in sh.samples.iter().zip(&ri.samples) {
-        assert!((x.force_amplitude_n - y.force_amplitude_n).abs() < 1e-9 * s1.max_force_amplitude_n);
+        assert!(
+            (x.force_amplitude_n - y.force_amplitude_n).abs() < 1e-9 * s1.max_force_amplitude_n
+        );
     }
     // a hardening jump well above omega0 with a deep force drop (case (a))
     assert!(s1.jump_down_omega_rad_s.unwrap() > 1.2 * W0);
@@ -313,14 +399,29 @@ fn frequency_error_hurts_the_imposed_force_model_far_more_than_the_shaker_model(
     // case (c)-like: 2l/3, 5 V, 2 %, +5 % natural-frequency offset
     let table = benchmark_duffing_table(bm::K3_N_PER_M3);
     let sweep = case_sweep(5.0);
-    let opts = SlowFlowOptions { output_samples: 20001, ..Default::default() };
-    let err = FrequencyError { eps: 0.0, offset_rad_s: 0.05 * W0 };
+    let opts = SlowFlowOptions {
+        output_samples: 20001,
+        ..Default::default()
+    };
+    let err = FrequencyError {
+        eps: 0.0,
+        offset_rad_s: 0.05 * W0,
+    };
     let base = shaker_model(&table, "2l3");
     let r0 = base.simulate_sweep(&sweep, &opts).unwrap();
-    let r1 = shaker_model(&table, "2l3").with_frequency_error(err).unwrap().simulate_sweep(&sweep, &opts).unwrap();
+    let r1 = shaker_model(&table, "2l3")
+        .with_frequency_error(err)
+        .unwrap()
+        .simulate_sweep(&sweep, &opts)
+        .unwrap();
     let env = ForceEnvelope::from_result(&r0).unwrap();
     let imp = ReducedModel::imposed_force(&table, "tip", "2l3", env).unwrap();
-    let r2 = imp.clone().with_frequency_error(err).unwrap().simulate_sweep(&sweep, &opts).unwrap();
+    let r2 = imp
+        .clone()
+        .with_frequency_error(err)
+        .unwrap()
+        .simulate_sweep(&sweep, &opts)
+        .unwrap();
     let r2_noerr = imp.simulate_sweep(&sweep, &opts).unwrap();
     let p0 = r0.summary().unwrap().peak_tip_amplitude_m;
     let p1 = r1.summary().unwrap().peak_tip_amplitude_m;
@@ -344,10 +445,17 @@ fn frequency_error_hurts_the_imposed_force_model_far_more_than_the_shaker_model(
 fn amplitude_leaving_the_table_is_flagged_and_the_computed_part_kept() {
     let (m, _, _) = imposed_duffing(50.0);
     let sweep = LinearSweep::per_pseudo_period(W0, 0.9, 2.9, 0.02, 1.0).unwrap();
-    let r = m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap();
+    let r = m
+        .simulate_sweep(&sweep, &SlowFlowOptions::default())
+        .unwrap();
     let (_, amax) = m.table().amplitude_range();
     match r.status {
-        SweepStatus::LeftTableRange { t_s, a, a_max, omega_rad_s } => {
+        SweepStatus::LeftTableRange {
+            t_s,
+            a,
+            a_max,
+            omega_rad_s,
+        } => {
             assert_eq!(a_max, amax);
             assert!(a <= amax && a > 0.999 * amax, "{a} vs {amax}");
             assert!(t_s < sweep.duration_s());
@@ -394,8 +502,12 @@ fn post_processing_higher_harmonics_of_the_coupling_force_and_synthesis() {
 
     // synthesized signals along a sweep against the harmonics evaluated exactly
     let sweep = LinearSweep::per_pseudo_period(W0, 0.9, 1.3, 0.05, u).unwrap();
-    let r = m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap();
-    let times: Vec<f64> = (0..400).map(|k| 0.3 * sweep.duration_s() + k as f64 * 1e-4).collect();
+    let r = m
+        .simulate_sweep(&sweep, &SlowFlowOptions::default())
+        .unwrap();
+    let times: Vec<f64> = (0..400)
+        .map(|k| 0.3 * sweep.duration_s() + k as f64 * 1e-4)
+        .collect();
     let sig = m.synthesize(&r, &times, 1e-9).unwrap();
     assert_eq!(sig.t_s.len(), times.len());
     let mut worst: f64 = 0.0;
@@ -405,16 +517,32 @@ fn post_processing_higher_harmonics_of_the_coupling_force_and_synthesis() {
         let w = sweep.omega_rad_s(t);
         let e = Complex64::from_polar(1.0, sweep.phase_rad(t));
         let fh = m.force_harmonics(w, u, amp).unwrap();
-        let f: f64 = fh.iter().enumerate().map(|(n, x)| (x * e.powu(n as u32)).re).sum();
+        let f: f64 = fh
+            .iter()
+            .enumerate()
+            .map(|(n, x)| (x * e.powu(n as u32)).re)
+            .sum();
         let qt = m.displacement_harmonics("tip", amp).unwrap();
-        let x: f64 = qt.iter().enumerate().map(|(n, q)| (q * e.powu(n as u32)).re).sum();
-        worst = worst.max((sig.force_n[k] - f).abs()).max((sig.tip_m[k] - x).abs() * 1e4);
+        let x: f64 = qt
+            .iter()
+            .enumerate()
+            .map(|(n, q)| (q * e.powu(n as u32)).re)
+            .sum();
+        worst = worst
+            .max((sig.force_n[k] - f).abs())
+            .max((sig.tip_m[k] - x).abs() * 1e4);
         fmax = fmax.max(f.abs());
     }
     assert!(worst < 1e-8 * fmax.max(1.0), "{worst}");
     // the synthesized tip signal oscillates with the envelope's amplitude: at
     // its largest excursion it touches the envelope a |phi_tip| +- Re(q_0)
-    let (kmax, tmax) = sig.tip_m.iter().enumerate().fold((0, 0.0f64), |b, (k, x)| if x.abs() > b.1 { (k, x.abs()) } else { b });
+    let (kmax, tmax) = sig.tip_m.iter().enumerate().fold((0, 0.0f64), |b, (k, x)| {
+        if x.abs() > b.1 {
+            (k, x.abs())
+        } else {
+            b
+        }
+    });
     let a = r.amplitude_at(times[kmax]).unwrap().norm();
     let env = a * pts[0].1.norm() + sig.tip_m[kmax].signum() * 0.02 * a / 3e-3 * a;
     assert!((tmax - env).abs() < 1e-3 * env, "{tmax} vs {env}");
@@ -426,13 +554,31 @@ fn bad_inputs_are_typed_errors() {
     assert!(ReducedModel::new(&table, "nope", "2l3").is_err());
     let m = shaker_model(&table, "2l3");
     let sweep = case_sweep(1.0);
-    let bad = SlowFlowOptions { rtol: 0.0, ..Default::default() };
-    assert!(matches!(m.simulate_sweep(&sweep, &bad), Err(nlmode::reduced::ReducedError::BadOption { name: "rtol", .. })));
+    let bad = SlowFlowOptions {
+        rtol: 0.0,
+        ..Default::default()
+    };
+    assert!(matches!(
+        m.simulate_sweep(&sweep, &bad),
+        Err(nlmode::reduced::ReducedError::BadOption { name: "rtol", .. })
+    ));
     let shaker = LinearAttachment::shaker("s", &ShakerParams::paper(), "2l3").unwrap();
-    let e = ReducedModel::new(&table, "tip", "2l3").unwrap().with_linear_attachment(&shaker, &[]);
-    assert!(matches!(e, Err(nlmode::reduced::ReducedError::InputCount { expected: 1, found: 0, .. })));
+    let e = ReducedModel::new(&table, "tip", "2l3")
+        .unwrap()
+        .with_linear_attachment(&shaker, &[]);
+    assert!(matches!(
+        e,
+        Err(nlmode::reduced::ReducedError::InputCount {
+            expected: 1,
+            found: 0,
+            ..
+        })
+    ));
     let far = LinearAttachment::shaker("s", &ShakerParams::paper(), "mid").unwrap();
-    assert!(ReducedModel::new(&table, "tip", "2l3").unwrap().with_linear_attachment(&far, &[c(1.0, 0.0)]).is_err());
+    assert!(ReducedModel::new(&table, "tip", "2l3")
+        .unwrap()
+        .with_linear_attachment(&far, &[c(1.0, 0.0)])
+        .is_err());
     // an imposed force envelope that does not cover the sweep
     let env = ForceEnvelope::constant(c(1.0, 0.0), W0, 1.1 * W0).unwrap();
     let imp = ReducedModel::imposed_force(&table, "tip", "2l3", env).unwrap();
@@ -440,7 +586,13 @@ fn bad_inputs_are_typed_errors() {
         imp.simulate_sweep(&sweep, &SlowFlowOptions::default()),
         Err(nlmode::reduced::ReducedError::EnvelopeRange { .. })
     ));
-    assert!(m.clone().with_frequency_error(FrequencyError { eps: -1.5, offset_rad_s: 0.0 }).is_err());
+    assert!(m
+        .clone()
+        .with_frequency_error(FrequencyError {
+            eps: -1.5,
+            offset_rad_s: 0.0
+        })
+        .is_err());
 }
 
 #[test]
@@ -448,8 +600,15 @@ fn default_tolerances_are_converged_on_case_a() {
     let table = benchmark_duffing_table(bm::K3_N_PER_M3);
     let m = shaker_model(&table, "2l3");
     let sweep = case_sweep(10.0);
-    let r = m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap();
-    let fine = SlowFlowOptions { rtol: 1e-10, atol_rel: 1e-12, channel_tol: 1e-12, ..Default::default() };
+    let r = m
+        .simulate_sweep(&sweep, &SlowFlowOptions::default())
+        .unwrap();
+    let fine = SlowFlowOptions {
+        rtol: 1e-10,
+        atol_rel: 1e-12,
+        channel_tol: 1e-12,
+        ..Default::default()
+    };
     let rf = m.simulate_sweep(&sweep, &fine).unwrap();
     let d = max_rel_diff(&rf, &r);
     let (s, sf) = (r.summary().unwrap(), rf.summary().unwrap());
@@ -458,7 +617,9 @@ fn default_tolerances_are_converged_on_case_a() {
         r.stats.accepted_steps, rf.stats.accepted_steps, s.peak_tip_amplitude_m, sf.peak_tip_amplitude_m
     );
     assert!(d < 1e-3, "{d}");
-    assert!((s.peak_tip_amplitude_m - sf.peak_tip_amplitude_m).abs() < 1e-4 * sf.peak_tip_amplitude_m);
+    assert!(
+        (s.peak_tip_amplitude_m - sf.peak_tip_amplitude_m).abs() < 1e-4 * sf.peak_tip_amplitude_m
+    );
 }
 
 // ---------------------------------------------------------------------------
@@ -467,7 +628,9 @@ fn default_tolerances_are_converged_on_case_a() {
 
 mod paper {
     use super::*;
-    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy};
+    use nlmode::nma::{
+        nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy,
+    };
     use nlmode::reference::{simulate_sweep as reference_sweep, ReferenceOptions, SweepResult};
     use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
 
@@ -480,14 +643,23 @@ mod paper {
     pub fn table(ps: &PaperStructure) -> ModalTable {
         let opts = NmaOptions {
             harmonics: 3,
-            amplitude: AmplitudeRange::Modal { log10_start: -6.0, log10_end: -2.0 },
+            amplitude: AmplitudeRange::Modal {
+                log10_start: -6.0,
+                log10_end: -2.0,
+            },
             points: vec!["tip".into(), "2l3".into(), "l3".into()],
             store_coordinates: false,
             // a table fine enough for PCHIP (steps of at most 0.05 in log10 a)
-            continuation: ContinuationOptions { ds: 0.02, dsmax: Some(0.05), ..Default::default() },
+            continuation: ContinuationOptions {
+                ds: 0.02,
+                dsmax: Some(0.05),
+                ..Default::default()
+            },
             ..Default::default()
         };
-        nonlinear_modal_analysis(&ps.model, &opts).unwrap().to_table(TablePolicy::PrimaryBranch)
+        nonlinear_modal_analysis(&ps.model, &opts)
+            .unwrap()
+            .to_table(TablePolicy::PrimaryBranch)
     }
 
     pub fn reference(ps: &PaperStructure, point: &str, sweep: &LinearSweep) -> SweepResult {
@@ -507,7 +679,9 @@ mod paper {
 
     /// (peak, its Omega, jump-down Omega) of an envelope: steepest fall after the peak.
     pub fn summary(w: &[f64], tip: &[f64]) -> (f64, f64, f64) {
-        let ip = (0..w.len()).max_by(|&a, &b| tip[a].total_cmp(&tip[b])).unwrap();
+        let ip = (0..w.len())
+            .max_by(|&a, &b| tip[a].total_cmp(&tip[b]))
+            .unwrap();
         let mut jump = (0.0, f64::NAN);
         for i in ip..w.len() - 1 {
             let slope = (tip[i] - tip[i + 1]) / (w[i + 1] - w[i]);
@@ -527,9 +701,16 @@ fn paper_case_a_nlmode_agrees_with_the_full_order_reference() {
     let m = shaker_model(&table, "2l3");
     let sweep = LinearSweep::per_pseudo_period(w0, 0.8, 1.8, 0.02, 10.0).unwrap();
     let t = std::time::Instant::now();
-    let r = m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap();
+    let r = m
+        .simulate_sweep(&sweep, &SlowFlowOptions::default())
+        .unwrap();
     let t_nl = t.elapsed().as_secs_f64();
-    assert_eq!(r.status, SweepStatus::Completed, "table range {:?}", m.table().amplitude_range());
+    assert_eq!(
+        r.status,
+        SweepStatus::Completed,
+        "table range {:?}",
+        m.table().amplitude_range()
+    );
     let t = std::time::Instant::now();
     let reference = paper::reference(&ps, "2l3", &sweep);
     let t_ref = t.elapsed().as_secs_f64();
@@ -585,18 +766,43 @@ fn paper_case_c_imposed_force_is_far_more_sensitive_to_a_frequency_error_than_th
     let w0 = ps.omega0_rad_s;
     let table = paper::table(&ps);
     let sweep = LinearSweep::per_pseudo_period(w0, 0.8, 1.8, 0.02, 5.0).unwrap();
-    let opts = SlowFlowOptions { output_samples: 20001, ..Default::default() };
-    let err = FrequencyError { eps: 0.0, offset_rad_s: 0.05 * w0 };
+    let opts = SlowFlowOptions {
+        output_samples: 20001,
+        ..Default::default()
+    };
+    let err = FrequencyError {
+        eps: 0.0,
+        offset_rad_s: 0.05 * w0,
+    };
     let reference = paper::reference(&ps, "2l3", &sweep);
     let env = &reference.envelope;
     let (p_ref, _, _) = paper::summary(&env.omega_rad_s, &env.tip_amplitude_m);
     let nm = shaker_model(&table, "2l3");
     let r1 = nm.simulate_sweep(&sweep, &opts).unwrap();
-    let r2 = nm.clone().with_frequency_error(err).unwrap().simulate_sweep(&sweep, &opts).unwrap();
-    let imposed = ReducedModel::imposed_force(&table, "tip", "2l3", ForceEnvelope::from_result(&r1).unwrap()).unwrap();
-    let r3 = imposed.with_frequency_error(err).unwrap().simulate_sweep(&sweep, &opts).unwrap();
+    let r2 = nm
+        .clone()
+        .with_frequency_error(err)
+        .unwrap()
+        .simulate_sweep(&sweep, &opts)
+        .unwrap();
+    let imposed = ReducedModel::imposed_force(
+        &table,
+        "tip",
+        "2l3",
+        ForceEnvelope::from_result(&r1).unwrap(),
+    )
+    .unwrap();
+    let r3 = imposed
+        .with_frequency_error(err)
+        .unwrap()
+        .simulate_sweep(&sweep, &opts)
+        .unwrap();
     let peak = |r: &SlowFlowResult| r.summary().unwrap().peak_tip_amplitude_m;
-    let (d1, d2, d3) = (peak(&r1) / p_ref - 1.0, peak(&r2) / p_ref - 1.0, peak(&r3) / p_ref - 1.0);
+    let (d1, d2, d3) = (
+        peak(&r1) / p_ref - 1.0,
+        peak(&r2) / p_ref - 1.0,
+        peak(&r3) / p_ref - 1.0,
+    );
     eprintln!(
         "case (c): peak tip reference {p_ref:.4e} m; NM + shaker {:+.1} %; NM + shaker + 5 % {:+.1} %; imposed force + 5 % {:+.1} % ({:?})",
         100.0 * d1,
@@ -606,7 +812,10 @@ fn paper_case_c_imposed_force_is_far_more_sensitive_to_a_frequency_error_than_th
     );
     assert!(d1.abs() < 0.02, "{d1}");
     assert!(d2.abs() < 0.1, "{d2}");
-    assert!(d3.abs() > 5.0 * d2.abs() && d3 > 0.3, "imposed {d3} vs shaker {d2}");
+    assert!(
+        d3.abs() > 5.0 * d2.abs() && d3 > 0.3,
+        "imposed {d3} vs shaker {d2}"
+    );
 }
 
 #[test]
@@ -617,21 +826,37 @@ fn paper_steady_state_frf_has_a_hysteresis_whose_upper_fold_a_slow_sweep_jumps_a
     let m = shaker_model(&table, "2l3");
     let omegas: Vec<f64> = (0..500).map(|j| w0 * (0.8 + j as f64 / 499.0)).collect();
     let frf = m.steady_state(&omegas, 10.0).unwrap();
-    let three: Vec<f64> = frf.iter().filter(|f| f.solutions.len() == 3).map(|f| f.omega_rad_s).collect();
+    let three: Vec<f64> = frf
+        .iter()
+        .filter(|f| f.solutions.len() == 3)
+        .map(|f| f.omega_rad_s)
+        .collect();
 
-    assert!(frf.iter().all(|f| !f.exceeds_table && (f.solutions.len() == 1 || f.solutions.len() == 3)));
+    assert!(frf
+        .iter()
+        .all(|f| !f.exceeds_table && (f.solutions.len() == 1 || f.solutions.len() == 3)));
     for f in frf.iter().filter(|f| f.solutions.len() == 3) {
         let st: Vec<bool> = f.solutions.iter().map(|s| s.stable).collect();
         assert_eq!(st, vec![true, false, true], "Omega {}", f.omega_rad_s);
     }
     let (lo, hi) = (three[0], *three.last().unwrap());
     // the 3-solution frequencies form one interval
-    assert_eq!(three.len(), frf.iter().filter(|f| f.omega_rad_s >= lo && f.omega_rad_s <= hi).count());
+    assert_eq!(
+        three.len(),
+        frf.iter()
+            .filter(|f| f.omega_rad_s >= lo && f.omega_rad_s <= hi)
+            .count()
+    );
     // forward sweeps jump down after the upper fold, the later the faster
     // (slow passage through a saddle-node); the delay vanishes with the rate
     let jump = |r: f64| {
         let sweep = LinearSweep::per_pseudo_period(w0, 0.8, 1.8, r, 10.0).unwrap();
-        m.simulate_sweep(&sweep, &SlowFlowOptions::default()).unwrap().summary().unwrap().jump_down_omega_rad_s.unwrap()
+        m.simulate_sweep(&sweep, &SlowFlowOptions::default())
+            .unwrap()
+            .summary()
+            .unwrap()
+            .jump_down_omega_rad_s
+            .unwrap()
     };
     let (j2, j3, j4) = (jump(1e-2), jump(1e-3), jump(1e-4));
     eprintln!(
@@ -643,6 +868,12 @@ fn paper_steady_state_frf_has_a_hysteresis_whose_upper_fold_a_slow_sweep_jumps_a
         hi / w0
     );
     let dw = omegas[1] - omegas[0];
-    assert!(j4 > hi - dw && j3 > j4 - dw && j2 > j3 - dw, "{j2} {j3} {j4} vs fold {hi}");
-    assert!(j4 - hi < 0.5 * (j3 - hi) && j4 - hi < 0.005 * hi, "{j3} {j4} vs fold {hi}");
+    assert!(
+        j4 > hi - dw && j3 > j4 - dw && j2 > j3 - dw,
+        "{j2} {j3} {j4} vs fold {hi}"
+    );
+    assert!(
+        j4 - hi < 0.5 * (j3 - hi) && j4 - hi < 0.005 * hi,
+        "{j3} {j4} vs fold {hi}"
+    );
 }

@@ -417,12 +417,19 @@ fn other_nonlinear_laws_survive_the_reduction() {
 fn fine_meshes_keep_an_accurate_fundamental() {
     // 400 nodes: lambda_1 / lambda_max is about 4e-13, below the rounding of the
     // stiffness-form eigensolver; the flexibility form keeps omega_1 exact.
-    let spec = BeamSpec { n_nodes: 400, ..BeamSpec::paper() };
+    let spec = BeamSpec {
+        n_nodes: 400,
+        ..BeamSpec::paper()
+    };
     let beam = spec.assemble().unwrap();
     let modes = modal_analysis(&beam.model, 3).unwrap();
     for (j, bl) in CLAMPED_FREE.iter().enumerate() {
         let exact = spec.analytic_omega_rad_s(*bl);
-        assert!(rel(modes.omega_rad_s[j], exact) < 1e-6, "mode {j}: {} vs {exact}", modes.omega_rad_s[j]);
+        assert!(
+            rel(modes.omega_rad_s[j], exact) < 1e-6,
+            "mode {j}: {} vs {exact}",
+            modes.omega_rad_s[j]
+        );
     }
     // mass-normalised
     let phi = modes.shape(0);

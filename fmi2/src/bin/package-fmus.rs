@@ -40,17 +40,32 @@ fn main() -> ExitCode {
         }
     }
     let Some(out) = out else { usage() };
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("workspace root")
+        .to_path_buf();
     let present: Vec<(&str, &str)> = FMUS
         .iter()
         .copied()
-        .filter(|(id, _)| root.join("modelDescription").join(id).join("modelDescription.xml").is_file())
+        .filter(|(id, _)| {
+            root.join("modelDescription")
+                .join(id)
+                .join("modelDescription.xml")
+                .is_file()
+        })
         .collect();
     if present.is_empty() {
-        eprintln!("no modelDescription/<id>/modelDescription.xml found under {}", root.display());
+        eprintln!(
+            "no modelDescription/<id>/modelDescription.xml found under {}",
+            root.display()
+        );
         return ExitCode::FAILURE;
     }
-    let libs = match build_libraries(&root, &present.iter().map(|p| p.1).collect::<Vec<_>>(), !debug) {
+    let libs = match build_libraries(
+        &root,
+        &present.iter().map(|p| p.1).collect::<Vec<_>>(),
+        !debug,
+    ) {
         Ok(l) => l,
         Err(e) => {
             eprintln!("{e}");
@@ -66,7 +81,11 @@ fn main() -> ExitCode {
             eprintln!("cargo built no shared library for {id} ({krate})");
             return ExitCode::FAILURE;
         };
-        let extra_here: Vec<PathBuf> = extra.iter().filter(|(eid, _)| eid == id).map(|(_, f)| f.clone()).collect();
+        let extra_here: Vec<PathBuf> = extra
+            .iter()
+            .filter(|(eid, _)| eid == id)
+            .map(|(_, f)| f.clone())
+            .collect();
         match package_workspace_fmu(&root, id, krate, lib, &extra_here, &out) {
             Ok(p) => println!("wrote {}", p.display()),
             Err(e) => {

@@ -31,15 +31,25 @@ use quick_xml::events::{BytesStart, Event};
 #[derive(Debug, thiserror::Error)]
 pub enum FmuError {
     #[error("cannot read FMU {path}: {source}")]
-    Open { path: PathBuf, source: std::io::Error },
+    Open {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}: not a valid zip archive: {source}")]
-    Zip { path: PathBuf, source: zip::result::ZipError },
+    Zip {
+        path: PathBuf,
+        source: zip::result::ZipError,
+    },
     #[error("{path}: archive entry '{entry}' escapes the extraction folder (absolute path or '..'); nothing unpacked")]
     UnsafeEntry { path: PathBuf, entry: String },
     #[error("{path}: archive entry '{entry}' is a symbolic link; nothing unpacked")]
     Symlink { path: PathBuf, entry: String },
     #[error("cannot unpack '{entry}' of {path}: {source}")]
-    Unpack { path: PathBuf, entry: String, source: std::io::Error },
+    Unpack {
+        path: PathBuf,
+        entry: String,
+        source: std::io::Error,
+    },
     #[error("{path}: no modelDescription.xml at the archive root")]
     NoModelDescription { path: PathBuf },
     #[error("modelDescription.xml line {line}: {message}")]
@@ -49,21 +59,48 @@ pub enum FmuError {
     #[error("modelDescription.xml of '{model}': no <CoSimulation> element (Model Exchange only?); the host needs FMI 2.0 Co-Simulation")]
     NoCoSimulation { model: String },
     #[error("FMU '{model}': binary {path} is missing (platform linux64, modelIdentifier '{identifier}')")]
-    MissingBinary { model: String, identifier: String, path: PathBuf },
+    MissingBinary {
+        model: String,
+        identifier: String,
+        path: PathBuf,
+    },
     #[error("cannot load {path}: {source}")]
-    Load { path: PathBuf, source: libloading::Error },
+    Load {
+        path: PathBuf,
+        source: libloading::Error,
+    },
     #[error("{path}: missing FMI function {name}")]
     Symbol { path: PathBuf, name: &'static str },
     #[error("{path}: fmi2GetVersion returns \"{found}\", expected \"2.0\"")]
     BinaryVersion { path: PathBuf, found: String },
-    #[error("fmi2Instantiate of '{instance}' (model '{model}', GUID {guid}) failed; FMU log: {log}")]
-    Instantiate { instance: String, model: String, guid: String, log: String },
-    #[error("{function} of instance '{instance}' at t = {time_s} s returned {status}; FMU log: {log}")]
-    Status { function: &'static str, instance: String, status: &'static str, time_s: f64, log: String },
+    #[error(
+        "fmi2Instantiate of '{instance}' (model '{model}', GUID {guid}) failed; FMU log: {log}"
+    )]
+    Instantiate {
+        instance: String,
+        model: String,
+        guid: String,
+        log: String,
+    },
+    #[error(
+        "{function} of instance '{instance}' at t = {time_s} s returned {status}; FMU log: {log}"
+    )]
+    Status {
+        function: &'static str,
+        instance: String,
+        status: &'static str,
+        time_s: f64,
+        log: String,
+    },
     #[error("FMU '{model}' has no variable named '{name}'")]
     UnknownVariable { model: String, name: String },
     #[error("FMU '{model}': variable '{name}' is {found}, expected {expected}")]
-    WrongVariable { model: String, name: String, found: String, expected: &'static str },
+    WrongVariable {
+        model: String,
+        name: String,
+        found: String,
+        expected: &'static str,
+    },
     #[error("FMU '{model}' does not support {what}")]
     Unsupported { model: String, what: &'static str },
 }
@@ -165,34 +202,54 @@ pub struct ModelDescription {
 }
 
 /// A `<ScalarVariable>` being read: its attributes, line, and type element (type, attributes).
-type PendingVariable = (Vec<(String, String)>, usize, Option<(VarType, Vec<(String, String)>)>);
+type PendingVariable = (
+    Vec<(String, String)>,
+    usize,
+    Option<(VarType, Vec<(String, String)>)>,
+);
 
 fn line_of(text: &str, pos: u64) -> usize {
     let end = (pos as usize).min(text.len());
-    text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+    text.as_bytes()[..end]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 fn parse_bool(v: &str, attr: &str, line: usize) -> Result<bool> {
     match v {
         "true" | "1" => Ok(true),
         "false" | "0" => Ok(false),
-        _ => Err(FmuError::Xml { line, message: format!("attribute {attr}=\"{v}\": expected true or false") }),
+        _ => Err(FmuError::Xml {
+            line,
+            message: format!("attribute {attr}=\"{v}\": expected true or false"),
+        }),
     }
 }
 
 fn parse_num<T: std::str::FromStr>(v: &str, attr: &str, line: usize, what: &str) -> Result<T> {
-    v.trim().parse::<T>().map_err(|_| FmuError::Xml { line, message: format!("attribute {attr}=\"{v}\": expected {what}") })
+    v.trim().parse::<T>().map_err(|_| FmuError::Xml {
+        line,
+        message: format!("attribute {attr}=\"{v}\": expected {what}"),
+    })
 }
 
 /// Attributes of an element as (name, unescaped value).
 fn attrs(e: &BytesStart<'_>, line: usize) -> Result<Vec<(String, String)>> {
     let mut out = Vec::new();
     for a in e.attributes() {
-        let a = a.map_err(|err| FmuError::Xml { line, message: format!("malformed attribute: {err}") })?;
+        let a = a.map_err(|err| FmuError::Xml {
+            line,
+            message: format!("malformed attribute: {err}"),
+        })?;
         let key = String::from_utf8_lossy(a.key.as_ref()).into_owned();
         let val = a
             .unescape_value()
-            .map_err(|err| FmuError::Xml { line, message: format!("attribute {key}: {err}") })?
+            .map_err(|err| FmuError::Xml {
+                line,
+                message: format!("attribute {key}: {err}"),
+            })?
             .into_owned();
         out.push((key, val));
     }
@@ -234,7 +291,11 @@ impl ModelDescription {
                 message: e.to_string(),
             })?;
             // The event starts at the first non-blank byte after `pos`.
-            let start = pos as usize + text.as_bytes()[(pos as usize).min(text.len())..].iter().take_while(|b| b.is_ascii_whitespace()).count();
+            let start = pos as usize
+                + text.as_bytes()[(pos as usize).min(text.len())..]
+                    .iter()
+                    .take_while(|b| b.is_ascii_whitespace())
+                    .count();
             let line = line_of(text, start as u64);
             let (e, empty) = match &ev {
                 Event::Start(e) => (Some(e.clone()), false),
@@ -258,39 +319,65 @@ impl ModelDescription {
                     has_root = true;
                     md.fmi_version = get(&a, "fmiVersion").unwrap_or("").to_string();
                     if md.fmi_version != "2.0" {
-                        return Err(FmuError::Version { found: md.fmi_version });
+                        return Err(FmuError::Version {
+                            found: md.fmi_version,
+                        });
                     }
                     md.model_name = get(&a, "modelName").unwrap_or("").to_string();
                     md.guid = get(&a, "guid")
-                        .ok_or_else(|| FmuError::Xml { line, message: "fmiModelDescription has no guid attribute".into() })?
+                        .ok_or_else(|| FmuError::Xml {
+                            line,
+                            message: "fmiModelDescription has no guid attribute".into(),
+                        })?
                         .to_string();
                     md.description = get(&a, "description").unwrap_or("").to_string();
                     md.generation_tool = get(&a, "generationTool").unwrap_or("").to_string();
                 }
                 ("", other) => {
-                    return Err(FmuError::Xml { line, message: format!("root element is <{other}>, expected <fmiModelDescription>") })
+                    return Err(FmuError::Xml {
+                        line,
+                        message: format!(
+                            "root element is <{other}>, expected <fmiModelDescription>"
+                        ),
+                    })
                 }
                 ("fmiModelDescription", "CoSimulation") => {
                     has_cs = true;
                     let cs = &mut md.co_simulation;
                     cs.model_identifier = get(&a, "modelIdentifier")
-                        .ok_or_else(|| FmuError::Xml { line, message: "<CoSimulation> has no modelIdentifier".into() })?
+                        .ok_or_else(|| FmuError::Xml {
+                            line,
+                            message: "<CoSimulation> has no modelIdentifier".into(),
+                        })?
                         .to_string();
                     for (k, v) in &a {
                         match k.as_str() {
                             "canHandleVariableCommunicationStepSize" => {
-                                cs.can_handle_variable_communication_step_size = parse_bool(v, k, line)?
+                                cs.can_handle_variable_communication_step_size =
+                                    parse_bool(v, k, line)?
                             }
-                            "canInterpolateInputs" => cs.can_interpolate_inputs = parse_bool(v, k, line)?,
+                            "canInterpolateInputs" => {
+                                cs.can_interpolate_inputs = parse_bool(v, k, line)?
+                            }
                             "maxOutputDerivativeOrder" => {
-                                cs.max_output_derivative_order = parse_num(v, k, line, "an unsigned integer")?
+                                cs.max_output_derivative_order =
+                                    parse_num(v, k, line, "an unsigned integer")?
                             }
-                            "canGetAndSetFMUstate" => cs.can_get_and_set_fmu_state = parse_bool(v, k, line)?,
-                            "canSerializeFMUstate" => cs.can_serialize_fmu_state = parse_bool(v, k, line)?,
-                            "providesDirectionalDerivative" => cs.provides_directional_derivative = parse_bool(v, k, line)?,
-                            "needsExecutionTool" => cs.needs_execution_tool = parse_bool(v, k, line)?,
+                            "canGetAndSetFMUstate" => {
+                                cs.can_get_and_set_fmu_state = parse_bool(v, k, line)?
+                            }
+                            "canSerializeFMUstate" => {
+                                cs.can_serialize_fmu_state = parse_bool(v, k, line)?
+                            }
+                            "providesDirectionalDerivative" => {
+                                cs.provides_directional_derivative = parse_bool(v, k, line)?
+                            }
+                            "needsExecutionTool" => {
+                                cs.needs_execution_tool = parse_bool(v, k, line)?
+                            }
                             "canBeInstantiatedOnlyOncePerProcess" => {
-                                cs.can_be_instantiated_only_once_per_process = parse_bool(v, k, line)?
+                                cs.can_be_instantiated_only_once_per_process =
+                                    parse_bool(v, k, line)?
                             }
                             _ => {}
                         }
@@ -298,7 +385,9 @@ impl ModelDescription {
                 }
                 ("fmiModelDescription", "DefaultExperiment") => {
                     let f = |k: &str| -> Result<Option<f64>> {
-                        get(&a, k).map(|v| parse_num::<f64>(v, k, line, "a number")).transpose()
+                        get(&a, k)
+                            .map(|v| parse_num::<f64>(v, k, line, "a number"))
+                            .transpose()
                     };
                     md.default_experiment = DefaultExperiment {
                         start_time: f("startTime")?,
@@ -313,7 +402,10 @@ impl ModelDescription {
                         md.finish_variable(current.take(), line)?;
                     }
                 }
-                ("ScalarVariable", t @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration")) => {
+                (
+                    "ScalarVariable",
+                    t @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration"),
+                ) => {
                     let ty = match t {
                         "Real" => VarType::Real,
                         "Integer" => VarType::Integer,
@@ -323,13 +415,19 @@ impl ModelDescription {
                     };
                     let cur = current.as_mut().expect("inside ScalarVariable");
                     if cur.2.is_some() {
-                        return Err(FmuError::Xml { line, message: "ScalarVariable has more than one type element".into() });
+                        return Err(FmuError::Xml {
+                            line,
+                            message: "ScalarVariable has more than one type element".into(),
+                        });
                     }
                     cur.2 = Some((ty, a));
                 }
                 ("Outputs", "Unknown") => {
                     let idx: usize = parse_num(
-                        get(&a, "index").ok_or_else(|| FmuError::Xml { line, message: "<Unknown> has no index".into() })?,
+                        get(&a, "index").ok_or_else(|| FmuError::Xml {
+                            line,
+                            message: "<Unknown> has no index".into(),
+                        })?,
                         "index",
                         line,
                         "a positive integer",
@@ -338,7 +436,9 @@ impl ModelDescription {
                         None => None,
                         Some(d) => Some(
                             d.split_whitespace()
-                                .map(|s| parse_num::<usize>(s, "dependencies", line, "positive integers"))
+                                .map(|s| {
+                                    parse_num::<usize>(s, "dependencies", line, "positive integers")
+                                })
                                 .collect::<Result<Vec<_>>>()?,
                         ),
                     };
@@ -346,15 +446,23 @@ impl ModelDescription {
                         if i == 0 || i > md.variables.len() {
                             Err(FmuError::Xml {
                                 line,
-                                message: format!("index {i} outside 1..={} (the ScalarVariables)", md.variables.len()),
+                                message: format!(
+                                    "index {i} outside 1..={} (the ScalarVariables)",
+                                    md.variables.len()
+                                ),
                             })
                         } else {
                             Ok(i - 1)
                         }
                     };
                     let output = check(idx)?;
-                    let dependencies = deps.map(|d| d.into_iter().map(check).collect::<Result<Vec<_>>>()).transpose()?;
-                    md.outputs.push(OutputDependency { output, dependencies });
+                    let dependencies = deps
+                        .map(|d| d.into_iter().map(check).collect::<Result<Vec<_>>>())
+                        .transpose()?;
+                    md.outputs.push(OutputDependency {
+                        output,
+                        dependencies,
+                    });
                 }
                 _ => {}
             }
@@ -363,24 +471,32 @@ impl ModelDescription {
             }
         }
         if !has_root {
-            return Err(FmuError::Xml { line: 1, message: "no <fmiModelDescription> element".into() });
+            return Err(FmuError::Xml {
+                line: 1,
+                message: "no <fmiModelDescription> element".into(),
+            });
         }
         if !has_cs {
-            return Err(FmuError::NoCoSimulation { model: md.model_name });
+            return Err(FmuError::NoCoSimulation {
+                model: md.model_name,
+            });
         }
         Ok(md)
     }
 
-    fn finish_variable(
-        &mut self,
-        cur: Option<PendingVariable>,
-        end_line: usize,
-    ) -> Result<()> {
-        let Some((a, line, ty)) = cur else { return Ok(()) };
-        let name = get(&a, "name").ok_or_else(|| FmuError::Xml { line, message: "ScalarVariable has no name".into() })?;
+    fn finish_variable(&mut self, cur: Option<PendingVariable>, end_line: usize) -> Result<()> {
+        let Some((a, line, ty)) = cur else {
+            return Ok(());
+        };
+        let name = get(&a, "name").ok_or_else(|| FmuError::Xml {
+            line,
+            message: "ScalarVariable has no name".into(),
+        })?;
         let vr: u32 = parse_num(
-            get(&a, "valueReference")
-                .ok_or_else(|| FmuError::Xml { line, message: format!("ScalarVariable '{name}' has no valueReference") })?,
+            get(&a, "valueReference").ok_or_else(|| FmuError::Xml {
+                line,
+                message: format!("ScalarVariable '{name}' has no valueReference"),
+            })?,
             "valueReference",
             line,
             "an unsigned 32-bit integer",
@@ -396,7 +512,12 @@ impl ModelDescription {
             "output" => Causality::Output,
             "local" => Causality::Local,
             "independent" => Causality::Independent,
-            other => return Err(FmuError::Xml { line, message: format!("ScalarVariable '{name}': unknown causality \"{other}\"") }),
+            other => {
+                return Err(FmuError::Xml {
+                    line,
+                    message: format!("ScalarVariable '{name}': unknown causality \"{other}\""),
+                })
+            }
         };
         let variability = match get(&a, "variability").unwrap_or("continuous") {
             "constant" => Variability::Constant,
@@ -404,10 +525,18 @@ impl ModelDescription {
             "tunable" => Variability::Tunable,
             "discrete" => Variability::Discrete,
             "continuous" => Variability::Continuous,
-            other => return Err(FmuError::Xml { line, message: format!("ScalarVariable '{name}': unknown variability \"{other}\"") }),
+            other => {
+                return Err(FmuError::Xml {
+                    line,
+                    message: format!("ScalarVariable '{name}': unknown variability \"{other}\""),
+                })
+            }
         };
         if self.variables.iter().any(|v| v.name == name) {
-            return Err(FmuError::Xml { line, message: format!("ScalarVariable name '{name}' repeats") });
+            return Err(FmuError::Xml {
+                line,
+                message: format!("ScalarVariable name '{name}' repeats"),
+            });
         }
         self.variables.push(ScalarVariable {
             name: name.to_string(),
@@ -428,7 +557,10 @@ impl ModelDescription {
         self.variables
             .iter()
             .find(|v| v.name == name)
-            .ok_or_else(|| FmuError::UnknownVariable { model: self.model_name.clone(), name: name.into() })
+            .ok_or_else(|| FmuError::UnknownVariable {
+                model: self.model_name.clone(),
+                name: name.into(),
+            })
     }
 
     /// Value reference of the Real variable `name` whose causality is one of `allowed`.
@@ -464,9 +596,18 @@ impl ModelDescription {
 /// Unpack `fmu` into `dir`. Every entry is checked before anything is written:
 /// absolute paths, `..` components and symbolic links are refused.
 pub fn unpack(fmu: &Path, dir: &Path) -> Result<()> {
-    let file = File::open(fmu).map_err(|source| FmuError::Open { path: fmu.into(), source })?;
-    let mut z = zip::ZipArchive::new(file).map_err(|source| FmuError::Zip { path: fmu.into(), source })?;
-    let zerr = |source| FmuError::Zip { path: fmu.into(), source };
+    let file = File::open(fmu).map_err(|source| FmuError::Open {
+        path: fmu.into(),
+        source,
+    })?;
+    let mut z = zip::ZipArchive::new(file).map_err(|source| FmuError::Zip {
+        path: fmu.into(),
+        source,
+    })?;
+    let zerr = |source| FmuError::Zip {
+        path: fmu.into(),
+        source,
+    };
     let mut plan = Vec::with_capacity(z.len());
     for i in 0..z.len() {
         let f = z.by_index_raw(i).map_err(zerr)?;
@@ -474,17 +615,29 @@ pub fn unpack(fmu: &Path, dir: &Path) -> Result<()> {
         let rel = Path::new(&name);
         let safe = !name.contains('\\')
             && !name.contains('\0')
-            && rel.components().all(|c| matches!(c, PathComponent::Normal(_) | PathComponent::CurDir));
+            && rel
+                .components()
+                .all(|c| matches!(c, PathComponent::Normal(_) | PathComponent::CurDir));
         if !safe || f.enclosed_name().is_none() {
-            return Err(FmuError::UnsafeEntry { path: fmu.into(), entry: name });
+            return Err(FmuError::UnsafeEntry {
+                path: fmu.into(),
+                entry: name,
+            });
         }
         if f.is_symlink() {
-            return Err(FmuError::Symlink { path: fmu.into(), entry: name });
+            return Err(FmuError::Symlink {
+                path: fmu.into(),
+                entry: name,
+            });
         }
         plan.push((i, name, f.is_dir()));
     }
     for (i, name, is_dir) in plan {
-        let uerr = |source| FmuError::Unpack { path: fmu.into(), entry: name.clone(), source };
+        let uerr = |source| FmuError::Unpack {
+            path: fmu.into(),
+            entry: name.clone(),
+            source,
+        };
         let target = dir.join(&name);
         if is_dir {
             std::fs::create_dir_all(&target).map_err(uerr)?;
@@ -510,7 +663,8 @@ type Status = c_int;
 /// `fmi2CallbackFunctions`.
 #[repr(C)]
 struct CallbackFunctions {
-    logger: unsafe extern "C" fn(*mut c_void, *const c_char, c_int, *const c_char, *const c_char, ...),
+    logger:
+        unsafe extern "C" fn(*mut c_void, *const c_char, c_int, *const c_char, *const c_char, ...),
     allocate_memory: unsafe extern "C" fn(usize, usize) -> *mut c_void,
     free_memory: unsafe extern "C" fn(*mut c_void),
     step_finished: Option<unsafe extern "C" fn(*mut c_void, c_int)>,
@@ -519,7 +673,14 @@ struct CallbackFunctions {
 
 extern "C" {
     /// The C shim (`csrc/logger.c`).
-    fn host_fmi2_logger(env: *mut c_void, instance: *const c_char, status: c_int, category: *const c_char, fmt: *const c_char, ...);
+    fn host_fmi2_logger(
+        env: *mut c_void,
+        instance: *const c_char,
+        status: c_int,
+        category: *const c_char,
+        fmt: *const c_char,
+        ...
+    );
 }
 
 unsafe extern "C" fn alloc_memory(n: usize, size: usize) -> *mut c_void {
@@ -549,11 +710,21 @@ pub unsafe extern "C" fn host_fmi2_log_message(
     category: *const c_char,
     message: *const c_char,
 ) {
-    let s = |p: *const c_char| if p.is_null() { String::new() } else { CStr::from_ptr(p).to_string_lossy().into_owned() };
+    let s = |p: *const c_char| {
+        if p.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr(p).to_string_lossy().into_owned()
+        }
+    };
     let (instance, category, message) = (s(instance), s(category), s(message));
     // Never unwind into C.
     let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        let rec = LogRecord { status: status_name(status), category, message };
+        let rec = LogRecord {
+            status: status_name(status),
+            category,
+            message,
+        };
         if env.is_null() {
             eprintln!("[fmu {instance}] {}: {}", rec.status, rec.message);
         } else {
@@ -593,7 +764,10 @@ const LOG_KEEP: usize = 64;
 impl LogSink {
     fn push(&self, instance: &str, rec: LogRecord) {
         if self.echo && rec.status != "fmi2OK" {
-            eprintln!("[fmu {instance}] {} ({}): {}", rec.status, rec.category, rec.message);
+            eprintln!(
+                "[fmu {instance}] {} ({}): {}",
+                rec.status, rec.category, rec.message
+            );
         }
         let mut r = self.records.lock().unwrap_or_else(|e| e.into_inner());
         if r.len() == LOG_KEEP {
@@ -607,7 +781,13 @@ impl LogSink {
         if r.is_empty() {
             return "(no messages)".into();
         }
-        r.iter().rev().take(8).rev().map(|m| format!("[{}] {}", m.status, m.message)).collect::<Vec<_>>().join(" | ")
+        r.iter()
+            .rev()
+            .take(8)
+            .rev()
+            .map(|m| format!("[{}] {}", m.status, m.message))
+            .collect::<Vec<_>>()
+            .join(" | ")
     }
 }
 
@@ -674,7 +854,10 @@ pub struct Fmu {
 
 impl std::fmt::Debug for Fmu {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Fmu").field("path", &self.path).field("model", &self.md.model_name).finish()
+        f.debug_struct("Fmu")
+            .field("path", &self.path)
+            .field("model", &self.md.model_name)
+            .finish()
     }
 }
 
@@ -700,7 +883,10 @@ impl Fmu {
         let dir = tempfile::Builder::new()
             .prefix("host-fmu-")
             .tempdir()
-            .map_err(|source| FmuError::Open { path: path.into(), source })?;
+            .map_err(|source| FmuError::Open {
+                path: path.into(),
+                source,
+            })?;
         unpack(path, dir.path())?;
         let mdp = dir.path().join("modelDescription.xml");
         let mut text = String::new();
@@ -709,7 +895,11 @@ impl Fmu {
             .map_err(|_| FmuError::NoModelDescription { path: path.into() })?;
         let md = ModelDescription::parse(&text)?;
         let id = &md.co_simulation.model_identifier;
-        let so = dir.path().join("binaries").join("linux64").join(format!("{id}.so"));
+        let so = dir
+            .path()
+            .join("binaries")
+            .join("linux64")
+            .join(format!("{id}.so"));
         if !so.is_file() {
             return Err(FmuError::MissingBinary {
                 model: md.model_name.clone(),
@@ -720,11 +910,20 @@ impl Fmu {
         let fns = Fns::load(&so)?;
         // SAFETY: fmi2GetVersion takes no arguments and returns a static C string.
         let v = unsafe { (fns.get_version)() };
-        let found = if v.is_null() { String::new() } else { unsafe { CStr::from_ptr(v) }.to_string_lossy().into_owned() };
+        let found = if v.is_null() {
+            String::new()
+        } else {
+            unsafe { CStr::from_ptr(v) }.to_string_lossy().into_owned()
+        };
         if found != "2.0" {
             return Err(FmuError::BinaryVersion { path: so, found });
         }
-        Ok(Fmu { md, fns: Arc::new(fns), dir, path: path.into() })
+        Ok(Fmu {
+            md,
+            fns: Arc::new(fns),
+            dir,
+            path: path.into(),
+        })
     }
 
     /// The unpacked folder (removed on drop).
@@ -736,7 +935,10 @@ impl Fmu {
     /// FMU's GUID and resource URI). `echo_log`: copy warnings and errors
     /// of the FMU to stderr as they arrive.
     pub fn instantiate(&self, name: &str, echo_log: bool) -> Result<Instance> {
-        let sink = Box::new(LogSink { records: Mutex::new(VecDeque::with_capacity(LOG_KEEP)), echo: echo_log });
+        let sink = Box::new(LogSink {
+            records: Mutex::new(VecDeque::with_capacity(LOG_KEEP)),
+            echo: echo_log,
+        });
         let cb = Box::new(CallbackFunctions {
             logger: host_fmi2_logger,
             allocate_memory: alloc_memory,
@@ -744,12 +946,15 @@ impl Fmu {
             step_finished: None,
             component_environment: &*sink as *const LogSink as *mut c_void,
         });
-        let cname = CString::new(name).unwrap_or_else(|_| CString::new("instance").expect("no NUL"));
+        let cname =
+            CString::new(name).unwrap_or_else(|_| CString::new("instance").expect("no NUL"));
         let guid = CString::new(self.md.guid.as_str()).unwrap_or_default();
         let res = CString::new(file_uri(&self.dir.path().join("resources"))).unwrap_or_default();
         // SAFETY: all strings are NUL-terminated and outlive the call; the
         // callback struct and the sink live (boxed) as long as the instance.
-        let comp = unsafe { (self.fns.instantiate)(cname.as_ptr(), 1, guid.as_ptr(), res.as_ptr(), &*cb, 0, 0) };
+        let comp = unsafe {
+            (self.fns.instantiate)(cname.as_ptr(), 1, guid.as_ptr(), res.as_ptr(), &*cb, 0, 0)
+        };
         if comp.is_null() {
             return Err(FmuError::Instantiate {
                 instance: name.into(),
@@ -758,7 +963,15 @@ impl Fmu {
                 log: sink.summary(),
             });
         }
-        Ok(Instance { fns: self.fns.clone(), comp, _cb: cb, sink, name: name.into(), saved: std::ptr::null_mut(), time_s: 0.0 })
+        Ok(Instance {
+            fns: self.fns.clone(),
+            comp,
+            _cb: cb,
+            sink,
+            name: name.into(),
+            saved: std::ptr::null_mut(),
+            time_s: 0.0,
+        })
     }
 }
 
@@ -786,16 +999,33 @@ impl Instance {
 
     #[cold]
     fn status_error(&self, function: &'static str, st: Status) -> FmuError {
-        FmuError::Status { function, instance: self.name.clone(), status: status_name(st), time_s: self.time_s, log: self.sink.summary() }
+        FmuError::Status {
+            function,
+            instance: self.name.clone(),
+            status: status_name(st),
+            time_s: self.time_s,
+            log: self.sink.summary(),
+        }
     }
 
     /// The recent log messages of this instance (at most 64).
     pub fn log(&self) -> Vec<LogRecord> {
-        self.sink.records.lock().unwrap_or_else(|e| e.into_inner()).iter().cloned().collect()
+        self.sink
+            .records
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .iter()
+            .cloned()
+            .collect()
     }
 
     /// `fmi2SetupExperiment`.
-    pub fn setup_experiment(&mut self, start_s: f64, stop_s: Option<f64>, tolerance: Option<f64>) -> Result<()> {
+    pub fn setup_experiment(
+        &mut self,
+        start_s: f64,
+        stop_s: Option<f64>,
+        tolerance: Option<f64>,
+    ) -> Result<()> {
         self.time_s = start_s;
         // SAFETY: valid component.
         let st = unsafe {
@@ -834,7 +1064,8 @@ impl Instance {
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> Result<()> {
         assert_eq!(vrs.len(), values.len());
         // SAFETY: both slices have `vrs.len()` elements.
-        let st = unsafe { (self.fns.get_real)(self.comp, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
+        let st =
+            unsafe { (self.fns.get_real)(self.comp, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
         self.check("fmi2GetReal", st)
     }
 
@@ -842,28 +1073,33 @@ impl Instance {
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<()> {
         assert_eq!(vrs.len(), values.len());
         // SAFETY: both slices have `vrs.len()` elements.
-        let st = unsafe { (self.fns.set_real)(self.comp, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        let st =
+            unsafe { (self.fns.set_real)(self.comp, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
         self.check("fmi2SetReal", st)
     }
 
     pub fn get_integer(&mut self, vrs: &[u32], values: &mut [i32]) -> Result<()> {
         assert_eq!(vrs.len(), values.len());
         // SAFETY: both slices have `vrs.len()` elements.
-        let st = unsafe { (self.fns.get_integer)(self.comp, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
+        let st = unsafe {
+            (self.fns.get_integer)(self.comp, vrs.as_ptr(), vrs.len(), values.as_mut_ptr())
+        };
         self.check("fmi2GetInteger", st)
     }
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<()> {
         assert_eq!(vrs.len(), values.len());
         // SAFETY: both slices have `vrs.len()` elements.
-        let st = unsafe { (self.fns.set_integer)(self.comp, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        let st =
+            unsafe { (self.fns.set_integer)(self.comp, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
         self.check("fmi2SetInteger", st)
     }
 
     pub fn get_boolean(&mut self, vrs: &[u32], values: &mut [bool]) -> Result<()> {
         let mut raw = vec![0 as c_int; vrs.len()];
         // SAFETY: both buffers have `vrs.len()` elements.
-        let st = unsafe { (self.fns.get_boolean)(self.comp, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) };
+        let st =
+            unsafe { (self.fns.get_boolean)(self.comp, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) };
         self.check("fmi2GetBoolean", st)?;
         for (v, r) in values.iter_mut().zip(raw) {
             *v = r != 0;
@@ -875,36 +1111,63 @@ impl Instance {
         assert_eq!(vrs.len(), values.len());
         let raw: Vec<c_int> = values.iter().map(|&b| b as c_int).collect();
         // SAFETY: both buffers have `vrs.len()` elements.
-        let st = unsafe { (self.fns.set_boolean)(self.comp, vrs.as_ptr(), vrs.len(), raw.as_ptr()) };
+        let st =
+            unsafe { (self.fns.set_boolean)(self.comp, vrs.as_ptr(), vrs.len(), raw.as_ptr()) };
         self.check("fmi2SetBoolean", st)
     }
 
     pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Result<()> {
         assert_eq!(vrs.len(), values.len());
-        let owned: Vec<CString> = values.iter().map(|s| CString::new(s.replace('\0', "")).expect("no NUL")).collect();
+        let owned: Vec<CString> = values
+            .iter()
+            .map(|s| CString::new(s.replace('\0', "")).expect("no NUL"))
+            .collect();
         let ptrs: Vec<*const c_char> = owned.iter().map(|s| s.as_ptr()).collect();
         // SAFETY: both buffers have `vrs.len()` elements; the strings outlive the call.
-        let st = unsafe { (self.fns.set_string)(self.comp, vrs.as_ptr(), vrs.len(), ptrs.as_ptr()) };
+        let st =
+            unsafe { (self.fns.set_string)(self.comp, vrs.as_ptr(), vrs.len(), ptrs.as_ptr()) };
         self.check("fmi2SetString", st)
     }
 
     /// `fmi2SetRealInputDerivatives` of the given orders.
     #[inline]
-    pub fn set_real_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> Result<()> {
+    pub fn set_real_input_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        values: &[f64],
+    ) -> Result<()> {
         assert!(vrs.len() == orders.len() && vrs.len() == values.len());
         // SAFETY: all slices have `vrs.len()` elements.
         let st = unsafe {
-            (self.fns.set_real_input_derivatives)(self.comp, vrs.as_ptr(), vrs.len(), orders.as_ptr(), values.as_ptr())
+            (self.fns.set_real_input_derivatives)(
+                self.comp,
+                vrs.as_ptr(),
+                vrs.len(),
+                orders.as_ptr(),
+                values.as_ptr(),
+            )
         };
         self.check("fmi2SetRealInputDerivatives", st)
     }
 
     /// `fmi2GetRealOutputDerivatives`.
-    pub fn get_real_output_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &mut [f64]) -> Result<()> {
+    pub fn get_real_output_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        values: &mut [f64],
+    ) -> Result<()> {
         assert!(vrs.len() == orders.len() && vrs.len() == values.len());
         // SAFETY: all slices have `vrs.len()` elements.
         let st = unsafe {
-            (self.fns.get_real_output_derivatives)(self.comp, vrs.as_ptr(), vrs.len(), orders.as_ptr(), values.as_mut_ptr())
+            (self.fns.get_real_output_derivatives)(
+                self.comp,
+                vrs.as_ptr(),
+                vrs.len(),
+                orders.as_ptr(),
+                values.as_mut_ptr(),
+            )
         };
         self.check("fmi2GetRealOutputDerivatives", st)
     }
@@ -981,50 +1244,85 @@ mod tests {
     fn parses_variables_capabilities_and_structure() {
         let md = ModelDescription::parse(MD).unwrap();
         assert_eq!(md.guid, "{g}");
-        assert!(md.co_simulation.can_interpolate_inputs && md.co_simulation.can_get_and_set_fmu_state);
+        assert!(
+            md.co_simulation.can_interpolate_inputs && md.co_simulation.can_get_and_set_fmu_state
+        );
         assert_eq!(md.co_simulation.max_output_derivative_order, 1);
         assert_eq!(md.default_experiment.stop_time, Some(2.5));
         assert_eq!(md.variables.len(), 3);
         let f = md.variable("F").unwrap();
-        assert_eq!((f.value_reference, f.causality, f.ty, f.line), (3, Causality::Input, VarType::Real, 10));
+        assert_eq!(
+            (f.value_reference, f.causality, f.ty, f.line),
+            (3, Causality::Input, VarType::Real, 10)
+        );
         assert_eq!(md.variable("m").unwrap().unit.as_deref(), Some("kg"));
-        assert_eq!(md.variable("x").unwrap().variability, Variability::Continuous);
+        assert_eq!(
+            md.variable("x").unwrap().variability,
+            Variability::Continuous
+        );
         assert_eq!(md.real_vr("x", &[Causality::Output]).unwrap(), 4);
-        assert!(matches!(md.real_vr("x", &[Causality::Input]), Err(FmuError::WrongVariable { .. })));
+        assert!(matches!(
+            md.real_vr("x", &[Causality::Input]),
+            Err(FmuError::WrongVariable { .. })
+        ));
         assert!(!md.output_depends_on(2, 1));
-        assert!(matches!(md.variable("nope"), Err(FmuError::UnknownVariable { .. })));
+        assert!(matches!(
+            md.variable("nope"),
+            Err(FmuError::UnknownVariable { .. })
+        ));
     }
 
     #[test]
     fn malformed_xml_reports_the_line() {
         let bad = MD.replace("<Real unit=\"m\"/>", "<Real unit=\"m\">");
         match ModelDescription::parse(&bad) {
-            Err(FmuError::Xml { line, message }) => assert!(line == 11 && message.contains("</Real>"), "line {line}: {message}"),
+            Err(FmuError::Xml { line, message }) => assert!(
+                line == 11 && message.contains("</Real>"),
+                "line {line}: {message}"
+            ),
             other => panic!("{other:?}"),
         }
         let bad = MD.replace("valueReference=\"3\"", "valueReference=\"-3\"");
         match ModelDescription::parse(&bad) {
-            Err(FmuError::Xml { line, message }) => assert!(line == 10 && message.contains("valueReference"), "{line} {message}"),
+            Err(FmuError::Xml { line, message }) => assert!(
+                line == 10 && message.contains("valueReference"),
+                "{line} {message}"
+            ),
             other => panic!("{other:?}"),
         }
         let bad = MD.replace("dependencies=\"\"", "dependencies=\"7\"");
-        assert!(matches!(ModelDescription::parse(&bad), Err(FmuError::Xml { line: 14, .. })));
+        assert!(matches!(
+            ModelDescription::parse(&bad),
+            Err(FmuError::Xml { line: 14, .. })
+        ));
     }
 
     #[test]
     fn version_and_cosimulation_are_required() {
         let v1 = MD.replace("fmiVersion=\"2.0\"", "fmiVersion=\"1.0\"");
         let e = ModelDescription::parse(&v1).unwrap_err();
-        assert!(matches!(&e, FmuError::Version { found } if found == "1.0"), "{e}");
+        assert!(
+            matches!(&e, FmuError::Version { found } if found == "1.0"),
+            "{e}"
+        );
         let v3 = MD.replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\"");
-        assert!(matches!(ModelDescription::parse(&v3), Err(FmuError::Version { .. })));
+        assert!(matches!(
+            ModelDescription::parse(&v3),
+            Err(FmuError::Version { .. })
+        ));
         let me = MD.replace("<CoSimulation", "<ModelExchange");
         let e = ModelDescription::parse(&me).unwrap_err();
-        assert!(matches!(e, FmuError::NoCoSimulation { .. }) && e.to_string().contains("Co-Simulation"), "{e}");
+        assert!(
+            matches!(e, FmuError::NoCoSimulation { .. }) && e.to_string().contains("Co-Simulation"),
+            "{e}"
+        );
     }
 
     #[test]
     fn file_uri_encodes() {
-        assert_eq!(file_uri(Path::new("/tmp/a b/r%s")), "file:///tmp/a%20b/r%25s");
+        assert_eq!(
+            file_uri(Path::new("/tmp/a b/r%s")),
+            "file:///tmp/a%20b/r%25s"
+        );
     }
 }

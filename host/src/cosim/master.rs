@@ -79,19 +79,39 @@ pub enum MasterError {
     #[error("connection '{0}': expected 'unit.variable'")]
     BadEndpoint(String),
     #[error("connection '{endpoint}': no unit named '{unit}' (units: {available})")]
-    UnknownUnit { endpoint: String, unit: String, available: String },
+    UnknownUnit {
+        endpoint: String,
+        unit: String,
+        available: String,
+    },
     #[error("connection {from} -> {to}: {reason}")]
-    BadConnection { from: String, to: String, reason: String },
+    BadConnection {
+        from: String,
+        to: String,
+        reason: String,
+    },
     #[error("input '{0}' is driven by more than one connection")]
     DoubleInput(String),
     #[error("macro step must be positive and finite, got {0} s")]
     BadStep(f64),
     #[error("unit '{unit}' does not support {what}, which the {algorithm:?} algorithm needs")]
-    Unsupported { unit: String, what: &'static str, algorithm: Algorithm },
+    Unsupported {
+        unit: String,
+        what: &'static str,
+        algorithm: Algorithm,
+    },
     #[error("iterative coupling did not converge at t = {time_s} s: interface residual {residual:e} (relative) after {iterations} iterations")]
-    NoConvergence { time_s: f64, residual: f64, iterations: usize },
+    NoConvergence {
+        time_s: f64,
+        residual: f64,
+        iterations: usize,
+    },
     #[error("parameter {unit}.{name}: {reason}")]
-    BadParameter { unit: String, name: String, reason: String },
+    BadParameter {
+        unit: String,
+        name: String,
+        reason: String,
+    },
 }
 
 /// Value of a parameter set by name.
@@ -122,7 +142,14 @@ pub struct MasterOptions {
 
 impl Default for MasterOptions {
     fn default() -> Self {
-        Self { algorithm: Algorithm::GaussSeidel, macro_step_s: 1e-5, extrapolate: true, order: None, iteration_rtol: 1e-6, iteration_max: 20 }
+        Self {
+            algorithm: Algorithm::GaussSeidel,
+            macro_step_s: 1e-5,
+            extrapolate: true,
+            order: None,
+            iteration_rtol: 1e-6,
+            iteration_max: 20,
+        }
     }
 }
 
@@ -191,13 +218,19 @@ pub struct Master {
 }
 
 fn split_endpoint(s: &str) -> Result<(&str, &str), MasterError> {
-    s.split_once('.').filter(|(u, v)| !u.is_empty() && !v.is_empty()).ok_or_else(|| MasterError::BadEndpoint(s.into()))
+    s.split_once('.')
+        .filter(|(u, v)| !u.is_empty() && !v.is_empty())
+        .ok_or_else(|| MasterError::BadEndpoint(s.into()))
 }
 
 impl Master {
     /// Instantiate every FMU (`units`: name and loaded FMU) and resolve the
     /// connections (`from`, `to` as `unit.variable`).
-    pub fn new(units: Vec<(String, Fmu)>, connections: &[(String, String)], opts: MasterOptions) -> Result<Self, MasterError> {
+    pub fn new(
+        units: Vec<(String, Fmu)>,
+        connections: &[(String, String)],
+        opts: MasterOptions,
+    ) -> Result<Self, MasterError> {
         if !(opts.macro_step_s.is_finite() && opts.macro_step_s > 0.0) {
             return Err(MasterError::BadStep(opts.macro_step_s));
         }
@@ -206,17 +239,34 @@ impl Master {
             let inst = fmu.instantiate(&name, true)?;
             us.push(Unit { name, inst, fmu });
         }
-        let names = || us.iter().map(|u| u.name.as_str()).collect::<Vec<_>>().join(", ");
+        let names = || {
+            us.iter()
+                .map(|u| u.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         let find = |ep: &str| -> Result<(usize, usize), MasterError> {
             let (u, v) = split_endpoint(ep)?;
-            let ui = us.iter().position(|x| x.name == u).ok_or_else(|| MasterError::UnknownUnit {
-                endpoint: ep.into(),
-                unit: u.into(),
-                available: names(),
-            })?;
-            let vi = us[ui].fmu.md.variables.iter().position(|x| x.name == v).ok_or_else(|| {
-                MasterError::Fmu(FmuError::UnknownVariable { model: us[ui].fmu.md.model_name.clone(), name: v.into() })
-            })?;
+            let ui =
+                us.iter()
+                    .position(|x| x.name == u)
+                    .ok_or_else(|| MasterError::UnknownUnit {
+                        endpoint: ep.into(),
+                        unit: u.into(),
+                        available: names(),
+                    })?;
+            let vi = us[ui]
+                .fmu
+                .md
+                .variables
+                .iter()
+                .position(|x| x.name == v)
+                .ok_or_else(|| {
+                    MasterError::Fmu(FmuError::UnknownVariable {
+                        model: us[ui].fmu.md.model_name.clone(),
+                        name: v.into(),
+                    })
+                })?;
             Ok((ui, vi))
         };
         let mut links = Vec::new();
@@ -226,17 +276,27 @@ impl Master {
         for (from, to) in connections {
             let (su, sv) = find(from)?;
             let (du, dv) = find(to)?;
-            let bad = |reason: String| MasterError::BadConnection { from: from.clone(), to: to.clone(), reason };
+            let bad = |reason: String| MasterError::BadConnection {
+                from: from.clone(),
+                to: to.clone(),
+                reason,
+            };
             let s = &us[su].fmu.md.variables[sv];
             let d = &us[du].fmu.md.variables[dv];
             if s.ty != VarType::Real || d.ty != VarType::Real {
                 return Err(bad("only Real variables can be connected".into()));
             }
             if s.causality != Causality::Output {
-                return Err(bad(format!("source has causality {:?}, expected output", s.causality)));
+                return Err(bad(format!(
+                    "source has causality {:?}, expected output",
+                    s.causality
+                )));
             }
             if d.causality != Causality::Input {
-                return Err(bad(format!("target has causality {:?}, expected input", d.causality)));
+                return Err(bad(format!(
+                    "target has causality {:?}, expected input",
+                    d.causality
+                )));
             }
             if su == du {
                 return Err(bad("a unit cannot feed itself".into()));
@@ -246,7 +306,12 @@ impl Master {
             }
             ins.push((du, dv));
             let md = &us[du].fmu.md;
-            if md.outputs.iter().any(|o| md.output_depends_on(o.output, dv)) && !feeds[du].contains(&su) {
+            if md
+                .outputs
+                .iter()
+                .any(|o| md.output_depends_on(o.output, dv))
+                && !feeds[du].contains(&su)
+            {
                 feeds[du].push(su);
             }
             links.push(Link {
@@ -274,7 +339,10 @@ impl Master {
             Some(o) => {
                 let mut s = o.clone();
                 s.sort_unstable();
-                assert!(s == (0..us.len()).collect::<Vec<_>>(), "order must be a permutation of the unit indices");
+                assert!(
+                    s == (0..us.len()).collect::<Vec<_>>(),
+                    "order must be a permutation of the unit indices"
+                );
                 o.clone()
             }
             None => exchange.clone(),
@@ -292,7 +360,11 @@ impl Master {
         if opts.algorithm == Algorithm::Iterative {
             for u in &us {
                 if !u.fmu.md.co_simulation.can_get_and_set_fmu_state {
-                    return Err(MasterError::Unsupported { unit: u.name.clone(), what: "fmi2GetFMUstate/fmi2SetFMUstate", algorithm: opts.algorithm });
+                    return Err(MasterError::Unsupported {
+                        unit: u.name.clone(),
+                        what: "fmi2GetFMUstate/fmi2SetFMUstate",
+                        algorithm: opts.algorithm,
+                    });
                 }
             }
         }
@@ -332,17 +404,32 @@ impl Master {
     }
 
     /// Set a parameter (or input start value) by name before [`initialize`](Self::initialize).
-    pub fn set_parameter(&mut self, unit: usize, name: &str, value: &ParamValue) -> Result<(), MasterError> {
+    pub fn set_parameter(
+        &mut self,
+        unit: usize,
+        name: &str,
+        value: &ParamValue,
+    ) -> Result<(), MasterError> {
         let u = &mut self.units[unit];
         let v = u.fmu.md.variable(name)?;
-        let bad = |reason: String| MasterError::BadParameter { unit: u.name.clone(), name: name.into(), reason };
+        let bad = |reason: String| MasterError::BadParameter {
+            unit: u.name.clone(),
+            name: name.into(),
+            reason,
+        };
         let vr = [v.value_reference];
         match (value, v.ty) {
             (ParamValue::Real(x), VarType::Real) => u.inst.set_real(&vr, &[*x])?,
-            (ParamValue::Integer(x), VarType::Integer | VarType::Enumeration) => u.inst.set_integer(&vr, &[*x])?,
+            (ParamValue::Integer(x), VarType::Integer | VarType::Enumeration) => {
+                u.inst.set_integer(&vr, &[*x])?
+            }
             (ParamValue::Boolean(x), VarType::Boolean) => u.inst.set_boolean(&vr, &[*x])?,
             (ParamValue::String(x), VarType::String) => u.inst.set_string(&vr, &[x.as_str()])?,
-            (val, ty) => return Err(bad(format!("value {val:?} does not fit the variable's type {ty:?}"))),
+            (val, ty) => {
+                return Err(bad(format!(
+                    "value {val:?} does not fit the variable's type {ty:?}"
+                )))
+            }
         }
         Ok(())
     }
@@ -379,7 +466,9 @@ impl Master {
                 let c = self.ports[u].out_links[j];
                 self.y[c] = self.buf[j];
                 let l = &self.links[c];
-                self.units[l.dst].inst.set_real(&[l.dst_vr], &[self.buf[j]])?;
+                self.units[l.dst]
+                    .inst
+                    .set_real(&[l.dst_vr], &[self.buf[j]])?;
             }
         }
         for c in 0..self.y.len() {
@@ -394,7 +483,9 @@ impl Master {
         let p = &self.ports[u];
         let n = p.out_vrs.len();
         if n > 0 {
-            self.units[u].inst.get_real(&p.out_vrs, &mut self.buf[..n])?;
+            self.units[u]
+                .inst
+                .get_real(&p.out_vrs, &mut self.buf[..n])?;
         }
         Ok(())
     }
@@ -403,13 +494,21 @@ impl Master {
     fn read_derivatives(&mut self) -> Result<(), MasterError> {
         let h = self.opts.macro_step_s;
         for c in 0..self.links.len() {
-            self.dy[c] = if self.have_prev { (self.y[c] - self.y_prev[c]) / h } else { 0.0 };
+            self.dy[c] = if self.have_prev {
+                (self.y[c] - self.y_prev[c]) / h
+            } else {
+                0.0
+            };
         }
         for u in 0..self.units.len() {
             let p = &self.ports[u];
             let n = p.der_vrs.len();
             if n > 0 {
-                self.units[u].inst.get_real_output_derivatives(&p.der_vrs, &self.orders[..n], &mut self.buf[..n])?;
+                self.units[u].inst.get_real_output_derivatives(
+                    &p.der_vrs,
+                    &self.orders[..n],
+                    &mut self.buf[..n],
+                )?;
                 for j in 0..n {
                     self.dy[self.ports[u].der_links[j]] = self.buf[j];
                 }
@@ -423,7 +522,9 @@ impl Master {
     fn set_slope(&mut self, c: usize, d: f64) -> Result<(), MasterError> {
         let l = &self.links[c];
         if l.interp {
-            self.units[l.dst].inst.set_real_input_derivatives(&[l.dst_vr], &[1], &[d])?;
+            self.units[l.dst]
+                .inst
+                .set_real_input_derivatives(&[l.dst_vr], &[1], &[d])?;
         }
         Ok(())
     }
@@ -456,7 +557,9 @@ impl Master {
                                 self.set_slope(c, (self.y_new[c] - self.y[c]) / h)?;
                             } else {
                                 let l = &self.links[c];
-                                self.units[l.dst].inst.set_real(&[l.dst_vr], &[self.y_new[c]])?;
+                                self.units[l.dst]
+                                    .inst
+                                    .set_real(&[l.dst_vr], &[self.y_new[c]])?;
                             }
                         } else if self.opts.extrapolate {
                             self.set_slope(c, self.dy[c])?;
@@ -486,7 +589,13 @@ impl Master {
 
     /// One interface evaluation: restore, step every unit with inputs linear
     /// from `y` to `guess`, return `G(guess)` in `self.y_new`.
-    fn evaluate(&mut self, t: f64, h: f64, guess: &DVector<f64>, restore: bool) -> Result<(), MasterError> {
+    fn evaluate(
+        &mut self,
+        t: f64,
+        h: f64,
+        guess: &DVector<f64>,
+        restore: bool,
+    ) -> Result<(), MasterError> {
         if restore {
             for u in &mut self.units {
                 u.inst.restore_state()?;
@@ -516,7 +625,10 @@ impl Master {
     }
 
     fn residual(&self, guess: &DVector<f64>) -> DVector<f64> {
-        DVector::from_iterator(guess.len(), (0..guess.len()).map(|c| self.y_new[c] - guess[c]))
+        DVector::from_iterator(
+            guess.len(),
+            (0..guess.len()).map(|c| self.y_new[c] - guess[c]),
+        )
     }
 
     /// Relative size of a residual: max over connections of
@@ -529,7 +641,13 @@ impl Master {
     }
 
     /// Finite-difference Jacobian `dR/dY` around `guess` (whose residual is `r0`).
-    fn fd_jacobian(&mut self, t: f64, h: f64, guess: &DVector<f64>, r0: &DVector<f64>) -> Result<DMatrix<f64>, MasterError> {
+    fn fd_jacobian(
+        &mut self,
+        t: f64,
+        h: f64,
+        guess: &DVector<f64>,
+        r0: &DVector<f64>,
+    ) -> Result<DMatrix<f64>, MasterError> {
         let nc = guess.len();
         let mut j = DMatrix::zeros(nc, nc);
         for c in 0..nc {
@@ -564,7 +682,11 @@ impl Master {
             }
             if it >= self.opts.iteration_max {
                 if rebuilt {
-                    return Err(MasterError::NoConvergence { time_s: t, residual: rn, iterations: it });
+                    return Err(MasterError::NoConvergence {
+                        time_s: t,
+                        residual: rn,
+                        iterations: it,
+                    });
                 }
                 self.jac = None;
                 it = 0;
@@ -578,7 +700,11 @@ impl Master {
             let Some(dx) = j.clone().lu().solve(&(-&r)) else {
                 self.jac = None;
                 if rebuilt {
-                    return Err(MasterError::NoConvergence { time_s: t, residual: rn, iterations: it });
+                    return Err(MasterError::NoConvergence {
+                        time_s: t,
+                        residual: rn,
+                        iterations: it,
+                    });
                 }
                 continue;
             };
@@ -599,7 +725,12 @@ impl Master {
 
     /// Read Real variables of a unit.
     #[inline]
-    pub fn get_real(&mut self, unit: usize, vrs: &[u32], out: &mut [f64]) -> Result<(), MasterError> {
+    pub fn get_real(
+        &mut self,
+        unit: usize,
+        vrs: &[u32],
+        out: &mut [f64],
+    ) -> Result<(), MasterError> {
         self.units[unit].inst.get_real(vrs, out)?;
         Ok(())
     }
@@ -619,7 +750,10 @@ pub struct Recording {
 
 impl Recording {
     pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.columns.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
+        self.columns
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
     }
 }
 
@@ -641,11 +775,20 @@ pub fn run(
         let ui = m.unit_index(u).ok_or_else(|| MasterError::UnknownUnit {
             endpoint: r.clone(),
             unit: u.into(),
-            available: m.units.iter().map(|u| u.name.clone()).collect::<Vec<_>>().join(", "),
+            available: m
+                .units
+                .iter()
+                .map(|u| u.name.clone())
+                .collect::<Vec<_>>()
+                .join(", "),
         })?;
         let var = m.units[ui].fmu.md.variable(v)?;
         if var.ty != VarType::Real {
-            return Err(MasterError::BadConnection { from: r.clone(), to: "recording".into(), reason: "only Real variables are recorded".into() });
+            return Err(MasterError::BadConnection {
+                from: r.clone(),
+                to: "recording".into(),
+                reason: "only Real variables are recorded".into(),
+            });
         }
         probes.push((ui, var.value_reference));
     }
@@ -666,32 +809,36 @@ pub fn run(
     let cap = (n_steps / every + 2) as usize;
     let mut rec = Recording {
         time_s: Vec::with_capacity(cap),
-        columns: record.iter().map(|n| (n.clone(), Vec::with_capacity(cap))).collect(),
+        columns: record
+            .iter()
+            .map(|n| (n.clone(), Vec::with_capacity(cap)))
+            .collect(),
         ..Default::default()
     };
     let mut buf = vec![0.0; probes.len()];
-    let sample = |m: &mut Master, rec: &mut Recording, buf: &mut [f64]| -> Result<(), MasterError> {
-        for (u, vrs, ks) in &groups {
-            let mut tmp = [0.0f64; 32];
-            if vrs.len() <= 32 {
-                m.get_real(*u, vrs, &mut tmp[..vrs.len()])?;
-                for (j, &k) in ks.iter().enumerate() {
-                    buf[k] = tmp[j];
-                }
-            } else {
-                let mut v = vec![0.0; vrs.len()];
-                m.get_real(*u, vrs, &mut v)?;
-                for (j, &k) in ks.iter().enumerate() {
-                    buf[k] = v[j];
+    let sample =
+        |m: &mut Master, rec: &mut Recording, buf: &mut [f64]| -> Result<(), MasterError> {
+            for (u, vrs, ks) in &groups {
+                let mut tmp = [0.0f64; 32];
+                if vrs.len() <= 32 {
+                    m.get_real(*u, vrs, &mut tmp[..vrs.len()])?;
+                    for (j, &k) in ks.iter().enumerate() {
+                        buf[k] = tmp[j];
+                    }
+                } else {
+                    let mut v = vec![0.0; vrs.len()];
+                    m.get_real(*u, vrs, &mut v)?;
+                    for (j, &k) in ks.iter().enumerate() {
+                        buf[k] = v[j];
+                    }
                 }
             }
-        }
-        rec.time_s.push(m.time());
-        for (k, (_, col)) in rec.columns.iter_mut().enumerate() {
-            col.push(buf[k]);
-        }
-        Ok(())
-    };
+            rec.time_s.push(m.time());
+            for (k, (_, col)) in rec.columns.iter_mut().enumerate() {
+                col.push(buf[k]);
+            }
+            Ok(())
+        };
     sample(m, &mut rec, &mut buf)?;
     let report = (n_steps / 200).max(1);
     for k in 1..=n_steps {
@@ -734,7 +881,10 @@ pub struct GenericSpec {
 }
 
 /// Load, connect, parameterize, initialize and run a [`GenericSpec`].
-pub fn run_generic(spec: &GenericSpec, progress: &mut dyn FnMut(f64)) -> Result<Recording, MasterError> {
+pub fn run_generic(
+    spec: &GenericSpec,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Recording, MasterError> {
     let mut units = Vec::new();
     for (name, path) in &spec.units {
         units.push((name.clone(), Fmu::load(path)?));
@@ -745,12 +895,25 @@ pub fn run_generic(spec: &GenericSpec, progress: &mut dyn FnMut(f64)) -> Result<
         let ui = m.unit_index(u).ok_or_else(|| MasterError::UnknownUnit {
             endpoint: ep.clone(),
             unit: u.into(),
-            available: spec.units.iter().map(|u| u.0.clone()).collect::<Vec<_>>().join(", "),
+            available: spec
+                .units
+                .iter()
+                .map(|u| u.0.clone())
+                .collect::<Vec<_>>()
+                .join(", "),
         })?;
         m.set_parameter(ui, name, v)?;
     }
     let h = spec.options.macro_step_s;
-    let n = ((spec.stop_time_s - spec.start_time_s) / h - 1e-9).ceil().max(0.0);
+    let n = ((spec.stop_time_s - spec.start_time_s) / h - 1e-9)
+        .ceil()
+        .max(0.0);
     m.initialize(spec.start_time_s, Some(spec.start_time_s + n * h))?;
-    run(&mut m, spec.stop_time_s, &spec.record, spec.record_every, progress)
+    run(
+        &mut m,
+        spec.stop_time_s,
+        &spec.record,
+        spec.record_every,
+        progress,
+    )
 }

@@ -27,7 +27,12 @@ pub struct SweepSpec {
 
 impl From<&nlmode::excitation::LinearSweep> for SweepSpec {
     fn from(s: &nlmode::excitation::LinearSweep) -> Self {
-        Self { u_hat_v: s.amplitude, omega_start_rad_s: s.omega_start_rad_s, omega_end_rad_s: s.omega_end_rad_s, rate_rad_s2: s.rate_rad_s2 }
+        Self {
+            u_hat_v: s.amplitude,
+            omega_start_rad_s: s.omega_start_rad_s,
+            omega_end_rad_s: s.omega_end_rad_s,
+            rate_rad_s2: s.rate_rad_s2,
+        }
     }
 }
 
@@ -124,7 +129,11 @@ pub struct CosimOutput {
 #[derive(Debug, thiserror::Error)]
 pub enum CosimError {
     #[error("{what} FMU {path}: {source}")]
-    Load { what: &'static str, path: PathBuf, source: Box<super::import::FmuError> },
+    Load {
+        what: &'static str,
+        path: PathBuf,
+        source: Box<super::import::FmuError>,
+    },
     #[error(transparent)]
     Master(#[from] MasterError),
     #[error("the shaker FMU needs an elastic stinger (its force is k_s (q_a - x)); a rigid stinger is not co-simulated")]
@@ -135,10 +144,14 @@ pub enum CosimError {
 
 /// The connections `structure.x -> shaker.x`, `structure.v -> shaker.v`, `shaker.F -> structure.F`.
 pub fn connections() -> Vec<(String, String)> {
-    [("structure.x", "shaker.x"), ("structure.v", "shaker.v"), ("shaker.F", "structure.F")]
-        .iter()
-        .map(|(a, b)| (a.to_string(), b.to_string()))
-        .collect()
+    [
+        ("structure.x", "shaker.x"),
+        ("structure.v", "shaker.v"),
+        ("shaker.F", "structure.F"),
+    ]
+    .iter()
+    .map(|(a, b)| (a.to_string(), b.to_string()))
+    .collect()
 }
 
 /// The FMU parameters (`unit.variable`, value) of `p`: shaker constants,
@@ -166,23 +179,43 @@ pub fn parameters(p: &CosimParams) -> Result<Vec<(String, ParamValue)>, CosimErr
     .iter()
     .map(|(n, x)| (format!("shaker.{n}"), ParamValue::Real(*x)))
     .collect();
-    v.push(("shaker.use_external_voltage".into(), ParamValue::Boolean(false)));
-    v.push(("structure.frequency_error".into(), ParamValue::Real(p.frequency_error)));
-    v.push(("structure.drive_point".into(), ParamValue::String(p.drive_point.clone())));
+    v.push((
+        "shaker.use_external_voltage".into(),
+        ParamValue::Boolean(false),
+    ));
+    v.push((
+        "structure.frequency_error".into(),
+        ParamValue::Real(p.frequency_error),
+    ));
+    v.push((
+        "structure.drive_point".into(),
+        ParamValue::String(p.drive_point.clone()),
+    ));
     if let Some(t) = &p.modal_table {
-        v.push(("structure.modal_table".into(), ParamValue::String(t.to_string_lossy().into_owned())));
+        v.push((
+            "structure.modal_table".into(),
+            ParamValue::String(t.to_string_lossy().into_owned()),
+        ));
     }
     Ok(v)
 }
 
 /// Write the coupled system of `p` as an SSP 1.0 archive (see [`super::ssp`]).
 /// A modal table given as a file path is referenced by that path.
-pub fn export_ssp(out: &Path, structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) -> Result<(), super::ssp::SspError> {
+pub fn export_ssp(
+    out: &Path,
+    structure_fmu: &Path,
+    shaker_fmu: &Path,
+    p: &CosimParams,
+) -> Result<(), super::ssp::SspError> {
     let params = parameters(p).map_err(|e| super::ssp::SspError::BadUnit(e.to_string()))?;
     super::ssp::write_ssp(
         out,
         "structure-shaker",
-        &[("structure".into(), structure_fmu.into()), ("shaker".into(), shaker_fmu.into())],
+        &[
+            ("structure".into(), structure_fmu.into()),
+            ("shaker".into(), shaker_fmu.into()),
+        ],
         &connections(),
         &params,
         p.duration_s(),
@@ -190,20 +223,40 @@ pub fn export_ssp(out: &Path, structure_fmu: &Path, shaker_fmu: &Path, p: &Cosim
 }
 
 /// Build the master for the two FMUs with the parameters set, initialized at t = 0.
-pub fn build_master(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) -> Result<Master, CosimError> {
+pub fn build_master(
+    structure_fmu: &Path,
+    shaker_fmu: &Path,
+    p: &CosimParams,
+) -> Result<Master, CosimError> {
     parameters(p)?;
-    let st = Fmu::load(structure_fmu).map_err(|source| CosimError::Load { what: "structure", path: structure_fmu.into(), source: Box::new(source) })?;
-    let sh = Fmu::load(shaker_fmu).map_err(|source| CosimError::Load { what: "shaker", path: shaker_fmu.into(), source: Box::new(source) })?;
+    let st = Fmu::load(structure_fmu).map_err(|source| CosimError::Load {
+        what: "structure",
+        path: structure_fmu.into(),
+        source: Box::new(source),
+    })?;
+    let sh = Fmu::load(shaker_fmu).map_err(|source| CosimError::Load {
+        what: "shaker",
+        path: shaker_fmu.into(),
+        source: Box::new(source),
+    })?;
     let conns = connections();
     let opts = MasterOptions {
         algorithm: p.algorithm,
         macro_step_s: p.macro_step_s,
         extrapolate: p.extrapolate,
-        order: if p.shaker_first { Some(vec![1, 0]) } else { Some(vec![0, 1]) },
+        order: if p.shaker_first {
+            Some(vec![1, 0])
+        } else {
+            Some(vec![0, 1])
+        },
         iteration_rtol: p.iteration_rtol,
         iteration_max: p.iteration_max,
     };
-    let mut m = Master::new(vec![("structure".into(), st), ("shaker".into(), sh)], &conns, opts)?;
+    let mut m = Master::new(
+        vec![("structure".into(), st), ("shaker".into(), sh)],
+        &conns,
+        opts,
+    )?;
     for (ep, v) in parameters(p)? {
         let (u, name) = ep.split_once('.').expect("unit.variable");
         m.set_parameter(if u == "structure" { 0 } else { 1 }, name, &v)?;
@@ -220,17 +273,33 @@ pub fn build_master(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams) ->
 
 /// Co-simulate the structure and shaker FMUs over the sweep of `p`.
 /// `progress` receives the simulated time [s] now and then.
-pub fn run_cosim(structure_fmu: &Path, shaker_fmu: &Path, p: &CosimParams, progress: &mut dyn FnMut(f64)) -> Result<CosimOutput, CosimError> {
+pub fn run_cosim(
+    structure_fmu: &Path,
+    shaker_fmu: &Path,
+    p: &CosimParams,
+    progress: &mut dyn FnMut(f64),
+) -> Result<CosimOutput, CosimError> {
     let mut m = build_master(structure_fmu, shaker_fmu, p)?;
     let dur = p.duration_s();
     let h = p.macro_step_s;
     let w_max = p.sweep.omega_start_rad_s.max(p.sweep.omega_end_rad_s);
-    let dt_out = if p.output_interval_s > 0.0 { p.output_interval_s } else { 2.0 * PI / w_max / 64.0 };
+    let dt_out = if p.output_interval_s > 0.0 {
+        p.output_interval_s
+    } else {
+        2.0 * PI / w_max / 64.0
+    };
     let every = ((dt_out / h).round() as usize).max(1);
-    let names: Vec<String> = ["shaker.Omega", "structure.x_tip", "structure.x", "shaker.F", "shaker.u", "shaker.I"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    let names: Vec<String> = [
+        "shaker.Omega",
+        "structure.x_tip",
+        "structure.x",
+        "shaker.F",
+        "shaker.u",
+        "shaker.I",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
     let rec = run(&mut m, dur, &names, every, progress)?;
     let col = |k: usize| rec.columns[k].1.clone();
     let mut out = CosimOutput {

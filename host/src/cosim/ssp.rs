@@ -23,9 +23,15 @@ pub enum SspError {
     #[error(transparent)]
     Fmu(#[from] FmuError),
     #[error("cannot write {path}: {source}")]
-    Write { path: PathBuf, source: std::io::Error },
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("zip error writing {path}: {source}")]
-    Zip { path: PathBuf, source: zip::result::ZipError },
+    Zip {
+        path: PathBuf,
+        source: zip::result::ZipError,
+    },
     #[error("'{0}': expected 'unit.variable' with a unit of the system")]
     BadEndpoint(String),
     #[error("unit name '{0}' repeats or is empty")]
@@ -34,11 +40,23 @@ pub enum SspError {
 
 /// Read `modelDescription.xml` of a `.fmu` without unpacking the rest.
 pub fn read_model_description(fmu: &Path) -> Result<ModelDescription, FmuError> {
-    let f = File::open(fmu).map_err(|source| FmuError::Open { path: fmu.into(), source })?;
-    let mut z = zip::ZipArchive::new(f).map_err(|source| FmuError::Zip { path: fmu.into(), source })?;
-    let mut e = z.by_name("modelDescription.xml").map_err(|_| FmuError::NoModelDescription { path: fmu.into() })?;
+    let f = File::open(fmu).map_err(|source| FmuError::Open {
+        path: fmu.into(),
+        source,
+    })?;
+    let mut z = zip::ZipArchive::new(f).map_err(|source| FmuError::Zip {
+        path: fmu.into(),
+        source,
+    })?;
+    let mut e = z
+        .by_name("modelDescription.xml")
+        .map_err(|_| FmuError::NoModelDescription { path: fmu.into() })?;
     let mut text = String::new();
-    e.read_to_string(&mut text).map_err(|source| FmuError::Open { path: fmu.into(), source })?;
+    e.read_to_string(&mut text)
+        .map_err(|source| FmuError::Open {
+            path: fmu.into(),
+            source,
+        })?;
     ModelDescription::parse(&text)
 }
 
@@ -75,8 +93,13 @@ pub fn system_structure(
         }
     }
     let split = |ep: &str| -> Result<(usize, String), SspError> {
-        let (u, v) = ep.split_once('.').ok_or_else(|| SspError::BadEndpoint(ep.into()))?;
-        let ui = units.iter().position(|(n, _)| n == u).ok_or_else(|| SspError::BadEndpoint(ep.into()))?;
+        let (u, v) = ep
+            .split_once('.')
+            .ok_or_else(|| SspError::BadEndpoint(ep.into()))?;
+        let ui = units
+            .iter()
+            .position(|(n, _)| n == u)
+            .ok_or_else(|| SspError::BadEndpoint(ep.into()))?;
         units[ui].1.variable(v)?;
         Ok((ui, v.to_string()))
     };
@@ -148,7 +171,9 @@ pub fn system_structure(
         ));
     }
     s.push_str("    </ssd:Connections>\n  </ssd:System>\n");
-    s.push_str(&format!("  <ssd:DefaultExperiment startTime=\"0\" stopTime=\"{stop_time_s:e}\"/>\n"));
+    s.push_str(&format!(
+        "  <ssd:DefaultExperiment startTime=\"0\" stopTime=\"{stop_time_s:e}\"/>\n"
+    ));
     s.push_str("</ssd:SystemStructureDescription>\n");
     Ok(s)
 }
@@ -167,16 +192,29 @@ pub fn write_ssp(
         mds.push((u.clone(), read_model_description(p)?));
     }
     let ssd = system_structure(name, &mds, connections, parameters, stop_time_s)?;
-    let werr = |source| SspError::Write { path: out.into(), source };
-    let zerr = |source| SspError::Zip { path: out.into(), source };
+    let werr = |source| SspError::Write {
+        path: out.into(),
+        source,
+    };
+    let zerr = |source| SspError::Zip {
+        path: out.into(),
+        source,
+    };
     let f = File::create(out).map_err(werr)?;
     let mut z = zip::ZipWriter::new(f);
-    let o = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    let o = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated);
     z.start_file("SystemStructure.ssd", o).map_err(zerr)?;
     z.write_all(ssd.as_bytes()).map_err(werr)?;
     for (u, p) in units {
-        let bytes = std::fs::read(p).map_err(|source| SspError::Fmu(FmuError::Open { path: p.clone(), source }))?;
-        z.start_file(format!("resources/{u}.fmu"), o).map_err(zerr)?;
+        let bytes = std::fs::read(p).map_err(|source| {
+            SspError::Fmu(FmuError::Open {
+                path: p.clone(),
+                source,
+            })
+        })?;
+        z.start_file(format!("resources/{u}.fmu"), o)
+            .map_err(zerr)?;
         z.write_all(&bytes).map_err(werr)?;
     }
     z.finish().map_err(zerr)?;

@@ -82,14 +82,29 @@ fn imports_the_test_fmu_and_simulates_a_free_oscillation() {
         i.do_step(n as f64 * h, h).unwrap();
         i.get_real(&[4], &mut x).unwrap();
         let t = (n + 1) as f64 * h;
-        assert!((x[0] - 1e-3 * (20.0 * t).cos()).abs() < 1e-9, "t = {t}: {}", x[0]);
+        assert!(
+            (x[0] - 1e-3 * (20.0 * t).cos()).abs() < 1e-9,
+            "t = {t}: {}",
+            x[0]
+        );
     }
     // a wrong communication point is refused with the FMU's message (printf
     // arguments formatted by the C logger shim)
     let e = i.do_step(7.0, h).unwrap_err();
     let msg = e.to_string();
-    assert!(msg.contains("fmi2DoStep") && msg.contains("fmi2Error") && msg.contains("expected currentCommunicationPoint = 0.5"), "{msg}");
-    assert!(i.log().iter().any(|r| r.status == "fmi2Error" && r.message.contains("but was 7")), "{:?}", i.log());
+    assert!(
+        msg.contains("fmi2DoStep")
+            && msg.contains("fmi2Error")
+            && msg.contains("expected currentCommunicationPoint = 0.5"),
+        "{msg}"
+    );
+    assert!(
+        i.log()
+            .iter()
+            .any(|r| r.status == "fmi2Error" && r.message.contains("but was 7")),
+        "{:?}",
+        i.log()
+    );
 }
 
 #[test]
@@ -126,10 +141,21 @@ fn rejects_entries_escaping_the_folder_and_writes_nothing_outside() {
     let tmp_before: usize = std::fs::read_dir(std::env::temp_dir()).unwrap().count();
     let md = test_md(TEST_GUID).into_bytes();
     let rel = format!("../../../../../../../../..{}", outside.display());
-    for (name, entry) in [("dotdot.fmu", rel.as_str()), ("abs.fmu", outside.to_str().unwrap()), ("inner.fmu", "resources/../../x.txt")] {
+    for (name, entry) in [
+        ("dotdot.fmu", rel.as_str()),
+        ("abs.fmu", outside.to_str().unwrap()),
+        ("inner.fmu", "resources/../../x.txt"),
+    ] {
         let p = dir.path().join(name);
         // the bad entry comes after a good one: nothing may be unpacked at all
-        write_zip(&p, &[("modelDescription.xml", md.clone()), (entry, b"pwned".to_vec())], &[]);
+        write_zip(
+            &p,
+            &[
+                ("modelDescription.xml", md.clone()),
+                (entry, b"pwned".to_vec()),
+            ],
+            &[],
+        );
         match fmu_err(&p) {
             FmuError::UnsafeEntry { entry: e, .. } => assert_eq!(e, entry),
             other => panic!("{name}: {other}"),
@@ -137,9 +163,16 @@ fn rejects_entries_escaping_the_folder_and_writes_nothing_outside() {
         assert!(!outside.exists(), "{name} wrote {}", outside.display());
     }
     let p = dir.path().join("link.fmu");
-    write_zip(&p, &[("modelDescription.xml", md)], &[("resources/link", "/etc/passwd")]);
+    write_zip(
+        &p,
+        &[("modelDescription.xml", md)],
+        &[("resources/link", "/etc/passwd")],
+    );
     let e = fmu_err(&p);
-    assert!(matches!(&e, FmuError::Symlink { entry, .. } if entry == "resources/link"), "{e}");
+    assert!(
+        matches!(&e, FmuError::Symlink { entry, .. } if entry == "resources/link"),
+        "{e}"
+    );
     assert!(e.to_string().contains("symbolic link"));
     // the temporary folders of the failed imports are gone again
     let tmp_after: usize = std::fs::read_dir(std::env::temp_dir()).unwrap().count();
@@ -149,19 +182,49 @@ fn rejects_entries_escaping_the_folder_and_writes_nothing_outside() {
 #[test]
 fn missing_binary_guid_mismatch_version_and_model_exchange_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let e = fmu_err(&test_fmu(dir.path(), "nobin.fmu", &test_md(TEST_GUID), false));
-    assert!(matches!(&e, FmuError::MissingBinary { identifier, .. } if identifier == "testosc"), "{e}");
+    let e = fmu_err(&test_fmu(
+        dir.path(),
+        "nobin.fmu",
+        &test_md(TEST_GUID),
+        false,
+    ));
+    assert!(
+        matches!(&e, FmuError::MissingBinary { identifier, .. } if identifier == "testosc"),
+        "{e}"
+    );
     assert!(e.to_string().contains("binaries/linux64/testosc.so"), "{e}");
 
-    let fmu = Fmu::load(&test_fmu(dir.path(), "guid.fmu", &test_md("{another-guid}"), true)).unwrap();
+    let fmu = Fmu::load(&test_fmu(
+        dir.path(),
+        "guid.fmu",
+        &test_md("{another-guid}"),
+        true,
+    ))
+    .unwrap();
     let e = fmu.instantiate("g", false).err().unwrap();
     let msg = e.to_string();
     assert!(matches!(e, FmuError::Instantiate { .. }), "{msg}");
-    assert!(msg.contains("GUID mismatch: expected {host-test-osc-0001}, got {another-guid}"), "{msg}");
+    assert!(
+        msg.contains("GUID mismatch: expected {host-test-osc-0001}, got {another-guid}"),
+        "{msg}"
+    );
 
-    let e = fmu_err(&test_fmu(dir.path(), "v1.fmu", &test_md(TEST_GUID).replace("fmiVersion=\"2.0\"", "fmiVersion=\"1.0\""), true));
-    assert!(matches!(&e, FmuError::Version { found } if found == "1.0"), "{e}");
-    let e = fmu_err(&test_fmu(dir.path(), "v3.fmu", &test_md(TEST_GUID).replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\""), true));
+    let e = fmu_err(&test_fmu(
+        dir.path(),
+        "v1.fmu",
+        &test_md(TEST_GUID).replace("fmiVersion=\"2.0\"", "fmiVersion=\"1.0\""),
+        true,
+    ));
+    assert!(
+        matches!(&e, FmuError::Version { found } if found == "1.0"),
+        "{e}"
+    );
+    let e = fmu_err(&test_fmu(
+        dir.path(),
+        "v3.fmu",
+        &test_md(TEST_GUID).replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\""),
+        true,
+    ));
     assert!(e.to_string().contains("FMI 2.0 only"), "{e}");
 
     let me = test_md(TEST_GUID).replace("<CoSimulation", "<ModelExchange");
@@ -179,7 +242,15 @@ fn missing_binary_guid_mismatch_version_and_model_exchange_are_clear_errors() {
 
 fn single_osc_master(dir: &Path, fail: Option<(&str, f64)>) -> Master {
     let fmu = Fmu::load(&test_fmu(dir, "osc.fmu", &test_md(TEST_GUID), true)).unwrap();
-    let mut m = Master::new(vec![("osc".into(), fmu)], &[], MasterOptions { macro_step_s: 1e-3, ..Default::default() }).unwrap();
+    let mut m = Master::new(
+        vec![("osc".into(), fmu)],
+        &[],
+        MasterOptions {
+            macro_step_s: 1e-3,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     m.set_parameter(0, "x0", &ParamValue::Real(1e-3)).unwrap();
     if let Some((name, t)) = fail {
         m.set_parameter(0, name, &ParamValue::Real(t)).unwrap();
@@ -196,12 +267,19 @@ fn an_fmu_error_mid_run_stops_cleanly_and_keeps_the_results() {
         let rec = run(&mut m, 0.1, &["osc.x".into()], 1, &mut |_| {}).unwrap();
         let (t, msg) = rec.stopped.clone().expect("stopped");
         assert!((t - 0.030).abs() < 1e-12, "{t}");
-        assert!(msg.contains(status) && msg.contains("injected") && msg.contains("t = 0.03 s"), "{msg}");
+        assert!(
+            msg.contains(status) && msg.contains("injected") && msg.contains("t = 0.03 s"),
+            "{msg}"
+        );
         // samples up to the last good communication point, and they are right
         assert_eq!(rec.time_s.len(), 31);
         let x = rec.column("osc.x").unwrap();
         for (k, &t) in rec.time_s.iter().enumerate() {
-            assert!((x[k] - 1e-3 * (10.0 * t).cos()).abs() < 1e-9, "{t}: {}", x[k]);
+            assert!(
+                (x[k] - 1e-3 * (10.0 * t).cos()).abs() < 1e-9,
+                "{t}: {}",
+                x[k]
+            );
         }
     }
 }
@@ -212,8 +290,18 @@ fn connection_errors_name_the_endpoint() {
     let mk = |c: &[(&str, &str)]| {
         let a = Fmu::load(&test_fmu(dir.path(), "a.fmu", &test_md(TEST_GUID), true)).unwrap();
         let b = Fmu::load(&test_fmu(dir.path(), "b.fmu", &test_md(TEST_GUID), true)).unwrap();
-        let c: Vec<(String, String)> = c.iter().map(|(x, y)| (x.to_string(), y.to_string())).collect();
-        Master::new(vec![("a".into(), a), ("b".into(), b)], &c, MasterOptions::default()).err().unwrap().to_string()
+        let c: Vec<(String, String)> = c
+            .iter()
+            .map(|(x, y)| (x.to_string(), y.to_string()))
+            .collect();
+        Master::new(
+            vec![("a".into(), a), ("b".into(), b)],
+            &c,
+            MasterOptions::default(),
+        )
+        .err()
+        .unwrap()
+        .to_string()
     };
     assert!(mk(&[("a.x", "c.F")]).contains("no unit named 'c'"));
     assert!(mk(&[("a.x", "b.nope")]).contains("'nope'"));
@@ -231,8 +319,15 @@ fn generic_mode_runs_fmus_from_a_connection_list() {
     let spec = GenericSpec {
         units: vec![("a".into(), a), ("b".into(), b)],
         connections: vec![("a.x".into(), "b.F".into()), ("b.x".into(), "a.F".into())],
-        parameters: vec![("a.x0".into(), ParamValue::Real(1.0)), ("b.k".into(), ParamValue::Real(100.0))],
-        options: MasterOptions { algorithm: Algorithm::GaussSeidel, macro_step_s: 1e-3, ..Default::default() },
+        parameters: vec![
+            ("a.x0".into(), ParamValue::Real(1.0)),
+            ("b.k".into(), ParamValue::Real(100.0)),
+        ],
+        options: MasterOptions {
+            algorithm: Algorithm::GaussSeidel,
+            macro_step_s: 1e-3,
+            ..Default::default()
+        },
         start_time_s: 0.0,
         stop_time_s: 1.0,
         record: vec!["a.x".into(), "b.x".into()],
@@ -244,13 +339,24 @@ fn generic_mode_runs_fmus_from_a_connection_list() {
     let t = rec.time_s[10];
     assert!((t - 1.0).abs() < 1e-12);
     let xb = 0.5 * ((w1 * t).cos() - (w2 * t).cos());
-    assert!((rec.column("b.x").unwrap()[10] - xb).abs() < 1e-3, "{}", rec.column("b.x").unwrap()[10]);
+    assert!(
+        (rec.column("b.x").unwrap()[10] - xb).abs() < 1e-3,
+        "{}",
+        rec.column("b.x").unwrap()[10]
+    );
     let mut bad = spec.clone();
     bad.parameters.push(("c.k".into(), ParamValue::Real(1.0)));
-    assert!(run_generic(&bad, &mut |_| {}).unwrap_err().to_string().contains("no unit named 'c'"));
+    assert!(run_generic(&bad, &mut |_| {})
+        .unwrap_err()
+        .to_string()
+        .contains("no unit named 'c'"));
     let mut bad = spec.clone();
-    bad.parameters.push(("a.k".into(), ParamValue::Boolean(true)));
-    assert!(run_generic(&bad, &mut |_| {}).unwrap_err().to_string().contains("does not fit"));
+    bad.parameters
+        .push(("a.k".into(), ParamValue::Boolean(true)));
+    assert!(run_generic(&bad, &mut |_| {})
+        .unwrap_err()
+        .to_string()
+        .contains("does not fit"));
 }
 
 /// The SSP archive holds both FMUs byte for byte and an .ssd whose
@@ -264,17 +370,37 @@ fn ssp_export_round_trips() {
     let a = test_fmu(dir.path(), "a.fmu", &test_md(TEST_GUID), true);
     let b = test_fmu(dir.path(), "b.fmu", &test_md(TEST_GUID), true);
     let out = dir.path().join("sys.ssp");
-    let conns = vec![("a.x".to_string(), "b.F".to_string()), ("b.x".to_string(), "a.F".to_string())];
-    let params = vec![("a.x0".to_string(), ParamValue::Real(0.25)), ("b.k".to_string(), ParamValue::Real(400.0))];
-    write_ssp(&out, "two <osc>", &[("a".into(), a.clone()), ("b".into(), b.clone())], &conns, &params, 2.0).unwrap();
+    let conns = vec![
+        ("a.x".to_string(), "b.F".to_string()),
+        ("b.x".to_string(), "a.F".to_string()),
+    ];
+    let params = vec![
+        ("a.x0".to_string(), ParamValue::Real(0.25)),
+        ("b.k".to_string(), ParamValue::Real(400.0)),
+    ];
+    write_ssp(
+        &out,
+        "two <osc>",
+        &[("a".into(), a.clone()), ("b".into(), b.clone())],
+        &conns,
+        &params,
+        2.0,
+    )
+    .unwrap();
     let mut z = zip::ZipArchive::new(std::fs::File::open(&out).unwrap()).unwrap();
     for (u, p) in [("a", &a), ("b", &b)] {
         let mut bytes = Vec::new();
-        z.by_name(&format!("resources/{u}.fmu")).unwrap().read_to_end(&mut bytes).unwrap();
+        z.by_name(&format!("resources/{u}.fmu"))
+            .unwrap()
+            .read_to_end(&mut bytes)
+            .unwrap();
         assert_eq!(bytes, std::fs::read(p).unwrap());
     }
     let mut ssd = String::new();
-    z.by_name("SystemStructure.ssd").unwrap().read_to_string(&mut ssd).unwrap();
+    z.by_name("SystemStructure.ssd")
+        .unwrap()
+        .read_to_string(&mut ssd)
+        .unwrap();
     let mut r = quick_xml::Reader::from_str(&ssd);
     let (mut comps, mut connections, mut values, mut connectors) = (vec![], vec![], vec![], 0);
     let mut current_param = String::new();
@@ -282,17 +408,32 @@ fn ssp_export_round_trips() {
     loop {
         match r.read_event().unwrap() {
             Event::Start(e) | Event::Empty(e) => {
-                let at = |k: &str| e.try_get_attribute(k).unwrap().map(|a| a.unescape_value().unwrap().into_owned());
+                let at = |k: &str| {
+                    e.try_get_attribute(k)
+                        .unwrap()
+                        .map(|a| a.unescape_value().unwrap().into_owned())
+                };
                 match e.name().as_ref() {
                     b"ssd:SystemStructureDescription" => root_name = at("name").unwrap(),
                     b"ssd:Component" => comps.push((at("name").unwrap(), at("source").unwrap())),
                     b"ssd:Connector" => connectors += 1,
                     b"ssd:Connection" => connections.push((
-                        format!("{}.{}", at("startElement").unwrap(), at("startConnector").unwrap()),
-                        format!("{}.{}", at("endElement").unwrap(), at("endConnector").unwrap()),
+                        format!(
+                            "{}.{}",
+                            at("startElement").unwrap(),
+                            at("startConnector").unwrap()
+                        ),
+                        format!(
+                            "{}.{}",
+                            at("endElement").unwrap(),
+                            at("endConnector").unwrap()
+                        ),
                     )),
                     b"ssv:Parameter" => current_param = at("name").unwrap(),
-                    b"ssv:Real" => values.push((current_param.clone(), at("value").unwrap().parse::<f64>().unwrap())),
+                    b"ssv:Real" => values.push((
+                        current_param.clone(),
+                        at("value").unwrap().parse::<f64>().unwrap(),
+                    )),
                     _ => {}
                 }
             }
@@ -301,12 +442,29 @@ fn ssp_export_round_trips() {
         }
     }
     assert_eq!(root_name, "two <osc>");
-    assert_eq!(comps, vec![("a".to_string(), "resources/a.fmu".to_string()), ("b".to_string(), "resources/b.fmu".to_string())]);
+    assert_eq!(
+        comps,
+        vec![
+            ("a".to_string(), "resources/a.fmu".to_string()),
+            ("b".to_string(), "resources/b.fmu".to_string())
+        ]
+    );
     assert_eq!(connections, conns);
-    assert_eq!(values, vec![("x0".to_string(), 0.25), ("k".to_string(), 400.0)]);
+    assert_eq!(
+        values,
+        vec![("x0".to_string(), 0.25), ("k".to_string(), 400.0)]
+    );
     // inputs and outputs (F, x, v) of both, plus one bound parameter each
     assert_eq!(connectors, 2 * 3 + 2);
-    let e = write_ssp(&out, "s", &[("a".into(), a.clone())], &[("a.x".into(), "c.F".into())], &[], 1.0).unwrap_err();
+    let e = write_ssp(
+        &out,
+        "s",
+        &[("a".into(), a.clone())],
+        &[("a.x".into(), "c.F".into())],
+        &[],
+        1.0,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("c.F"), "{e}");
 }
 
@@ -318,14 +476,26 @@ fn ssp_export_round_trips() {
 #[test]
 fn coupled_oscillators_match_the_modal_solution_for_every_algorithm() {
     let dir = tempfile::tempdir().unwrap();
-    for alg in [Algorithm::Jacobi, Algorithm::GaussSeidel, Algorithm::Iterative] {
+    for alg in [
+        Algorithm::Jacobi,
+        Algorithm::GaussSeidel,
+        Algorithm::Iterative,
+    ] {
         let a = Fmu::load(&test_fmu(dir.path(), "a.fmu", &test_md(TEST_GUID), true)).unwrap();
         let b = Fmu::load(&test_fmu(dir.path(), "b.fmu", &test_md(TEST_GUID), true)).unwrap();
-        let c = vec![("a.x".to_string(), "b.F".to_string()), ("b.x".to_string(), "a.F".to_string())];
+        let c = vec![
+            ("a.x".to_string(), "b.F".to_string()),
+            ("b.x".to_string(), "a.F".to_string()),
+        ];
         let mut m = Master::new(
             vec![("a".into(), a), ("b".into(), b)],
             &c,
-            MasterOptions { algorithm: alg, macro_step_s: 1e-3, iteration_rtol: 1e-10, ..Default::default() },
+            MasterOptions {
+                algorithm: alg,
+                macro_step_s: 1e-3,
+                iteration_rtol: 1e-10,
+                ..Default::default()
+            },
         )
         .unwrap();
         m.set_parameter(0, "x0", &ParamValue::Real(1.0)).unwrap();
@@ -349,7 +519,11 @@ fn coupled_oscillators_match_the_modal_solution_for_every_algorithm() {
         };
         assert!(err < tol, "{alg:?}: max error {err:e}");
         if alg == Algorithm::Iterative {
-            assert!(rec.stats.evaluations >= rec.stats.steps && rec.stats.jacobian_builds >= 1, "{:?}", rec.stats);
+            assert!(
+                rec.stats.evaluations >= rec.stats.steps && rec.stats.jacobian_builds >= 1,
+                "{:?}",
+                rec.stats
+            );
         }
     }
 }
@@ -359,13 +533,13 @@ fn coupled_oscillators_match_the_modal_solution_for_every_algorithm() {
 /// with a linear modal table of the paper's beam).
 mod fmus {
     use super::super::paper::*;
+    use super::super::repo::package_repo_fmus;
     use super::*;
     use nlmode::attachment::ShakerParams;
-    use nlmode::structure::{paper_structure, PaperStructureOptions};
     use nlmode::nma::ModalTable;
     use nlmode::structure::modal_analysis;
+    use nlmode::structure::{paper_structure, PaperStructureOptions};
     use nlmode::Complex64;
-    use super::super::repo::package_repo_fmus;
     use std::sync::Mutex;
 
     /// The paper's beam (default scenario): omega0, D0, phi at 2l3 and tip.
@@ -382,7 +556,13 @@ mod fmus {
         let modes = modal_analysis(&ps.model, 1).unwrap();
         let phi = |p: &str| modes.deflection(0, &ps.model.point(p).unwrap().direction);
         let d0 = PaperStructureOptions::default().d0;
-        Beam { omega0: modes.omega_rad_s[0], d0, phi_ex: phi("2l3"), phi_tip: phi("tip"), shaker: ShakerParams::paper() }
+        Beam {
+            omega0: modes.omega_rad_s[0],
+            d0,
+            phi_ex: phi("2l3"),
+            phi_tip: phi("tip"),
+            shaker: ShakerParams::paper(),
+        }
     }
 
     /// Package `structure.fmu` (with `table` as resources/modal_table.json)
@@ -400,7 +580,11 @@ mod fmus {
         ModalTable::linear(
             b.omega0,
             b.d0,
-            &[("tip", Complex64::new(b.phi_tip, 0.0)), ("2l3", Complex64::new(b.phi_ex, 0.0)), ("l3", Complex64::new(0.0, 0.0))],
+            &[
+                ("tip", Complex64::new(b.phi_tip, 0.0)),
+                ("2l3", Complex64::new(b.phi_ex, 0.0)),
+                ("l3", Complex64::new(0.0, 0.0)),
+            ],
             1e-9,
             10.0,
         )
@@ -418,7 +602,15 @@ mod fmus {
 
     fn fixed_sine(b: &Beam, eta: f64, alg: Algorithm, h: f64, t_end: f64) -> CosimParams {
         let w = eta * b.omega0;
-        let mut p = CosimParams::new(b.shaker, SweepSpec { u_hat_v: 1.0, omega_start_rad_s: w, omega_end_rad_s: w, rate_rad_s2: 0.0 });
+        let mut p = CosimParams::new(
+            b.shaker,
+            SweepSpec {
+                u_hat_v: 1.0,
+                omega_start_rad_s: w,
+                omega_end_rad_s: w,
+                rate_rad_s2: 0.0,
+            },
+        );
         p.stop_time_s = Some(t_end);
         p.algorithm = alg;
         p.macro_step_s = h;
@@ -448,11 +640,20 @@ mod fmus {
             let e = &o.envelope;
             let n = e.omega_rad_s.len();
             assert!(n > 150, "{n}");
-            let (ef, et) = (e.force_amplitude_n[n - 1] / f.norm() - 1.0, e.tip_amplitude_m[n - 1] / tip.norm() - 1.0);
-            assert!(ef.abs() < tol && et.abs() < tol, "eta {eta} {alg:?} h {h}: force {ef:e}, tip {et:e}");
+            let (ef, et) = (
+                e.force_amplitude_n[n - 1] / f.norm() - 1.0,
+                e.tip_amplitude_m[n - 1] / tip.norm() - 1.0,
+            );
+            assert!(
+                ef.abs() < tol && et.abs() < tol,
+                "eta {eta} {alg:?} h {h}: force {ef:e}, tip {et:e}"
+            );
             assert!((e.omega_rad_s[n - 1] - eta * b.omega0).abs() < 1e-9);
             if eta == 1.0 {
-                let blocked = b.shaker.closed_form_blocked_force(b.omega0, Complex64::new(1.0, 0.0)).norm();
+                let blocked = b
+                    .shaker
+                    .closed_form_blocked_force(b.omega0, Complex64::new(1.0, 0.0))
+                    .norm();
                 let drop = 1.0 - e.force_amplitude_n[n - 1] / blocked;
                 assert!((drop - 0.97).abs() < 0.01, "force drop {drop}");
             }
@@ -468,10 +669,25 @@ mod fmus {
         let b = beam();
         let dir = tempfile::tempdir().unwrap();
         let (st, sh) = package(dir.path(), &linear_table(&b));
-        let o = run_cosim(&st, &sh, &fixed_sine(&b, 1.0, Algorithm::Jacobi, 1e-4, 0.3), &mut |_| {}).unwrap();
+        let o = run_cosim(
+            &st,
+            &sh,
+            &fixed_sine(&b, 1.0, Algorithm::Jacobi, 1e-4, 0.3),
+            &mut |_| {},
+        )
+        .unwrap();
         let (t, msg) = o.stopped.clone().expect("Jacobi at h = 1e-4 s diverges");
-        assert!(t < 0.3 && msg.contains("structure") && msg.contains("fmi2Error") && msg.contains("modal table"), "{t}: {msg}");
-        assert!(!o.time_s.is_empty() && (o.time_s.last().unwrap() - t).abs() <= 1e-4 + 1e-12, "results kept up to the failure");
+        assert!(
+            t < 0.3
+                && msg.contains("structure")
+                && msg.contains("fmi2Error")
+                && msg.contains("modal table"),
+            "{t}: {msg}"
+        );
+        assert!(
+            !o.time_s.is_empty() && (o.time_s.last().unwrap() - t).abs() <= 1e-4 + 1e-12,
+            "results kept up to the failure"
+        );
         let (f, _) = linear_steady(&b, b.omega0, 1.0);
         for (alg, tol) in [(Algorithm::GaussSeidel, 0.1), (Algorithm::Iterative, 0.06)] {
             let o = run_cosim(&st, &sh, &fixed_sine(&b, 1.0, alg, 1e-4, 0.3), &mut |_| {}).unwrap();
@@ -502,11 +718,14 @@ mod fmus {
     fn compare(e: &CosimEnvelope, om: &[f64], f: &[f64], tip: &[f64]) -> (f64, f64, f64, f64) {
         let interp = |y: &[f64], x0: f64| {
             let k = om.partition_point(|&v| v <= x0);
-            (k > 0 && k < om.len()).then(|| y[k - 1] + (x0 - om[k - 1]) / (om[k] - om[k - 1]) * (y[k] - y[k - 1]))
+            (k > 0 && k < om.len())
+                .then(|| y[k - 1] + (x0 - om[k - 1]) / (om[k] - om[k - 1]) * (y[k] - y[k - 1]))
         };
         let peak = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
         let jump = |om: &[f64], tip: &[f64]| {
-            let i = (0..tip.len()).max_by(|&a, &b| tip[a].total_cmp(&tip[b])).unwrap();
+            let i = (0..tip.len())
+                .max_by(|&a, &b| tip[a].total_cmp(&tip[b]))
+                .unwrap();
             let w = (om.len() / 400).max(1);
             let mut best = (0.0, om[i]);
             for k in i..om.len().saturating_sub(w) {
@@ -526,7 +745,12 @@ mod fmus {
             }
         }
         assert!(n > 300, "{n} overlapping envelope points");
-        eprintln!("{n} overlapping envelope points, other envelope {:.1}..{:.1} rad/s ({} points)", om[0], om[om.len() - 1], om.len());
+        eprintln!(
+            "{n} overlapping envelope points, other envelope {:.1}..{:.1} rad/s ({} points)",
+            om[0],
+            om[om.len() - 1],
+            om.len()
+        );
         let n = n as f64;
         (
             peak(&e.tip_amplitude_m) / peak(tip) - 1.0,
@@ -561,7 +785,11 @@ mod fmus {
             &ps.model,
             &NmaOptions {
                 harmonics: 3,
-                amplitude: AmplitudeRange::Point { name: "tip".into(), start_m: 1e-6, end_m: 0.02 },
+                amplitude: AmplitudeRange::Point {
+                    name: "tip".into(),
+                    start_m: 1e-6,
+                    end_m: 0.02,
+                },
                 store_coordinates: false,
                 ..Default::default()
             },
@@ -571,7 +799,13 @@ mod fmus {
         let shaker = ShakerParams::paper();
         let sweep = LinearSweep::per_pseudo_period(ps.omega0_rad_s, 0.8, 1.8, rate, volts).unwrap();
         let att = LinearAttachment::shaker("shaker", &shaker, point).unwrap();
-        let r = simulate_sweep(&ps.model, std::slice::from_ref(&att), &sweep, &ReferenceOptions::default()).unwrap();
+        let r = simulate_sweep(
+            &ps.model,
+            std::slice::from_ref(&att),
+            &sweep,
+            &ReferenceOptions::default(),
+        )
+        .unwrap();
         let nl = ReducedModel::new(&table, "tip", point)
             .unwrap()
             .with_linear_attachment(&att, &[Complex64::new(1.0, 0.0)])
@@ -589,20 +823,39 @@ mod fmus {
         let o = run_cosim(&st, &sh, &p, &mut |_| {}).unwrap();
         assert!(o.stopped.is_none(), "{:?}", o.stopped);
         for (name, (om, f, tip)) in [
-            ("reference", (&r.envelope.omega_rad_s, &r.envelope.force_amplitude_n, &r.envelope.tip_amplitude_m)),
-            ("nlmode", (&nl.omega_rad_s, &nl.force_amplitude_n, &nl.tip_amplitude_m)),
+            (
+                "reference",
+                (
+                    &r.envelope.omega_rad_s,
+                    &r.envelope.force_amplitude_n,
+                    &r.envelope.tip_amplitude_m,
+                ),
+            ),
+            (
+                "nlmode",
+                (&nl.omega_rad_s, &nl.force_amplitude_n, &nl.tip_amplitude_m),
+            ),
         ] {
             let (peak, jump, rms_tip, rms_f) = compare(&o.envelope, om, f, tip);
             eprintln!("{point} {volts} V: {name}: peak {peak:e} jump {jump:e} rms tip {rms_tip:e} rms force {rms_f:e}");
             assert!(peak.abs() < 0.03, "{point}, {name}: peak tip {peak:e}");
             assert!(jump.abs() < 0.01, "{point}, {name}: jump-down {jump:e}");
-            assert!(rms_tip < 0.05 && rms_f < 0.05, "{point}, {name}: RMS tip {rms_tip:e}, force {rms_f:e}");
+            assert!(
+                rms_tip < 0.05 && rms_f < 0.05,
+                "{point}, {name}: RMS tip {rms_tip:e}, force {rms_f:e}"
+            );
         }
         if volts == 10.0 {
             // hardening: the peak lies far above omega0, as in the paper
             let e = &o.envelope;
-            let ipk = (0..e.tip_amplitude_m.len()).max_by(|&a, &b| e.tip_amplitude_m[a].total_cmp(&e.tip_amplitude_m[b])).unwrap();
-            assert!(e.omega_rad_s[ipk] > 1.2 * ps.omega0_rad_s, "peak at {} rad/s", e.omega_rad_s[ipk]);
+            let ipk = (0..e.tip_amplitude_m.len())
+                .max_by(|&a, &b| e.tip_amplitude_m[a].total_cmp(&e.tip_amplitude_m[b]))
+                .unwrap();
+            assert!(
+                e.omega_rad_s[ipk] > 1.2 * ps.omega0_rad_s,
+                "peak at {} rad/s",
+                e.omega_rad_s[ipk]
+            );
         }
     }
 }

@@ -152,7 +152,11 @@ pub(crate) fn integrate<const N: usize, E>(
         let zero = [0.0; N];
         let d0 = norm(&y, &zero, &zero);
         let d1 = norm(&k1, &zero, &zero);
-        let h0 = if d0 < 1e-5 || d1 < 1e-5 { 1e-6 * (t_end - t0) } else { 0.01 * d0 / d1 };
+        let h0 = if d0 < 1e-5 || d1 < 1e-5 {
+            1e-6 * (t_end - t0)
+        } else {
+            0.01 * d0 / d1
+        };
         h0.min(tol.h_max).max(tol.h_min)
     };
     let mut last_err_ok = 1e-4f64;
@@ -182,7 +186,12 @@ pub(crate) fn integrate<const N: usize, E>(
          -> Result<[[f64; N]; 7], E> {
             let k2 = stage(f, t + C2 * h, comb(&y, h, &[(A21, &k1)]), n)?;
             let k3 = stage(f, t + C3 * h, comb(&y, h, &[(A31, &k1), (A32, &k2)]), n)?;
-            let k4 = stage(f, t + C4 * h, comb(&y, h, &[(A41, &k1), (A42, &k2), (A43, &k3)]), n)?;
+            let k4 = stage(
+                f,
+                t + C4 * h,
+                comb(&y, h, &[(A41, &k1), (A42, &k2), (A43, &k3)]),
+                n,
+            )?;
             let k5 = stage(
                 f,
                 t + C5 * h,
@@ -192,10 +201,18 @@ pub(crate) fn integrate<const N: usize, E>(
             let k6 = stage(
                 f,
                 t + h,
-                comb(&y, h, &[(A61, &k1), (A62, &k2), (A63, &k3), (A64, &k4), (A65, &k5)]),
+                comb(
+                    &y,
+                    h,
+                    &[(A61, &k1), (A62, &k2), (A63, &k3), (A64, &k4), (A65, &k5)],
+                ),
                 n,
             )?;
-            let y1 = comb(&y, h, &[(A71, &k1), (A73, &k3), (A74, &k4), (A75, &k5), (A76, &k6)]);
+            let y1 = comb(
+                &y,
+                h,
+                &[(A71, &k1), (A73, &k3), (A74, &k4), (A75, &k5), (A76, &k6)],
+            );
             let k7 = stage(f, t + h, y1, n)?;
             Ok([y1, k2, k3, k4, k5, k6, k7])
         };
@@ -216,7 +233,8 @@ pub(crate) fn integrate<const N: usize, E>(
         };
         let mut e = [0.0; N];
         for i in 0..N {
-            e[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            e[i] =
+                h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
         }
         let err = norm(&e, &y, &y1);
         if !err.is_finite() || y1.iter().any(|v| !v.is_finite()) {
@@ -238,7 +256,8 @@ pub(crate) fn integrate<const N: usize, E>(
                 r[1][i] = ydiff;
                 r[2][i] = bspl;
                 r[3][i] = ydiff - h * k7[i] - bspl;
-                r[4][i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+                r[4][i] = h
+                    * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
             }
             on_step(&DenseStep { t0: t, h, r });
             stats.accepted_steps += 1;
@@ -271,7 +290,14 @@ mod tests {
     use super::*;
 
     fn tol(rtol: f64, h_max: f64) -> Tolerances<2> {
-        Tolerances { rtol, atol: [rtol; 2], h_max, h_min: 1e-14, max_steps: 1_000_000, h0: None }
+        Tolerances {
+            rtol,
+            atol: [rtol; 2],
+            h_max,
+            h_min: 1e-14,
+            max_steps: 1_000_000,
+            h0: None,
+        }
     }
 
     /// Harmonic oscillator y'' = -y: y = (cos t, -sin t).
@@ -305,14 +331,23 @@ mod tests {
         // continuous extension); with a wrong coefficient it falls by 2^4 or less.
         let mut errs = Vec::new();
         for h in [0.4, 0.2, 0.1] {
-            let tl = Tolerances { rtol: 1e3, atol: [1e3; 2], h_max: h, h_min: 1e-14, max_steps: 1000, h0: Some(h) };
+            let tl = Tolerances {
+                rtol: 1e3,
+                atol: [1e3; 2],
+                h_max: h,
+                h_min: 1e-14,
+                max_steps: 1000,
+                h0: Some(h),
+            };
             let mut maxerr: f64 = 0.0;
             let (_, stop) = integrate(osc, 0.0, [1.0, 0.0], 0.4, &tl, |d| {
                 if d.t0 == 0.0 {
                     for j in 1..10 {
                         let t = d.t0 + d.h * j as f64 / 10.0;
                         let y = d.eval(t);
-                        maxerr = maxerr.max((y[0] - t.cos()).abs()).max((y[1] + t.sin()).abs());
+                        maxerr = maxerr
+                            .max((y[0] - t.cos()).abs())
+                            .max((y[1] + t.sin()).abs());
                     }
                 }
             });
@@ -328,9 +363,24 @@ mod tests {
     fn failing_rhs_shrinks_the_step_and_then_stops() {
         // y' = 1 undefined for y > 1: stops near t = 1 with the last good state.
         let mut last = 0.0;
-        let f = |_t: f64, y: &[f64; 2]| if y[0] > 1.0 { Err(y[0]) } else { Ok([1.0, 0.0]) };
-        let tl = Tolerances { rtol: 1e-8, atol: [1e-8; 2], h_max: 0.3, h_min: 1e-9, max_steps: 10000, h0: None };
-        let (_, stop) = integrate(f, 0.0, [0.0, 0.0], 5.0, &tl, |d| last = d.eval(d.t0 + d.h)[0]);
+        let f = |_t: f64, y: &[f64; 2]| {
+            if y[0] > 1.0 {
+                Err(y[0])
+            } else {
+                Ok([1.0, 0.0])
+            }
+        };
+        let tl = Tolerances {
+            rtol: 1e-8,
+            atol: [1e-8; 2],
+            h_max: 0.3,
+            h_min: 1e-9,
+            max_steps: 10000,
+            h0: None,
+        };
+        let (_, stop) = integrate(f, 0.0, [0.0, 0.0], 5.0, &tl, |d| {
+            last = d.eval(d.t0 + d.h)[0]
+        });
         match stop {
             Some(Stop::Rhs { t, .. }) => {
                 assert!((t - 1.0).abs() < 1e-6, "{t}");

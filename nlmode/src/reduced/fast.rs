@@ -14,7 +14,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 impl Clone for FastTable {
     fn clone(&self) -> Self {
-        Self { x: self.x.clone(), hint: AtomicUsize::new(0), nq: self.nq, c: self.c.clone() }
+        Self {
+            x: self.x.clone(),
+            hint: AtomicUsize::new(0),
+            nq: self.nq,
+            c: self.c.clone(),
+        }
     }
 }
 
@@ -40,11 +45,17 @@ pub(crate) struct FastTable {
 }
 
 impl FastTable {
-    pub fn new(table: &TableInterpolator, grid: &[f64], npoints: usize) -> Result<Self, TableError> {
+    pub fn new(
+        table: &TableInterpolator,
+        grid: &[f64],
+        npoints: usize,
+    ) -> Result<Self, TableError> {
         let nq = 2 + 2 * npoints;
         let ts: [f64; 4] = [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0];
         let v = Matrix4::from_fn(|i, j| ts[i].powi(j as i32));
-        let vinv = v.try_inverse().expect("Vandermonde matrix of distinct nodes is regular");
+        let vinv = v
+            .try_inverse()
+            .expect("Vandermonde matrix of distinct nodes is regular");
         let mut c = Vec::with_capacity((grid.len() - 1) * nq);
         let mut vals = vec![[0.0; 4]; nq];
         for k in 0..grid.len() - 1 {
@@ -66,7 +77,12 @@ impl FastTable {
                 c.push([q[0], co[1], co[2], co[3]]);
             }
         }
-        Ok(Self { x: grid.to_vec(), hint: AtomicUsize::new(0), nq, c })
+        Ok(Self {
+            x: grid.to_vec(),
+            hint: AtomicUsize::new(0),
+            nq,
+            c,
+        })
     }
 
     #[inline]
@@ -79,7 +95,10 @@ impl FastTable {
             return Ok(Loc { k: 0, t: 0.0 });
         }
         if a > self.x[n - 1] {
-            return Err(TableError::AboveRange { a, max: self.x[n - 1] });
+            return Err(TableError::AboveRange {
+                a,
+                max: self.x[n - 1],
+            });
         }
         // segment k with x[k] <= a < x[k+1] (a node hit starts its segment: t = 0,
         // exact node value); the last node belongs to the last segment
@@ -95,7 +114,10 @@ impl FastTable {
             self.x.partition_point(|&v| v <= a).clamp(1, n - 1) - 1
         };
         self.hint.store(k, Ordering::Relaxed);
-        Ok(Loc { k, t: (a - self.x[k]) / (self.x[k + 1] - self.x[k]) })
+        Ok(Loc {
+            k,
+            t: (a - self.x[k]) / (self.x[k + 1] - self.x[k]),
+        })
     }
 
     /// Value of quantity `q` at `loc`.
@@ -124,7 +146,10 @@ mod tests {
     #[test]
     fn power_form_reproduces_the_table_interpolant() {
         let a: Vec<f64> = (0..23).map(|j| 1e-5 * 1.4f64.powi(j)).collect();
-        let omega: Vec<f64> = a.iter().map(|&a| (356.2f64.powi(2) + 5e10 * a * a).sqrt() - 3e4 * a * a).collect();
+        let omega: Vec<f64> = a
+            .iter()
+            .map(|&a| (356.2f64.powi(2) + 5e10 * a * a).sqrt() - 3e4 * a * a)
+            .collect();
         let damping: Vec<f64> = a.iter().map(|&a| 0.004 + 2.0 * a).collect();
         let t = ModalTable {
             format: MODAL_TABLE_FORMAT.into(),
@@ -159,10 +184,13 @@ mod tests {
             let p = ip.eval(x).unwrap();
             worst = worst.max((f.value(loc, 0) - p.omega_rad_s).abs() / p.omega_rad_s);
             worst = worst.max((f.value(loc, 1) - p.damping_ratio).abs() / p.damping_ratio);
-            worst = worst.max((f.derivative(loc, x, 0) - p.domega_da).abs() / (1.0 + p.domega_da.abs()) * 1e-3);
+            worst = worst.max(
+                (f.derivative(loc, x, 0) - p.domega_da).abs() / (1.0 + p.domega_da.abs()) * 1e-3,
+            );
             for pt in 0..2 {
                 let s = ip.shape(pt, 1, x).unwrap();
-                let d = (f.value(loc, 2 + 2 * pt) - s.re).abs() + (f.value(loc, 3 + 2 * pt) - s.im).abs();
+                let d = (f.value(loc, 2 + 2 * pt) - s.re).abs()
+                    + (f.value(loc, 3 + 2 * pt) - s.im).abs();
                 worst = worst.max(d / s.norm());
             }
         }
@@ -172,7 +200,13 @@ mod tests {
             assert_eq!(f.value(f.locate(x).unwrap(), 0), t.omega_rad_s[j]);
         }
         assert_eq!(f.value(f.locate(0.0).unwrap(), 0), t.omega_rad_s[0]);
-        assert!(matches!(f.locate(1.001 * amax), Err(TableError::AboveRange { .. })));
-        assert!(matches!(f.locate(f64::NAN), Err(TableError::BadAmplitude(_))));
+        assert!(matches!(
+            f.locate(1.001 * amax),
+            Err(TableError::AboveRange { .. })
+        ));
+        assert!(matches!(
+            f.locate(f64::NAN),
+            Err(TableError::BadAmplitude(_))
+        ));
     }
 }

@@ -20,7 +20,11 @@ impl ForceEnvelope {
     /// From samples in any order of `Omega` (sorted here; the phase is
     /// unwrapped along increasing `Omega`). Needs at least 2 distinct,
     /// positive, finite frequencies and finite, non-negative amplitudes.
-    pub fn new(omega_rad_s: &[f64], amplitude_n: &[f64], phase_rad: &[f64]) -> Result<Self, ReducedError> {
+    pub fn new(
+        omega_rad_s: &[f64],
+        amplitude_n: &[f64],
+        phase_rad: &[f64],
+    ) -> Result<Self, ReducedError> {
         if omega_rad_s.len() != amplitude_n.len() || omega_rad_s.len() != phase_rad.len() {
             return Err(ReducedError::Envelope(format!(
                 "column lengths differ: omega {}, amplitude {}, phase {}",
@@ -30,9 +34,16 @@ impl ForceEnvelope {
             )));
         }
         let mut rows: Vec<(f64, f64, f64)> = Vec::with_capacity(omega_rad_s.len());
-        for (j, ((&w, &f), &p)) in omega_rad_s.iter().zip(amplitude_n).zip(phase_rad).enumerate() {
+        for (j, ((&w, &f), &p)) in omega_rad_s
+            .iter()
+            .zip(amplitude_n)
+            .zip(phase_rad)
+            .enumerate()
+        {
             if !(w.is_finite() && w > 0.0) {
-                return Err(ReducedError::Envelope(format!("row {j}: omega_rad_s = {w} must be positive and finite")));
+                return Err(ReducedError::Envelope(format!(
+                    "row {j}: omega_rad_s = {w} must be positive and finite"
+                )));
             }
             if !(f.is_finite() && f >= 0.0) {
                 return Err(ReducedError::Envelope(format!(
@@ -40,14 +51,19 @@ impl ForceEnvelope {
                 )));
             }
             if !p.is_finite() {
-                return Err(ReducedError::Envelope(format!("row {j}: force_phase_rad = {p} must be finite")));
+                return Err(ReducedError::Envelope(format!(
+                    "row {j}: force_phase_rad = {p} must be finite"
+                )));
             }
             rows.push((w, f, p));
         }
         rows.sort_by(|a, b| a.0.total_cmp(&b.0));
         rows.dedup_by(|b, a| b.0 == a.0);
         if rows.len() < 2 {
-            return Err(ReducedError::Envelope(format!("need at least 2 distinct frequencies, got {}", rows.len())));
+            return Err(ReducedError::Envelope(format!(
+                "need at least 2 distinct frequencies, got {}",
+                rows.len()
+            )));
         }
         let mut phase = Vec::with_capacity(rows.len());
         let tau = std::f64::consts::TAU;
@@ -89,14 +105,25 @@ impl ForceEnvelope {
             .lines()
             .enumerate()
             .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
-        let (_, header) = lines.next().ok_or_else(|| ReducedError::Envelope("CSV is empty".into()))?;
+        let (_, header) = lines
+            .next()
+            .ok_or_else(|| ReducedError::Envelope("CSV is empty".into()))?;
         let cols: Vec<&str> = header.split(',').map(|c| c.trim()).collect();
         let find = |name: &str| {
-            cols.iter().position(|c| c.eq_ignore_ascii_case(name)).ok_or_else(|| {
-                ReducedError::Envelope(format!("CSV header has no column '{name}' (columns: {})", cols.join(", ")))
-            })
+            cols.iter()
+                .position(|c| c.eq_ignore_ascii_case(name))
+                .ok_or_else(|| {
+                    ReducedError::Envelope(format!(
+                        "CSV header has no column '{name}' (columns: {})",
+                        cols.join(", ")
+                    ))
+                })
         };
-        let (iw, ia, ip) = (find("omega_rad_s")?, find("force_amplitude_N")?, find("force_phase_rad")?);
+        let (iw, ia, ip) = (
+            find("omega_rad_s")?,
+            find("force_amplitude_N")?,
+            find("force_phase_rad")?,
+        );
         let (mut w, mut a, mut p) = (Vec::new(), Vec::new(), Vec::new());
         for (ln, line) in lines {
             let fields: Vec<&str> = line.split(',').map(|c| c.trim()).collect();
@@ -104,8 +131,12 @@ impl ForceEnvelope {
                 let s = fields.get(i).ok_or_else(|| {
                     ReducedError::Envelope(format!("line {}: missing column '{name}'", ln + 1))
                 })?;
-                s.parse::<f64>()
-                    .map_err(|_| ReducedError::Envelope(format!("line {}: '{s}' in column '{name}' is not a number", ln + 1)))
+                s.parse::<f64>().map_err(|_| {
+                    ReducedError::Envelope(format!(
+                        "line {}: '{s}' in column '{name}' is not a number",
+                        ln + 1
+                    ))
+                })
             };
             w.push(get(iw, "omega_rad_s")?);
             a.push(get(ia, "force_amplitude_N")?);
@@ -126,7 +157,11 @@ impl ForceEnvelope {
         let slack = 1e-9 * max;
         for w in [lo, hi] {
             if w < min - slack || w > max + slack {
-                return Err(ReducedError::EnvelopeRange { omega_rad_s: w, min, max });
+                return Err(ReducedError::EnvelopeRange {
+                    omega_rad_s: w,
+                    min,
+                    max,
+                });
             }
         }
         Ok(())
@@ -139,11 +174,19 @@ impl ForceEnvelope {
         let (min, max) = self.range();
         let slack = 1e-9 * max;
         if !(omega_rad_s >= min - slack && omega_rad_s <= max + slack) {
-            return Err(ReducedError::EnvelopeRange { omega_rad_s, min, max });
+            return Err(ReducedError::EnvelopeRange {
+                omega_rad_s,
+                min,
+                max,
+            });
         }
         let w = omega_rad_s.clamp(min, max);
         let n = self.omega_rad_s.len();
-        let k = self.omega_rad_s.partition_point(|&x| x <= w).clamp(1, n - 1) - 1;
+        let k = self
+            .omega_rad_s
+            .partition_point(|&x| x <= w)
+            .clamp(1, n - 1)
+            - 1;
         let s = (w - self.omega_rad_s[k]) / (self.omega_rad_s[k + 1] - self.omega_rad_s[k]);
         let amp = self.amplitude_n[k] + s * (self.amplitude_n[k + 1] - self.amplitude_n[k]);
         let ph = self.phase_rad[k] + s * (self.phase_rad[k + 1] - self.phase_rad[k]);
@@ -167,12 +210,23 @@ mod tests {
         let f = e.eval(150.0).unwrap();
         assert!((f.norm() - 2.0).abs() < 1e-14);
         assert!((f.arg() - 0.5 * (-3.0 + 3.0 - tau)).abs() < 1e-14);
-        assert!(matches!(e.eval(99.0), Err(ReducedError::EnvelopeRange { .. })));
-        assert!(matches!(ForceEnvelope::from_csv("omega_rad_s,force_amplitude_N\n1,2\n"), Err(ReducedError::Envelope(_))));
         assert!(matches!(
-            ForceEnvelope::from_csv("omega_rad_s,force_amplitude_N,force_phase_rad\n1,x,0\n2,1,0\n"),
+            e.eval(99.0),
+            Err(ReducedError::EnvelopeRange { .. })
+        ));
+        assert!(matches!(
+            ForceEnvelope::from_csv("omega_rad_s,force_amplitude_N\n1,2\n"),
             Err(ReducedError::Envelope(_))
         ));
-        assert!(matches!(ForceEnvelope::new(&[1.0, 2.0], &[1.0, -1.0], &[0.0, 0.0]), Err(ReducedError::Envelope(_))));
+        assert!(matches!(
+            ForceEnvelope::from_csv(
+                "omega_rad_s,force_amplitude_N,force_phase_rad\n1,x,0\n2,1,0\n"
+            ),
+            Err(ReducedError::Envelope(_))
+        ));
+        assert!(matches!(
+            ForceEnvelope::new(&[1.0, 2.0], &[1.0, -1.0], &[0.0, 0.0]),
+            Err(ReducedError::Envelope(_))
+        ));
     }
 }

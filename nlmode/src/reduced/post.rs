@@ -27,7 +27,11 @@ impl ReducedModel {
     /// Displacement harmonics `q_n = a phi_n(a) e^{i n theta}`, `n = 0..=H`, of
     /// the named point for the complex modal amplitude `A = a e^{i theta}`
     /// (`eq:ansatz`: `q(t) = Re(sum_n q_n e^{i n Phi})`) \[m\].
-    pub fn displacement_harmonics(&self, point: &str, amp: Complex64) -> Result<Vec<Complex64>, ReducedError> {
+    pub fn displacement_harmonics(
+        &self,
+        point: &str,
+        amp: Complex64,
+    ) -> Result<Vec<Complex64>, ReducedError> {
         let p = self.table.point_index(point)?;
         self.harmonics_at(p, amp)
     }
@@ -36,8 +40,16 @@ impl ReducedModel {
         let a = amp.norm();
         let mut phi = vec![Complex64::new(0.0, 0.0); self.table.harmonics() + 1];
         self.table.shape_all(p, a, &mut phi)?;
-        let e = if a > 0.0 { amp / a } else { Complex64::new(1.0, 0.0) };
-        Ok(phi.iter().enumerate().map(|(n, ph)| a * ph * e.powu(n as u32)).collect())
+        let e = if a > 0.0 {
+            amp / a
+        } else {
+            Complex64::new(1.0, 0.0)
+        };
+        Ok(phi
+            .iter()
+            .enumerate()
+            .map(|(n, ph)| a * ph * e.powu(n as u32))
+            .collect())
     }
 
     /// Fundamental interface forces on the structure of every attachment,
@@ -63,7 +75,12 @@ impl ReducedModel {
             let o = port.offset;
             out.push(
                 (0..nc)
-                    .map(|r| ch[o + nc * nc + r] - (0..nc).map(|c| ch[o + r * nc + c] * u[c]).sum::<Complex64>())
+                    .map(|r| {
+                        ch[o + nc * nc + r]
+                            - (0..nc)
+                                .map(|c| ch[o + r * nc + c] * u[c])
+                                .sum::<Complex64>()
+                    })
                     .collect(),
             );
         }
@@ -73,21 +90,39 @@ impl ReducedModel {
     /// Harmonics `F_n`, `n = 0..=H`, of the force on the structure at the
     /// drive point (all attachments there, plus the imposed force at `n = 1`)
     /// \[N\]: `F(t) = Re(sum_n F_n e^{i n Phi})`.
-    pub fn force_harmonics(&self, omega_rad_s: f64, amplitude: f64, amp: Complex64) -> Result<Vec<Complex64>, ReducedError> {
+    pub fn force_harmonics(
+        &self,
+        omega_rad_s: f64,
+        amplitude: f64,
+        amp: Complex64,
+    ) -> Result<Vec<Complex64>, ReducedError> {
         let h = self.table.harmonics();
         let mut chs = vec![vec![Complex64::new(0.0, 0.0); self.nch]; h + 1];
         for (n, ch) in chs.iter_mut().enumerate() {
-            self.fill_channels_at(n as f64 * omega_rad_s, if n == 1 { amplitude } else { 0.0 }, ch)?;
+            self.fill_channels_at(
+                n as f64 * omega_rad_s,
+                if n == 1 { amplitude } else { 0.0 },
+                ch,
+            )?;
         }
         let fi = self.imposed_at(omega_rad_s)?;
         self.force_harmonics_with(&chs, amp, fi)
     }
 
     /// `chs[n]`: channels at `n Omega` (with `T_G u_hat` only in `chs[1]`).
-    fn force_harmonics_with(&self, chs: &[Vec<Complex64>], amp: Complex64, fi: Complex64) -> Result<Vec<Complex64>, ReducedError> {
+    fn force_harmonics_with(
+        &self,
+        chs: &[Vec<Complex64>],
+        amp: Complex64,
+        fi: Complex64,
+    ) -> Result<Vec<Complex64>, ReducedError> {
         let h = self.table.harmonics();
         let a = amp.norm();
-        let e = if a > 0.0 { amp / a } else { Complex64::new(1.0, 0.0) };
+        let e = if a > 0.0 {
+            amp / a
+        } else {
+            Complex64::new(1.0, 0.0)
+        };
         let mut out = vec![Complex64::new(0.0, 0.0); h + 1];
         let mut phis = vec![Complex64::new(0.0, 0.0); h + 1];
         let mut u = vec![[Complex64::new(0.0, 0.0); MAX_INTERFACE]; h + 1];
@@ -130,7 +165,12 @@ impl ReducedModel {
     /// samples, `Phi(t)` exact from the sweep, displacements from `eq:ansatz`,
     /// force harmonics from `eq:fc1` at `n Omega` (attachment quantities
     /// tabulated per harmonic over the sweep's range, as in the integration).
-    pub fn synthesize(&self, result: &SlowFlowResult, t_s: &[f64], opts_channel_tol: f64) -> Result<TimeSignals, ReducedError> {
+    pub fn synthesize(
+        &self,
+        result: &SlowFlowResult,
+        t_s: &[f64],
+        opts_channel_tol: f64,
+    ) -> Result<TimeSignals, ReducedError> {
         let sweep = &result.sweep;
         let h = self.table.harmonics();
         let (lo, hi) = {
@@ -142,7 +182,13 @@ impl ReducedModel {
         self.fill_channels_at(0.0, 0.0, &mut ch0)?;
         for n in 1..=h {
             let amp = if n == 1 { sweep.amplitude } else { 0.0 };
-            caches.push(OmegaCache::build(self, n as f64 * lo, n as f64 * hi, amp, opts_channel_tol)?);
+            caches.push(OmegaCache::build(
+                self,
+                n as f64 * lo,
+                n as f64 * hi,
+                amp,
+                opts_channel_tol,
+            )?);
         }
         let mut chs = vec![vec![Complex64::new(0.0, 0.0); self.nch]; h + 1];
         chs[0] = ch0;
@@ -154,7 +200,9 @@ impl ReducedModel {
             force_n: Vec::with_capacity(t_s.len()),
         };
         for &t in t_s {
-            let Some(amp) = result.amplitude_at(t) else { continue };
+            let Some(amp) = result.amplitude_at(t) else {
+                continue;
+            };
             let w = sweep.omega_rad_s(t);
             let phase = Complex64::from_polar(1.0, sweep.phase_rad(t));
             for n in 1..=h {
@@ -162,11 +210,17 @@ impl ReducedModel {
             }
             let fi = self.imposed_at(w)?;
             let fh = self.force_harmonics_with(&chs, amp, fi)?;
-            let synth = |c: &[Complex64]| c.iter().enumerate().map(|(n, x)| (x * phase.powu(n as u32)).re).sum::<f64>();
+            let synth = |c: &[Complex64]| {
+                c.iter()
+                    .enumerate()
+                    .map(|(n, x)| (x * phase.powu(n as u32)).re)
+                    .sum::<f64>()
+            };
             out.t_s.push(t);
             out.omega_rad_s.push(w);
             out.tip_m.push(synth(&self.harmonics_at(self.tip, amp)?));
-            out.drive_m.push(synth(&self.harmonics_at(self.drive, amp)?));
+            out.drive_m
+                .push(synth(&self.harmonics_at(self.drive, amp)?));
             out.force_n.push(synth(&fh));
         }
         Ok(out)

@@ -20,10 +20,18 @@ pub fn duffing_table(
     n: usize,
     harmonics: usize,
 ) -> ModalTable {
-    let phi_nl = points.iter().find(|p| p.0 == nonlinear_point).expect("nonlinear point listed").1.norm();
+    let phi_nl = points
+        .iter()
+        .find(|p| p.0 == nonlinear_point)
+        .expect("nonlinear point listed")
+        .1
+        .norm();
     let kappa = 0.75 * k3_n_per_m3 * phi_nl.powi(4);
     let amplitude: Vec<f64> = (1..=n).map(|j| a_max * j as f64 / n as f64).collect();
-    let omega: Vec<f64> = amplitude.iter().map(|a| (omega0_rad_s.powi(2) + kappa * a * a).sqrt()).collect();
+    let omega: Vec<f64> = amplitude
+        .iter()
+        .map(|a| (omega0_rad_s.powi(2) + kappa * a * a).sqrt())
+        .collect();
     let damping = omega.iter().map(|w| d0 * omega0_rad_s / w).collect();
     let shape = |v: f64| {
         let mut h = vec![0.0; harmonics + 1];
@@ -77,6 +85,19 @@ pub const BENCHMARK_OMEGA0: f64 = 356.2;
 pub fn benchmark_duffing_table(k3_n_per_m3: f64) -> ModalTable {
     let pts = benchmark_points();
     let kappa = 0.75 * k3_n_per_m3 * pts[0].1.norm().powi(4);
-    let a_max = if kappa > 0.0 { ((6.25 - 1.0) * BENCHMARK_OMEGA0.powi(2) / kappa).sqrt() } else { 5e-3 };
-    duffing_table(BENCHMARK_OMEGA0, crate::benchmark::D0, k3_n_per_m3, &pts, "tip", a_max, 200, 1)
+    let a_max = if kappa > 0.0 {
+        ((6.25 - 1.0) * BENCHMARK_OMEGA0.powi(2) / kappa).sqrt()
+    } else {
+        5e-3
+    };
+    duffing_table(
+        BENCHMARK_OMEGA0,
+        crate::benchmark::D0,
+        k3_n_per_m3,
+        &pts,
+        "tip",
+        a_max,
+        200,
+        1,
+    )
 }

@@ -145,7 +145,11 @@ impl ReducedModel {
     /// narrower than a grid cell) is located by Brent's method on `Re K` and
     /// added to the samples, and every sign change of `R` is refined by Brent's
     /// method.
-    pub fn steady_state(&self, omegas: &[f64], amplitude: f64) -> Result<Vec<SteadyFrequency>, ReducedError> {
+    pub fn steady_state(
+        &self,
+        omegas: &[f64],
+        amplitude: f64,
+    ) -> Result<Vec<SteadyFrequency>, ReducedError> {
         let (_, amax) = self.table.amplitude_range();
         // R and Re K are sampled at a = 0 and at the table's nodes, where the
         // interpolant equals the tabulated values: gather them once.
@@ -176,10 +180,13 @@ impl ReducedModel {
                 nodes.push((a, k, f));
             }
             samples.clear();
-            let r_of = |a: f64, k: Complex64, f: Complex64| (a, a * a * k.norm_sqr() - f.norm_sqr(), k.re);
+            let r_of =
+                |a: f64, k: Complex64, f: Complex64| (a, a * a * k.norm_sqr() - f.norm_sqr(), k.re);
             samples.push(r_of(nodes[0].0, nodes[0].1, nodes[0].2));
             for j in 0..nodes.len() - 1 {
-                self.refine_scan(nodes[j], nodes[j + 1], 0, w, &ch, fi, &mut |a, k, f| samples.push(r_of(a, k, f)))?;
+                self.refine_scan(nodes[j], nodes[j + 1], 0, w, &ch, fi, &mut |a, k, f| {
+                    samples.push(r_of(a, k, f))
+                })?;
             }
             // resonance dips (often narrower than a grid cell): where Re K
             // changes sign, |K| is smallest
@@ -213,10 +220,18 @@ impl ReducedModel {
             for a in solutions {
                 let (k, f, _, _) = self.nm_terms(a, w, &ch, fi)?;
                 // A = a e^{i theta} with K A = f  =>  theta = arg f - arg K
-                let amp = if a > 0.0 { Complex64::from_polar(a, f.arg() - k.arg()) } else { Complex64::new(0.0, 0.0) };
+                let amp = if a > 0.0 {
+                    Complex64::from_polar(a, f.arg() - k.arg())
+                } else {
+                    Complex64::new(0.0, 0.0)
+                };
                 pts.push(self.steady_point(w, amp, &ch, fi)?);
             }
-            out.push(SteadyFrequency { omega_rad_s: w, solutions: pts, exceeds_table });
+            out.push(SteadyFrequency {
+                omega_rad_s: w,
+                solutions: pts,
+                exceeds_table,
+            });
         }
         Ok(out)
     }
@@ -258,7 +273,13 @@ impl ReducedModel {
     }
 
     /// Output quantities and stability of the fixed point `A` at `Omega`.
-    fn steady_point(&self, w: f64, amp: Complex64, ch: &[Complex64], fi: Complex64) -> Result<SteadyPoint, ReducedError> {
+    fn steady_point(
+        &self,
+        w: f64,
+        amp: Complex64,
+        ch: &[Complex64],
+        fi: Complex64,
+    ) -> Result<SteadyPoint, ReducedError> {
         let s = self.sample(f64::NAN, w, amp, ch, fi)?;
         let eigenvalues = self.jacobian_eigenvalues(w, amp, ch, fi)?;
         Ok(SteadyPoint {
@@ -313,7 +334,11 @@ impl ReducedModel {
     /// `D0`, `phi0` ([`Self::linear`]), `A = phi0^H f_ex / K(Omega)` at each
     /// `Omega`, and the force drop `1 - |F|/|F0|` at `Omega = omega0`
     /// (`eq:forcedrop`, here from the generic attachment model).
-    pub fn linear_steady(&self, omegas: &[f64], amplitude: f64) -> Result<LinearSteady, ReducedError> {
+    pub fn linear_steady(
+        &self,
+        omegas: &[f64],
+        amplitude: f64,
+    ) -> Result<LinearSteady, ReducedError> {
         let lin = self.linear()?;
         let mut ch = vec![Complex64::new(0.0, 0.0); lin.nch];
         let solve = |w: f64, ch: &mut [Complex64]| -> Result<SteadyPoint, ReducedError> {
@@ -322,7 +347,10 @@ impl ReducedModel {
             let (k, f, _, _) = lin.nm_terms(0.0, w, ch, fi)?;
             lin.steady_point(w, f / k, ch, fi)
         };
-        let points = omegas.iter().map(|&w| solve(w, &mut ch)).collect::<Result<Vec<_>, _>>()?;
+        let points = omegas
+            .iter()
+            .map(|&w| solve(w, &mut ch))
+            .collect::<Result<Vec<_>, _>>()?;
         let (omega0, _) = lin.linear_properties()?;
         let res = solve(omega0, &mut ch)?;
         let f0 = lin.blocked_force(omega0, amplitude)?.norm();

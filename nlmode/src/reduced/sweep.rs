@@ -27,7 +27,13 @@ pub struct SlowFlowOptions {
 
 impl Default for SlowFlowOptions {
     fn default() -> Self {
-        Self { rtol: 1e-5, atol_rel: 1e-9, max_step_fraction: 0.02, output_samples: 2001, channel_tol: 1e-9 }
+        Self {
+            rtol: 1e-5,
+            atol_rel: 1e-9,
+            max_step_fraction: 0.02,
+            output_samples: 2001,
+            channel_tol: 1e-9,
+        }
     }
 }
 
@@ -41,10 +47,18 @@ impl SlowFlowOptions {
             return bad("atol_rel", self.atol_rel, "must be positive");
         }
         if !(self.max_step_fraction > 0.0 && self.max_step_fraction <= 1.0) {
-            return bad("max_step_fraction", self.max_step_fraction, "must lie in (0, 1]");
+            return bad(
+                "max_step_fraction",
+                self.max_step_fraction,
+                "must lie in (0, 1]",
+            );
         }
         if self.output_samples < 2 {
-            return bad("output_samples", self.output_samples as f64, "need at least 2");
+            return bad(
+                "output_samples",
+                self.output_samples as f64,
+                "need at least 2",
+            );
         }
         if !(self.channel_tol > 0.0 && self.channel_tol < 1e-2) {
             return bad("channel_tol", self.channel_tol, "must lie in (0, 1e-2)");
@@ -85,9 +99,18 @@ pub enum SweepStatus {
     /// The modal amplitude reached the top of the table's range at `t_s` (the
     /// model is not defined above it; with an imposed force and a frequency
     /// error this is the paper's unbounded growth). Samples stop there.
-    LeftTableRange { t_s: f64, omega_rad_s: f64, a: f64, a_max: f64 },
+    LeftTableRange {
+        t_s: f64,
+        omega_rad_s: f64,
+        a: f64,
+        a_max: f64,
+    },
     /// The error controller asked for a step below the minimum.
-    StepSizeTooSmall { t_s: f64, omega_rad_s: f64, h_s: f64 },
+    StepSizeTooSmall {
+        t_s: f64,
+        omega_rad_s: f64,
+        h_s: f64,
+    },
     /// The step limit was reached.
     MaxSteps { t_s: f64, omega_rad_s: f64 },
     /// The state became non-finite.
@@ -149,7 +172,13 @@ impl SlowFlowResult {
         let (ip, peak) = s
             .iter()
             .enumerate()
-            .fold((0, f64::NEG_INFINITY), |b, (i, x)| if x.tip_amplitude_m > b.1 { (i, x.tip_amplitude_m) } else { b });
+            .fold((0, f64::NEG_INFINITY), |b, (i, x)| {
+                if x.tip_amplitude_m > b.1 {
+                    (i, x.tip_amplitude_m)
+                } else {
+                    b
+                }
+            });
         let jump = (ip..s.len().saturating_sub(1))
             .map(|i| (i, s[i + 1].tip_amplitude_m - s[i].tip_amplitude_m))
             .fold(None, |b: Option<(usize, f64)>, (i, d)| match b {
@@ -161,8 +190,14 @@ impl SlowFlowResult {
             peak_tip_amplitude_m: peak,
             peak_omega_rad_s: s[ip].omega_rad_s,
             jump_down_omega_rad_s: jump,
-            min_force_amplitude_n: s.iter().map(|x| x.force_amplitude_n).fold(f64::INFINITY, f64::min),
-            max_force_amplitude_n: s.iter().map(|x| x.force_amplitude_n).fold(f64::NEG_INFINITY, f64::max),
+            min_force_amplitude_n: s
+                .iter()
+                .map(|x| x.force_amplitude_n)
+                .fold(f64::INFINITY, f64::min),
+            max_force_amplitude_n: s
+                .iter()
+                .map(|x| x.force_amplitude_n)
+                .fold(f64::NEG_INFINITY, f64::max),
         })
     }
 
@@ -173,12 +208,18 @@ impl SlowFlowResult {
         if s.is_empty() || t_s < s[0].t_s || t_s > s[s.len() - 1].t_s {
             return None;
         }
-        let j = s.partition_point(|x| x.t_s <= t_s).clamp(1, s.len().max(2) - 1);
+        let j = s
+            .partition_point(|x| x.t_s <= t_s)
+            .clamp(1, s.len().max(2) - 1);
         if s.len() == 1 {
             return Some(Complex64::from_polar(s[0].a, s[0].theta_rad));
         }
         let (p, q) = (&s[j - 1], &s[j]);
-        let w = if q.t_s > p.t_s { (t_s - p.t_s) / (q.t_s - p.t_s) } else { 0.0 };
+        let w = if q.t_s > p.t_s {
+            (t_s - p.t_s) / (q.t_s - p.t_s)
+        } else {
+            0.0
+        };
         let ap = Complex64::from_polar(p.a, p.theta_rad);
         let aq = Complex64::from_polar(q.a, q.theta_rad);
         Some(ap + (aq - ap) * w)
@@ -199,10 +240,21 @@ pub(crate) struct OmegaCache {
 }
 
 impl OmegaCache {
-    pub fn build(model: &ReducedModel, lo: f64, hi: f64, amplitude: f64, tol: f64) -> Result<Self, ReducedError> {
+    pub fn build(
+        model: &ReducedModel,
+        lo: f64,
+        hi: f64,
+        amplitude: f64,
+        tol: f64,
+    ) -> Result<Self, ReducedError> {
         let nch = model.nch;
         if nch == 0 {
-            return Ok(Self { nodes: vec![lo, hi], val: vec![], der: vec![], nch });
+            return Ok(Self {
+                nodes: vec![lo, hi],
+                val: vec![],
+                der: vec![],
+                nch,
+            });
         }
         let node = |w: f64| -> Result<(Vec<Complex64>, Vec<Complex64>), ReducedError> {
             let mut v = vec![Complex64::new(0.0, 0.0); nch];
@@ -264,7 +316,12 @@ impl OmegaCache {
                 break;
             }
         }
-        let mut c = Self { nodes: Vec::new(), val: Vec::new(), der: Vec::new(), nch };
+        let mut c = Self {
+            nodes: Vec::new(),
+            val: Vec::new(),
+            der: Vec::new(),
+            nch,
+        };
         for (w, v, d) in pts {
             c.nodes.push(w);
             c.val.extend(v);
@@ -296,7 +353,10 @@ impl OmegaCache {
         let h11 = (t3 - t2) * h;
         let (o0, o1) = (k * self.nch, (k + 1) * self.nch);
         for c in 0..self.nch {
-            out[c] = self.val[o0 + c] * h00 + self.der[o0 + c] * h10 + self.val[o1 + c] * h01 + self.der[o1 + c] * h11;
+            out[c] = self.val[o0 + c] * h00
+                + self.der[o0 + c] * h10
+                + self.val[o1 + c] * h01
+                + self.der[o1 + c] * h11;
         }
     }
 }
@@ -305,7 +365,11 @@ impl ReducedModel {
     /// Integrates the slow flow of `eq:NM` (regular complex form, module docs)
     /// along `sweep` from rest (`A = 0`), with the sweep amplitude as `u_hat`
     /// of the attachments.
-    pub fn simulate_sweep(&self, sweep: &LinearSweep, opts: &SlowFlowOptions) -> Result<SlowFlowResult, ReducedError> {
+    pub fn simulate_sweep(
+        &self,
+        sweep: &LinearSweep,
+        opts: &SlowFlowOptions,
+    ) -> Result<SlowFlowResult, ReducedError> {
         self.simulate_sweep_from(sweep, opts, Complex64::new(0.0, 0.0))
     }
 
@@ -368,18 +432,29 @@ impl ReducedModel {
                 }
                 let w = sweep.omega_rad_s(t_stop);
                 match stop {
-                    Stop::Rhs { error: ReducedError::Table(TableError::AboveRange { max, .. }), .. } => {
-                        SweepStatus::LeftTableRange {
-                            t_s: t_stop,
-                            omega_rad_s: w,
-                            a: Complex64::new(last_state.1[0], last_state.1[1]).norm(),
-                            a_max: max,
-                        }
-                    }
+                    Stop::Rhs {
+                        error: ReducedError::Table(TableError::AboveRange { max, .. }),
+                        ..
+                    } => SweepStatus::LeftTableRange {
+                        t_s: t_stop,
+                        omega_rad_s: w,
+                        a: Complex64::new(last_state.1[0], last_state.1[1]).norm(),
+                        a_max: max,
+                    },
                     Stop::Rhs { error, .. } => return Err(error),
-                    Stop::StepTooSmall { h, .. } => SweepStatus::StepSizeTooSmall { t_s: t_stop, omega_rad_s: w, h_s: h },
-                    Stop::MaxSteps { .. } => SweepStatus::MaxSteps { t_s: t_stop, omega_rad_s: w },
-                    Stop::NotFinite { .. } => SweepStatus::NotFinite { t_s: t_stop, omega_rad_s: w },
+                    Stop::StepTooSmall { h, .. } => SweepStatus::StepSizeTooSmall {
+                        t_s: t_stop,
+                        omega_rad_s: w,
+                        h_s: h,
+                    },
+                    Stop::MaxSteps { .. } => SweepStatus::MaxSteps {
+                        t_s: t_stop,
+                        omega_rad_s: w,
+                    },
+                    Stop::NotFinite { .. } => SweepStatus::NotFinite {
+                        t_s: t_stop,
+                        omega_rad_s: w,
+                    },
                 }
             }
         };
@@ -391,7 +466,13 @@ impl ReducedModel {
             let fi = self.imposed_at(w)?;
             samples.push(self.sample(t, w, Complex64::new(y[0], y[1]), &ch, fi)?);
         }
-        Ok(SlowFlowResult { sweep: *sweep, samples, status, stats, channel_nodes: cache.len() })
+        Ok(SlowFlowResult {
+            sweep: *sweep,
+            samples,
+            status,
+            stats,
+            channel_nodes: cache.len(),
+        })
     }
 
     /// Output quantities at one state.

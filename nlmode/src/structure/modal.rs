@@ -119,9 +119,15 @@ fn flexibility_eigen(
 ) -> Result<Option<(Vec<f64>, DMatrix<f64>)>> {
     let n = m.nrows();
     if n_modes == 0 || n_modes > n {
-        return Err(StructureError::ModeCount { name, requested: n_modes, available: n });
+        return Err(StructureError::ModeCount {
+            name,
+            requested: n_modes,
+            available: n,
+        });
     }
-    let Some(kchol) = k.clone().cholesky() else { return Ok(None) };
+    let Some(kchol) = k.clone().cholesky() else {
+        return Ok(None);
+    };
     let l = kchol.l();
     // A singular K (rigid-body modes) can pass the factorisation by rounding, with
     // pivots of order eps times the others; the FE stiffness of a restrained
@@ -132,8 +138,12 @@ fn flexibility_eigen(
     if pivots.min() <= 1e-12 * pivots.max() {
         return Ok(None);
     }
-    let Some(x) = l.solve_lower_triangular(m) else { return Ok(None) };
-    let Some(b) = l.solve_lower_triangular(&x.transpose()) else { return Ok(None) };
+    let Some(x) = l.solve_lower_triangular(m) else {
+        return Ok(None);
+    };
+    let Some(b) = l.solve_lower_triangular(&x.transpose()) else {
+        return Ok(None);
+    };
     let eig = SymmetricEigen::new(super::symmetrize(b));
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&i, &j| eig.eigenvalues[j].total_cmp(&eig.eigenvalues[i]));
@@ -144,7 +154,10 @@ fn flexibility_eigen(
         if !(mu.is_finite() && mu > 0.0) {
             return Ok(None);
         }
-        let Some(v) = l.transpose().solve_upper_triangular(&eig.eigenvectors.column(i).into_owned()) else {
+        let Some(v) = l
+            .transpose()
+            .solve_upper_triangular(&eig.eigenvectors.column(i).into_owned())
+        else {
             return Ok(None);
         };
         let mass = v.dot(&(m * &v));
