@@ -162,22 +162,7 @@ pub(crate) fn integrate(
         std::mem::swap(&mut z, &mut znew);
         k.swap(0, 6);
         stats.steps += 1;
-        let mut zinf: f64 = 0.0;
-        for i in 0..nz {
-            let a = z[i].abs();
-            if !a.is_finite() {
-                return Err(ReferenceError::NonFinite { time_s: t });
-            }
-            zmax[i] = zmax[i].max(a);
-            zinf = zinf.max(a);
-        }
-        if zinf > ctl.divergence_limit {
-            return Err(ReferenceError::BlowUp {
-                time_s: t,
-                norm: zinf,
-                limit: ctl.divergence_limit,
-            });
-        }
+        ctl.check_state(&z, zmax.as_mut_slice(), t)?;
         let frac = t / t_end;
         if frac >= next_progress {
             progress(frac.min(1.0));

@@ -412,22 +412,7 @@ pub(crate) fn integrate(
         pos += ticks;
         stats.steps += 1;
         let t_new = pos as f64 * tick;
-        let mut zinf: f64 = 0.0;
-        for i in 0..nz {
-            let a = z[i].abs();
-            if !a.is_finite() {
-                return Err(ReferenceError::NonFinite { time_s: t_new });
-            }
-            zmax[i] = zmax[i].max(a);
-            zinf = zinf.max(a);
-        }
-        if zinf > ctl.divergence_limit {
-            return Err(ReferenceError::BlowUp {
-                time_s: t_new,
-                norm: zinf,
-                limit: ctl.divergence_limit,
-            });
-        }
+        ctl.check_state(&z, zmax.as_mut_slice(), t_new)?;
         if pos % one == 0 {
             on_sample((pos / one) as usize, &z);
             let frac = pos as f64 / end as f64;

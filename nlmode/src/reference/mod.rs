@@ -180,6 +180,36 @@ pub(crate) struct StepControl {
     pub divergence_limit: f64,
 }
 
+impl StepControl {
+    /// After an accepted step to `time_s`: every state finite, `zmax` (running
+    /// maximum of `|z_i|`, the error scale) updated, `max |z_i|` below the
+    /// divergence limit.
+    pub(crate) fn check_state(
+        &self,
+        z: &DVector<f64>,
+        zmax: &mut [f64],
+        time_s: f64,
+    ) -> Result<(), ReferenceError> {
+        let mut zinf: f64 = 0.0;
+        for (zi, mi) in z.iter().zip(zmax.iter_mut()) {
+            let a = zi.abs();
+            if !a.is_finite() {
+                return Err(ReferenceError::NonFinite { time_s });
+            }
+            *mi = mi.max(a);
+            zinf = zinf.max(a);
+        }
+        if zinf > self.divergence_limit {
+            return Err(ReferenceError::BlowUp {
+                time_s,
+                norm: zinf,
+                limit: self.divergence_limit,
+            });
+        }
+        Ok(())
+    }
+}
+
 impl ReferenceOptions {
     fn validate(&self) -> Result<StepControl, ReferenceError> {
         let bad = |name, value: String, expected| {
