@@ -120,24 +120,8 @@ pub enum VarType {
     Enumeration,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
-}
+/// The attribute enums are the export layer's (one definition of FMI 2.0's vocabulary).
+pub use fmi2::model::{Causality, Variability};
 
 /// One `<ScalarVariable>`.
 #[derive(Debug, Clone, PartialEq)]
