@@ -64,7 +64,7 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
         setup.omega0_rad_s,
     )
     .context("linear-frf: force drop")?;
-    let (m_mod, mu) = setup.modal_masses()?[0];
+    let (m_mod, mu) = setup.modal_masses[0];
     let closed = 1.0
         - frf::force_drop_closed_form(
             setup.d0,
@@ -87,7 +87,7 @@ pub fn closed_form(setup: &Setup, n: usize) -> Result<MethodResult> {
     let t0 = Instant::now();
     let omegas = frf_omegas(setup, n);
     let shaker = &setup.shakers[0];
-    let (m_mod, mu) = setup.modal_masses()?[0];
+    let (m_mod, mu) = setup.modal_masses[0];
     let f0 = shaker.force_constant_n_per_a * setup.sweep.amplitude / shaker.resistance_ohm;
     let ra = shaker.omega_a() / setup.omega0_rad_s;
     let modes = nlmode::structure::modal_analysis(&setup.model, 1)?;

@@ -27,6 +27,8 @@ pub struct Setup {
     pub sweep: LinearSweep,
     /// Linear modal damping ratio of mode 1, `D0`.
     pub d0: f64,
+    /// Modal mass `1/phi(x)^2` of mode 1 at each exciter [kg] and the mass ratio `m_a/m_mod`.
+    pub modal_masses: Vec<(f64, f64)>,
 }
 
 /// Point name of a location: `tip`, `l3`, `2l3` or `x<metres>`.
@@ -159,6 +161,15 @@ impl Setup {
             e.voltage_v,
         )
         .context("excitation")?;
+        let modes = modal_analysis(&model, 1).context("structure: modal analysis")?;
+        let modal_masses = exciter_points
+            .iter()
+            .zip(&shakers)
+            .map(|(p, s)| {
+                let m = modes.modal_mass_kg(0, &model.point(p)?.direction);
+                Ok((m, s.armature_mass_kg / m))
+            })
+            .collect::<Result<Vec<_>>>()?;
         Ok(Self {
             model,
             omega0_rad_s: omega0,
@@ -168,21 +179,8 @@ impl Setup {
             exciter_points,
             sweep,
             d0: sc.structure.damping_ratio,
+            modal_masses,
         })
-    }
-
-    /// Modal mass `1/phi(x)^2` of mode 1 at each exciter [kg] and the mass ratio `m_a/m_mod`.
-    pub fn modal_masses(&self) -> Result<Vec<(f64, f64)>> {
-        let modes = modal_analysis(&self.model, 1)?;
-        self.exciter_points
-            .iter()
-            .zip(&self.shakers)
-            .map(|(p, s)| {
-                let e = &self.model.point(p)?.direction;
-                let m = modes.modal_mass_kg(0, e);
-                Ok((m, s.armature_mass_kg / m))
-            })
-            .collect()
     }
 }
 
@@ -196,7 +194,7 @@ mod tests {
         assert!((s.omega0_rad_s - 356.2).abs() < 0.4, "{}", s.omega0_rad_s);
         assert_eq!(s.model.ndof(), 11);
         assert_eq!(s.exciter_points, vec!["2l3".to_string()]);
-        let mm = s.modal_masses().unwrap();
+        let mm = &s.modal_masses;
         assert!((mm[0].0 - 0.92).abs() < 0.03, "{:?}", mm);
         assert!((mm[0].1 - 0.047).abs() < 0.002, "{:?}", mm);
         assert!((s.sweep.omega_end_rad_s / s.omega0_rad_s - 1.8).abs() < 1e-12);

@@ -30,7 +30,7 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
     let setup = Setup::new(&sc).with_context(|| format!("scenario {source}"))?;
-    let masses = setup.modal_masses()?;
+    let masses = &setup.modal_masses;
     println!("scenario: {source}");
     if !sc.title.is_empty() {
         println!("  {}", sc.title);
@@ -196,14 +196,14 @@ fn write_outputs(sc: &Scenario, setup: &Setup, out: &Path, done: &[MethodResult]
         }
         methods.insert(r.name.clone(), r.summary());
     }
-    let masses = setup.modal_masses()?;
+    let masses = &setup.modal_masses;
     let summary = json!({
         "title": sc.title,
         "omega0_rad_s": setup.omega0_rad_s,
         "damping_ratio": setup.d0,
         "model_ndof": setup.model.ndof(),
         "full_ndof": setup.full_ndof,
-        "exciters": setup.exciter_points.iter().zip(&masses).map(|(p, (m, mu))| json!({
+        "exciters": setup.exciter_points.iter().zip(masses).map(|(p, (m, mu))| json!({
             "point": p, "modal_mass_kg": m, "mass_ratio": mu})).collect::<Vec<_>>(),
         "sweep": {
             "voltage_v": setup.sweep.amplitude,
