@@ -215,7 +215,7 @@ fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult)
         force_amplitude_n: col(|x| x.force_amplitude_n),
         tip_amplitude_m: col(|x| x.tip_amplitude_m),
         extra: vec![
-            ("force_phase_rad".into(), col(|x| x.force_phase_rad)),
+            ("force_phase_rad".into(), col(|x| x.force_phase_rad())),
             ("drive_amplitude_m".into(), col(|x| x.drive_amplitude_m)),
             ("modal_amplitude".into(), col(|x| x.a)),
             (
@@ -230,14 +230,14 @@ fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult)
             ("t_s".into(), col(|x| x.t_s)),
             ("omega_rad_s".into(), col(|x| x.omega_rad_s)),
             ("a".into(), col(|x| x.a)),
-            ("theta_rad".into(), col(|x| x.theta_rad)),
+            ("theta_rad".into(), col(|x| x.theta_rad())),
             (
                 "modal_frequency_rad_s".into(),
                 col(|x| x.modal_frequency_rad_s),
             ),
             ("tip_amplitude_m".into(), col(|x| x.tip_amplitude_m)),
             ("force_amplitude_N".into(), col(|x| x.force_amplitude_n)),
-            ("force_phase_rad".into(), col(|x| x.force_phase_rad)),
+            ("force_phase_rad".into(), col(|x| x.force_phase_rad())),
         ],
     });
     r.extra
@@ -256,10 +256,11 @@ pub fn slow_flow(
     name: &str,
     setup: &Setup,
     model: &nlmode::reduced::ReducedModel,
+    options: &nlmode::reduced::SlowFlowOptions,
 ) -> Result<(MethodResult, nlmode::reduced::SlowFlowResult)> {
     let t0 = Instant::now();
     let res = model
-        .simulate_sweep(&setup.sweep, &nlmode::reduced::SlowFlowOptions::default())
+        .simulate_sweep(&setup.sweep, options)
         .with_context(|| format!("{name}"))?;
     let wall = t0.elapsed().as_secs_f64();
     Ok((slowflow_result(name, wall, &res), res))

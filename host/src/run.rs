@@ -121,18 +121,32 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
             }
             "nlmode" => {
                 let model = methods::reduced_model(&setup, table(), None)?;
-                let (r, flow) = methods::slow_flow("nlmode", &setup, &model)?;
+                let (r, flow) =
+                    methods::slow_flow("nlmode", &setup, &model, &sc.slowflow.options("nlmode"))?;
                 done.push(r);
                 nlmode_flow = Some(flow);
                 if has_error && sc.imposed_force.apply_to_nlmode {
                     let model = methods::reduced_model(&setup, table(), Some(error))?;
-                    let (r, _) = methods::slow_flow("nlmode-freq-error", &setup, &model)?;
+                    let (r, _) = methods::slow_flow(
+                        "nlmode-freq-error",
+                        &setup,
+                        &model,
+                        &sc.slowflow.options("nlmode-freq-error"),
+                    )?;
                     done.push(r);
                 }
             }
             "linear-slowflow" => {
                 let model = methods::reduced_model(&setup, table(), None)?.linear()?;
-                done.push(methods::slow_flow("linear-slowflow", &setup, &model)?.0);
+                done.push(
+                    methods::slow_flow(
+                        "linear-slowflow",
+                        &setup,
+                        &model,
+                        &sc.slowflow.options("linear-slowflow"),
+                    )?
+                    .0,
+                );
             }
             "linear-steady" => {
                 let model = methods::reduced_model(&setup, table(), None)?;
@@ -145,7 +159,13 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
                             Some(f) => f.clone(),
                             None => {
                                 let model = methods::reduced_model(&setup, table(), None)?;
-                                methods::slow_flow("nlmode", &setup, &model)?.1
+                                methods::slow_flow(
+                                    "nlmode",
+                                    &setup,
+                                    &model,
+                                    &sc.slowflow.options("nlmode"),
+                                )?
+                                .1
                             }
                         };
                         nlmode::reduced::ForceEnvelope::from_result(&flow)?
@@ -165,7 +185,15 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
                     envelope,
                 )?
                 .with_frequency_error(error)?;
-                done.push(methods::slow_flow("imposed-force", &setup, &model)?.0);
+                done.push(
+                    methods::slow_flow(
+                        "imposed-force",
+                        &setup,
+                        &model,
+                        &sc.slowflow.options("imposed-force"),
+                    )?
+                    .0,
+                );
             }
             "cosim" => {
                 let mut bar = Progress::new("cosim");

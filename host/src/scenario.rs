@@ -38,6 +38,8 @@ pub struct Scenario {
     #[serde(default)]
     pub imposed_force: ImposedForceSpec,
     #[serde(default)]
+    pub slowflow: SlowFlowSpec,
+    #[serde(default)]
     pub reference: ReferenceSpec,
     #[serde(default)]
     pub cosim: CosimSpec,
@@ -219,6 +221,44 @@ impl Default for ImposedForceSpec {
             frequency_offset_rad_s: 0.0,
             frequency_offset_omega0: 0.0,
             apply_to_nlmode: false,
+        }
+    }
+}
+
+/// Integration of the slow flow (`nlmode`, `linear-slowflow`, `imposed-force`).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SlowFlowSpec {
+    /// Relative tolerance of `nlmode` and `linear-slowflow`.
+    pub rtol: f64,
+    /// Relative tolerance of `imposed-force` (more sensitive near a force minimum).
+    pub imposed_force_rtol: f64,
+    /// Output samples along the sweep, uniform in time (both ends included).
+    pub output_samples: usize,
+}
+
+impl Default for SlowFlowSpec {
+    fn default() -> Self {
+        let lib = nlmode::reduced::SlowFlowOptions::default();
+        Self {
+            rtol: lib.rtol,
+            imposed_force_rtol: 1e-5,
+            output_samples: lib.output_samples,
+        }
+    }
+}
+
+impl SlowFlowSpec {
+    /// The library options for method `name`.
+    pub fn options(&self, name: &str) -> nlmode::reduced::SlowFlowOptions {
+        nlmode::reduced::SlowFlowOptions {
+            rtol: if name == "imposed-force" {
+                self.imposed_force_rtol
+            } else {
+                self.rtol
+            },
+            output_samples: self.output_samples,
+            ..Default::default()
         }
     }
 }
@@ -487,6 +527,23 @@ impl Scenario {
                 return Err(bad(k, format!("expected a finite number, got {v}")));
             }
         }
+        for (k, v) in [
+            ("slowflow.rtol", self.slowflow.rtol),
+            (
+                "slowflow.imposed_force_rtol",
+                self.slowflow.imposed_force_rtol,
+            ),
+        ] {
+            if !(v > 0.0 && v < 0.1) {
+                return Err(bad(k, format!("expected a number in (0, 0.1), got {v}")));
+            }
+        }
+        if self.slowflow.output_samples < 2 {
+            return Err(bad(
+                "slowflow.output_samples",
+                format!("expected at least 2, got {}", self.slowflow.output_samples),
+            ));
+        }
         positive("reference.rtol", self.reference.rtol)?;
         if !(self.reference.output_interval_s.is_finite()
             && self.reference.output_interval_s >= 0.0)
@@ -603,6 +660,20 @@ mod tests {
         assert!(e.contains("rate_per_pseudo_period"), "{e}");
         let e = Scenario::parse("[run]\nmethods = [\"magic\"]\n").unwrap_err();
         assert!(e.contains("run.methods[0]") && e.contains("magic"), "{e}");
+        let e = Scenario::parse("[slowflow]\nrtol = 0.0\n").unwrap_err();
+        assert!(e.contains("slowflow.rtol"), "{e}");
+        let e = Scenario::parse("[slowflow]\noutput_samples = 1\n").unwrap_err();
+        assert!(e.contains("slowflow.output_samples"), "{e}");
+    }
+
+    #[test]
+    fn slowflow_options_per_method() {
+        let s = Scenario::parse("[slowflow]\nrtol = 3e-4\noutput_samples = 101\n").unwrap();
+        let o = s.slowflow.options("nlmode");
+        assert_eq!((o.rtol, o.output_samples), (3e-4, 101));
+        assert_eq!(s.slowflow.options("imposed-force").rtol, 1e-5);
+        let d = Scenario::default_scenario().slowflow.options("nlmode");
+        assert_eq!(d, nlmode::reduced::SlowFlowOptions::default());
     }
 
     #[test]

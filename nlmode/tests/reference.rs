@@ -724,6 +724,7 @@ fn decimation_progress_and_backward_sweep() {
     let steady_part = nlmode::reference::Envelope {
         omega_rad_s: pick(&env.omega_rad_s),
         force_amplitude_n: pick(&env.force_amplitude_n),
+        force_phase_rad: pick(&env.force_phase_rad),
         tip_amplitude_m: pick(&env.tip_amplitude_m),
     };
     let (tip, f, peak) = envelope_deviation(&sys, &atts[0], &steady_part, 0.0, 1.0);

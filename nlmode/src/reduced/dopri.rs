@@ -173,50 +173,41 @@ pub(crate) fn integrate<const N: usize, E>(
             h = t_end - t;
             last = true;
         }
-        // stages
-        let stage = |f: &mut dyn FnMut(f64, &[f64; N]) -> Result<[f64; N], E>,
-                     tt: f64,
-                     yy: [f64; N],
-                     n: &mut usize| {
-            *n += 1;
+        // stages (a plain closure over `f`, so the right-hand side is inlined
+        // into the stage arithmetic)
+        let nev = &mut stats.rhs_evaluations;
+        let mut stage = |tt: f64, yy: [f64; N]| {
+            *nev += 1;
             f(tt, &yy)
         };
-        let run = |f: &mut dyn FnMut(f64, &[f64; N]) -> Result<[f64; N], E>,
-                   n: &mut usize|
-         -> Result<[[f64; N]; 7], E> {
-            let k2 = stage(f, t + C2 * h, comb(&y, h, &[(A21, &k1)]), n)?;
-            let k3 = stage(f, t + C3 * h, comb(&y, h, &[(A31, &k1), (A32, &k2)]), n)?;
+        let mut run = || -> Result<[[f64; N]; 7], E> {
+            let k2 = stage(t + C2 * h, comb(&y, h, &[(A21, &k1)]))?;
+            let k3 = stage(t + C3 * h, comb(&y, h, &[(A31, &k1), (A32, &k2)]))?;
             let k4 = stage(
-                f,
                 t + C4 * h,
                 comb(&y, h, &[(A41, &k1), (A42, &k2), (A43, &k3)]),
-                n,
             )?;
             let k5 = stage(
-                f,
                 t + C5 * h,
                 comb(&y, h, &[(A51, &k1), (A52, &k2), (A53, &k3), (A54, &k4)]),
-                n,
             )?;
             let k6 = stage(
-                f,
                 t + h,
                 comb(
                     &y,
                     h,
                     &[(A61, &k1), (A62, &k2), (A63, &k3), (A64, &k4), (A65, &k5)],
                 ),
-                n,
             )?;
             let y1 = comb(
                 &y,
                 h,
                 &[(A71, &k1), (A73, &k3), (A74, &k4), (A75, &k5), (A76, &k6)],
             );
-            let k7 = stage(f, t + h, y1, n)?;
+            let k7 = stage(t + h, y1)?;
             Ok([y1, k2, k3, k4, k5, k6, k7])
         };
-        let res = run(&mut f, &mut stats.rhs_evaluations);
+        let res = run();
         let [y1, _k2, k3, k4, k5, k6, k7] = match res {
             Ok(v) => v,
             Err(error) => {

@@ -12,31 +12,94 @@ use crate::table::{TableError, TableInterpolator};
 use nalgebra::{Matrix4, Vector4};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-impl Clone for FastTable {
+/// Segment and local coordinate `t in [0, 1]` of an abscissa.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Loc {
+    pub k: usize,
+    pub t: f64,
+}
+
+/// Breakpoints of a piecewise polynomial with a search hint: along a sweep
+/// the abscissa (amplitude, frequency) changes smoothly, so the next lookup
+/// is usually in the same segment or a neighbour.
+#[derive(Debug)]
+pub(crate) struct Breaks {
+    x: Vec<f64>,
+    /// `1 / (x[k+1] - x[k])`.
+    inv_h: Vec<f64>,
+    /// Segment of the previous lookup (relaxed atomic: only a hint, any value
+    /// is safe, and the model stays `Sync`).
+    hint: AtomicUsize,
+}
+
+impl Clone for Breaks {
     fn clone(&self) -> Self {
         Self {
             x: self.x.clone(),
+            inv_h: self.inv_h.clone(),
             hint: AtomicUsize::new(0),
-            nq: self.nq,
-            c: self.c.clone(),
         }
     }
 }
 
-/// Segment and local coordinate of an amplitude.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Loc {
-    k: usize,
-    t: f64,
+impl Breaks {
+    /// `x` strictly increasing, at least two points.
+    pub fn new(x: &[f64]) -> Self {
+        debug_assert!(x.len() >= 2 && x.windows(2).all(|w| w[0] < w[1]));
+        Self {
+            x: x.to_vec(),
+            inv_h: x.windows(2).map(|w| 1.0 / (w[1] - w[0])).collect(),
+            hint: AtomicUsize::new(0),
+        }
+    }
+
+    pub fn first(&self) -> f64 {
+        self.x[0]
+    }
+
+    pub fn last(&self) -> f64 {
+        self.x[self.x.len() - 1]
+    }
+
+    /// Number of breakpoints.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Segment `k` with `x[k] <= a < x[k+1]` (a breakpoint starts its segment:
+    /// `t = 0`; the last breakpoint belongs to the last segment) for `a` in
+    /// `[first, last]`.
+    #[inline(always)]
+    pub fn locate(&self, a: f64) -> Loc {
+        let n = self.x.len();
+        let inside = |k: usize| self.x[k] <= a && (a < self.x[k + 1] || k + 2 == n);
+        let h = self.hint.load(Ordering::Relaxed).min(n - 2);
+        let k = if inside(h) {
+            h
+        } else if h + 1 < n - 1 && inside(h + 1) {
+            h + 1
+        } else if h > 0 && inside(h - 1) {
+            h - 1
+        } else {
+            self.x.partition_point(|&v| v <= a).clamp(1, n - 1) - 1
+        };
+        self.hint.store(k, Ordering::Relaxed);
+        Loc {
+            k,
+            t: (a - self.x[k]) * self.inv_h[k],
+        }
+    }
+
+    /// `d/dx` of a cubic in `t` with coefficients `c` on segment `loc.k`.
+    #[inline(always)]
+    pub fn slope(&self, loc: Loc, c: &[f64; 4]) -> f64 {
+        (c[1] + loc.t * (2.0 * c[2] + 3.0 * loc.t * c[3])) * self.inv_h[loc.k]
+    }
 }
 
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct FastTable {
-    x: Vec<f64>,
-    /// Segment of the previous lookup: the amplitude changes smoothly along a
-    /// sweep, so the next one is usually the same or a neighbour (relaxed
-    /// atomic: only a hint, any value is safe).
-    hint: AtomicUsize,
+    x: Breaks,
     /// Quantities: 0 = omega, 1 = D, then `2 + 2 p`, `3 + 2 p` = Re, Im of the
     /// fundamental shape at table point `p`.
     nq: usize,
@@ -78,63 +141,43 @@ impl FastTable {
             }
         }
         Ok(Self {
-            x: grid.to_vec(),
-            hint: AtomicUsize::new(0),
+            x: Breaks::new(grid),
             nq,
             c,
         })
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn locate(&self, a: f64) -> Result<Loc, TableError> {
         if !(a.is_finite() && a >= 0.0) {
             return Err(TableError::BadAmplitude(a));
         }
-        let n = self.x.len();
-        if a <= self.x[0] {
+        if a <= self.x.first() {
             return Ok(Loc { k: 0, t: 0.0 });
         }
-        if a > self.x[n - 1] {
+        if a > self.x.last() {
             return Err(TableError::AboveRange {
                 a,
-                max: self.x[n - 1],
+                max: self.x.last(),
             });
         }
-        // segment k with x[k] <= a < x[k+1] (a node hit starts its segment: t = 0,
-        // exact node value); the last node belongs to the last segment
-        let inside = |k: usize| self.x[k] <= a && (a < self.x[k + 1] || k + 2 == n);
-        let h = self.hint.load(Ordering::Relaxed).min(n - 2);
-        let k = if inside(h) {
-            h
-        } else if h + 1 < n - 1 && inside(h + 1) {
-            h + 1
-        } else if h > 0 && inside(h - 1) {
-            h - 1
-        } else {
-            self.x.partition_point(|&v| v <= a).clamp(1, n - 1) - 1
-        };
-        self.hint.store(k, Ordering::Relaxed);
-        Ok(Loc {
-            k,
-            t: (a - self.x[k]) / (self.x[k + 1] - self.x[k]),
-        })
+        Ok(self.x.locate(a))
     }
 
     /// Value of quantity `q` at `loc`.
-    #[inline]
+    #[inline(always)]
     pub fn value(&self, loc: Loc, q: usize) -> f64 {
         let c = &self.c[loc.k * self.nq + q];
         c[0] + loc.t * (c[1] + loc.t * (c[2] + loc.t * c[3]))
     }
 
     /// `d/da` of quantity `q` at `loc` (zero below the range).
-    #[inline]
+    #[inline(always)]
     pub fn derivative(&self, loc: Loc, a: f64, q: usize) -> f64 {
-        if a <= self.x[0] {
+        if a <= self.x.first() {
             return 0.0;
         }
-        let c = &self.c[loc.k * self.nq + q];
-        (c[1] + loc.t * (2.0 * c[2] + 3.0 * loc.t * c[3])) / (self.x[loc.k + 1] - self.x[loc.k])
+        self.x.slope(loc, &self.c[loc.k * self.nq + q])
     }
 }
 

@@ -87,7 +87,7 @@ impl ForceEnvelope {
         let s = &result.samples;
         let w: Vec<f64> = s.iter().map(|x| x.omega_rad_s).collect();
         let f: Vec<f64> = s.iter().map(|x| x.force_amplitude_n).collect();
-        let p: Vec<f64> = s.iter().map(|x| x.force_phase_rad).collect();
+        let p: Vec<f64> = s.iter().map(|x| x.force_phase_rad()).collect();
         Self::new(&w, &f, &p)
     }
 

@@ -280,19 +280,26 @@ impl ReducedModel {
         ch: &[Complex64],
         fi: Complex64,
     ) -> Result<SteadyPoint, ReducedError> {
-        let s = self.sample(f64::NAN, w, amp, ch, fi)?;
+        let s = self.sample(
+            f64::NAN,
+            w,
+            amp,
+            ch,
+            fi,
+            &mut [Complex64::new(0.0, 0.0); MAX_PHI],
+        )?;
         let eigenvalues = self.jacobian_eigenvalues(w, amp, ch, fi)?;
         Ok(SteadyPoint {
             omega_rad_s: w,
             a: s.a,
-            theta_rad: s.theta_rad,
+            theta_rad: s.theta_rad(),
             stable: eigenvalues.iter().all(|l| l.re < 0.0),
             eigenvalues,
             modal_frequency_rad_s: s.modal_frequency_rad_s,
             tip_amplitude_m: s.tip_amplitude_m,
             drive_amplitude_m: s.drive_amplitude_m,
             force_amplitude_n: s.force_amplitude_n,
-            force_phase_rad: s.force_phase_rad,
+            force_phase_rad: s.force_phase_rad(),
         })
     }
 
@@ -308,13 +315,17 @@ impl ReducedModel {
         let y = [amp.re, amp.im];
         let h = 1e-7 * amp.norm().max(1e-6 * self.a_scale);
         let mut j = [[0.0; 2]; 2];
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
         for c in 0..2 {
             let mut yp = y;
             let mut ym = y;
             yp[c] += h;
             ym[c] -= h;
-            let f0 = self.rhs(&y, w, ch, fi)?;
-            let (fp, fm, den) = match (self.rhs(&yp, w, ch, fi), self.rhs(&ym, w, ch, fi)) {
+            let f0 = self.rhs(&y, w, ch, fi, &mut phi)?;
+            let (fp, fm, den) = match (
+                self.rhs(&yp, w, ch, fi, &mut phi),
+                self.rhs(&ym, w, ch, fi, &mut phi),
+            ) {
                 (Ok(fp), Ok(fm)) => (fp, fm, 2.0 * h),
                 (Err(ReducedError::Table(TableError::AboveRange { .. })), Ok(fm)) => (f0, fm, h),
                 (Ok(fp), Err(ReducedError::Table(TableError::AboveRange { .. }))) => (fp, f0, h),

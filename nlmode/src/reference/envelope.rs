@@ -26,6 +26,20 @@ pub fn fundamental_amplitudes(
     centers: &[usize],
     periods: f64,
 ) -> Vec<Option<f64>> {
+    fundamental_harmonics(phase, x, centers, periods)
+        .into_iter()
+        .map(|v| v.map(|z| z.norm()))
+        .collect()
+}
+
+/// Complex fundamental harmonics `X = A e^{i phi}` (`x ~ A cos(Phi + phi)`), as
+/// [`fundamental_amplitudes`].
+pub fn fundamental_harmonics(
+    phase: &[f64],
+    x: &[f64],
+    centers: &[usize],
+    periods: f64,
+) -> Vec<Option<Complex64>> {
     assert_eq!(phase.len(), x.len(), "phase and signal lengths");
     let n = x.len();
     if n < 2 {
@@ -58,7 +72,7 @@ pub fn fundamental_amplitudes(
             if lo < phase[0] || hi > phase[n - 1] {
                 None
             } else {
-                Some(((s_at(hi) - s_at(lo)) / half).norm())
+                Some((s_at(hi) - s_at(lo)) / half)
             }
         })
         .collect()
@@ -96,5 +110,10 @@ mod tests {
             }
         }
         assert!(checked > 30);
+        // the phase of the fundamental (0.3 rad) too
+        let z = fundamental_harmonics(&phase, &x, &centers, 1.0);
+        for v in z.iter().flatten() {
+            assert!((v.arg() - 0.3).abs() < 2e-3, "{}", v.arg());
+        }
     }
 }

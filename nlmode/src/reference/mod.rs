@@ -58,6 +58,7 @@ use crate::attachment::LinearAttachment;
 use crate::excitation::LinearSweep;
 use crate::structure::StructuralModel;
 use nalgebra::DVector;
+use num_complex::Complex64;
 
 /// Errors of the reference integration; each names the input or the time.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -299,6 +300,10 @@ pub struct Envelope {
     pub omega_rad_s: Vec<f64>,
     /// Fundamental amplitude of the first attachment's first interface force \[N\].
     pub force_amplitude_n: Vec<f64>,
+    /// Phase of that force's fundamental relative to the excitation phase `Phi`
+    /// \[rad\] (`F ~ |F| cos(Phi + phase)`; the convention of the slow flow's
+    /// `force_phase_rad`, so the envelope can be imposed on the modal model).
+    pub force_phase_rad: Vec<f64>,
     /// Fundamental amplitude of the tip displacement \[m\].
     pub tip_amplitude_m: Vec<f64>,
 }
@@ -486,20 +491,21 @@ pub fn simulate_sweep_with_progress(
     let tip_env =
         envelope::fundamental_amplitudes(&phase, &full(0), &out_idx, options.envelope_periods);
     let force_env = match first {
-        Some(o) => envelope::fundamental_amplitudes(
+        Some(o) => envelope::fundamental_harmonics(
             &phase,
             &full(o.force_index),
             &out_idx,
             options.envelope_periods,
         ),
-        None => vec![Some(0.0); out_idx.len()],
+        None => vec![Some(Complex64::new(0.0, 0.0)); out_idx.len()],
     };
     let mut env = Envelope::default();
     for (k, &i) in out_idx.iter().enumerate() {
         if let (Some(a), Some(fa)) = (tip_env[k], force_env[k]) {
             env.omega_rad_s.push(sweep.omega_rad_s(i as f64 * dt));
             env.tip_amplitude_m.push(a);
-            env.force_amplitude_n.push(fa);
+            env.force_amplitude_n.push(fa.norm());
+            env.force_phase_rad.push(fa.arg());
         }
     }
     Ok(SweepResult {
