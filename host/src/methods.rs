@@ -301,12 +301,13 @@ pub fn linear_steady(
     Ok(r)
 }
 
-/// `reference`: direct time integration of the assembled full-order model.
+/// `reference`: direct time integration of the assembled full-order model;
+/// also returns its envelopes (with the force phase, for `imposed-force`).
 pub fn reference(
     setup: &Setup,
     sc: &crate::scenario::Scenario,
     progress: &mut dyn FnMut(f64),
-) -> Result<MethodResult> {
+) -> Result<(MethodResult, nlmode::reference::Envelope)> {
     use nlmode::reference::{simulate_sweep_with_progress, Integrator, ReferenceOptions};
     let method = match sc.reference.integrator.as_str() {
         "" | "exponential" => Integrator::Exponential,
@@ -338,7 +339,7 @@ pub fn reference(
         omega_rad_s: e.omega_rad_s.clone(),
         force_amplitude_n: e.force_amplitude_n.clone(),
         tip_amplitude_m: e.tip_amplitude_m.clone(),
-        extra: vec![],
+        extra: vec![("force_phase_rad".into(), e.force_phase_rad.clone())],
     };
     let mut r = MethodResult::new("reference", wall, env, true);
     r.time_series = Some(crate::results::TimeSeries {
@@ -356,7 +357,7 @@ pub fn reference(
         .insert("rejected_steps".into(), json!(res.stats.rejected));
     r.extra
         .insert("integrator".into(), json!(format!("{method:?}")));
-    Ok(r)
+    Ok((r, res.envelope))
 }
 
 /// `cosim`: the structure and shaker FMUs co-simulated by the host's master.

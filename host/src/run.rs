@@ -84,7 +84,8 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     };
     let has_error = error.eps != 0.0 || error.offset_rad_s != 0.0;
     let mut nlmode_flow = None;
-    // Dependencies first: imposed-force takes its force from nlmode.
+    let mut reference_env = None;
+    // Dependencies first: imposed-force takes its force from nlmode or reference.
     let mut order: Vec<&str> = sc.run.methods.iter().map(|s| s.as_str()).collect();
     order.sort_by_key(|m| usize::from(*m == "imposed-force"));
     // The FMUs: packaged before the methods when cosim needs them.
@@ -116,8 +117,10 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
             }
             "reference" => {
                 let mut bar = Progress::new("reference");
-                done.push(methods::reference(&setup, &sc, &mut |f| bar.set(f))?);
+                let (r, env) = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
                 bar.finish();
+                done.push(r);
+                reference_env = Some(env);
             }
             "nlmode" => {
                 let model = methods::reduced_model(&setup, table(), None)?;
@@ -169,6 +172,29 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
                             }
                         };
                         nlmode::reduced::ForceEnvelope::from_result(&flow)?
+                    }
+                    "reference" => {
+                        let env = match reference_env.take() {
+                            Some(e) => e,
+                            None => {
+                                let mut bar = Progress::new("reference (for imposed-force)");
+                                let (_, e) = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
+                                bar.finish();
+                                e
+                            }
+                        };
+                        // the windowed envelope lacks half a period at each end
+                        let s = &setup.sweep;
+                        nlmode::reduced::ForceEnvelope::new(
+                            &env.omega_rad_s,
+                            &env.force_amplitude_n,
+                            &env.force_phase_rad,
+                        )
+                        .context("imposed_force.source = reference")?
+                        .with_held_ends(
+                            s.omega_start_rad_s.min(s.omega_end_rad_s),
+                            s.omega_start_rad_s.max(s.omega_end_rad_s),
+                        )
                     }
                     path => {
                         let text = std::fs::read_to_string(path).with_context(|| {

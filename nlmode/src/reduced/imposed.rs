@@ -150,6 +150,27 @@ impl ForceEnvelope {
         (self.omega_rad_s[0], *self.omega_rad_s.last().unwrap())
     }
 
+    /// The envelope extended to cover `[lo, hi]` \[rad/s\] by holding its first
+    /// and last values (amplitude and phase). For envelopes measured with a
+    /// sliding window, which leaves half a window undefined at each end of a
+    /// sweep (the reference's one excitation period: about 1 % of `omega0` at
+    /// the paper's rate); the start-up transient dominates there anyway.
+    pub fn with_held_ends(mut self, lo: f64, hi: f64) -> Self {
+        let (min, max) = self.range();
+        if lo < min {
+            self.omega_rad_s.insert(0, lo);
+            self.amplitude_n.insert(0, self.amplitude_n[0]);
+            self.phase_rad.insert(0, self.phase_rad[0]);
+        }
+        if hi > max {
+            let n = self.omega_rad_s.len();
+            self.omega_rad_s.push(hi);
+            self.amplitude_n.push(self.amplitude_n[n - 1]);
+            self.phase_rad.push(self.phase_rad[n - 1]);
+        }
+        self
+    }
+
     /// Errors unless `[lo, hi]` lies inside the envelope's range (with a
     /// relative slack of 1e-9 for round-off at the ends).
     pub(crate) fn check_covers(&self, lo: f64, hi: f64) -> Result<(), ReducedError> {
@@ -197,6 +218,19 @@ impl ForceEnvelope {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn held_ends_cover_the_sweep_and_keep_the_inside() {
+        let e = ForceEnvelope::new(&[100.0, 200.0], &[1.0, 3.0], &[0.5, 0.7]).unwrap();
+        assert!(e.check_covers(90.0, 210.0).is_err());
+        let h = e.clone().with_held_ends(90.0, 210.0);
+        h.check_covers(90.0, 210.0).unwrap();
+        assert_eq!(h.eval(90.0).unwrap(), Complex64::from_polar(1.0, 0.5));
+        assert_eq!(h.eval(210.0).unwrap(), Complex64::from_polar(3.0, 0.7));
+        assert_eq!(h.eval(150.0).unwrap(), e.eval(150.0).unwrap());
+        // already covered: unchanged
+        assert_eq!(e.clone().with_held_ends(120.0, 180.0), e);
+    }
 
     #[test]
     fn csv_parsing_interpolation_and_unwrapping() {
