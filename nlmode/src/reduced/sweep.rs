@@ -482,9 +482,10 @@ impl ReducedModel {
                 }
             }
         };
-        // Output in passes over all samples: the square roots (magnitudes) are
-        // taken in separate loops the compiler vectorizes, instead of sitting
-        // on the dependency chain of every sample (half the output cost).
+        // The square roots (magnitudes) are taken in separate loops the
+        // compiler vectorizes, off the dependency chain of every sample
+        // (measured: 5 % of the output cost; a full structure-of-arrays output
+        // stage was tried and gained nothing).
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let a: Vec<f64> = raw
             .iter()
