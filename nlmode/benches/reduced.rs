@@ -10,9 +10,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use nlmode::attachment::{LinearAttachment, ShakerParams};
 use nlmode::excitation::LinearSweep;
-use nlmode::nma::{
-    nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy,
-};
+use nlmode::nma::{nonlinear_modal_analysis, TablePolicy};
 use nlmode::reduced::{ReducedModel, SlowFlowOptions};
 use nlmode::reference::{Integrator, ReferenceOptions};
 use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
@@ -21,21 +19,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 fn paper_table(ps: &PaperStructure) -> nlmode::nma::ModalTable {
-    let opts = NmaOptions {
-        harmonics: 3,
-        amplitude: AmplitudeRange::Modal {
-            log10_start: -6.0,
-            log10_end: -2.0,
-        },
-        points: vec!["tip".into(), "2l3".into(), "l3".into()],
-        store_coordinates: false,
-        continuation: ContinuationOptions {
-            ds: 0.02,
-            dsmax: Some(0.05),
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let opts = nlmode::benchmark::sweep_table_options();
     nonlinear_modal_analysis(&ps.model, &opts)
         .unwrap()
         .to_table(TablePolicy::PrimaryBranch)

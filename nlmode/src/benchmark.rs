@@ -43,6 +43,29 @@ pub fn shaker_da_n_s_per_m() -> f64 {
         - SHAKER_G_N_PER_A * SHAKER_G_N_PER_A / SHAKER_R_OHM
 }
 
+/// NMA options of the modal table the paper's sweeps use: the damped mode
+/// with `H = 3` (the paper: "found sufficient"), modal amplitudes 1e-6 to
+/// 1e-2, the fundamental shape at `tip`, `2l3` and `l3`, and continuation steps
+/// of at most 0.05 in `log10 a` (fine enough for the PCHIP interpolant).
+pub fn sweep_table_options() -> crate::nma::NmaOptions {
+    use crate::nma::{AmplitudeRange, ContinuationOptions, NmaOptions};
+    NmaOptions {
+        harmonics: 3,
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -6.0,
+            log10_end: -2.0,
+        },
+        points: vec!["tip".into(), "2l3".into(), "l3".into()],
+        store_coordinates: false,
+        continuation: ContinuationOptions {
+            ds: 0.02,
+            dsmax: Some(0.05),
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -631,9 +631,7 @@ fn default_tolerances_are_converged_on_case_a() {
 
 mod paper {
     use super::*;
-    use nlmode::nma::{
-        nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions, TablePolicy,
-    };
+    use nlmode::nma::{nonlinear_modal_analysis, TablePolicy};
     use nlmode::reference::{simulate_sweep as reference_sweep, ReferenceOptions, SweepResult};
     use nlmode::structure::{paper_structure, PaperStructure, PaperStructureOptions};
 
@@ -644,22 +642,7 @@ mod paper {
     /// The damped nonlinear mode with H = 3 (the paper: "H = 3 found sufficient
     /// for the sweeps"), primary branch.
     pub fn table(ps: &PaperStructure) -> ModalTable {
-        let opts = NmaOptions {
-            harmonics: 3,
-            amplitude: AmplitudeRange::Modal {
-                log10_start: -6.0,
-                log10_end: -2.0,
-            },
-            points: vec!["tip".into(), "2l3".into(), "l3".into()],
-            store_coordinates: false,
-            // a table fine enough for PCHIP (steps of at most 0.05 in log10 a)
-            continuation: ContinuationOptions {
-                ds: 0.02,
-                dsmax: Some(0.05),
-                ..Default::default()
-            },
-            ..Default::default()
-        };
+        let opts = nlmode::benchmark::sweep_table_options();
         nonlinear_modal_analysis(&ps.model, &opts)
             .unwrap()
             .to_table(TablePolicy::PrimaryBranch)
