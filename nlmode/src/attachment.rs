@@ -543,6 +543,20 @@ fn poly(mats: &[DMatrix<f64>], omega_rad_s: f64) -> DMatrix<Complex64> {
     z
 }
 
+/// `d/dOmega` of [`poly`]: `sum_k k i (i Omega)^(k-1) A_k`.
+fn poly_derivative(mats: &[DMatrix<f64>], omega_rad_s: f64) -> DMatrix<Complex64> {
+    let (r, c) = mats[0].shape();
+    let mut z = DMatrix::<Complex64>::zeros(r, c);
+    let i = Complex64::new(0.0, 1.0);
+    let mut power = Complex64::new(1.0, 0.0); // (i Omega)^(k-1)
+    for (k, a) in mats.iter().enumerate().skip(1) {
+        let factor = i * power * k as f64;
+        z.zip_apply(a, |zij, aij| *zij += factor * aij);
+        power *= Complex64::new(0.0, omega_rad_s);
+    }
+    z
+}
+
 fn one_norm(m: &DMatrix<Complex64>) -> f64 {
     m.column_iter()
         .map(|c| c.iter().map(|v| v.norm()).sum::<f64>())
@@ -597,6 +611,40 @@ impl Condenser {
             z_g,
             t_g,
         })
+    }
+
+    /// [`Self::condense`] and the derivatives `dZ_G/dOmega`, `dT_G/dOmega`
+    /// (returned as a second [`InterfaceCondensation`]), exact: with
+    /// `K = Z_G2 Z22^{-1}`, `dK = (Z_G2' - K Z22') Z22^{-1}`,
+    /// `Z_G' = Z_GG' - dK Z_2G - K Z_2G'` and `T_G' = -dK B_2` (one inverse
+    /// for both, about half the cost of central differences).
+    pub fn condense_with_derivative(
+        &self,
+        omega_rad_s: f64,
+    ) -> Result<(InterfaceCondensation, InterfaceCondensation)> {
+        let mut z_g = poly(&self.a_gg, omega_rad_s);
+        let mut dz_g = poly_derivative(&self.a_gg, omega_rad_s);
+        let mut t_g = self.bu_g.clone();
+        let mut dt_g = DMatrix::<Complex64>::zeros(t_g.nrows(), t_g.ncols());
+        if self.a_22[0].nrows() > 0 {
+            let z22_inv = self.checked_inverse(omega_rad_s, poly(&self.a_22, omega_rad_s))?;
+            let z_g2 = poly(&self.a_g2, omega_rad_s);
+            let z_2g = poly(&self.a_2g, omega_rad_s);
+            let k = &z_g2 * &z22_inv;
+            let dk = (poly_derivative(&self.a_g2, omega_rad_s)
+                - &k * poly_derivative(&self.a_22, omega_rad_s))
+                * &z22_inv;
+            z_g -= &k * &z_2g;
+            dz_g -= &dk * &z_2g + &k * poly_derivative(&self.a_2g, omega_rad_s);
+            t_g -= &k * &self.bu_2;
+            dt_g -= &dk * &self.bu_2;
+        }
+        let at = |z_g, t_g| InterfaceCondensation {
+            omega_rad_s,
+            z_g,
+            t_g,
+        };
+        Ok((at(z_g, t_g), at(dz_g, dt_g)))
     }
 
     /// Inverts `Z22` after checking its condition; see

@@ -93,6 +93,7 @@ use std::sync::Arc;
 pub mod dopri;
 mod fast;
 mod imposed;
+mod output;
 mod post;
 pub mod problems;
 mod steady;
@@ -183,6 +184,29 @@ pub trait InterfaceModel: Debug + Send + Sync {
         &self,
         omega_rad_s: f64,
     ) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError>;
+
+    /// `((Z_G, T_G), (dZ_G/dOmega, dT_G/dOmega))` at `Omega`. The default takes
+    /// central differences of [`Self::condense`] with the step `1e-5 Omega`
+    /// (the quantities are rational in `Omega`; relative error below 1e-7 for
+    /// the paper's shaker, largest near its suspension resonance); models that
+    /// know the derivative override it.
+    #[allow(clippy::type_complexity)]
+    fn condense_with_derivative(
+        &self,
+        omega_rad_s: f64,
+    ) -> Result<
+        (
+            (DMatrix<Complex64>, DMatrix<Complex64>),
+            (DMatrix<Complex64>, DMatrix<Complex64>),
+        ),
+        AttachmentModelError,
+    > {
+        let d = 1e-5 * omega_rad_s;
+        let (zp, tp) = self.condense(omega_rad_s + d)?;
+        let (zm, tm) = self.condense(omega_rad_s - d)?;
+        let s = Complex64::new(0.5 / d, 0.0);
+        Ok((self.condense(omega_rad_s)?, ((zp - zm) * s, (tp - tm) * s)))
+    }
 }
 
 /// A natural-frequency error applied to the table (paper Section 5.3):
@@ -211,6 +235,55 @@ pub(crate) struct Port {
 impl Port {
     fn ncon(&self) -> usize {
         self.points.len()
+    }
+
+    fn error(&self, omega_rad_s: f64, source: AttachmentModelError) -> ReducedError {
+        ReducedError::Attachment {
+            attachment: self.model.name().into(),
+            omega_rad_s,
+            source,
+        }
+    }
+
+    /// Writes this port's channels (`Z_G` row major, then `T_G u_hat` with
+    /// `u_hat = amplitude * input`) into `out` after checking the sizes.
+    fn write_channels(
+        &self,
+        zg: &DMatrix<Complex64>,
+        tg: &DMatrix<Complex64>,
+        amplitude: f64,
+        out: &mut [Complex64],
+    ) -> Result<(), ReducedError> {
+        let name = self.model.name();
+        let nc = self.ncon();
+        if zg.nrows() != nc || zg.ncols() != nc {
+            return Err(ReducedError::AttachmentSize {
+                attachment: name.into(),
+                what: "Z_G rows/cols",
+                found: zg.nrows().max(zg.ncols()),
+                expected: nc,
+            });
+        }
+        if tg.nrows() != nc || tg.ncols() != self.input.len() {
+            return Err(ReducedError::AttachmentSize {
+                attachment: name.into(),
+                what: "T_G columns",
+                found: tg.ncols(),
+                expected: self.input.len(),
+            });
+        }
+        let o = self.offset;
+        for r in 0..nc {
+            for c in 0..nc {
+                out[o + r * nc + c] = zg[(r, c)];
+            }
+            let mut f = Complex64::new(0.0, 0.0);
+            for (j, u) in self.input.iter().enumerate() {
+                f += tg[(r, j)] * u * amplitude;
+            }
+            out[o + nc * nc + r] = f;
+        }
+        Ok(())
     }
     /// `ncon^2` entries of `Z_G` (row major) followed by `ncon` entries of `T_G u_hat`.
     fn nchannels(&self) -> usize {
@@ -437,18 +510,26 @@ impl ReducedModel {
         };
         let fe = self.frequency_error;
         if fe.eps != 0.0 || fe.offset_rad_s != 0.0 {
-            p.omega_rad_s = (1.0 + fe.eps) * p.omega_rad_s + fe.offset_rad_s;
+            p.omega_rad_s = self.detuned_omega(p.omega_rad_s, a)?;
             p.domega_da *= 1.0 + fe.eps;
-            if !(p.omega_rad_s > 0.0) {
-                return Err(ReducedError::FrequencyError {
-                    a,
-                    omega_rad_s: p.omega_rad_s,
-                    eps: fe.eps,
-                    offset_rad_s: fe.offset_rad_s,
-                });
-            }
         }
         Ok(p)
+    }
+
+    /// The table's `omega(a)` with the frequency error applied.
+    #[inline(always)]
+    pub(crate) fn detuned_omega(&self, omega_rad_s: f64, a: f64) -> Result<f64, ReducedError> {
+        let fe = self.frequency_error;
+        let w = (1.0 + fe.eps) * omega_rad_s + fe.offset_rad_s;
+        if !(w > 0.0) {
+            return Err(ReducedError::FrequencyError {
+                a,
+                omega_rad_s: w,
+                eps: fe.eps,
+                offset_rad_s: fe.offset_rad_s,
+            });
+        }
+        Ok(w)
     }
 
     /// Fundamental shape at table point `pt` (fast path).
@@ -483,43 +564,35 @@ impl ReducedModel {
     ) -> Result<(), ReducedError> {
         assert_eq!(out.len(), self.nch);
         for port in &self.ports {
-            let name = port.model.name();
-            let (zg, tg) =
-                port.model
-                    .condense(omega)
-                    .map_err(|source| ReducedError::Attachment {
-                        attachment: name.into(),
-                        omega_rad_s: omega,
-                        source,
-                    })?;
-            let nc = port.ncon();
-            if zg.nrows() != nc || zg.ncols() != nc {
-                return Err(ReducedError::AttachmentSize {
-                    attachment: name.into(),
-                    what: "Z_G rows/cols",
-                    found: zg.nrows().max(zg.ncols()),
-                    expected: nc,
-                });
-            }
-            if tg.nrows() != nc || tg.ncols() != port.input.len() {
-                return Err(ReducedError::AttachmentSize {
-                    attachment: name.into(),
-                    what: "T_G columns",
-                    found: tg.ncols(),
-                    expected: port.input.len(),
-                });
-            }
-            let o = port.offset;
-            for r in 0..nc {
-                for c in 0..nc {
-                    out[o + r * nc + c] = zg[(r, c)];
-                }
-                let mut f = Complex64::new(0.0, 0.0);
-                for (j, u) in port.input.iter().enumerate() {
-                    f += tg[(r, j)] * u * amplitude;
-                }
-                out[o + nc * nc + r] = f;
-            }
+            let (zg, tg) = port
+                .model
+                .condense(omega)
+                .map_err(|source| port.error(omega, source))?;
+            port.write_channels(&zg, &tg, amplitude, out)?;
+        }
+        Ok(())
+    }
+
+    /// [`Self::fill_channels`] and the channels' derivatives with respect to
+    /// `Omega` (from [`InterfaceModel::condense_with_derivative`]).
+    pub(crate) fn fill_channels_with_derivative(
+        &self,
+        omega: f64,
+        amplitude: f64,
+        out: &mut [Complex64],
+        derivative: &mut [Complex64],
+    ) -> Result<(), ReducedError> {
+        if !(omega.is_finite() && omega > 0.0) {
+            return Err(ReducedError::BadOmega(omega));
+        }
+        assert!(out.len() == self.nch && derivative.len() == self.nch);
+        for port in &self.ports {
+            let ((zg, tg), (dzg, dtg)) = port
+                .model
+                .condense_with_derivative(omega)
+                .map_err(|source| port.error(omega, source))?;
+            port.write_channels(&zg, &tg, amplitude, out)?;
+            port.write_channels(&dzg, &dtg, amplitude, derivative)?;
         }
         Ok(())
     }
@@ -684,55 +757,6 @@ impl ReducedModel {
         Ok([z.im * s, -z.re * s])
     }
 
-    /// The fundamental force at the drive point (sum over the attachments
-    /// connected there, plus the imposed force if it acts there) for the
-    /// complex modal amplitude `A` \[N\]: `F = -Z_G u_G + T_G u_hat` (`eq:fc1`).
-    pub(crate) fn drive_force(
-        &self,
-        amp: Complex64,
-        ch: &[Complex64],
-        f_imposed: Complex64,
-    ) -> Result<Complex64, ReducedError> {
-        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
-        self.gather(amp.norm(), &mut phi)?;
-        Ok(self.drive_force_with(amp, &phi, ch, f_imposed))
-    }
-
-    /// [`Self::drive_force`] from shapes gathered by [`Self::gather`].
-    #[inline(always)]
-    pub(crate) fn drive_force_with(
-        &self,
-        amp: Complex64,
-        phi: &[Complex64; MAX_PHI],
-        ch: &[Complex64],
-        f_imposed: Complex64,
-    ) -> Complex64 {
-        let mut f = Complex64::new(0.0, 0.0);
-        let mut j = 0;
-        for port in &self.ports {
-            let nc = port.ncon();
-            let ph = &phi[j..j + nc];
-            let o = port.offset;
-            for (r, &pt) in port.points.iter().enumerate() {
-                if pt != self.drive {
-                    continue;
-                }
-                let mut zr = Complex64::new(0.0, 0.0);
-                for c in 0..nc {
-                    zr += ch[o + r * nc + c] * ph[c] * amp;
-                }
-                f += ch[o + nc * nc + r] - zr;
-            }
-            j += nc;
-        }
-        if let Some(imp) = &self.imposed {
-            if imp.point == self.drive {
-                f += f_imposed;
-            }
-        }
-        f
-    }
-
     /// The blocked force at the drive point, `F0 = sum T_G u_hat` \[N\] (the force
     /// with the structure held at rest).
     pub fn blocked_force(
@@ -743,7 +767,15 @@ impl ReducedModel {
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         self.fill_channels(omega_rad_s, amplitude, &mut ch)?;
         let fi = self.imposed_at(omega_rad_s)?;
-        self.drive_force(Complex64::new(0.0, 0.0), &ch, fi)
+        let fi = [fi];
+        let s = self.output_samples(&output::OutputStates {
+            t_s: &[f64::NAN],
+            omega_rad_s: &[omega_rad_s],
+            amplitude: &[Complex64::new(0.0, 0.0)],
+            channels: &ch,
+            imposed_n: if self.imposed.is_some() { &fi } else { &[] },
+        })?;
+        Ok(s[0].force_n)
     }
 }
 
@@ -790,6 +822,19 @@ impl InterfaceModel for PreparedAttachment {
     ) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError> {
         let c = self.condenser.condense(omega_rad_s)?;
         Ok((c.z_g, c.t_g))
+    }
+    fn condense_with_derivative(
+        &self,
+        omega_rad_s: f64,
+    ) -> Result<
+        (
+            (DMatrix<Complex64>, DMatrix<Complex64>),
+            (DMatrix<Complex64>, DMatrix<Complex64>),
+        ),
+        AttachmentModelError,
+    > {
+        let (c, d) = self.condenser.condense_with_derivative(omega_rad_s)?;
+        Ok(((c.z_g, c.t_g), (d.z_g, d.t_g)))
     }
 }
 

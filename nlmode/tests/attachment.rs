@@ -559,3 +559,58 @@ fn bad_attachment_definitions_are_rejected() {
         })
     ));
 }
+
+/// `Z_G(Omega)`, `T_G(Omega)` at `w` and their derivatives by Richardson-
+/// extrapolated central differences (error O(d^4)).
+fn richardson(
+    cd: &nlmode::attachment::Condenser,
+    w: f64,
+) -> (DMatrix<Complex64>, DMatrix<Complex64>) {
+    let central = |d: f64| {
+        let (p, m) = (cd.condense(w + d).unwrap(), cd.condense(w - d).unwrap());
+        (
+            (p.z_g - m.z_g) / Complex64::new(2.0 * d, 0.0),
+            (p.t_g - m.t_g) / Complex64::new(2.0 * d, 0.0),
+        )
+    };
+    // small enough for the damper's resonance (half-power bandwidth 3.3 rad/s)
+    let d = 1e-4 * w;
+    let (z1, t1) = central(d);
+    let (z2, t2) = central(0.5 * d);
+    let r = |fine: DMatrix<Complex64>, coarse: DMatrix<Complex64>| {
+        (fine * Complex64::new(4.0, 0.0) - coarse) / Complex64::new(3.0, 0.0)
+    };
+    (r(z2, z1), r(t2, t1))
+}
+
+#[test]
+fn condensation_derivative_is_exact() {
+    // the paper's shaker (elastic stinger: internal states, Z22 of size 3),
+    // a shaker on a rigid stinger, and a tuned-mass damper; near and away from
+    // their resonances
+    let elastic = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "drive").unwrap();
+    let mut rigid_params = ShakerParams::paper();
+    rigid_params.stinger = Stinger::Rigid;
+    let rigid = LinearAttachment::shaker("rigid", &rigid_params, "drive").unwrap();
+    let damper = tmd("tip", 0.3, 4e4, 2.0);
+    for att in [&elastic, &rigid, &damper] {
+        let cd = nlmode::attachment::Condenser::new(att).unwrap();
+        for w in [50.0, 365.0, 1234.5, 4e3] {
+            let (value, exact) = cd.condense_with_derivative(w).unwrap();
+            let plain = cd.condense(w).unwrap();
+            assert_eq!(value.z_g, plain.z_g, "{} at {w}", att.name);
+            assert_eq!(value.t_g, plain.t_g, "{} at {w}", att.name);
+            let (dz, dt) = richardson(&cd, w);
+            // relative to the scale of the quantity over the step: a wrong
+            // factor (k instead of k - 1, a sign of a term) is O(1) off
+            let ez = (&exact.z_g - &dz).norm() / (dz.norm() + 1e-300);
+            assert!(ez < 1e-7, "{} dZ_G at {w}: {ez:e}", att.name);
+            if dt.norm() > 0.0 {
+                let et = (&exact.t_g - &dt).norm() / dt.norm();
+                assert!(et < 1e-7, "{} dT_G at {w}: {et:e}", att.name);
+            } else {
+                assert_eq!(exact.t_g.norm(), 0.0);
+            }
+        }
+    }
+}

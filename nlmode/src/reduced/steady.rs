@@ -2,6 +2,7 @@
 //! `a |K(a, Omega)| = |phi(a)^H f_ex(a, Omega)|` at each `Omega`, their
 //! stability from the slow-flow Jacobian, and the single-mode linear steady
 //! state (`linear-steady`, `eq:LMss`) with the force drop (`eq:forcedrop`).
+use super::output::OutputStates;
 use super::{ReducedError, ReducedModel, MAX_PHI};
 use crate::table::TableError;
 use num_complex::Complex64;
@@ -163,7 +164,8 @@ impl ReducedModel {
         }
         let xtol = 1e-14 * self.a_scale;
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
-        let mut out = Vec::with_capacity(omegas.len());
+        let mut counts = Vec::with_capacity(omegas.len());
+        let mut fixed = FixedPoints::default();
         let mut samples: Vec<(f64, f64, f64)> = Vec::with_capacity(4 * scan.len());
         let mut nodes: Vec<(f64, Complex64, Complex64)> = Vec::with_capacity(scan.len());
         for &w in omegas {
@@ -216,7 +218,7 @@ impl ReducedModel {
                 }
             }
             let exceeds_table = samples.last().map(|s| s.1 < 0.0).unwrap_or(false);
-            let mut pts = Vec::with_capacity(solutions.len());
+            counts.push((w, solutions.len(), exceeds_table));
             for a in solutions {
                 let (k, f, _, _) = self.nm_terms(a, w, &ch, fi)?;
                 // A = a e^{i theta} with K A = f  =>  theta = arg f - arg K
@@ -225,15 +227,19 @@ impl ReducedModel {
                 } else {
                     Complex64::new(0.0, 0.0)
                 };
-                pts.push(self.steady_point(w, amp, &ch, fi)?);
+                fixed.push(self, w, amp, &ch, fi)?;
             }
-            out.push(SteadyFrequency {
-                omega_rad_s: w,
-                solutions: pts,
-                exceeds_table,
-            });
         }
-        Ok(out)
+        // the output quantities of all fixed points in one batch
+        let mut points = self.steady_points(&fixed)?.into_iter();
+        Ok(counts
+            .into_iter()
+            .map(|(w, count, exceeds_table)| SteadyFrequency {
+                omega_rad_s: w,
+                solutions: points.by_ref().take(count).collect(),
+                exceeds_table,
+            })
+            .collect())
     }
 
     /// Adaptive sampling of `K(a)`, `F(a)` on `[p0.a, p1.a]` for the root scan:
@@ -272,35 +278,36 @@ impl ReducedModel {
         self.refine_scan(pm, p1, depth + 1, w, ch, fi, push)
     }
 
-    /// Output quantities and stability of the fixed point `A` at `Omega`.
-    fn steady_point(
-        &self,
-        w: f64,
-        amp: Complex64,
-        ch: &[Complex64],
-        fi: Complex64,
-    ) -> Result<SteadyPoint, ReducedError> {
-        let s = self.sample(
-            f64::NAN,
-            w,
-            amp,
-            ch,
-            fi,
-            &mut [Complex64::new(0.0, 0.0); MAX_PHI],
-        )?;
-        let eigenvalues = self.jacobian_eigenvalues(w, amp, ch, fi)?;
-        Ok(SteadyPoint {
-            omega_rad_s: w,
-            a: s.a,
-            theta_rad: s.theta_rad(),
-            stable: eigenvalues.iter().all(|l| l.re < 0.0),
-            eigenvalues,
-            modal_frequency_rad_s: s.modal_frequency_rad_s,
-            tip_amplitude_m: s.tip_amplitude_m,
-            drive_amplitude_m: s.drive_amplitude_m,
-            force_amplitude_n: s.force_amplitude_n,
-            force_phase_rad: s.force_phase_rad(),
-        })
+    /// Output quantities and stability of collected fixed points.
+    fn steady_points(&self, fixed: &FixedPoints) -> Result<Vec<SteadyPoint>, ReducedError> {
+        let n = fixed.omega.len();
+        let imposed_n: &[Complex64] = match self.imposed {
+            Some(_) => &fixed.imposed_n,
+            None => &[],
+        };
+        let samples = self.output_samples(&OutputStates {
+            t_s: &vec![f64::NAN; n],
+            omega_rad_s: &fixed.omega,
+            amplitude: &fixed.amplitude,
+            channels: &fixed.channels,
+            imposed_n,
+        })?;
+        Ok(samples
+            .iter()
+            .zip(&fixed.eigenvalues)
+            .map(|(s, &eigenvalues)| SteadyPoint {
+                omega_rad_s: s.omega_rad_s,
+                a: s.a,
+                theta_rad: s.theta_rad(),
+                stable: eigenvalues.iter().all(|l| l.re < 0.0),
+                eigenvalues,
+                modal_frequency_rad_s: s.modal_frequency_rad_s,
+                tip_amplitude_m: s.tip_amplitude_m,
+                drive_amplitude_m: s.drive_amplitude_m,
+                force_amplitude_n: s.force_amplitude_n,
+                force_phase_rad: s.force_phase_rad(),
+            })
+            .collect())
     }
 
     /// Eigenvalues of the slow-flow Jacobian `d(Re A', Im A')/d(Re A, Im A)` at
@@ -352,18 +359,17 @@ impl ReducedModel {
     ) -> Result<LinearSteady, ReducedError> {
         let lin = self.linear()?;
         let mut ch = vec![Complex64::new(0.0, 0.0); lin.nch];
-        let solve = |w: f64, ch: &mut [Complex64]| -> Result<SteadyPoint, ReducedError> {
-            lin.fill_channels(w, amplitude, ch)?;
-            let fi = lin.imposed_at(w)?;
-            let (k, f, _, _) = lin.nm_terms(0.0, w, ch, fi)?;
-            lin.steady_point(w, f / k, ch, fi)
-        };
-        let points = omegas
-            .iter()
-            .map(|&w| solve(w, &mut ch))
-            .collect::<Result<Vec<_>, _>>()?;
         let (omega0, _) = lin.linear_properties()?;
-        let res = solve(omega0, &mut ch)?;
+        let mut fixed = FixedPoints::default();
+        // the requested frequencies, then omega0 for the force drop
+        for &w in omegas.iter().chain([&omega0]) {
+            lin.fill_channels(w, amplitude, &mut ch)?;
+            let fi = lin.imposed_at(w)?;
+            let (k, f, _, _) = lin.nm_terms(0.0, w, &ch, fi)?;
+            fixed.push(&lin, w, f / k, &ch, fi)?;
+        }
+        let mut points = lin.steady_points(&fixed)?;
+        let res = points.pop().ok_or(ReducedError::EmptyResult)?;
         let f0 = lin.blocked_force(omega0, amplitude)?.norm();
         Ok(LinearSteady {
             points,
@@ -372,6 +378,37 @@ impl ReducedModel {
             blocked_force_at_resonance_n: f0,
             force_drop: 1.0 - res.force_amplitude_n / f0,
         })
+    }
+}
+
+/// Fixed points of the slow flow collected for one batched output evaluation.
+#[derive(Debug, Default)]
+struct FixedPoints {
+    omega: Vec<f64>,
+    amplitude: Vec<Complex64>,
+    /// The channels of each point in turn (`nch` per point).
+    channels: Vec<Complex64>,
+    imposed_n: Vec<Complex64>,
+    eigenvalues: Vec<[Complex64; 2]>,
+}
+
+impl FixedPoints {
+    /// Adds the fixed point `A` at `Omega` with its stability eigenvalues.
+    fn push(
+        &mut self,
+        model: &ReducedModel,
+        w: f64,
+        amp: Complex64,
+        ch: &[Complex64],
+        fi: Complex64,
+    ) -> Result<(), ReducedError> {
+        self.eigenvalues
+            .push(model.jacobian_eigenvalues(w, amp, ch, fi)?);
+        self.omega.push(w);
+        self.amplitude.push(amp);
+        self.channels.extend_from_slice(ch);
+        self.imposed_n.push(fi);
+        Ok(())
     }
 }
 

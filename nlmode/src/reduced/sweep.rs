@@ -1,7 +1,8 @@
 //! Slow-flow integration of `eq:NM` along a sine sweep (`nlmode`,
 //! `linear-slowflow`, `imposed-force`).
 use super::dopri::{integrate, IntegratorStats, Stop, Tolerances};
-use super::fast::{Breaks, Loc};
+use super::fast::Breaks;
+use super::output::OutputStates;
 use super::{ReducedError, ReducedModel, MAX_PHI};
 use crate::excitation::LinearSweep;
 use crate::table::TableError;
@@ -281,16 +282,9 @@ impl OmegaCache {
         }
         let node = |w: f64| -> Result<(Vec<Complex64>, Vec<Complex64>), ReducedError> {
             let mut v = vec![Complex64::new(0.0, 0.0); nch];
-            let mut p = v.clone();
-            let mut m = v.clone();
-            model.fill_channels(w, amplitude, &mut v)?;
-            // central difference for the slope; the attachment quantities are
-            // rational in Omega and smooth on the scale of Omega itself
-            let d = 1e-5 * w;
-            model.fill_channels(w + d, amplitude, &mut p)?;
-            model.fill_channels(w - d, amplitude, &mut m)?;
-            let der = p.iter().zip(&m).map(|(p, m)| (p - m) / (2.0 * d)).collect();
-            Ok((v, der))
+            let mut d = v.clone();
+            model.fill_channels_with_derivative(w, amplitude, &mut v, &mut d)?;
+            Ok((v, d))
         };
         let n0 = 9;
         let mut pts: Vec<(f64, Vec<Complex64>, Vec<Complex64>)> = Vec::new();
@@ -367,6 +361,25 @@ impl OmegaCache {
         self.nodes.len()
     }
 
+    /// Interpolated channels at each of `w`, one row of `nch` after the other.
+    pub fn eval_rows(&self, w: &[f64]) -> Vec<Complex64> {
+        let mut out = Vec::with_capacity(self.nch * w.len());
+        if self.nch == 0 {
+            return out;
+        }
+        let (lo, hi) = (self.nodes.first(), self.nodes.last());
+        for &w in w {
+            let loc = self.nodes.locate(w.clamp(lo, hi));
+            let t = loc.t;
+            out.extend(
+                self.c[loc.k * self.nch..(loc.k + 1) * self.nch]
+                    .iter()
+                    .map(|c| c[0] + (c[1] + (c[2] + c[3] * t) * t) * t),
+            );
+        }
+        out
+    }
+
     /// Interpolated channels at `w` (clamped to the tabulated range).
     #[inline(always)]
     pub fn eval(&self, w: f64, out: &mut [Complex64]) {
@@ -431,28 +444,34 @@ impl ReducedModel {
             self.rhs(y, w, &ch, fi, &mut phi)
         };
         let n = opts.output_samples;
-        let mut raw: Vec<(f64, [f64; 2])> = Vec::with_capacity(n + 1);
+        let mut ts: Vec<f64> = Vec::with_capacity(n + 1);
+        let mut amps: Vec<Complex64> = Vec::with_capacity(n + 1);
         let mut next = 0usize;
-        let sample_t = |j: usize| duration * j as f64 / (n - 1) as f64;
+        let dt = duration / (n - 1) as f64;
+        let sample_t = |j: usize| if j + 1 == n { duration } else { j as f64 * dt };
         let mut last_state = (0.0, [a0.re, a0.im]);
         let (stats, stop) = integrate(rhs, 0.0, [a0.re, a0.im], duration, &tol, |d| {
             let t1 = d.t0 + d.h;
             while next < n && sample_t(next) <= t1 * (1.0 + 1e-14) {
                 let t = sample_t(next).max(d.t0);
-                raw.push((t, d.eval(t)));
+                let y = d.eval(t);
+                ts.push(t);
+                amps.push(Complex64::new(y[0], y[1]));
                 next += 1;
             }
             last_state = (t1, d.eval(t1));
         });
-        if raw.is_empty() {
-            raw.push((0.0, [a0.re, a0.im]));
+        if ts.is_empty() {
+            ts.push(0.0);
+            amps.push(a0);
         }
         let status = match stop {
             None => SweepStatus::Completed,
             Some(stop) => {
                 let t_stop = last_state.0;
-                if raw.last().map(|r| r.0 < t_stop).unwrap_or(true) {
-                    raw.push(last_state);
+                if ts.last().map(|&t| t < t_stop).unwrap_or(true) {
+                    ts.push(t_stop);
+                    amps.push(Complex64::new(last_state.1[0], last_state.1[1]));
                 }
                 let w = sweep.omega_rad_s(t_stop);
                 match stop {
@@ -482,25 +501,22 @@ impl ReducedModel {
                 }
             }
         };
-        // The square roots (magnitudes) are taken in separate loops the
-        // compiler vectorizes, off the dependency chain of every sample
-        // (measured: 5 % of the output cost; a full structure-of-arrays output
-        // stage was tried and gained nothing).
-        let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
-        let a: Vec<f64> = raw
-            .iter()
-            .map(|(_, y)| (y[0] * y[0] + y[1] * y[1]).sqrt())
-            .collect();
-        let mut samples = Vec::with_capacity(raw.len());
-        for ((t, y), a) in raw.into_iter().zip(a) {
-            let w = sweep.omega_rad_s(t);
-            cache.eval(w, &mut ch);
-            let fi = self.imposed_at(w)?;
-            let amp = Complex64::new(y[0], y[1]);
-            let loc = self.fast.locate(a)?;
-            samples.push(self.sample_squared(t, w, amp, a, loc, &ch, fi, &mut phi)?);
-        }
-        take_roots(&mut samples);
+        let w: Vec<f64> = ts.iter().map(|&t| sweep.omega_rad_s(t)).collect();
+        let channels = cache.eval_rows(&w);
+        let imposed_n = match &self.imposed {
+            Some(_) => w
+                .iter()
+                .map(|&w| self.imposed_at(w))
+                .collect::<Result<Vec<_>, _>>()?,
+            None => Vec::new(),
+        };
+        let samples = self.output_samples(&OutputStates {
+            t_s: &ts,
+            omega_rad_s: &w,
+            amplitude: &amps,
+            channels: &channels,
+            imposed_n: &imposed_n,
+        })?;
         Ok(SlowFlowResult {
             sweep: *sweep,
             samples,
@@ -509,63 +525,6 @@ impl ReducedModel {
             channel_nodes: cache.len(),
         })
     }
-
-    /// Output quantities at one state.
-    pub(crate) fn sample(
-        &self,
-        t: f64,
-        w: f64,
-        amp: Complex64,
-        ch: &[Complex64],
-        fi: Complex64,
-        phi: &mut [Complex64; MAX_PHI],
-    ) -> Result<SlowFlowSample, ReducedError> {
-        // plain sqrt instead of hypot: no overflow risk at these magnitudes
-        let a = amp.norm_sqr().sqrt();
-        let loc = self.fast.locate(a)?;
-        let mut s = [self.sample_squared(t, w, amp, a, loc, ch, fi, phi)?];
-        take_roots(&mut s);
-        Ok(s[0])
-    }
-
-    /// [`Self::sample`] for `a = |A|` with the three magnitudes still squared
-    /// (finished by [`take_roots`]).
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn sample_squared(
-        &self,
-        t: f64,
-        w: f64,
-        amp: Complex64,
-        a: f64,
-        loc: Loc,
-        ch: &[Complex64],
-        fi: Complex64,
-        phi: &mut [Complex64; MAX_PHI],
-    ) -> Result<SlowFlowSample, ReducedError> {
-        let p = self.gather_at(loc, a, phi)?;
-        let f = self.drive_force_with(amp, phi, ch, fi);
-        Ok(SlowFlowSample {
-            t_s: t,
-            omega_rad_s: w,
-            a,
-            amplitude: amp,
-            modal_frequency_rad_s: p.omega_rad_s,
-            tip_amplitude_m: a * a * self.phi1(loc, self.tip).norm_sqr(),
-            drive_amplitude_m: a * a * self.phi1(loc, self.drive).norm_sqr(),
-            force_amplitude_n: f.norm_sqr(),
-            force_n: f,
-        })
-    }
-}
-
-/// Square roots of the magnitudes left squared by `sample_squared`.
-fn take_roots(samples: &mut [SlowFlowSample]) {
-    for s in samples {
-        s.tip_amplitude_m = s.tip_amplitude_m.sqrt();
-        s.drive_amplitude_m = s.drive_amplitude_m.sqrt();
-        s.force_amplitude_n = s.force_amplitude_n.sqrt();
-    }
 }
 
 #[cfg(test)]
@@ -573,6 +532,50 @@ mod tests {
     use super::*;
     use crate::attachment::{LinearAttachment, ShakerParams};
     use crate::nma::ModalTable;
+
+    /// An interface model that only knows `condense` (the trait's default
+    /// derivative by central differences).
+    #[derive(Debug)]
+    struct ValuesOnly(crate::reduced::PreparedAttachment);
+
+    impl crate::reduced::InterfaceModel for ValuesOnly {
+        fn name(&self) -> &str {
+            self.0.name()
+        }
+        fn interface_points(&self) -> Vec<String> {
+            self.0.interface_points()
+        }
+        fn ninput(&self) -> usize {
+            self.0.ninput()
+        }
+        fn condense(
+            &self,
+            omega_rad_s: f64,
+        ) -> Result<
+            (nalgebra::DMatrix<Complex64>, nalgebra::DMatrix<Complex64>),
+            crate::reduced::AttachmentModelError,
+        > {
+            self.0.condense(omega_rad_s)
+        }
+    }
+
+    #[test]
+    fn default_channel_derivative_agrees_with_the_exact_one() {
+        use crate::reduced::InterfaceModel;
+        let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
+        let exact = crate::reduced::PreparedAttachment::new(shaker.clone()).unwrap();
+        let fd = ValuesOnly(crate::reduced::PreparedAttachment::new(shaker).unwrap());
+        for w in [120.0, 356.0, 700.0] {
+            let ((z, t), (dz, dt)) = exact.condense_with_derivative(w).unwrap();
+            let ((zf, tf), (dzf, dtf)) = fd.condense_with_derivative(w).unwrap();
+            assert_eq!((z, t), (zf, tf));
+            let e = (&dz - &dzf).norm() / dz.norm();
+            // truncation error of the central difference, largest near the
+            // shaker's suspension resonance
+            assert!(e < 2e-7, "{w}: {e:e}");
+            assert!((&dt - &dtf).norm() < 2e-7 * dt.norm(), "{w}");
+        }
+    }
 
     #[test]
     fn channel_cache_matches_the_attachment_model() {
