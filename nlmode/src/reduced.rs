@@ -110,6 +110,9 @@ pub use sweep::{
 /// Boxed error of an attachment model.
 pub type AttachmentModelError = Box<dyn std::error::Error + Send + Sync>;
 
+/// `(Z_G, T_G)` of an attachment (or their derivatives), see [`InterfaceModel`].
+pub type Condensed = (DMatrix<Complex64>, DMatrix<Complex64>);
+
 /// Errors of the reduced model; each names the offending input and its value.
 #[derive(Debug, thiserror::Error)]
 pub enum ReducedError {
@@ -180,27 +183,17 @@ pub trait InterfaceModel: Debug + Send + Sync {
     /// `(Z_G, T_G)` at `Omega` \[rad/s\]: interface impedance (`ncon x ncon`) and
     /// input-force map (`ncon x ninput`), such that the force on the structure
     /// at the interface points is `F_G = -Z_G u_G + T_G u_hat`.
-    fn condense(
-        &self,
-        omega_rad_s: f64,
-    ) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError>;
+    fn condense(&self, omega_rad_s: f64) -> Result<Condensed, AttachmentModelError>;
 
     /// `((Z_G, T_G), (dZ_G/dOmega, dT_G/dOmega))` at `Omega`. The default takes
     /// central differences of [`Self::condense`] with the step `1e-5 Omega`
     /// (the quantities are rational in `Omega`; relative error below 1e-7 for
     /// the paper's shaker, largest near its suspension resonance); models that
     /// know the derivative override it.
-    #[allow(clippy::type_complexity)]
     fn condense_with_derivative(
         &self,
         omega_rad_s: f64,
-    ) -> Result<
-        (
-            (DMatrix<Complex64>, DMatrix<Complex64>),
-            (DMatrix<Complex64>, DMatrix<Complex64>),
-        ),
-        AttachmentModelError,
-    > {
+    ) -> Result<(Condensed, Condensed), AttachmentModelError> {
         let d = 1e-5 * omega_rad_s;
         let (zp, tp) = self.condense(omega_rad_s + d)?;
         let (zm, tm) = self.condense(omega_rad_s - d)?;
@@ -816,23 +809,14 @@ impl InterfaceModel for PreparedAttachment {
     fn ninput(&self) -> usize {
         self.attachment.ninput()
     }
-    fn condense(
-        &self,
-        omega_rad_s: f64,
-    ) -> Result<(DMatrix<Complex64>, DMatrix<Complex64>), AttachmentModelError> {
+    fn condense(&self, omega_rad_s: f64) -> Result<Condensed, AttachmentModelError> {
         let c = self.condenser.condense(omega_rad_s)?;
         Ok((c.z_g, c.t_g))
     }
     fn condense_with_derivative(
         &self,
         omega_rad_s: f64,
-    ) -> Result<
-        (
-            (DMatrix<Complex64>, DMatrix<Complex64>),
-            (DMatrix<Complex64>, DMatrix<Complex64>),
-        ),
-        AttachmentModelError,
-    > {
+    ) -> Result<(Condensed, Condensed), AttachmentModelError> {
         let (c, d) = self.condenser.condense_with_derivative(omega_rad_s)?;
         Ok(((c.z_g, c.t_g), (d.z_g, d.t_g)))
     }

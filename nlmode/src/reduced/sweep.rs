@@ -551,10 +551,7 @@ mod tests {
         fn condense(
             &self,
             omega_rad_s: f64,
-        ) -> Result<
-            (nalgebra::DMatrix<Complex64>, nalgebra::DMatrix<Complex64>),
-            crate::reduced::AttachmentModelError,
-        > {
+        ) -> Result<crate::reduced::Condensed, crate::reduced::AttachmentModelError> {
             self.0.condense(omega_rad_s)
         }
     }
