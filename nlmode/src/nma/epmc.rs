@@ -794,19 +794,29 @@ impl EpmcResidual {
 
     /// Complex harmonics `e^T phi_n` of an observation direction `e` (physical).
     pub fn observe(&self, x: &DVector<f64>, e_modal: &DVector<f64>) -> Vec<num_complex::Complex64> {
-        let n = self.basis.n_modes();
-        (0..=self.harmonics())
-            .map(|nn| {
-                let c: f64 = (0..n).map(|k| e_modal[k] * x[cos_index(nn) * n + k]).sum();
-                if nn == 0 {
-                    num_complex::Complex64::new(c, 0.0)
-                } else {
-                    let s: f64 = (0..n).map(|k| e_modal[k] * x[sin_index(nn) * n + k]).sum();
-                    num_complex::Complex64::new(c, -s)
-                }
-            })
-            .collect()
+        observe_harmonics(self.harmonics(), x, e_modal)
     }
+}
+
+/// Complex harmonics `e_modal^T psi_n`, `n = 0..=harmonics`, of the modal
+/// harmonic coefficients at the start of `x` (cosine/sine blocks of
+/// `n_modes = e_modal.len()` entries; `q_n = c_n - i s_n`).
+fn observe_harmonics(
+    harmonics: usize,
+    x: &DVector<f64>,
+    e_modal: &DVector<f64>,
+) -> Vec<num_complex::Complex64> {
+    let n = e_modal.len();
+    let dot = |block: usize| -> f64 { (0..n).map(|k| e_modal[k] * x[block * n + k]).sum() };
+    (0..=harmonics)
+        .map(|nn| {
+            if nn == 0 {
+                num_complex::Complex64::new(dot(cos_index(0)), 0.0)
+            } else {
+                num_complex::Complex64::new(dot(cos_index(nn)), -dot(sin_index(nn)))
+            }
+        })
+        .collect()
 }
 
 impl super::continuation::Residual for EpmcResidual {
@@ -937,19 +947,7 @@ impl ForcedResidual {
 
     /// Complex harmonics `e^T q_n` [m] of a physical observation direction `e`.
     pub fn observe(&self, x: &DVector<f64>, e: &DVector<f64>) -> Vec<num_complex::Complex64> {
-        let em = self.basis.phi.transpose() * e;
-        let n = self.basis.n_modes();
-        (0..=self.aft.harmonics())
-            .map(|nn| {
-                let c: f64 = (0..n).map(|k| em[k] * x[cos_index(nn) * n + k]).sum();
-                if nn == 0 {
-                    num_complex::Complex64::new(c, 0.0)
-                } else {
-                    let s: f64 = (0..n).map(|k| em[k] * x[sin_index(nn) * n + k]).sum();
-                    num_complex::Complex64::new(c, -s)
-                }
-            })
-            .collect()
+        observe_harmonics(self.aft.harmonics(), x, &(self.basis.phi.transpose() * e))
     }
 }
 
