@@ -15,6 +15,21 @@ pub enum PackageError {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error(transparent)]
+    Archive(#[from] ZipWriteError),
+    #[error("{path}: invalid modelDescription: {reason}")]
+    BadModelDescription { path: PathBuf, reason: String },
+    #[error("{path}: modelIdentifier is {found:?}, expected {expected:?}")]
+    IdentifierMismatch {
+        path: PathBuf,
+        found: String,
+        expected: String,
+    },
+}
+
+/// Why writing a zip archive (`.fmu`, `.ssp`) failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ZipWriteError {
     #[error("cannot write {path}: {source}")]
     Write {
         path: PathBuf,
@@ -25,14 +40,27 @@ pub enum PackageError {
         path: PathBuf,
         source: zip::result::ZipError,
     },
-    #[error("{path}: invalid modelDescription: {reason}")]
-    BadModelDescription { path: PathBuf, reason: String },
-    #[error("{path}: modelIdentifier is {found:?}, expected {expected:?}")]
-    IdentifierMismatch {
-        path: PathBuf,
-        found: String,
-        expected: String,
-    },
+}
+
+/// Writes `out` as a deflated zip archive of `entries` (path inside, bytes).
+pub fn write_zip(out: &Path, entries: &[(String, Vec<u8>)]) -> Result<(), ZipWriteError> {
+    let zerr = |source| ZipWriteError::Zip {
+        path: out.to_path_buf(),
+        source,
+    };
+    let werr = |source| ZipWriteError::Write {
+        path: out.to_path_buf(),
+        source,
+    };
+    let file = File::create(out).map_err(werr)?;
+    let mut z = zip::ZipWriter::new(file);
+    let opts = SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    for (name, bytes) in entries {
+        z.start_file(name.as_str(), opts).map_err(zerr)?;
+        z.write_all(bytes).map_err(werr)?;
+    }
+    z.finish().map_err(zerr)?;
+    Ok(())
 }
 
 /// The parts of one FMU.
@@ -113,34 +141,20 @@ pub fn write_fmu(spec: &FmuSpec, out: &Path) -> Result<(), PackageError> {
             expected: spec.model_identifier.clone(),
         });
     }
-    let zerr = |source| PackageError::Zip {
-        path: out.to_path_buf(),
-        source,
-    };
-    let werr = |source| PackageError::Write {
-        path: out.to_path_buf(),
-        source,
-    };
-    let file = File::create(out).map_err(werr)?;
-    let mut z = zip::ZipWriter::new(file);
-    let opts = SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
-    let mut add = |name: &str, bytes: &[u8]| -> Result<(), PackageError> {
-        z.start_file(name, opts).map_err(zerr)?;
-        z.write_all(bytes).map_err(werr)
-    };
-    add("modelDescription.xml", &md)?;
-    add(
-        &format!("binaries/linux64/{}.so", spec.model_identifier),
-        &read(&spec.library)?,
-    )?;
+    let mut entries = vec![
+        ("modelDescription.xml".to_string(), md),
+        (
+            format!("binaries/linux64/{}.so", spec.model_identifier),
+            read(&spec.library)?,
+        ),
+    ];
     for (src, rel) in &spec.resources {
-        add(&format!("resources/{rel}"), &read(src)?)?;
+        entries.push((format!("resources/{rel}"), read(src)?));
     }
     for (src, rel) in &spec.documentation {
-        add(&format!("documentation/{rel}"), &read(src)?)?;
+        entries.push((format!("documentation/{rel}"), read(src)?));
     }
-    z.finish().map_err(zerr)?;
-    Ok(())
+    Ok(write_zip(out, &entries)?)
 }
 
 /// Minimal HTML page showing a Markdown text verbatim (`documentation/index.html`

@@ -10,7 +10,7 @@
 //! long as the FMUs' input start values are 0, which holds for this
 //! repository's FMUs.
 use std::fs::File;
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use quick_xml::escape::escape;
@@ -22,16 +22,8 @@ use super::master::ParamValue;
 pub enum SspError {
     #[error(transparent)]
     Fmu(#[from] FmuError),
-    #[error("cannot write {path}: {source}")]
-    Write {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("zip error writing {path}: {source}")]
-    Zip {
-        path: PathBuf,
-        source: zip::result::ZipError,
-    },
+    #[error(transparent)]
+    Archive(#[from] fmi2::package::ZipWriteError),
     #[error("'{0}': expected 'unit.variable' with a unit of the system")]
     BadEndpoint(String),
     #[error("unit name '{0}' repeats or is empty")]
@@ -192,20 +184,7 @@ pub fn write_ssp(
         mds.push((u.clone(), read_model_description(p)?));
     }
     let ssd = system_structure(name, &mds, connections, parameters, stop_time_s)?;
-    let werr = |source| SspError::Write {
-        path: out.into(),
-        source,
-    };
-    let zerr = |source| SspError::Zip {
-        path: out.into(),
-        source,
-    };
-    let f = File::create(out).map_err(werr)?;
-    let mut z = zip::ZipWriter::new(f);
-    let o = zip::write::SimpleFileOptions::default()
-        .compression_method(zip::CompressionMethod::Deflated);
-    z.start_file("SystemStructure.ssd", o).map_err(zerr)?;
-    z.write_all(ssd.as_bytes()).map_err(werr)?;
+    let mut entries = vec![("SystemStructure.ssd".to_string(), ssd.into_bytes())];
     for (u, p) in units {
         let bytes = std::fs::read(p).map_err(|source| {
             SspError::Fmu(FmuError::Open {
@@ -213,10 +192,7 @@ pub fn write_ssp(
                 source,
             })
         })?;
-        z.start_file(format!("resources/{u}.fmu"), o)
-            .map_err(zerr)?;
-        z.write_all(&bytes).map_err(werr)?;
+        entries.push((format!("resources/{u}.fmu"), bytes));
     }
-    z.finish().map_err(zerr)?;
-    Ok(())
+    Ok(fmi2::package::write_zip(out, &entries)?)
 }
