@@ -8,7 +8,7 @@
 //! interface points, channel offsets) for every sample cost more than the
 //! arithmetic (~580 instructions per sample, callgrind; half of a sweep). Here
 //! the structure is compiled once per batch into flat term lists
-//! ([`ForcePlan`]) and each sample is one pass over them.
+//! ([`ForcePlan`]), and each quantity is one short loop over all samples.
 use super::{ReducedError, ReducedModel, SlowFlowSample};
 use num_complex::Complex64;
 
@@ -91,14 +91,12 @@ impl ReducedModel {
                 && (s.imposed_n.is_empty() || s.imposed_n.len() == n)
         );
         let plan = self.force_plan();
-        // Separate passes, each a short loop over the samples: a single pass
-        // per sample chains two square roots and the table lookups into one
-        // long dependency chain (measured 2x slower).
-        let a: Vec<f64> = s
-            .amplitude
-            .iter()
-            .map(|z| (z.re * z.re + z.im * z.im).sqrt())
-            .collect();
+        // One loop per quantity rather than one fused loop per sample: the
+        // fused loop chains two square roots and the table lookups of a
+        // sample into one dependency chain (measured ~10 % slower).
+        // |z| by a plain sqrt (vectorizes; hypot's overflow guard is not needed)
+        let modulus = |z: &Complex64| (z.re * z.re + z.im * z.im).sqrt();
+        let a: Vec<f64> = s.amplitude.iter().map(modulus).collect();
         let mut locs = Vec::with_capacity(n);
         for &a in &a {
             locs.push(self.fast.locate(a)?);
@@ -137,18 +135,11 @@ impl ReducedModel {
         for ((f, z), amp) in f.iter_mut().zip(&z).zip(s.amplitude) {
             *f -= z * amp;
         }
-        let magnitude = |v: &[Complex64], scale: &[f64]| -> Vec<f64> {
-            v.iter()
-                .zip(scale)
-                .map(|(v, s)| s * (v.re * v.re + v.im * v.im).sqrt())
-                .collect()
+        let amplitude_m = |phi: &[Complex64]| -> Vec<f64> {
+            phi.iter().zip(&a).map(|(p, a)| a * modulus(p)).collect()
         };
-        let ones = vec![1.0; n];
-        let (tip, drive, force) = (
-            magnitude(&phi[0], &a),
-            magnitude(&phi[1], &a),
-            magnitude(&f, &ones),
-        );
+        let (tip, drive) = (amplitude_m(&phi[0]), amplitude_m(&phi[1]));
+        let force: Vec<f64> = f.iter().map(modulus).collect();
         let out = (0..n)
             .map(|i| SlowFlowSample {
                 t_s: s.t_s[i],
