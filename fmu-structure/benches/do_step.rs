@@ -61,6 +61,18 @@ fn paper_like_table() -> ModalTable {
     }
 }
 
+/// A structure instance with the table in `dir`, past initialization.
+fn initialized(dir: &std::path::Path, log: &Logger) -> Structure {
+    let mut m = Structure::instantiate(&InstantiateContext {
+        instance_name: "b",
+        resource_dir: Some(dir.to_path_buf()),
+        logger: log,
+    })
+    .unwrap();
+    m.exit_initialization_mode(log).unwrap();
+    m
+}
+
 fn bench(c: &mut Criterion) {
     let dir = std::env::temp_dir().join(format!("structure-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -69,13 +81,7 @@ fn bench(c: &mut Criterion) {
         .unwrap();
     let log = Logger::silent();
     for h in [1e-5, 1e-3] {
-        let mut m = Structure::instantiate(&InstantiateContext {
-            instance_name: "b",
-            resource_dir: Some(dir.clone()),
-            logger: &log,
-        })
-        .unwrap();
-        m.exit_initialization_mode(&log).unwrap();
+        let mut m = initialized(&dir, &log);
         let mut t: f64 = 0.0;
         c.bench_function(&format!("structure DoStep h = {h:e} s"), |b| {
             b.iter(|| {
@@ -87,13 +93,7 @@ fn bench(c: &mut Criterion) {
         });
     }
     let h = 1e-5;
-    let mut m = Structure::instantiate(&InstantiateContext {
-        instance_name: "b",
-        resource_dir: Some(dir.clone()),
-        logger: &log,
-    })
-    .unwrap();
-    m.exit_initialization_mode(&log).unwrap();
+    let mut m = initialized(&dir, &log);
     let mut t: f64 = 0.0;
     c.bench_function(
         "structure macro step with output derivatives h = 1e-5 s",

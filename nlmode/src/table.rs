@@ -295,11 +295,7 @@ impl Pchip {
     fn eval(&self, k: usize, t: f64, h: f64) -> (f64, f64) {
         let (y0, y1, d0, d1) = (self.y[k], self.y[k + 1], self.d[k], self.d[k + 1]);
         let t2 = t * t;
-        let t3 = t2 * t;
-        let h00 = 2.0 * t3 - 3.0 * t2 + 1.0;
-        let h10 = t3 - 2.0 * t2 + t;
-        let h01 = -2.0 * t3 + 3.0 * t2;
-        let h11 = t3 - t2;
+        let [h00, h10, h01, h11] = hermite_basis(t);
         let v = h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1;
         let dv = ((6.0 * t2 - 6.0 * t) * y0
             + (3.0 * t2 - 4.0 * t + 1.0) * h * d0
@@ -308,6 +304,20 @@ impl Pchip {
             / h;
         (v, dv)
     }
+}
+
+/// The cubic Hermite basis `h00, h10, h01, h11` at `t in [0, 1]`
+/// (`p(t) = h00 y0 + h10 h d0 + h01 y1 + h11 h d1`).
+#[inline]
+fn hermite_basis(t: f64) -> [f64; 4] {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    [
+        2.0 * t3 - 3.0 * t2 + 1.0,
+        t3 - 2.0 * t2 + t,
+        -2.0 * t3 + 3.0 * t2,
+        t3 - t2,
+    ]
 }
 
 /// A table segment with the cubic Hermite weights `h00, h10 h, h01, h11 h` of
@@ -421,12 +431,7 @@ impl TableInterpolator {
             .min(self.amplitude.len() - 2);
         let h = self.amplitude[k + 1] - self.amplitude[k];
         let t = (a - self.amplitude[k]) / h;
-        let t2 = t * t;
-        let t3 = t2 * t;
-        let h00 = 2.0 * t3 - 3.0 * t2 + 1.0;
-        let h10 = t3 - 2.0 * t2 + t;
-        let h01 = -2.0 * t3 + 3.0 * t2;
-        let h11 = t3 - t2;
+        let [h00, h10, h01, h11] = hermite_basis(t);
         Ok(TableLocation(Some(Segment {
             k,
             t,

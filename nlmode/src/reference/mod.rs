@@ -373,26 +373,19 @@ pub fn integrate(
 ) -> Result<IntegrationStats, ReferenceError> {
     let ctl = options.validate()?;
     assert_eq!(z0.len(), system.first_order.nz(), "initial state length");
-    match options.method {
-        Integrator::Exponential => expo::integrate(
-            &system.first_order,
-            z0,
-            grid,
-            input,
-            &ctl,
-            on_sample,
-            progress,
-        ),
-        Integrator::DormandPrince => dopri::integrate(
-            &system.first_order,
-            z0,
-            grid,
-            input,
-            &ctl,
-            on_sample,
-            progress,
-        ),
-    }
+    let integrate = match options.method {
+        Integrator::Exponential => expo::integrate,
+        Integrator::DormandPrince => dopri::integrate,
+    };
+    integrate(
+        &system.first_order,
+        z0,
+        grid,
+        input,
+        &ctl,
+        on_sample,
+        progress,
+    )
 }
 
 /// Sweep the assembled structure + attachments from rest (see the module docs).

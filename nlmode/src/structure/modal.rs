@@ -108,6 +108,18 @@ pub(crate) fn generalized_eigen(
     Ok((omega, phi))
 }
 
+/// `1 <= n_modes <= n`, else [`StructureError::ModeCount`] naming `name`.
+fn check_mode_count(n_modes: usize, n: usize, name: &'static str) -> Result<()> {
+    if n_modes == 0 || n_modes > n {
+        return Err(StructureError::ModeCount {
+            name,
+            requested: n_modes,
+            available: n,
+        });
+    }
+    Ok(())
+}
+
 /// The flexibility form of [`generalized_eigen`]: with `K = L L^T`, the symmetric
 /// eigenproblem of `L^{-1} M L^{-T}` (eigenvalues `mu = 1/omega^2`), the
 /// `n_modes` largest `mu`, mass-normalised. `None` if `K` is not positive definite.
@@ -118,13 +130,7 @@ fn flexibility_eigen(
     name: &'static str,
 ) -> Result<Option<(Vec<f64>, DMatrix<f64>)>> {
     let n = m.nrows();
-    if n_modes == 0 || n_modes > n {
-        return Err(StructureError::ModeCount {
-            name,
-            requested: n_modes,
-            available: n,
-        });
-    }
+    check_mode_count(n_modes, n, name)?;
     let Some(kchol) = k.clone().cholesky() else {
         return Ok(None);
     };
@@ -179,13 +185,7 @@ fn dense_eigen(
     name: &'static str,
 ) -> Result<(Vec<f64>, DMatrix<f64>)> {
     let n = m.nrows();
-    if n_modes == 0 || n_modes > n {
-        return Err(StructureError::ModeCount {
-            name,
-            requested: n_modes,
-            available: n,
-        });
-    }
+    check_mode_count(n_modes, n, name)?;
     let chol = m
         .clone()
         .cholesky()
