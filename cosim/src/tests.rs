@@ -534,9 +534,9 @@ fn coupled_oscillators_match_the_modal_solution_for_every_algorithm() {
     }
 }
 
-/// Tests on the repository's FMUs (built with `cargo build -p fmu-shaker -p
-/// fmu-structure`, packaged here with `fmi2::package`, the structure FMU
-/// with a linear modal table of the paper's beam).
+/// Tests on the repository's FMUs (the cdylibs of the dev-dependencies
+/// `fmu-structure` and `fmu-shaker`, packaged here by `crate::repo`, the
+/// structure FMU with a linear modal table of the paper's beam).
 mod fmus {
     use super::super::paper::*;
     use super::super::repo::{locate_libraries, package_repo_fmus};

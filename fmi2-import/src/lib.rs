@@ -14,9 +14,10 @@
 //!   function, the time and the FMU's recent log;
 //! * an [`Instance`] frees its saved FMU state and itself in `Drop`;
 //! * the FMI logger is C-variadic, which stable Rust cannot define: the C shim
-//!   `csrc/logger.c` (compiled by this crate's build script) formats the message with `vsnprintf` and calls
-//!   [`logger::host_fmi2_log_message`], which stores it in the instance's log and
-//!   echoes warnings and errors to stderr.
+//!   `csrc/logger.c` (compiled by this crate's build script) formats the
+//!   message with `vsnprintf` and calls [`logger::host_fmi2_log_message`],
+//!   which stores it in the instance's log and echoes warnings and errors to
+//!   stderr.
 //!
 //! Modules: [`archive`] (unzip with the zip-slip and symlink checks),
 //! [`library`] (libloading and the C function table), [`logger`] (the log
