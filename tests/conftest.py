@@ -1,7 +1,9 @@
 """Shared fixtures of the fmpy harness.
 
-The FMUs are taken from $FMU_DIR (tests/run.sh builds them there); without it
-they are packaged into target/fmus with `cargo run -p fmi2 --bin package-fmus`.
+The FMUs are taken from $FMU_DIR (tests/run.sh packages them there); without it
+the workspace is built (`cargo build --release --workspace`, which puts the FMU
+libraries beside target/release/host) and the built `host package` writes them
+into target/fmus.
 """
 import ctypes
 import os
@@ -48,11 +50,8 @@ def fmu_dir():
     if d:
         return pathlib.Path(d)
     out = REPO / "target" / "fmus"
-    subprocess.run(
-        ["cargo", "run", "-q", "-p", "fmi2", "--bin", "package-fmus", "--", "--out", str(out)],
-        cwd=REPO,
-        check=True,
-    )
+    subprocess.run(["cargo", "build", "--quiet", "--release", "--workspace"], cwd=REPO, check=True)
+    subprocess.run([str(REPO / "target" / "release" / "host"), "package", "--out", str(out)], cwd=REPO, check=True)
     return out
 
 

@@ -14,7 +14,9 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/requirements.txt
 export FMU_DIR="${FMU_DIR:-$ROOT/target/fmus}"
-# host package = the cdylibs + the paper beam's modal table in structure.fmu
+# the workspace build puts libstructure.so / libshaker.so beside target/release/host;
+# host package = those cdylibs + the embedded modelDescriptions, READMEs and the
+# paper beam's modal table in structure.fmu (host never runs cargo itself)
 cargo build --quiet --release --workspace
 target/release/host package --out "$FMU_DIR"
 exec .venv/bin/python -m pytest tests "$@"

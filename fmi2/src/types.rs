@@ -37,6 +37,20 @@ pub enum Status {
 }
 
 impl Status {
+    /// The status a foreign function returned as a plain `int` (an importer
+    /// must not trust a C enum value); `None` outside 0..=5.
+    pub fn from_raw(raw: c_int) -> Option<Self> {
+        Some(match raw {
+            0 => Status::Ok,
+            1 => Status::Warning,
+            2 => Status::Discard,
+            3 => Status::Error,
+            4 => Status::Fatal,
+            5 => Status::Pending,
+            _ => return None,
+        })
+    }
+
     /// The name the standard uses (`fmi2OK`, ...), for log messages.
     pub fn name(self) -> &'static str {
         match self {

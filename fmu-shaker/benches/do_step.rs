@@ -8,7 +8,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 type PlainLogger =
     unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
 
-use fmi2::types::{CallbackFunctions, CallbackLogger, Status, FMI2_CO_SIMULATION};
+use fmi2_export::types::{CallbackFunctions, CallbackLogger, Status, FMI2_CO_SIMULATION};
 use shaker::model::{GUID, VR_F, VR_V, VR_X};
 use shaker::*;
 

@@ -24,4 +24,4 @@ pub mod model;
 
 pub use model::Shaker;
 
-fmi2::export_fmu!(model::Shaker);
+fmi2_export::export_fmu!(model::Shaker);

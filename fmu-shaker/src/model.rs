@@ -1,6 +1,6 @@
 //! The shaker model behind the FMI layer: variables, parameters, the internal
 //! sweep source, exact stepping and the FMU state.
-use fmi2::{
+use fmi2_export::{
     Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader,
     StateWriter, VarType as T, Variability as V, Variable,
 };

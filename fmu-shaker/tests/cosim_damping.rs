@@ -8,7 +8,7 @@
 //! exactly), the shaker model receives x and v at the start of the step. The
 //! coupled step map is linear, so its eigenvalues give the apparent modal
 //! damping exactly; the monolithic 5-state model gives the reference.
-use fmi2::{CoSimModel, InstantiateContext, Logger};
+use fmi2_export::{CoSimModel, InstantiateContext, Logger};
 use nalgebra::{dmatrix, DMatrix, DVector};
 use num_complex::Complex64;
 use shaker::model::*;

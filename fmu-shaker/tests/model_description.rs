@@ -1,14 +1,14 @@
 //! The modelDescription.xml and the code cannot drift: names, value
 //! references, types, causality, variability, start values, units and the
 //! ModelStructure are checked against `shaker::model::VARIABLES`.
-use fmi2::{CoSimModel, InstantiateContext, Logger};
+use fmi2_export::{CoSimModel, InstantiateContext, Logger};
 use shaker::model::*;
 
 const XML: &str = include_str!("../../modelDescription/shaker/modelDescription.xml");
 
 #[test]
 fn xml_matches_the_code() {
-    let md = fmi2::xml::check_model_description(
+    let md = fmi2_export::xml::check_model_description(
         XML,
         Shaker::MODEL_IDENTIFIER,
         Shaker::GUID,
@@ -74,7 +74,7 @@ fn model_starts_from_the_xml_start_values() {
         logger: &log,
     })
     .unwrap();
-    let errs = fmi2::xml::check_start_values(&m);
+    let errs = fmi2_export::xml::check_start_values(&m);
     assert!(errs.is_empty(), "{errs:?}");
     // the calculated d_a follows the paper's relation (1.067 N s/m, see nlmode::benchmark)
     assert!((m.get_real(VR_D_A) - nlmode::benchmark::shaker_da_n_s_per_m()).abs() < 1e-12);

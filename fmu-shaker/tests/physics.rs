@@ -1,7 +1,7 @@
 //! The shaker model against closed forms (paper Section 4):
 //! blocked force `k_s/(z_a + k_s) G u_hat/(R + i W L)` and interface
 //! impedance `F = -k_s z_a/(z_a + k_s) x` of a harmonically moving drive point.
-use fmi2::{CoSimModel, InstantiateContext, Logger};
+use fmi2_export::{CoSimModel, InstantiateContext, Logger};
 use num_complex::Complex64;
 use shaker::model::*;
 

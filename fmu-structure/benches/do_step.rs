@@ -6,7 +6,7 @@
 //! `macro step` is what an extrapolating Jacobi master asks per step at
 //! 1e-5 s: set `F`, get `x`, `v`, `x_tip`, get `dx/dt`, `dv/dt`, set `dF/dt`, DoStep.
 use criterion::{criterion_group, criterion_main, Criterion};
-use fmi2::{CoSimModel, InstantiateContext, Logger};
+use fmi2_export::{CoSimModel, InstantiateContext, Logger};
 use nlmode::nma::{ModalTable, PointShape, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
 use structure::{vr, Structure};
 

@@ -20,7 +20,7 @@
 use std::cell::Cell;
 use std::path::PathBuf;
 
-use fmi2::{
+use fmi2_export::{
     Causality, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader, StateWriter,
     VarType, Variability, Variable,
 };
@@ -529,4 +529,4 @@ impl CoSimModel for Structure {
     }
 }
 
-fmi2::export_fmu!(Structure);
+fmi2_export::export_fmu!(Structure);

@@ -3,7 +3,7 @@
 //! trips, input derivatives and errors.
 use std::f64::consts::PI;
 
-use fmi2::{CoSimModel, InstantiateContext, Logger, StateReader, StateWriter};
+use fmi2_export::{CoSimModel, InstantiateContext, Logger, StateReader, StateWriter};
 use nlmode::nma::ModalTable;
 use nlmode::Complex64;
 use structure::{vr, Structure};
@@ -39,7 +39,7 @@ fn instantiate(resource_dir: Option<std::path::PathBuf>) -> Structure {
 
 #[test]
 fn xml_and_code_agree() {
-    let md = fmi2::xml::check_model_description(
+    let md = fmi2_export::xml::check_model_description(
         XML,
         Structure::MODEL_IDENTIFIER,
         Structure::GUID,
@@ -70,9 +70,9 @@ fn xml_and_code_agree() {
     assert_eq!(flag("providesDirectionalDerivative"), Some("false"));
     let m = instantiate(None);
     assert!(
-        fmi2::xml::check_start_values(&m).is_empty(),
+        fmi2_export::xml::check_start_values(&m).is_empty(),
         "{:?}",
-        fmi2::xml::check_start_values(&m)
+        fmi2_export::xml::check_start_values(&m)
     );
     assert_eq!(m.get_string(vr::DRIVE_POINT).unwrap(), "2l3");
     assert_eq!(m.get_string(vr::MODAL_TABLE).unwrap(), "");

@@ -18,11 +18,7 @@
 //! `zoh` (default) runs the master without input derivatives (zero-order
 //! hold, what SSP runners do); `extrapolate` with first-order extrapolation.
 //! An example rather than a `host` subcommand so that it needs no change to
-//! the CLI; it includes the self-contained `cosim` module by path, as the
-//! benches do.
-#[allow(unused_imports)]
-#[path = "../src/cosim/mod.rs"]
-mod cosim;
+//! the CLI; it uses the public API of the `cosim` crate.
 
 use std::io::Write;
 use std::path::PathBuf;

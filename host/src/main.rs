@@ -1,21 +1,12 @@
-//! `host`: the command-line front end of the nlmode tool.
+//! `host`: the command-line front end (clap and the exit code; the work is in
+//! the `host` library).
 //!
-//! `host run [SCENARIO] -o DIR` sweeps through resonance by the methods the
-//! scenario lists and writes the output contract (DESIGN.md section 7);
-//! `host nma` computes the nonlinear mode; `host frf` the steady-state
-//! frequency responses; `host package` builds the FMUs.
-mod cosim;
-mod cosim_cmd;
-mod methods;
-mod model;
-mod nma_cmd;
-mod package;
-mod plot;
-mod results;
-mod run;
-mod scenario;
-
+//! Exit status: 0 success; 2 error (nothing or not everything written);
+//! 3 `host run` wrote the outputs of every method it could run but a
+//! requested method could not run (e.g. `cosim` without the FMU libraries;
+//! `summary.json` lists it under `failed_methods`).
 use clap::{Parser, Subcommand};
+use host::{cosim_cmd, nma_cmd, package, run};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -39,6 +30,10 @@ enum Command {
         /// Output directory.
         #[arg(short, long, default_value = "out")]
         out: PathBuf,
+        /// Folder with libstructure.so and libshaker.so (default: $NLMODE_FMU_DIR,
+        /// else beside this executable).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
     },
     /// Nonlinear modal analysis: modal table, backbone and damping plots.
     Nma {
@@ -56,11 +51,16 @@ enum Command {
         #[arg(short, long, default_value = "out")]
         out: PathBuf,
     },
-    /// Build structure.fmu and shaker.fmu (with the paper beam's modal table).
+    /// Package structure.fmu and shaker.fmu (with the paper beam's modal table)
+    /// from the built FMU libraries.
     Package {
         /// Output directory.
         #[arg(short, long, default_value = "out/fmus")]
         out: PathBuf,
+        /// Folder with libstructure.so and libshaker.so (default: $NLMODE_FMU_DIR,
+        /// else beside this executable).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
     },
     /// Generic co-simulation: any FMI 2.0 CS FMUs and connections from a TOML file (docs/cosim.md).
     Cosim {
@@ -72,21 +72,44 @@ enum Command {
     },
 }
 
+/// `host run` wrote what it could, but a requested method could not run.
+const EXIT_PARTIAL: u8 = 3;
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run { scenario, out } => run::run(scenario.as_deref(), &out),
-        Command::Nma { scenario, out } => nma_cmd::nma(scenario.as_deref(), &out),
-        Command::Frf { scenario, out } => nma_cmd::frf(scenario.as_deref(), &out),
-        Command::Cosim { spec, out } => cosim_cmd::cosim(&spec, &out),
-        Command::Package { out } => package::package(&out).map(|paths| {
-            for p in paths {
-                println!("wrote {}", p.display());
+        Command::Run {
+            scenario,
+            out,
+            fmu_dir,
+        } => run::run(scenario.as_deref(), &out, fmu_dir.as_deref()).map(|failed| {
+            if failed.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                for (m, e) in &failed {
+                    eprintln!("error: method {m} could not run: {e}");
+                }
+                ExitCode::from(EXIT_PARTIAL)
             }
         }),
+        Command::Nma { scenario, out } => {
+            nma_cmd::nma(scenario.as_deref(), &out).map(|()| ExitCode::SUCCESS)
+        }
+        Command::Frf { scenario, out } => {
+            nma_cmd::frf(scenario.as_deref(), &out).map(|()| ExitCode::SUCCESS)
+        }
+        Command::Cosim { spec, out } => cosim_cmd::cosim(&spec, &out).map(|()| ExitCode::SUCCESS),
+        Command::Package { out, fmu_dir } => {
+            package::package(&out, fmu_dir.as_deref()).map(|paths| {
+                for p in paths {
+                    println!("wrote {}", p.display());
+                }
+                ExitCode::SUCCESS
+            })
+        }
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)

@@ -367,7 +367,7 @@ pub fn cosim(
     fmus: &(std::path::PathBuf, std::path::PathBuf),
     progress: &mut dyn FnMut(f64),
 ) -> Result<MethodResult> {
-    use crate::cosim::{run_cosim, Algorithm, CosimParams, SweepSpec};
+    use cosim::{run_cosim, Algorithm, CosimParams, SweepSpec};
     use std::str::FromStr;
     let structure = sc
         .cosim

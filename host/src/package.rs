@@ -1,6 +1,7 @@
-//! `host package`: build `structure.fmu` and `shaker.fmu` (cargo builds the
-//! two cdylibs of this workspace if needed) with the paper beam's modal table
-//! in the structure FMU's `resources/`.
+//! `host package`: `structure.fmu` and `shaker.fmu` from the built FMU
+//! libraries (found by [`cosim::repo::locate_libraries`]: `--fmu-dir`,
+//! `NLMODE_FMU_DIR` or beside this executable; never built here), with the
+//! paper beam's modal table in the structure FMU's `resources/`.
 use crate::methods;
 use crate::model::Setup;
 use crate::scenario::Scenario;
@@ -11,7 +12,10 @@ use std::path::{Path, PathBuf};
 pub const FMU_TABLE_HARMONICS: usize = 13;
 
 /// Writes `out/structure.fmu` and `out/shaker.fmu`; returns their paths.
-pub fn package(out: &Path) -> Result<Vec<PathBuf>> {
+/// Fails (before the modal analysis) if the libraries are not found, with a
+/// message naming where it looked and how to build them.
+pub fn package(out: &Path, fmu_dir: Option<&Path>) -> Result<Vec<PathBuf>> {
+    let libs = cosim::repo::locate_libraries(fmu_dir)?;
     let mut sc = Scenario::default_scenario();
     sc.nma.harmonics = FMU_TABLE_HARMONICS;
     let setup = Setup::new(&sc).context("paper beam for the FMU's modal table")?;
@@ -21,7 +25,8 @@ pub fn package(out: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
     let table = tmp.join("modal_table.json");
     nma.table.write(&table)?;
-    let (structure, shaker) = crate::cosim::repo::package_repo_fmus(out, Some(&table))?;
+    let result = cosim::repo::package_repo_fmus(&libs, out, Some(&table));
     let _ = std::fs::remove_dir_all(&tmp);
+    let (structure, shaker) = result?;
     Ok(vec![structure, shaker])
 }

@@ -25,7 +25,17 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
     }
 }
 
-pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
+/// Methods of a `host run` that could not run: (method, reason).
+pub type FailedMethods = Vec<(String, String)>;
+
+/// `host run`: every method the scenario lists that can run is run and its
+/// outputs written. A method that cannot run for want of something outside
+/// the scenario (today: `cosim` without the FMU libraries, see
+/// [`cosim::repo::locate_libraries`]) does not stop the others; it is
+/// returned (and listed under `failed_methods` in summary.json), so that the
+/// command line can exit non-zero. `fmu_dir`: where the FMU libraries are
+/// (`--fmu-dir`).
+pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<FailedMethods> {
     let (sc, source) = load_scenario(path)?;
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
@@ -90,8 +100,9 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
     order.sort_by_key(|m| usize::from(*m == "imposed-force"));
     // The FMUs: packaged before the methods when cosim needs them.
     let mut fmus = None;
+    let mut failed = FailedMethods::new();
     if wants("cosim") || sc.output.fmus {
-        match crate::package::package(&out.join("fmus")) {
+        match crate::package::package(&out.join("fmus"), fmu_dir) {
             Ok(paths) => {
                 println!(
                     "FMUs: {}",
@@ -104,7 +115,11 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
                 fmus = Some((paths[0].clone(), paths[1].clone()));
             }
             Err(e) if !wants("cosim") => println!("warning: FMUs not packaged: {e:#}"),
-            Err(e) => return Err(e.context("cosim needs the FMUs")),
+            Err(e) => {
+                let msg = format!("cosim needs the FMUs: {e:#}");
+                println!("error: {msg}; the other methods run");
+                failed.push(("cosim".into(), msg));
+            }
         }
     }
     for m in order {
@@ -222,8 +237,10 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
                 );
             }
             "cosim" => {
+                let Some(f) = fmus.as_ref() else {
+                    continue; // FMUs not packaged: recorded in `failed`
+                };
                 let mut bar = Progress::new("cosim");
-                let f = fmus.as_ref().expect("packaged above");
                 done.push(methods::cosim(&setup, &sc, f, &mut |x| bar.set(x))?);
                 bar.finish();
             }
@@ -235,13 +252,19 @@ pub fn run(path: Option<&Path>, out: &Path) -> Result<()> {
             println!("warning: {w}");
         }
     }
-    write_outputs(&sc, &setup, out, &done)?;
+    write_outputs(&sc, &setup, out, &done, &failed)?;
 
     print_summary(&setup, &done);
-    Ok(())
+    Ok(failed)
 }
 
-fn write_outputs(sc: &Scenario, setup: &Setup, out: &Path, done: &[MethodResult]) -> Result<()> {
+fn write_outputs(
+    sc: &Scenario,
+    setup: &Setup,
+    out: &Path,
+    done: &[MethodResult],
+    failed: &FailedMethods,
+) -> Result<()> {
     let mut methods = Map::new();
     for r in done {
         results::write_envelope(out, r)?;
@@ -251,7 +274,7 @@ fn write_outputs(sc: &Scenario, setup: &Setup, out: &Path, done: &[MethodResult]
         methods.insert(r.name.clone(), r.summary());
     }
     let masses = &setup.modal_masses;
-    let summary = json!({
+    let mut summary = json!({
         "title": sc.title,
         "omega0_rad_s": setup.omega0_rad_s,
         "damping_ratio": setup.d0,
@@ -269,6 +292,14 @@ fn write_outputs(sc: &Scenario, setup: &Setup, out: &Path, done: &[MethodResult]
         "methods": Value::Object(methods),
         "speedup_nlmode_over_reference": speedup(done),
     });
+    if !failed.is_empty() {
+        summary["failed_methods"] = Value::Object(
+            failed
+                .iter()
+                .map(|(m, e)| (m.clone(), Value::String(e.clone())))
+                .collect(),
+        );
+    }
     let path = out.join("summary.json");
     std::fs::write(&path, serde_json::to_string_pretty(&summary)?)
         .with_context(|| format!("cannot write {}", path.display()))?;

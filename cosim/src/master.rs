@@ -49,7 +49,7 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::import::{Causality, Fmu, FmuError, Instance, VarType};
+use crate::import::{Causality, Fmu, FmuError, Instance, SchemaError, VarType};
 
 /// Co-simulation master algorithm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -262,10 +262,10 @@ impl Master {
                 .iter()
                 .position(|x| x.name == v)
                 .ok_or_else(|| {
-                    MasterError::Fmu(FmuError::UnknownVariable {
+                    MasterError::Fmu(FmuError::Schema(SchemaError::UnknownVariable {
                         model: us[ui].fmu.md.model_name.clone(),
                         name: v.into(),
-                    })
+                    }))
                 })?;
             Ok((ui, vi))
         };
@@ -309,7 +309,7 @@ impl Master {
             if md
                 .outputs
                 .iter()
-                .any(|o| md.output_depends_on(o.output, dv))
+                .any(|o| md.output_depends_on(o.index - 1, dv))
                 && !feeds[du].contains(&su)
             {
                 feeds[du].push(su);
@@ -411,7 +411,7 @@ impl Master {
         value: &ParamValue,
     ) -> Result<(), MasterError> {
         let u = &mut self.units[unit];
-        let v = u.fmu.md.variable(name)?;
+        let v = u.fmu.md.variable(name).map_err(FmuError::from)?;
         let bad = |reason: String| MasterError::BadParameter {
             unit: u.name.clone(),
             name: name.into(),
@@ -782,7 +782,7 @@ pub fn run(
                 .collect::<Vec<_>>()
                 .join(", "),
         })?;
-        let var = m.units[ui].fmu.md.variable(v)?;
+        let var = m.units[ui].fmu.md.variable(v).map_err(FmuError::from)?;
         if var.ty != VarType::Real {
             return Err(MasterError::BadConnection {
                 from: r.clone(),

@@ -15,15 +15,15 @@ use std::path::{Path, PathBuf};
 
 use quick_xml::escape::escape;
 
-use super::import::{Causality, FmuError, ModelDescription, VarType};
-use super::master::ParamValue;
+use crate::import::{Causality, FmuError, ModelDescription, VarType};
+use crate::master::ParamValue;
 
 #[derive(Debug, thiserror::Error)]
 pub enum SspError {
     #[error(transparent)]
     Fmu(#[from] FmuError),
     #[error(transparent)]
-    Archive(#[from] fmi2::package::ZipWriteError),
+    Archive(#[from] fmi2::ZipWriteError),
     #[error("'{0}': expected 'unit.variable' with a unit of the system")]
     BadEndpoint(String),
     #[error("unit name '{0}' repeats or is empty")]
@@ -49,7 +49,7 @@ pub fn read_model_description(fmu: &Path) -> Result<ModelDescription, FmuError> 
             path: fmu.into(),
             source,
         })?;
-    ModelDescription::parse(&text)
+    Ok(ModelDescription::parse(&text)?)
 }
 
 fn type_element(t: VarType) -> &'static str {
@@ -92,7 +92,7 @@ pub fn system_structure(
             .iter()
             .position(|(n, _)| n == u)
             .ok_or_else(|| SspError::BadEndpoint(ep.into()))?;
-        units[ui].1.variable(v)?;
+        units[ui].1.variable(v).map_err(FmuError::from)?;
         Ok((ui, v.to_string()))
     };
     let mut s = String::new();
@@ -194,5 +194,5 @@ pub fn write_ssp(
         })?;
         entries.push((format!("resources/{u}.fmu"), bytes));
     }
-    Ok(fmi2::package::write_zip(out, &entries)?)
+    Ok(fmi2::write_zip(out, &entries)?)
 }

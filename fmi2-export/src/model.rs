@@ -5,36 +5,7 @@ use std::ffi::CString;
 use std::path::PathBuf;
 
 use crate::types::{CallbackLogger, ComponentEnvironment, Status};
-
-/// Variable type of the modelDescription (`<Real>`, `<Integer>`, ...).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum VarType {
-    Real,
-    Integer,
-    Boolean,
-    String,
-}
-
-/// `causality` attribute.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
-
-/// `variability` attribute.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
-}
+pub use fmi2::{Causality, VarType, Variability};
 
 /// `start` attribute of a variable (must equal the model's value right after
 /// instantiation: masters such as libcosim and OMSimulator never set start values).

@@ -48,7 +48,7 @@ fn write_zip(path: &Path, entries: &[(&str, Vec<u8>)], symlinks: &[(&str, &str)]
 }
 
 fn test_lib() -> Vec<u8> {
-    std::fs::read(env!("HOST_TEST_FMU_LIB")).expect("test FMU library built by build.rs")
+    std::fs::read(env!("COSIM_TEST_FMU_LIB")).expect("test FMU library built by build.rs")
 }
 
 /// The test FMU with `md` as modelDescription.
@@ -216,7 +216,7 @@ fn missing_binary_guid_mismatch_version_and_model_exchange_are_clear_errors() {
         true,
     ));
     assert!(
-        matches!(&e, FmuError::Version { found } if found == "1.0"),
+        matches!(&e, FmuError::Schema(SchemaError::Version { found }) if found == "1.0"),
         "{e}"
     );
     let e = fmu_err(&test_fmu(
@@ -229,11 +229,17 @@ fn missing_binary_guid_mismatch_version_and_model_exchange_are_clear_errors() {
 
     let me = test_md(TEST_GUID).replace("<CoSimulation", "<ModelExchange");
     let e = fmu_err(&test_fmu(dir.path(), "me.fmu", &me, true));
-    assert!(matches!(e, FmuError::NoCoSimulation { .. }), "{e}");
+    assert!(
+        matches!(e, FmuError::Schema(SchemaError::NoCoSimulation { .. })),
+        "{e}"
+    );
 
     let bad = test_md(TEST_GUID).replace("<Real unit=\"m\"/>", "<Real unit=\"m\">");
     let e = fmu_err(&test_fmu(dir.path(), "xml.fmu", &bad, true));
-    assert!(matches!(e, FmuError::Xml { line: 10, .. }), "{e}");
+    assert!(
+        matches!(e, FmuError::Schema(SchemaError::Xml { line: 10, .. })),
+        "{e}"
+    );
 
     let p = dir.path().join("notzip.fmu");
     std::fs::write(&p, b"not a zip").unwrap();
@@ -528,19 +534,18 @@ fn coupled_oscillators_match_the_modal_solution_for_every_algorithm() {
     }
 }
 
-/// Tests on the repository's FMUs (built with `cargo build -p fmu-shaker -p
-/// fmu-structure`, packaged here with `fmi2::package`, the structure FMU
-/// with a linear modal table of the paper's beam).
+/// Tests on the repository's FMUs (the cdylibs of the dev-dependencies
+/// `fmu-structure` and `fmu-shaker`, packaged here by `crate::repo`, the
+/// structure FMU with a linear modal table of the paper's beam).
 mod fmus {
     use super::super::paper::*;
-    use super::super::repo::package_repo_fmus;
+    use super::super::repo::{locate_libraries, package_repo_fmus};
     use super::*;
     use nlmode::attachment::ShakerParams;
     use nlmode::nma::ModalTable;
     use nlmode::structure::modal_analysis;
     use nlmode::structure::{paper_structure, PaperStructureOptions};
     use nlmode::Complex64;
-    use std::sync::Mutex;
 
     /// The paper's beam (default scenario): omega0, D0, phi at 2l3 and tip.
     pub(super) struct Beam {
@@ -566,14 +571,14 @@ mod fmus {
     }
 
     /// Package `structure.fmu` (with `table` as resources/modal_table.json)
-    /// and `shaker.fmu` into `dir` by [`package_repo_fmus`] (a debug build of
-    /// the FMU crates here).
+    /// and `shaker.fmu` into `dir` by [`package_repo_fmus`] from the
+    /// libraries this test build made (dev-dependencies: the cdylibs lie in
+    /// target/<profile>/deps beside the test binary).
     pub(super) fn package(dir: &Path, table: &ModalTable) -> (PathBuf, PathBuf) {
-        static BUILD: Mutex<()> = Mutex::new(());
         let tp = dir.join("modal_table.json");
         table.write(&tp).unwrap();
-        let _one_cargo_at_a_time = BUILD.lock().unwrap_or_else(|e| e.into_inner());
-        package_repo_fmus(dir, Some(&tp)).unwrap()
+        let libs = locate_libraries(None).unwrap();
+        package_repo_fmus(&libs, dir, Some(&tp)).unwrap()
     }
 
     pub(super) fn linear_table(b: &Beam) -> ModalTable {

@@ -13,8 +13,8 @@ use std::sync::Mutex;
 type PlainLogger =
     unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char);
 
-use fmi2::types::*;
-use fmi2::*;
+use fmi2_export::types::*;
+use fmi2_export::*;
 
 /// x' = -x/tau + u/tau (exactly discretized), y = x + d*u; panics when u == 13.
 #[derive(Clone)]
@@ -208,7 +208,7 @@ impl CoSimModel for Lag {
     }
 }
 
-fmi2::export_fmu!(Lag);
+fmi2_export::export_fmu!(Lag);
 
 /// Messages received by the logger: (instance, status, category, message).
 type Log = Mutex<Vec<(String, Status, String, String)>>;
@@ -724,7 +724,8 @@ fn xml_checker_finds_drift() {
   </ModelVariables>
   <ModelStructure><Outputs><Unknown index="3" dependencies="2"/></Outputs></ModelStructure>
 </fmiModelDescription>"#;
-    let md = fmi2::xml::check_model_description(xml, "lag", Lag::GUID, Lag::VARIABLES).unwrap();
+    let md =
+        fmi2_export::xml::check_model_description(xml, "lag", Lag::GUID, Lag::VARIABLES).unwrap();
     assert_eq!(md.outputs[0].dependencies, Some(vec![2]));
     let m = Lag::instantiate(&InstantiateContext {
         instance_name: "x",
@@ -732,7 +733,7 @@ fn xml_checker_finds_drift() {
         logger: &Logger::silent(),
     })
     .unwrap();
-    assert!(fmi2::xml::check_start_values(&m).is_empty());
+    assert!(fmi2_export::xml::check_start_values(&m).is_empty());
     let drifted = xml
         .replace(
             r#"name="d" valueReference="3""#,
@@ -740,7 +741,8 @@ fn xml_checker_finds_drift() {
         )
         .replace("start=\"0.5\"", "start=\"0.6\"");
     let errs =
-        fmi2::xml::check_model_description(&drifted, "lag", Lag::GUID, Lag::VARIABLES).unwrap_err();
+        fmi2_export::xml::check_model_description(&drifted, "lag", Lag::GUID, Lag::VARIABLES)
+            .unwrap_err();
     assert!(
         errs.iter()
             .any(|e| e.contains("d: valueReference 4 in XML, 3 in code")),
@@ -748,5 +750,8 @@ fn xml_checker_finds_drift() {
     );
     assert!(errs.iter().any(|e| e.contains("tau: start")), "{errs:?}");
     let no_out = xml.replace(r#"<Unknown index="3" dependencies="2"/>"#, "");
-    assert!(fmi2::xml::check_model_description(&no_out, "lag", Lag::GUID, Lag::VARIABLES).is_err());
+    assert!(
+        fmi2_export::xml::check_model_description(&no_out, "lag", Lag::GUID, Lag::VARIABLES)
+            .is_err()
+    );
 }

@@ -12,11 +12,7 @@
 //!   `nlmode::reference::simulate_sweep` and against the finest co-simulation,
 //!   and the wall times.
 //!
-//! `cargo bench -p host --bench cosim` (add `COSIM_CASE_A=1` for the table).
-#[allow(unused_imports)]
-#[path = "../src/cosim/mod.rs"]
-mod cosim;
-
+//! `cargo bench -p cosim --bench cosim` (add `COSIM_CASE_A=1` for the table).
 use cosim::import::Fmu;
 use cosim::master::{run, Algorithm, Master, MasterOptions, ParamValue};
 use cosim::paper::{run_cosim, CosimOutput, CosimParams, SweepSpec};
@@ -44,7 +40,7 @@ fn null_fmu(dir: &Path, name: &str) -> Fmu {
     z.start_file("modelDescription.xml", o).unwrap();
     z.write_all(TEST_MD.as_bytes()).unwrap();
     z.start_file("binaries/linux64/testosc.so", o).unwrap();
-    z.write_all(&std::fs::read(env!("HOST_TEST_FMU_LIB")).unwrap())
+    z.write_all(&std::fs::read(env!("COSIM_TEST_FMU_LIB")).unwrap())
         .unwrap();
     z.finish().unwrap();
     Fmu::load(&p).unwrap()
@@ -99,7 +95,10 @@ criterion_group!(benches, overhead);
 fn release_fmus(dir: &Path, table: &nlmode::nma::ModalTable) -> (PathBuf, PathBuf) {
     let tp = dir.join("modal_table.json");
     table.write(&tp).unwrap();
-    cosim::repo::package_repo_fmus(dir, Some(&tp)).unwrap()
+    // the bench profile builds the dev-dependencies fmu-structure / fmu-shaker
+    // (optimised cdylibs in target/release/deps, beside this bench binary)
+    let libs = cosim::repo::locate_libraries(None).unwrap();
+    cosim::repo::package_repo_fmus(&libs, dir, Some(&tp)).unwrap()
 }
 
 /// Linear interpolation of (x, y) at `x0` (x increasing).

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use nlmode::attachment::{ShakerParams, Stinger};
 use nlmode::reference::envelope::fundamental_amplitudes;
 
-use super::import::Fmu;
-use super::master::{run, Algorithm, Master, MasterError, MasterOptions, MasterStats, ParamValue};
+use crate::import::Fmu;
+use crate::master::{run, Algorithm, Master, MasterError, MasterOptions, MasterStats, ParamValue};
 
 /// The sweep the shaker FMU generates: `u = u_hat cos(Phi)`, `dPhi/dt = Omega`,
 /// `Omega` linear from start to end at `|dOmega/dt| = rate` (0: fixed sine at
@@ -132,7 +132,7 @@ pub enum CosimError {
     Load {
         what: &'static str,
         path: PathBuf,
-        source: Box<super::import::FmuError>,
+        source: Box<crate::import::FmuError>,
     },
     #[error(transparent)]
     Master(#[from] MasterError),
@@ -200,16 +200,16 @@ pub fn parameters(p: &CosimParams) -> Result<Vec<(String, ParamValue)>, CosimErr
     Ok(v)
 }
 
-/// Write the coupled system of `p` as an SSP 1.0 archive (see [`super::ssp`]).
+/// Write the coupled system of `p` as an SSP 1.0 archive (see [`crate::ssp`]).
 /// A modal table given as a file path is referenced by that path.
 pub fn export_ssp(
     out: &Path,
     structure_fmu: &Path,
     shaker_fmu: &Path,
     p: &CosimParams,
-) -> Result<(), super::ssp::SspError> {
-    let params = parameters(p).map_err(|e| super::ssp::SspError::BadUnit(e.to_string()))?;
-    super::ssp::write_ssp(
+) -> Result<(), crate::ssp::SspError> {
+    let params = parameters(p).map_err(|e| crate::ssp::SspError::BadUnit(e.to_string()))?;
+    crate::ssp::write_ssp(
         out,
         "structure-shaker",
         &[

@@ -2,7 +2,7 @@
  * The FMI 2.0 logger callback (fmi2CallbackLogger) is C-variadic, which
  * stable Rust cannot define. This shim formats the printf-style message with
  * vsnprintf and hands the finished string to the Rust function
- * host_fmi2_log_message (host/src/cosim/import.rs).
+ * host_fmi2_log_message (fmi2-import/src/logger.rs).
  */
 #include <stdarg.h>
 #include <stdio.h>

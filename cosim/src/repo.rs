@@ -1,0 +1,217 @@
+//! The repository's own FMUs, `structure.fmu` and `shaker.fmu`, packaged at
+//! run time from parts fixed at build time: the shared libraries
+//! `libstructure.so` / `libshaker.so` are *found*, never built (a workspace
+//! `cargo build [--release]` puts them in `target/<profile>/`, beside the
+//! `host` binary), and everything else an `.fmu` holds (the
+//! modelDescription.xml of `modelDescription/<id>/` and the FMU crate's
+//! README.md as documentation) is embedded in this crate at compile time, so
+//! that an installed binary needs neither the source tree nor a toolchain.
+//! `modelDescription/<id>/` holds no `resources/` or `documentation/` folder
+//! (a test keeps it so); the structure FMU's modal table is added by the
+//! caller ([`package_repo_fmus`]).
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use fmi2_export::package::{readme_documentation, write_fmu, FmuSpec, PackageError};
+
+/// Environment variable naming the folder with the FMU libraries (like `--fmu-dir`).
+pub const FMU_DIR_ENV: &str = "NLMODE_FMU_DIR";
+
+/// One FMU of this repository.
+#[derive(Debug, Clone, Copy)]
+pub struct RepoFmu {
+    /// `modelIdentifier` = the cdylib's name (`lib<id>.so`).
+    pub id: &'static str,
+    /// The cargo package that builds the library.
+    pub package: &'static str,
+    pub model_description: &'static str,
+    pub readme: &'static str,
+}
+
+/// The structure FMU (crate `fmu-structure`).
+pub const STRUCTURE: RepoFmu = RepoFmu {
+    id: "structure",
+    package: "fmu-structure",
+    model_description: include_str!("../../modelDescription/structure/modelDescription.xml"),
+    readme: include_str!("../../fmu-structure/README.md"),
+};
+
+/// The shaker FMU (crate `fmu-shaker`).
+pub const SHAKER: RepoFmu = RepoFmu {
+    id: "shaker",
+    package: "fmu-shaker",
+    model_description: include_str!("../../modelDescription/shaker/modelDescription.xml"),
+    readme: include_str!("../../fmu-shaker/README.md"),
+};
+
+/// Why the repository's FMUs could not be packaged.
+#[derive(Debug, thiserror::Error)]
+pub enum RepoFmuError {
+    #[error(
+        "FMU libraries not found ({missing}); looked in {searched}. Build them with \
+         `cargo build --release` in the source tree (they land in target/release/ beside \
+         target/release/host), or point to a folder holding them with --fmu-dir DIR or \
+         {FMU_DIR_ENV}=DIR",
+        missing = .missing.join(", "),
+        searched = .searched.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+    )]
+    NotFound {
+        missing: Vec<String>,
+        searched: Vec<PathBuf>,
+    },
+    #[error(transparent)]
+    Package(#[from] PackageError),
+    #[error("cannot create {path}: {source}")]
+    Dir {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+/// The shared libraries of the two FMUs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FmuLibraries {
+    pub structure: PathBuf,
+    pub shaker: PathBuf,
+}
+
+/// The folders searched for the libraries: `fmu_dir` alone if given, else
+/// the folder in `NLMODE_FMU_DIR` alone if set, else the folder of the
+/// running executable and its `deps/` (where `cargo test` leaves the
+/// cdylibs of dev-dependencies), and, for a test binary inside `deps/`, the
+/// profile folder above it.
+pub fn search_dirs(fmu_dir: Option<&Path>) -> Vec<PathBuf> {
+    if let Some(d) = fmu_dir {
+        return vec![d.to_path_buf()];
+    }
+    if let Some(d) = std::env::var_os(FMU_DIR_ENV).filter(|d| !d.is_empty()) {
+        return vec![PathBuf::from(d)];
+    }
+    let mut dirs = Vec::new();
+    if let Some(exe_dir) = std::env::current_exe()
+        .ok()
+        .and_then(|e| e.parent().map(Path::to_path_buf))
+    {
+        dirs.push(exe_dir.join("deps"));
+        if exe_dir.file_name().is_some_and(|n| n == "deps") {
+            if let Some(up) = exe_dir.parent() {
+                dirs.push(up.to_path_buf());
+            }
+        }
+        dirs.insert(0, exe_dir);
+    }
+    dirs
+}
+
+/// Find `libstructure.so` and `libshaker.so` in [`search_dirs`]; where a
+/// library is in several of them, the most recently built one is taken (a
+/// `cargo test` rebuilds `deps/` but leaves an older `cargo build` copy).
+pub fn locate_libraries(fmu_dir: Option<&Path>) -> Result<FmuLibraries, RepoFmuError> {
+    let searched = search_dirs(fmu_dir);
+    let find = |id: &str| -> Option<PathBuf> {
+        searched
+            .iter()
+            .map(|d| d.join(format!("lib{id}.so")))
+            .filter(|p| p.is_file())
+            .max_by_key(|p| {
+                std::fs::metadata(p)
+                    .and_then(|m| m.modified())
+                    .unwrap_or(SystemTime::UNIX_EPOCH)
+            })
+    };
+    match (find(STRUCTURE.id), find(SHAKER.id)) {
+        (Some(structure), Some(shaker)) => Ok(FmuLibraries { structure, shaker }),
+        (s, sh) => Err(RepoFmuError::NotFound {
+            missing: [(s, STRUCTURE.id), (sh, SHAKER.id)]
+                .into_iter()
+                .filter(|(p, _)| p.is_none())
+                .map(|(_, id)| format!("lib{id}.so"))
+                .collect(),
+            searched,
+        }),
+    }
+}
+
+/// Write `out_dir/structure.fmu` and `out_dir/shaker.fmu` from `libs` and
+/// the embedded parts; `modal_table` (if given) goes into the structure
+/// FMU's `resources/` as `modal_table.json`. Returns (structure, shaker) paths.
+pub fn package_repo_fmus(
+    libs: &FmuLibraries,
+    out_dir: &Path,
+    modal_table: Option<&Path>,
+) -> Result<(PathBuf, PathBuf), RepoFmuError> {
+    std::fs::create_dir_all(out_dir).map_err(|source| RepoFmuError::Dir {
+        path: out_dir.into(),
+        source,
+    })?;
+    let mut resources = Vec::new();
+    if let Some(t) = modal_table {
+        let bytes = std::fs::read(t).map_err(|source| PackageError::Read {
+            path: t.into(),
+            source,
+        })?;
+        resources.push(("modal_table.json".to_string(), bytes));
+    }
+    let write = |fmu: &RepoFmu, library: &Path, resources| -> Result<PathBuf, RepoFmuError> {
+        let spec = FmuSpec {
+            model_identifier: fmu.id.into(),
+            model_description: fmu.model_description.into(),
+            library: library.into(),
+            resources,
+            documentation: readme_documentation(fmu.id, fmu.readme),
+        };
+        let path = out_dir.join(format!("{}.fmu", fmu.id));
+        write_fmu(&spec, &path)?;
+        Ok(path)
+    };
+    let structure = write(&STRUCTURE, &libs.structure, resources)?;
+    let shaker = write(&SHAKER, &libs.shaker, Vec::new())?;
+    Ok((structure, shaker))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn model_description_folders_hold_only_what_is_embedded() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        for fmu in [STRUCTURE, SHAKER] {
+            let dir = root.join("modelDescription").join(fmu.id);
+            let names: Vec<String> = std::fs::read_dir(&dir)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            assert_eq!(names, ["modelDescription.xml"], "{}", dir.display());
+            let md = fmi2::ModelDescription::parse(fmu.model_description).unwrap();
+            assert_eq!(md.co_simulation.model_identifier, fmu.id);
+        }
+    }
+
+    #[test]
+    fn missing_libraries_say_where_and_how() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = locate_libraries(Some(dir.path())).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("libstructure.so, libshaker.so"), "{msg}");
+        assert!(msg.contains(&dir.path().display().to_string()), "{msg}");
+        assert!(
+            msg.contains("cargo build --release") && msg.contains("--fmu-dir"),
+            "{msg}"
+        );
+        std::fs::write(dir.path().join("libstructure.so"), b"x").unwrap();
+        std::fs::write(dir.path().join("libshaker.so"), b"y").unwrap();
+        let libs = locate_libraries(Some(dir.path())).unwrap();
+        assert_eq!(libs.shaker, dir.path().join("libshaker.so"));
+    }
+
+    #[test]
+    fn libraries_of_this_build_are_found_beside_the_test_binary() {
+        // cosim's dev-dependencies fmu-structure / fmu-shaker put the cdylibs in target/<profile>/deps
+        let libs = locate_libraries(None).unwrap();
+        assert!(
+            libs.structure.is_file() && libs.shaker.is_file(),
+            "{libs:?}"
+        );
+    }
+}

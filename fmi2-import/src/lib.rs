@@ -1,0 +1,39 @@
+//! FMI 2.0 Co-Simulation import: unpack a `.fmu`, read its
+//! `modelDescription.xml`, load `binaries/linux64/<modelIdentifier>.so` and
+//! drive instances through the C API.
+//!
+//! Together with `fmi2-export` the only crate with `unsafe` code and FFI. The
+//! rules it keeps:
+//! * the archive is unpacked into a fresh temporary folder that is removed
+//!   when the [`Fmu`] is dropped; entries with absolute paths, `..`
+//!   components or symbolic links are refused before anything is written;
+//! * the library stays loaded while any [`Instance`] of it lives (`Arc`);
+//! * every `fmi2Status` becomes a `Result`: `fmi2OK` / `fmi2Warning` are `Ok`,
+//!   `fmi2Discard` / `fmi2Error` / `fmi2Fatal` (and `fmi2Pending`, which this
+//!   synchronous master never asks for) are [`FmuError::Status`] carrying the
+//!   function, the time and the FMU's recent log;
+//! * an [`Instance`] frees its saved FMU state and itself in `Drop`;
+//! * the FMI logger is C-variadic, which stable Rust cannot define: the C shim
+//!   `csrc/logger.c` (compiled by this crate's build script) formats the
+//!   message with `vsnprintf` and calls [`logger::host_fmi2_log_message`],
+//!   which stores it in the instance's log and echoes warnings and errors to
+//!   stderr.
+//!
+//! Modules: [`archive`] (unzip with the zip-slip and symlink checks),
+//! [`library`] (libloading and the C function table), [`logger`] (the log
+//! sink behind the C shim), [`instance`] (the safe [`Fmu`] and [`Instance`]).
+//! The modelDescription schema is the FMI core's ([`fmi2::schema`]).
+pub mod archive;
+pub mod error;
+pub mod instance;
+pub mod library;
+pub mod logger;
+
+pub use archive::unpack;
+pub use error::{FmuError, Result};
+pub use fmi2::schema::{
+    Causality, CoSimCapabilities, DefaultExperiment, ModelDescription, Problem, ScalarVariable,
+    SchemaError, Unknown, VarType, Variability,
+};
+pub use instance::{Fmu, Instance};
+pub use logger::LogRecord;
