@@ -2,11 +2,11 @@
 //! the output contract. The physics is in `nlmode`; this is orchestration.
 use crate::model::{Setup, TIP};
 use crate::results::{Envelope, MethodResult};
+use crate::scenario::{CosimAlgorithm, Method};
 use anyhow::{Context, Result};
 use nalgebra::DVector;
 use nlmode::frf;
 use nlmode::Complex64;
-use serde_json::json;
 use std::time::Instant;
 
 /// Excitation frequencies of the steady-state methods: the sweep's range.
@@ -43,19 +43,12 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
         omega_rad_s: omegas.clone(),
         force_amplitude_n: pts.iter().map(|p| p.force_n[0].norm()).collect(),
         tip_amplitude_m: pts.iter().map(|p| p.points[tip].norm()).collect(),
-        extra: vec![
-            (
-                "force_phase_rad".into(),
-                pts.iter().map(|p| p.force_n[0].arg()).collect(),
-            ),
-            (
-                "drive_amplitude_m".into(),
-                pts.iter().map(|p| p.points[drive].norm()).collect(),
-            ),
-        ],
+        force_phase_rad: Some(pts.iter().map(|p| p.force_n[0].arg()).collect()),
+        drive_amplitude_m: Some(pts.iter().map(|p| p.points[drive].norm()).collect()),
+        ..Default::default()
     };
     let wall = t0.elapsed().as_secs_f64();
-    let mut r = MethodResult::new("linear-frf", wall, env, false);
+    let mut r = MethodResult::new(Method::LinearFrf.name(), wall, env, false);
     let shaker = &setup.shakers[0];
     let drop = frf::linear_force_drop(
         &setup.model,
@@ -72,11 +65,10 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
             shaker.omega_a() / setup.omega0_rad_s,
             shaker.damping_ratio(),
         );
-    r.extra.insert("force_drop".into(), json!(drop));
-    r.extra
-        .insert("force_drop_closed_form".into(), json!(closed));
-    r.extra.insert("modal_mass_kg".into(), json!(m_mod));
-    r.extra.insert("mass_ratio".into(), json!(mu));
+    r.summary.force_drop = Some(drop);
+    r.summary.force_drop_closed_form = Some(closed);
+    r.summary.modal_mass_kg = Some(m_mod);
+    r.summary.mass_ratio = Some(mu);
     Ok(r)
 }
 
@@ -107,13 +99,13 @@ pub fn closed_form(setup: &Setup, n: usize) -> Result<MethodResult> {
         omega_rad_s: omegas,
         force_amplitude_n: f,
         tip_amplitude_m: tip,
-        extra: vec![],
+        ..Default::default()
     };
     let mut r = MethodResult::new("closed-form", t0.elapsed().as_secs_f64(), env, false);
     let drop = 1.0 - frf::force_drop_closed_form(setup.d0, mu, ra, shaker.damping_ratio());
-    r.extra.insert("force_drop".into(), json!(drop));
-    r.extra.insert("modal_mass_kg".into(), json!(m_mod));
-    r.extra.insert("mass_ratio".into(), json!(mu));
+    r.summary.force_drop = Some(drop);
+    r.summary.modal_mass_kg = Some(m_mod);
+    r.summary.mass_ratio = Some(mu);
     Ok(r)
 }
 
@@ -210,20 +202,7 @@ fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult)
     let s = &res.samples;
     let col =
         |f: fn(&nlmode::reduced::SlowFlowSample) -> f64| s.iter().map(f).collect::<Vec<f64>>();
-    let env = Envelope {
-        omega_rad_s: col(|x| x.omega_rad_s),
-        force_amplitude_n: col(|x| x.force_amplitude_n),
-        tip_amplitude_m: col(|x| x.tip_amplitude_m),
-        extra: vec![
-            ("force_phase_rad".into(), col(|x| x.force_phase_rad())),
-            ("drive_amplitude_m".into(), col(|x| x.drive_amplitude_m)),
-            ("modal_amplitude".into(), col(|x| x.a)),
-            (
-                "modal_frequency_rad_s".into(),
-                col(|x| x.modal_frequency_rad_s),
-            ),
-        ],
-    };
+    let env = Envelope::from(res);
     let mut r = MethodResult::new(name, wall, env, true);
     r.time_series = Some(crate::results::TimeSeries {
         columns: vec![
@@ -240,12 +219,11 @@ fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult)
             ("force_phase_rad".into(), col(|x| x.force_phase_rad())),
         ],
     });
-    r.extra
-        .insert("steps".into(), json!(res.stats.accepted_steps));
-    r.extra
-        .insert("status".into(), json!(format!("{:?}", res.status)));
+    r.summary.steps = Some(res.stats.accepted_steps as u64);
+    r.summary.status = Some(format!("{:?}", res.status));
     if !matches!(res.status, nlmode::reduced::SweepStatus::Completed) {
-        r.warnings
+        r.summary
+            .warnings
             .push(format!("{name}: sweep stopped early: {:?}", res.status));
     }
     r
@@ -278,44 +256,22 @@ pub fn linear_steady(
         .linear_steady(&omegas, setup.sweep.amplitude)
         .context("linear-steady")?;
     let wall = t0.elapsed().as_secs_f64();
-    let p = &ls.points;
-    let env = Envelope {
-        omega_rad_s: p.iter().map(|x| x.omega_rad_s).collect(),
-        force_amplitude_n: p.iter().map(|x| x.force_amplitude_n).collect(),
-        tip_amplitude_m: p.iter().map(|x| x.tip_amplitude_m).collect(),
-        extra: vec![
-            (
-                "force_phase_rad".into(),
-                p.iter().map(|x| x.force_phase_rad).collect(),
-            ),
-            (
-                "drive_amplitude_m".into(),
-                p.iter().map(|x| x.drive_amplitude_m).collect(),
-            ),
-        ],
-    };
-    let mut r = MethodResult::new("linear-steady", wall, env, false);
-    r.extra.insert("force_drop".into(), json!(ls.force_drop));
-    r.extra
-        .insert("omega0_single_mode_rad_s".into(), json!(ls.omega0_rad_s));
+    let env = Envelope::from(&ls);
+    let mut r = MethodResult::new(Method::LinearSteady.name(), wall, env, false);
+    r.summary.force_drop = Some(ls.force_drop);
+    r.summary.omega0_single_mode_rad_s = Some(ls.omega0_rad_s);
     Ok(r)
 }
 
-/// `reference`: direct time integration of the assembled full-order model;
-/// also returns its envelopes (with the force phase, for `imposed-force`).
+/// `reference`: direct time integration of the assembled full-order model; its
+/// envelope has the force phase (for `imposed-force`).
 pub fn reference(
     setup: &Setup,
     sc: &crate::scenario::Scenario,
     progress: &mut dyn FnMut(f64),
-) -> Result<(MethodResult, nlmode::reference::Envelope)> {
-    use nlmode::reference::{simulate_sweep_with_progress, Integrator, ReferenceOptions};
-    let method = match sc.reference.integrator.as_str() {
-        "" | "exponential" => Integrator::Exponential,
-        "dormand-prince" => Integrator::DormandPrince,
-        other => anyhow::bail!(
-            "reference.integrator: expected 'exponential' or 'dormand-prince', got '{other}'"
-        ),
-    };
+) -> Result<MethodResult> {
+    use nlmode::reference::{simulate_sweep_with_progress, ReferenceOptions};
+    let method = sc.reference.integrator.unwrap_or_default();
     let opts = ReferenceOptions {
         method,
         rtol: sc.reference.rtol,
@@ -334,14 +290,8 @@ pub fn reference(
     )
     .context("reference")?;
     let wall = t0.elapsed().as_secs_f64();
-    let e = &res.envelope;
-    let env = Envelope {
-        omega_rad_s: e.omega_rad_s.clone(),
-        force_amplitude_n: e.force_amplitude_n.clone(),
-        tip_amplitude_m: e.tip_amplitude_m.clone(),
-        extra: vec![("force_phase_rad".into(), e.force_phase_rad.clone())],
-    };
-    let mut r = MethodResult::new("reference", wall, env, true);
+    let env = Envelope::from(res.envelope.clone());
+    let mut r = MethodResult::new(Method::Reference.name(), wall, env, true);
     r.time_series = Some(crate::results::TimeSeries {
         columns: vec![
             ("t_s".into(), res.time_s.clone()),
@@ -352,12 +302,10 @@ pub fn reference(
             ("force_N".into(), res.force_n.clone()),
         ],
     });
-    r.extra.insert("steps".into(), json!(res.stats.steps));
-    r.extra
-        .insert("rejected_steps".into(), json!(res.stats.rejected));
-    r.extra
-        .insert("integrator".into(), json!(format!("{method:?}")));
-    Ok((r, res.envelope))
+    r.summary.steps = Some(res.stats.steps as u64);
+    r.summary.rejected_steps = Some(res.stats.rejected as u64);
+    r.summary.integrator = Some(format!("{method:?}"));
+    Ok(r)
 }
 
 /// `cosim`: the structure and shaker FMUs co-simulated by the host's master.
@@ -368,7 +316,6 @@ pub fn cosim(
     progress: &mut dyn FnMut(f64),
 ) -> Result<MethodResult> {
     use cosim::{run_cosim, Algorithm, CosimParams, SweepSpec};
-    use std::str::FromStr;
     let structure = sc
         .cosim
         .structure_fmu
@@ -382,8 +329,11 @@ pub fn cosim(
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| fmus.1.clone());
     let mut p = CosimParams::new(setup.shakers[0], SweepSpec::from(&setup.sweep));
-    p.algorithm = Algorithm::from_str(&sc.cosim.algorithm)
-        .map_err(|e| anyhow::anyhow!("cosim.algorithm: {e}"))?;
+    p.algorithm = match sc.cosim.algorithm {
+        CosimAlgorithm::Jacobi => Algorithm::Jacobi,
+        CosimAlgorithm::GaussSeidel => Algorithm::GaussSeidel,
+        CosimAlgorithm::Iterative => Algorithm::Iterative,
+    };
     p.macro_step_s = sc.cosim.macro_step_s;
     p.drive_point = setup.exciter_points[0].clone();
     let out = run_cosim(&structure, &shaker, &p, progress).context("cosim")?;
@@ -392,9 +342,10 @@ pub fn cosim(
         omega_rad_s: e.omega_rad_s.clone(),
         force_amplitude_n: e.force_amplitude_n.clone(),
         tip_amplitude_m: e.tip_amplitude_m.clone(),
-        extra: vec![("drive_amplitude_m".into(), e.drive_amplitude_m.clone())],
+        drive_amplitude_m: Some(e.drive_amplitude_m.clone()),
+        ..Default::default()
     };
-    let mut r = MethodResult::new("cosim", out.wall_time_s, env, true);
+    let mut r = MethodResult::new(Method::Cosim.name(), out.wall_time_s, env, true);
     r.time_series = Some(crate::results::TimeSeries {
         columns: vec![
             ("t_s".into(), out.time_s.clone()),
@@ -406,14 +357,14 @@ pub fn cosim(
             ("current_A".into(), out.current_a.clone()),
         ],
     });
-    r.extra
-        .insert("algorithm".into(), json!(sc.cosim.algorithm));
-    r.extra.insert("macro_step_s".into(), json!(p.macro_step_s));
-    r.extra.insert("macro_steps".into(), json!(out.stats.steps));
+    r.summary.algorithm = Some(sc.cosim.algorithm);
+    r.summary.macro_step_s = Some(p.macro_step_s);
+    r.summary.macro_steps = Some(out.stats.steps as u64);
     if let Some((t, msg)) = &out.stopped {
-        r.warnings
+        r.summary
+            .warnings
             .push(format!("cosim stopped at t = {t} s: {msg}"));
-        r.extra.insert("stopped_at_s".into(), json!(t));
+        r.summary.stopped_at_s = Some(*t);
     }
     Ok(r)
 }

@@ -1,16 +1,16 @@
-//! Scenario -> physical model: the beam (Craig-Bampton reduced or full), the
-//! shakers as generic linear attachments, the sweep. Thin mapping onto `nlmode`.
-use crate::scenario::{ExciterSpec, Scenario};
-use anyhow::{bail, Context, Result};
+//! Scenario -> physical model: the beam (Craig-Bampton reduced or full, built by
+//! `nlmode::structure::paper_structure`), the shakers as generic linear
+//! attachments, the sweep. Thin mapping onto `nlmode`.
+use crate::scenario::{ExciterSpec, Reduction, Scenario, StingerKind};
+use anyhow::{Context, Result};
 use nlmode::attachment::{ArmatureDamping, LinearAttachment, ShakerParams, Stinger};
 use nlmode::excitation::LinearSweep;
 use nlmode::structure::{
-    craig_bampton, modal_analysis, stiffness_proportional_damping, BeamSpec, BoundaryCondition,
-    CubicSpring, StructuralModel,
+    modal_analysis, paper_structure, BeamSpec, PaperStructureOptions, StructuralModel,
 };
 
 /// Name of the tip point.
-pub const TIP: &str = "tip";
+pub const TIP: &str = nlmode::structure::paper::TIP;
 
 /// Everything the methods need, built once per run.
 pub struct Setup {
@@ -57,75 +57,59 @@ pub fn shaker_params(ex: &ExciterSpec) -> ShakerParams {
             (Some(r), None) => ArmatureDamping::Ratio(r),
             (None, None) => ArmatureDamping::Ratio(nlmode::benchmark::SHAKER_DA),
         },
-        stinger: if ex.stinger == "rigid" {
-            Stinger::Rigid
-        } else {
-            Stinger::Elastic {
+        stinger: match ex.stinger {
+            StingerKind::Rigid => Stinger::Rigid,
+            StingerKind::Elastic => Stinger::Elastic {
                 stiffness_n_per_m: ex.stinger_stiffness_n_per_m,
-            }
+            },
         },
     }
 }
 
-/// The structure of the scenario with the named points `extra_points` (name, x).
+/// The structure of the scenario with the points `tip` and `extra_points` (name,
+/// x), by `nlmode`'s paper set-up: the model to simulate, `omega0` of the full
+/// model [rad/s] and the full model's DOF count.
 pub fn build_structure(
     sc: &Scenario,
     extra_points: &[(String, f64)],
 ) -> Result<(StructuralModel, f64, usize)> {
-    let st = &sc.structure;
-    let boundary = match st.boundary.as_str() {
-        "clamped-free" => BoundaryCondition::ClampedFree,
-        "clamped-clamped" => BoundaryCondition::ClampedClamped,
-        "pinned-pinned" => BoundaryCondition::PinnedPinned,
-        "clamped-pinned" => BoundaryCondition::ClampedPinned,
-        other => bail!("structure.boundary: unknown boundary condition '{other}'"),
-    };
-    let spec = BeamSpec {
-        length_m: st.length_m,
-        height_m: st.height_m,
-        width_m: st.width_m,
-        youngs_modulus_pa: st.youngs_modulus_pa,
-        density_kg_m3: st.density_kg_m3,
-        n_nodes: st.n_nodes,
-        boundary,
-    };
-    let mut beam = spec.assemble().context("structure")?;
-    let l = st.length_m;
-    let tip_node = beam.n_nodes() - 1;
-    let tip_dof = beam.translation_dof(tip_node).with_context(|| {
-        format!("structure.boundary: '{}' constrains the tip translation, which carries the cubic spring and is the Craig-Bampton master; use clamped-free", st.boundary)
-    })?;
-    beam.add_point(TIP, l).context("structure: tip point")?;
+    let st = sc.structure.beam();
+    let mut points = vec![(TIP.to_string(), st.length_m)];
     for (name, x) in extra_points {
-        if name != TIP && beam.model.points.iter().all(|p| &p.name != name) {
-            beam.add_point(name, *x)
-                .with_context(|| format!("exciter location {x} m"))?;
+        if points.iter().all(|(p, _)| p != name) {
+            points.push((name.clone(), *x));
         }
     }
-    if st.k3_n_per_m3 > 0.0 {
-        let e_tip = beam.translation_vector("cubic_spring", l)?;
-        beam.model
-            .add_nonlinear("cubic_spring", e_tip, CubicSpring::new(st.k3_n_per_m3)?)?;
-    }
-    stiffness_proportional_damping(&mut beam.model, 0, st.damping_ratio)
-        .context("structure.damping_ratio")?;
-    let omega0 = modal_analysis(&beam.model, 1)
-        .context("structure: modal analysis")?
-        .omega_rad_s[0];
-    let full_ndof = beam.model.ndof();
-    let model = if st.reduction == "craig-bampton" {
-        craig_bampton(&beam.model, &[tip_dof], st.cb_modes)
-            .context("structure.cb_modes")?
-            .reduced
-    } else {
-        beam.model
+    let opts = PaperStructureOptions {
+        beam: BeamSpec {
+            length_m: st.length_m,
+            height_m: st.height_m,
+            width_m: st.width_m,
+            youngs_modulus_pa: st.youngs_modulus_pa,
+            density_kg_m3: st.density_kg_m3,
+            n_nodes: st.n_nodes,
+            boundary: st.boundary,
+        },
+        k3_n_per_m3: st.k3_n_per_m3,
+        d0: st.damping_ratio,
+        cb_modes: match st.reduction {
+            Reduction::CraigBampton => Some(st.cb_modes),
+            Reduction::None => None,
+        },
+        points,
     };
-    Ok((model, omega0, full_ndof))
+    let ps = paper_structure(&opts).with_context(|| {
+        format!(
+            "structure (boundary {:?}, points {:?})",
+            st.boundary, opts.points
+        )
+    })?;
+    Ok((ps.model, ps.omega0_rad_s, ps.beam.model.ndof()))
 }
 
 impl Setup {
     pub fn new(sc: &Scenario) -> Result<Self> {
-        let l = sc.structure.length_m;
+        let l = sc.structure.beam().length_m;
         let mut pts = Vec::new();
         for i in 0..sc.exciter.len() {
             let x = sc.exciter_location_m(i)?;
@@ -133,7 +117,7 @@ impl Setup {
         }
         // The standard points of the paper, so that one modal table serves both locations.
         for (n, x) in [("l3", l / 3.0), ("2l3", 2.0 * l / 3.0)] {
-            if pts.iter().all(|(p, _)| p != n) && sc.structure.n_nodes % 3 == 1 {
+            if pts.iter().all(|(p, _)| p != n) && sc.structure.beam().n_nodes % 3 == 1 {
                 pts.push((n.into(), x));
             }
         }
@@ -178,7 +162,7 @@ impl Setup {
             attachments,
             exciter_points,
             sweep,
-            d0: sc.structure.damping_ratio,
+            d0: sc.structure.beam().damping_ratio,
             modal_masses,
         })
     }

@@ -1,25 +1,12 @@
 //! Method results and the machine-readable output contract (DESIGN.md section 7):
 //! `summary.json`, `<method>_envelope.csv`, `<method>_timeseries.csv`.
+use crate::scenario::CosimAlgorithm;
 use anyhow::{Context, Result};
-use serde_json::{json, Map, Value};
-use std::io::Write;
+pub use nlmode::envelope::Envelope;
+use nlmode::envelope::{EnvelopeError, EnvelopeRow};
+use serde::Serialize;
+use std::collections::BTreeMap;
 use std::path::Path;
-
-/// Fundamental-harmonic amplitudes against the instantaneous excitation frequency.
-#[derive(Debug, Clone, Default)]
-pub struct Envelope {
-    pub omega_rad_s: Vec<f64>,
-    pub force_amplitude_n: Vec<f64>,
-    pub tip_amplitude_m: Vec<f64>,
-    /// Optional further columns (name, values), e.g. `force_phase_rad`, `drive_amplitude_m`.
-    pub extra: Vec<(String, Vec<f64>)>,
-}
-
-impl Envelope {
-    pub fn len(&self) -> usize {
-        self.omega_rad_s.len()
-    }
-}
 
 /// Named columns of equal length.
 #[derive(Debug, Clone, Default)]
@@ -27,57 +14,127 @@ pub struct TimeSeries {
     pub columns: Vec<(String, Vec<f64>)>,
 }
 
-/// What one method produced.
-#[derive(Debug, Clone)]
-pub struct MethodResult {
-    pub name: String,
+/// One method's entry of `summary.json` (DESIGN.md section 7), serialized once.
+/// Fields in the alphabetical order of the keys; optional ones appear only for
+/// the methods that have them.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct MethodSummary {
+    /// `cosim`: master algorithm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub algorithm: Option<CosimAlgorithm>,
+    /// Linear force drop `1 - |F/F0|` at `omega0` (`linear-frf`, `linear-steady`, `closed-form`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub force_drop: Option<f64>,
+    /// `linear-frf`: the drop by `eq:forcedrop`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub force_drop_closed_form: Option<f64>,
+    /// `reference`: integrator used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrator: Option<String>,
+    /// Excitation frequency of the jump-down [rad/s] (sweeps).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jump_down_omega_rad_s: Option<f64>,
+    /// `cosim`: macro step [s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub macro_step_s: Option<f64>,
+    /// `cosim`: macro steps taken.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub macro_steps: Option<u64>,
+    /// Mass ratio `m_a / m_mod` at the first exciter.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mass_ratio: Option<f64>,
+    /// Largest force amplitude [N] (null without finite values).
+    #[serde(rename = "max_force_amplitude_N")]
+    pub max_force_amplitude_n: Option<f64>,
+    /// Smallest force amplitude [N] (null without finite values).
+    #[serde(rename = "min_force_amplitude_N")]
+    pub min_force_amplitude_n: Option<f64>,
+    /// Modal mass `1/phi(x)^2` of mode 1 at the first exciter [kg].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub modal_mass_kg: Option<f64>,
+    /// `linear-steady`: `omega0` of the single-mode model [rad/s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub omega0_single_mode_rad_s: Option<f64>,
+    /// Excitation frequency at the peak [rad/s] (null without finite values).
+    pub peak_omega_rad_s: Option<f64>,
+    /// Peak tip amplitude [m] (null without finite values).
+    pub peak_tip_amplitude_m: Option<f64>,
+    /// Envelope samples.
+    pub points: usize,
+    /// `reference`: rejected steps.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rejected_steps: Option<u64>,
+    /// Slow flows: how the sweep ended.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub status: Option<String>,
+    /// Accepted integration steps.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub steps: Option<u64>,
+    /// `cosim`: time at which the co-simulation stopped early [s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stopped_at_s: Option<f64>,
+    /// Wall time of the method [s].
     pub wall_time_s: f64,
-    pub envelope: Envelope,
-    /// Whether the envelope comes from a sweep (transient) rather than a steady state.
-    pub is_sweep: bool,
-    pub time_series: Option<TimeSeries>,
-    /// Further summary entries (force_drop, steps, ...).
-    pub extra: Map<String, Value>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
 }
 
+/// `summary.json` (DESIGN.md section 7); fields in the alphabetical order of the keys.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    pub damping_ratio: f64,
+    pub exciters: Vec<ExciterSummary>,
+    /// Methods that could not run (e.g. `cosim` without the FMU libraries): method -> reason.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub failed_methods: BTreeMap<String, String>,
+    pub full_ndof: usize,
+    pub methods: BTreeMap<String, MethodSummary>,
+    pub model_ndof: usize,
+    pub omega0_rad_s: f64,
+    /// Wall time of `reference` over that of `nlmode` (null unless both ran).
+    pub speedup_nlmode_over_reference: Option<f64>,
+    pub sweep: SweepSummary,
+    pub title: String,
+}
+
+/// An exciter's entry of [`Summary`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ExciterSummary {
+    pub mass_ratio: f64,
+    pub modal_mass_kg: f64,
+    pub point: String,
+}
+
+/// The sweep's entry of [`Summary`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepSummary {
+    pub duration_s: f64,
+    pub omega_end_rad_s: f64,
+    pub omega_start_rad_s: f64,
+    pub rate_rad_s2: f64,
+    pub voltage_v: f64,
+}
+
+/// What one method produced.
+#[derive(Debug, Clone)]
+pub struct MethodResult {
+    /// Output name (`<name>_envelope.csv`): a method's name, or `closed-form`,
+    /// `nlmode-freq-error`.
+    pub name: String,
+    pub envelope: Envelope,
+    pub time_series: Option<TimeSeries>,
+    /// Its `summary.json` entry: the envelope's numbers are filled in by
+    /// [`MethodResult::new`], the method adds its own (force_drop, steps, warnings, ...).
+    pub summary: MethodSummary,
+}
+
 impl MethodResult {
+    /// `is_sweep`: the envelope comes from a sweep (transient) rather than a
+    /// steady state, so it has a jump-down.
     pub fn new(name: &str, wall_time_s: f64, envelope: Envelope, is_sweep: bool) -> Self {
-        Self {
-            name: name.into(),
-            wall_time_s,
-            envelope,
-            is_sweep,
-            time_series: None,
-            extra: Map::new(),
-            warnings: Vec::new(),
-        }
-    }
-
-    /// Peak tip amplitude [m] and the excitation frequency there [rad/s].
-    pub fn peak(&self) -> (f64, f64) {
-        let e = &self.envelope;
-        let mut best = (f64::NAN, f64::NAN);
-        for (i, &t) in e.tip_amplitude_m.iter().enumerate() {
-            if t.is_finite() && !(t <= best.0) {
-                best = (t, e.omega_rad_s[i]);
-            }
-        }
-        best
-    }
-
-    /// Excitation frequency of the jump-down: the steepest drop of the tip
-    /// envelope per unit frequency after the peak (sweeps only).
-    pub fn jump_down_omega(&self) -> Option<f64> {
-        if !self.is_sweep {
-            return None;
-        }
-        jump_down(&self.envelope.omega_rad_s, &self.envelope.tip_amplitude_m)
-    }
-
-    pub fn summary(&self) -> Value {
-        let (peak, peak_w) = self.peak();
-        let f = &self.envelope.force_amplitude_n;
+        let finite = |v: f64| v.is_finite().then_some(v);
+        let (peak, peak_w) = peak(&envelope);
+        let f = &envelope.force_amplitude_n;
         let fmin = f
             .iter()
             .cloned()
@@ -88,32 +145,44 @@ impl MethodResult {
             .cloned()
             .filter(|v| v.is_finite())
             .fold(f64::NEG_INFINITY, f64::max);
-        let mut m = Map::new();
-        m.insert("wall_time_s".into(), json!(self.wall_time_s));
-        m.insert("peak_tip_amplitude_m".into(), num(peak));
-        m.insert("peak_omega_rad_s".into(), num(peak_w));
-        m.insert("min_force_amplitude_N".into(), num(fmin));
-        m.insert("max_force_amplitude_N".into(), num(fmax));
-        if let Some(j) = self.jump_down_omega() {
-            m.insert("jump_down_omega_rad_s".into(), json!(j));
+        let jump = if is_sweep {
+            jump_down(&envelope.omega_rad_s, &envelope.tip_amplitude_m)
+        } else {
+            None
+        };
+        let summary = MethodSummary {
+            wall_time_s,
+            peak_tip_amplitude_m: finite(peak),
+            peak_omega_rad_s: finite(peak_w),
+            min_force_amplitude_n: finite(fmin),
+            max_force_amplitude_n: finite(fmax),
+            jump_down_omega_rad_s: jump,
+            points: envelope.len(),
+            ..Default::default()
+        };
+        Self {
+            name: name.into(),
+            envelope,
+            time_series: None,
+            summary,
         }
-        m.insert("points".into(), json!(self.envelope.len()));
-        for (k, v) in &self.extra {
-            m.insert(k.clone(), v.clone());
-        }
-        if !self.warnings.is_empty() {
-            m.insert("warnings".into(), json!(self.warnings));
-        }
-        Value::Object(m)
+    }
+
+    /// Wall time of the method [s].
+    pub fn wall_time_s(&self) -> f64 {
+        self.summary.wall_time_s
     }
 }
 
-fn num(v: f64) -> Value {
-    if v.is_finite() {
-        json!(v)
-    } else {
-        Value::Null
+/// Peak tip amplitude [m] and the excitation frequency there [rad/s].
+fn peak(e: &Envelope) -> (f64, f64) {
+    let mut best = (f64::NAN, f64::NAN);
+    for (i, &t) in e.tip_amplitude_m.iter().enumerate() {
+        if t.is_finite() && !(t <= best.0) {
+            best = (t, e.omega_rad_s[i]);
+        }
     }
+    best
 }
 
 /// Steepest drop of `y(x)` after its maximum, smoothed over a few samples so that
@@ -141,24 +210,141 @@ pub fn jump_down(x: &[f64], y: &[f64]) -> Option<f64> {
     best.map(|(_, xm)| xm)
 }
 
-/// Write `<name>_envelope.csv`.
+/// Write `<name>_envelope.csv`: the columns `omega_rad_s`, `force_amplitude_N`,
+/// `tip_amplitude_m` and the optional ones the envelope has, every number in
+/// its shortest exact (round-trip) decimal form.
 pub fn write_envelope(dir: &Path, r: &MethodResult) -> Result<()> {
-    let e = &r.envelope;
-    let mut header = vec![
-        "omega_rad_s".to_string(),
-        "force_amplitude_N".into(),
-        "tip_amplitude_m".into(),
-    ];
-    let mut cols: Vec<&[f64]> = vec![&e.omega_rad_s, &e.force_amplitude_n, &e.tip_amplitude_m];
-    for (n, v) in &e.extra {
-        header.push(n.clone());
-        cols.push(v);
+    let path = dir.join(format!("{}_envelope.csv", r.name));
+    let mut w = csv::Writer::from_path(&path)
+        .with_context(|| format!("cannot create {}", path.display()))?;
+    let write = |w: &mut csv::Writer<std::fs::File>| -> Result<(), csv::Error> {
+        if r.envelope.is_empty() {
+            // serde writes the header with the first row; an empty envelope still gets one
+            w.write_record(envelope_header(&r.envelope))?;
+        }
+        for row in r.envelope.rows() {
+            w.serialize(row)?;
+        }
+        w.flush()?;
+        Ok(())
+    };
+    write(&mut w).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The CSV header of an envelope without rows.
+fn envelope_header(e: &Envelope) -> Vec<&'static str> {
+    let mut h = vec!["omega_rad_s", "force_amplitude_N", "tip_amplitude_m"];
+    for (name, c) in [
+        ("force_phase_rad", &e.force_phase_rad),
+        ("drive_amplitude_m", &e.drive_amplitude_m),
+        ("modal_amplitude", &e.modal_amplitude),
+        ("modal_frequency_rad_s", &e.modal_frequency_rad_s),
+    ] {
+        if c.is_some() {
+            h.push(name);
+        }
     }
-    write_csv(
-        &dir.join(format!("{}_envelope.csv", r.name)),
-        &header,
-        &cols,
-    )
+    h
+}
+
+/// Why an envelope CSV cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum EnvelopeCsvError {
+    #[error("cannot read '{path}': {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("line {line}: {message}")]
+    Row { line: u64, message: String },
+    #[error("{0}")]
+    Csv(String),
+    #[error(transparent)]
+    Shape(#[from] EnvelopeError),
+}
+
+impl From<csv::Error> for EnvelopeCsvError {
+    fn from(e: csv::Error) -> Self {
+        match e.position() {
+            Some(p) => EnvelopeCsvError::Row {
+                line: p.line(),
+                message: match e.kind() {
+                    csv::ErrorKind::Deserialize { err, .. } => err.to_string(),
+                    _ => e.to_string(),
+                },
+            },
+            None => EnvelopeCsvError::Csv(e.to_string()),
+        }
+    }
+}
+
+/// Read an envelope CSV (the format [`write_envelope`] writes): required columns
+/// `omega_rad_s`, `force_amplitude_N`; optional `tip_amplitude_m` (NaN when
+/// absent), `force_phase_rad`, `drive_amplitude_m`,
+/// `modal_amplitude`, `modal_frequency_rad_s`. Header names match case-insensitively,
+/// columns in any order, other columns ignored, `#` comment lines skipped.
+pub fn read_envelope(path: &Path) -> Result<Envelope, EnvelopeCsvError> {
+    let text = std::fs::read_to_string(path).map_err(|source| EnvelopeCsvError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    parse_envelope(&text)
+}
+
+/// [`read_envelope`] on CSV text.
+pub fn parse_envelope(text: &str) -> Result<Envelope, EnvelopeCsvError> {
+    let mut rd = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    const NAMES: [&str; 7] = [
+        "omega_rad_s",
+        "force_amplitude_N",
+        "tip_amplitude_m",
+        "force_phase_rad",
+        "drive_amplitude_m",
+        "modal_amplitude",
+        "modal_frequency_rad_s",
+    ];
+    let header: csv::StringRecord = rd
+        .headers()?
+        .iter()
+        .map(|h| {
+            NAMES
+                .iter()
+                .find(|n| n.eq_ignore_ascii_case(h))
+                .map_or(h.to_string(), |n| n.to_string())
+        })
+        .collect();
+    for required in &NAMES[..2] {
+        if !header.iter().any(|h| h == *required) {
+            return Err(EnvelopeCsvError::Csv(format!(
+                "CSV header has no column '{required}' (columns: {})",
+                header.iter().collect::<Vec<_>>().join(", ")
+            )));
+        }
+    }
+    // the response column of a prescribed force file is not needed: NaN when absent
+    let add_tip = !header.iter().any(|h| h == "tip_amplitude_m");
+    let mut header = header;
+    if add_tip {
+        header.push_field("tip_amplitude_m");
+    }
+    let mut rows = Vec::new();
+    for rec in rd.records() {
+        let mut rec = rec?;
+        if add_tip {
+            rec.push_field("NaN");
+        }
+        let line = rec.position().map_or(0, |p| p.line());
+        rows.push(rec.deserialize::<EnvelopeRow>(Some(&header)).map_err(|e| {
+            EnvelopeCsvError::Row {
+                line,
+                message: e.to_string(),
+            }
+        })?);
+    }
+    Ok(Envelope::from_rows(&rows)?)
 }
 
 /// Write `<name>_timeseries.csv` if the method has one.
@@ -175,27 +361,26 @@ pub fn write_time_series(dir: &Path, r: &MethodResult) -> Result<()> {
     Ok(())
 }
 
+/// Write named columns as CSV (header row, then one row per sample up to the
+/// shortest column), numbers in their shortest exact decimal form; the writer of
+/// the time series, `cosim.csv` and the NMA branches.
 pub fn write_csv(path: &Path, header: &[String], cols: &[&[f64]]) -> Result<()> {
     let n = cols.iter().map(|c| c.len()).min().unwrap_or(0);
-    let f =
-        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    let mut w = std::io::BufWriter::new(f);
-    writeln!(w, "{}", header.join(","))?;
-    let mut line = String::new();
-    for i in 0..n {
-        line.clear();
-        for (j, c) in cols.iter().enumerate() {
-            if j > 0 {
-                line.push(',');
+    let mut w = csv::Writer::from_path(path)
+        .with_context(|| format!("cannot create {}", path.display()))?;
+    let write = |w: &mut csv::Writer<std::fs::File>| -> Result<(), csv::Error> {
+        w.write_record(header)?;
+        let mut row = vec![0.0; cols.len()];
+        for i in 0..n {
+            for (x, c) in row.iter_mut().zip(cols) {
+                *x = c[i];
             }
-            use std::fmt::Write as _;
-            write!(line, "{:.9e}", c[i]).unwrap();
+            w.serialize(&row)?;
         }
-        writeln!(w, "{line}")?;
-    }
-    w.flush()
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+        w.flush()?;
+        Ok(())
+    };
+    write(&mut w).with_context(|| format!("cannot write {}", path.display()))
 }
 
 #[cfg(test)]
@@ -230,5 +415,58 @@ mod tests {
         let v: f64 = lines[2].split(',').nth(1).unwrap().parse().unwrap();
         assert_eq!(v, -4.25e-7);
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn envelope_csv_round_trips_exactly_with_its_optional_columns() {
+        let dir = std::env::temp_dir().join(format!("host-env-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let env = Envelope {
+            omega_rad_s: vec![300.0, 356.218_765_432_1, 400.0],
+            force_amplitude_n: vec![1.0 / 3.0, 2.5, 3.0],
+            tip_amplitude_m: vec![1e-3, 2.296_012_345_678_9e-3, 1e-4],
+            force_phase_rad: Some(vec![0.1, -0.2, 0.3]),
+            drive_amplitude_m: Some(vec![4.0, 5.0, 6.0]),
+            ..Default::default()
+        };
+        let r = MethodResult::new("x", 0.0, env.clone(), true);
+        write_envelope(&dir, &r).unwrap();
+        let text = std::fs::read_to_string(dir.join("x_envelope.csv")).unwrap();
+        assert_eq!(
+            text.lines().next().unwrap(),
+            "omega_rad_s,force_amplitude_N,tip_amplitude_m,force_phase_rad,drive_amplitude_m"
+        );
+        assert_eq!(read_envelope(&dir.join("x_envelope.csv")).unwrap(), env);
+        let empty = MethodResult::new("e", 0.0, Envelope::default(), false);
+        write_envelope(&dir, &empty).unwrap();
+        let text = std::fs::read_to_string(dir.join("e_envelope.csv")).unwrap();
+        assert_eq!(text.trim(), "omega_rad_s,force_amplitude_N,tip_amplitude_m");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn envelope_reader_optional_columns_and_errors() {
+        // any order, other columns ignored, comments, case-insensitive names, no tip
+        let e = parse_envelope(
+            "# imposed force\nFORCE_PHASE_RAD, x, omega_rad_s, force_amplitude_n\n0.5, 9, 200, 3\n0.25, 9, 100, 1\n",
+        )
+        .unwrap();
+        assert_eq!(e.omega_rad_s, vec![200.0, 100.0]);
+        assert_eq!(e.force_phase_rad, Some(vec![0.5, 0.25]));
+        assert!(e.tip_amplitude_m.iter().all(|t| t.is_nan()));
+        let f = e.to_force_envelope().unwrap();
+        assert_eq!(f.omega_rad_s, vec![100.0, 200.0]);
+        // without the phase: read, but it cannot be imposed
+        let e = parse_envelope("omega_rad_s,force_amplitude_N\n1,2\n3,4\n").unwrap();
+        assert_eq!(e.force_phase_rad, None);
+        assert!(e.to_force_envelope().is_err());
+        assert!(matches!(
+            parse_envelope("omega_rad_s,tip_amplitude_m\n1,2\n"),
+            Err(EnvelopeCsvError::Csv(m)) if m.contains("force_amplitude_N")
+        ));
+        match parse_envelope("omega_rad_s,force_amplitude_N\n1,2\n3,abc\n") {
+            Err(EnvelopeCsvError::Row { line: 3, .. }) => {}
+            other => panic!("{other:?}"),
+        }
     }
 }

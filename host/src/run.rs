@@ -2,10 +2,9 @@
 use crate::methods;
 use crate::model::Setup;
 use crate::plot;
-use crate::results::{self, MethodResult};
-use crate::scenario::Scenario;
+use crate::results::{self, ExciterSummary, MethodResult, Summary, SweepSummary};
+use crate::scenario::{ForceSource, Method, Scenario};
 use anyhow::{Context, Result};
-use serde_json::{json, Map, Value};
 use std::path::Path;
 
 /// Read a scenario file or take the embedded default.
@@ -72,15 +71,8 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
         format!("{:.3}", s.duration_s())
     );
     let mut done: Vec<MethodResult> = Vec::new();
-    let wants = |m: &str| sc.run.methods.iter().any(|x| x == m);
-    let needs_mode = [
-        "nlmode",
-        "linear-slowflow",
-        "linear-steady",
-        "imposed-force",
-    ]
-    .iter()
-    .any(|m| wants(m));
+    let wants = |m: Method| sc.run.methods.contains(&m);
+    let needs_mode = sc.run.methods.iter().any(|m| m.needs_mode());
     let mut nma = None;
     if needs_mode {
         let (n, _) = methods::nma_table(&setup, &sc, false)?;
@@ -96,12 +88,12 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
     let mut nlmode_flow = None;
     let mut reference_env = None;
     // Dependencies first: imposed-force takes its force from nlmode or reference.
-    let mut order: Vec<&str> = sc.run.methods.iter().map(|s| s.as_str()).collect();
-    order.sort_by_key(|m| usize::from(*m == "imposed-force"));
+    let mut order: Vec<Method> = sc.run.methods.clone();
+    order.sort_by_key(|m| usize::from(*m == Method::ImposedForce));
     // The FMUs: packaged before the methods when cosim needs them.
     let mut fmus = None;
     let mut failed = FailedMethods::new();
-    if wants("cosim") || sc.output.fmus {
+    if wants(Method::Cosim) || sc.output.fmus {
         match crate::package::package(&out.join("fmus"), fmu_dir) {
             Ok(paths) => {
                 println!(
@@ -114,7 +106,7 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                 );
                 fmus = Some((paths[0].clone(), paths[1].clone()));
             }
-            Err(e) if !wants("cosim") => println!("warning: FMUs not packaged: {e:#}"),
+            Err(e) if !wants(Method::Cosim) => println!("warning: FMUs not packaged: {e:#}"),
             Err(e) => {
                 let msg = format!("cosim needs the FMUs: {e:#}");
                 println!("error: {msg}; the other methods run");
@@ -125,22 +117,26 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
     for m in order {
         let table = || &nma.as_ref().expect("mode computed").table;
         match m {
-            "linear-frf" => {
+            Method::LinearFrf => {
                 done.push(methods::linear_frf(&setup, sc.run.frf_points)?);
                 // eq:fhfhNull beside the assembled FRF (the paper's force-drop figure)
                 done.push(methods::closed_form(&setup, sc.run.frf_points)?);
             }
-            "reference" => {
+            Method::Reference => {
                 let mut bar = Progress::new("reference");
-                let (r, env) = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
+                let r = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
                 bar.finish();
+                reference_env = Some(r.envelope.clone());
                 done.push(r);
-                reference_env = Some(env);
             }
-            "nlmode" => {
+            Method::Nlmode => {
                 let model = methods::reduced_model(&setup, table(), None)?;
-                let (r, flow) =
-                    methods::slow_flow("nlmode", &setup, &model, &sc.slowflow.options("nlmode"))?;
+                let (r, flow) = methods::slow_flow(
+                    Method::Nlmode.name(),
+                    &setup,
+                    &model,
+                    &sc.slowflow.options(Method::Nlmode),
+                )?;
                 done.push(r);
                 nlmode_flow = Some(flow);
                 if has_error && sc.imposed_force.apply_to_nlmode {
@@ -149,74 +145,71 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                         "nlmode-freq-error",
                         &setup,
                         &model,
-                        &sc.slowflow.options("nlmode-freq-error"),
+                        &sc.slowflow.options(Method::Nlmode),
                     )?;
                     done.push(r);
                 }
             }
-            "linear-slowflow" => {
+            Method::LinearSlowflow => {
                 let model = methods::reduced_model(&setup, table(), None)?.linear()?;
                 done.push(
                     methods::slow_flow(
-                        "linear-slowflow",
+                        Method::LinearSlowflow.name(),
                         &setup,
                         &model,
-                        &sc.slowflow.options("linear-slowflow"),
+                        &sc.slowflow.options(Method::LinearSlowflow),
                     )?
                     .0,
                 );
             }
-            "linear-steady" => {
+            Method::LinearSteady => {
                 let model = methods::reduced_model(&setup, table(), None)?;
                 done.push(methods::linear_steady(&setup, &model, sc.run.frf_points)?);
             }
-            "imposed-force" => {
-                let envelope = match sc.imposed_force.source.as_str() {
-                    "nlmode" => {
+            Method::ImposedForce => {
+                let envelope = match &sc.imposed_force.source {
+                    ForceSource::Nlmode => {
                         let flow = match &nlmode_flow {
                             Some(f) => f.clone(),
                             None => {
                                 let model = methods::reduced_model(&setup, table(), None)?;
                                 methods::slow_flow(
-                                    "nlmode",
+                                    Method::Nlmode.name(),
                                     &setup,
                                     &model,
-                                    &sc.slowflow.options("nlmode"),
+                                    &sc.slowflow.options(Method::Nlmode),
                                 )?
                                 .1
                             }
                         };
-                        nlmode::reduced::ForceEnvelope::from_result(&flow)?
+                        nlmode::envelope::Envelope::from(&flow).to_force_envelope()?
                     }
-                    "reference" => {
+                    ForceSource::Reference => {
                         let env = match reference_env.take() {
                             Some(e) => e,
                             None => {
                                 let mut bar = Progress::new("reference (for imposed-force)");
-                                let (_, e) = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
+                                let r = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
                                 bar.finish();
-                                e
+                                r.envelope
                             }
                         };
                         // the windowed envelope lacks half a period at each end
                         let s = &setup.sweep;
-                        nlmode::reduced::ForceEnvelope::new(
-                            &env.omega_rad_s,
-                            &env.force_amplitude_n,
-                            &env.force_phase_rad,
-                        )
-                        .context("imposed_force.source = reference")?
-                        .with_held_ends(
-                            s.omega_start_rad_s.min(s.omega_end_rad_s),
-                            s.omega_start_rad_s.max(s.omega_end_rad_s),
-                        )
+                        env.to_force_envelope()
+                            .context("imposed_force.source = reference")?
+                            .with_held_ends(
+                                s.omega_start_rad_s.min(s.omega_end_rad_s),
+                                s.omega_start_rad_s.max(s.omega_end_rad_s),
+                            )
                     }
-                    path => {
-                        let text = std::fs::read_to_string(path).with_context(|| {
-                            format!("imposed_force.source: cannot read CSV file '{path}'")
-                        })?;
-                        nlmode::reduced::ForceEnvelope::from_csv(&text)
-                            .with_context(|| format!("imposed_force.source: CSV file '{path}'"))?
+                    ForceSource::Csv(path) => {
+                        let read = || -> Result<nlmode::reduced::ForceEnvelope> {
+                            Ok(results::read_envelope(path)?.to_force_envelope()?)
+                        };
+                        read().with_context(|| {
+                            format!("imposed_force.source: CSV file '{}'", path.display())
+                        })?
                     }
                 };
                 let model = nlmode::reduced::ReducedModel::imposed_force(
@@ -228,15 +221,15 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                 .with_frequency_error(error)?;
                 done.push(
                     methods::slow_flow(
-                        "imposed-force",
+                        Method::ImposedForce.name(),
                         &setup,
                         &model,
-                        &sc.slowflow.options("imposed-force"),
+                        &sc.slowflow.options(Method::ImposedForce),
                     )?
                     .0,
                 );
             }
-            "cosim" => {
+            Method::Cosim => {
                 let Some(f) = fmus.as_ref() else {
                     continue; // FMUs not packaged: recorded in `failed`
                 };
@@ -244,18 +237,51 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                 done.push(methods::cosim(&setup, &sc, f, &mut |x| bar.set(x))?);
                 bar.finish();
             }
-            other => anyhow::bail!("run.methods: unknown method '{other}'"),
         }
     }
     for r in &done {
-        for w in &r.warnings {
+        for w in &r.summary.warnings {
             println!("warning: {w}");
         }
     }
-    write_outputs(&sc, &setup, out, &done, &failed)?;
-
-    print_summary(&setup, &done);
+    let summary = summary(&sc, &setup, &done, &failed);
+    write_outputs(&sc, &setup, out, &done, &summary)?;
+    print_summary(&setup, &done, &summary);
     Ok(failed)
+}
+
+/// The typed `summary.json` of a run.
+fn summary(sc: &Scenario, setup: &Setup, done: &[MethodResult], failed: &FailedMethods) -> Summary {
+    Summary {
+        title: sc.title.clone(),
+        omega0_rad_s: setup.omega0_rad_s,
+        damping_ratio: setup.d0,
+        model_ndof: setup.model.ndof(),
+        full_ndof: setup.full_ndof,
+        exciters: setup
+            .exciter_points
+            .iter()
+            .zip(&setup.modal_masses)
+            .map(|(p, &(m, mu))| ExciterSummary {
+                point: p.clone(),
+                modal_mass_kg: m,
+                mass_ratio: mu,
+            })
+            .collect(),
+        sweep: SweepSummary {
+            voltage_v: setup.sweep.amplitude,
+            omega_start_rad_s: setup.sweep.omega_start_rad_s,
+            omega_end_rad_s: setup.sweep.omega_end_rad_s,
+            rate_rad_s2: setup.sweep.signed_rate_rad_s2(),
+            duration_s: setup.sweep.duration_s(),
+        },
+        methods: done
+            .iter()
+            .map(|r| (r.name.clone(), r.summary.clone()))
+            .collect(),
+        speedup_nlmode_over_reference: speedup(done),
+        failed_methods: failed.iter().cloned().collect(),
+    }
 }
 
 fn write_outputs(
@@ -263,45 +289,16 @@ fn write_outputs(
     setup: &Setup,
     out: &Path,
     done: &[MethodResult],
-    failed: &FailedMethods,
+    summary: &Summary,
 ) -> Result<()> {
-    let mut methods = Map::new();
     for r in done {
         results::write_envelope(out, r)?;
         if sc.output.time_series {
             results::write_time_series(out, r)?;
         }
-        methods.insert(r.name.clone(), r.summary());
-    }
-    let masses = &setup.modal_masses;
-    let mut summary = json!({
-        "title": sc.title,
-        "omega0_rad_s": setup.omega0_rad_s,
-        "damping_ratio": setup.d0,
-        "model_ndof": setup.model.ndof(),
-        "full_ndof": setup.full_ndof,
-        "exciters": setup.exciter_points.iter().zip(masses).map(|(p, (m, mu))| json!({
-            "point": p, "modal_mass_kg": m, "mass_ratio": mu})).collect::<Vec<_>>(),
-        "sweep": {
-            "voltage_v": setup.sweep.amplitude,
-            "omega_start_rad_s": setup.sweep.omega_start_rad_s,
-            "omega_end_rad_s": setup.sweep.omega_end_rad_s,
-            "rate_rad_s2": setup.sweep.signed_rate_rad_s2(),
-            "duration_s": setup.sweep.duration_s(),
-        },
-        "methods": Value::Object(methods),
-        "speedup_nlmode_over_reference": speedup(done),
-    });
-    if !failed.is_empty() {
-        summary["failed_methods"] = Value::Object(
-            failed
-                .iter()
-                .map(|(m, e)| (m.clone(), Value::String(e.clone())))
-                .collect(),
-        );
     }
     let path = out.join("summary.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&summary)?)
+    std::fs::write(&path, serde_json::to_string_pretty(summary)?)
         .with_context(|| format!("cannot write {}", path.display()))?;
     if sc.output.plots {
         let refs: Vec<&MethodResult> = done.iter().collect();
@@ -313,7 +310,7 @@ fn write_outputs(
         // The reference's time signals in grey under the envelopes, as in the paper's figures.
         let signal_cols = done
             .iter()
-            .find(|r| r.name == "reference")
+            .find(|r| r.name == Method::Reference.name())
             .and_then(|r| r.time_series.as_ref())
             .map(|ts| {
                 let col = |n: &str| {
@@ -386,15 +383,19 @@ impl Progress {
     }
 }
 
-fn speedup(done: &[MethodResult]) -> Value {
-    let t = |n: &str| done.iter().find(|r| r.name == n).map(|r| r.wall_time_s);
-    match (t("reference"), t("nlmode")) {
-        (Some(a), Some(b)) if b > 0.0 => json!(a / b),
-        _ => Value::Null,
+fn speedup(done: &[MethodResult]) -> Option<f64> {
+    let t = |m: Method| {
+        done.iter()
+            .find(|r| r.name == m.name())
+            .map(|r| r.wall_time_s())
+    };
+    match (t(Method::Reference), t(Method::Nlmode)) {
+        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+        _ => None,
     }
 }
 
-fn print_summary(setup: &Setup, done: &[MethodResult]) {
+fn print_summary(setup: &Setup, done: &[MethodResult], summary: &Summary) {
     println!();
     println!(
         "{:<18} {:>10} {:>14} {:>12} {:>12} {:>12} {:>10}",
@@ -407,25 +408,24 @@ fn print_summary(setup: &Setup, done: &[MethodResult]) {
         "drop [%]"
     );
     for r in done {
-        let s = r.summary();
-        let g = |k: &str| s.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+        let s = &summary.methods[&r.name];
+        let g = |v: Option<f64>| v.unwrap_or(f64::NAN);
         let drop = s
-            .get("force_drop")
-            .and_then(|v| v.as_f64())
+            .force_drop
             .map(|d| format!("{:.1}", 100.0 * d))
             .unwrap_or_default();
         println!(
             "{:<18} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",
             r.name,
-            r.wall_time_s,
-            1e3 * g("peak_tip_amplitude_m"),
-            g("peak_omega_rad_s") / setup.omega0_rad_s,
-            g("min_force_amplitude_N"),
-            g("max_force_amplitude_N"),
+            s.wall_time_s,
+            1e3 * g(s.peak_tip_amplitude_m),
+            g(s.peak_omega_rad_s) / setup.omega0_rad_s,
+            g(s.min_force_amplitude_n),
+            g(s.max_force_amplitude_n),
             drop
         );
     }
-    if let Some(x) = speedup(done).as_f64() {
+    if let Some(x) = summary.speedup_nlmode_over_reference {
         println!("nlmode is {x:.0} times faster than reference");
     }
 }

@@ -2,27 +2,87 @@
 //! Documented in `docs/scenario.md`; the commented default is `sweep.toml` at
 //! the repository root, embedded into the binary.
 //!
-//! Parsing rejects unknown keys (serde `deny_unknown_fields`); [`Scenario::validate`]
-//! rejects bad values with a message naming the key and the expected form.
-use serde::{Deserialize, Serialize};
+//! Every spelling (method, boundary, reduction, stinger, integrator, algorithm,
+//! force source, location) is a typed value, checked when the file is
+//! deserialized; unknown keys are rejected (serde `deny_unknown_fields`). Every
+//! number is checked by [`Scenario::validate`]. Both report a [`ScenarioError`]
+//! naming the key as the user wrote it (`exciter[1].stinger`).
+use nlmode::reference::Integrator;
+use nlmode::structure::BoundaryCondition;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::path::PathBuf;
 
-/// The default scenario (paper case (a)), embedded from `sweep.toml`.
+/// The default scenario (paper case (a)), embedded from `sweep.toml`;
+/// it deserializes to exactly [`Scenario::default`].
 pub const DEFAULT_SCENARIO: &str = include_str!("../../sweep.toml");
 
-/// All method names the host knows.
-pub const METHODS: &[&str] = &[
-    "reference",
-    "linear-frf",
-    "nlmode",
-    "linear-slowflow",
-    "linear-steady",
-    "imposed-force",
-    "cosim",
-];
+/// Title of the default scenario.
+const DEFAULT_TITLE: &str = "Paper case (a): exciter at 2l/3, 10 V, 2 % per pseudo period";
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+/// A sweep method of `host run` (`[run] methods`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Time integration of the assembled full-order model.
+    Reference,
+    /// Assembled linear frequency response (with `closed-form` beside it).
+    LinearFrf,
+    /// Slow flow of the single nonlinear modal oscillator with the shaker (`eq:NM`).
+    Nlmode,
+    /// The same with constant linear modal properties.
+    LinearSlowflow,
+    /// Its algebraic linear steady state.
+    LinearSteady,
+    /// The FMUs co-simulated by the host's master.
+    Cosim,
+    /// The modal oscillator driven by a prescribed force (paper Section 5.3).
+    ImposedForce,
+}
+
+impl Method {
+    /// Every method, in the order of the docs.
+    pub const ALL: [Method; 7] = [
+        Method::Reference,
+        Method::LinearFrf,
+        Method::Nlmode,
+        Method::LinearSlowflow,
+        Method::LinearSteady,
+        Method::ImposedForce,
+        Method::Cosim,
+    ];
+
+    /// The name in scenarios and output files (`linear-frf`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Reference => "reference",
+            Method::LinearFrf => "linear-frf",
+            Method::Nlmode => "nlmode",
+            Method::LinearSlowflow => "linear-slowflow",
+            Method::LinearSteady => "linear-steady",
+            Method::Cosim => "cosim",
+            Method::ImposedForce => "imposed-force",
+        }
+    }
+
+    /// Whether the method needs the nonlinear mode (the modal table).
+    pub fn needs_mode(self) -> bool {
+        matches!(
+            self,
+            Method::Nlmode | Method::LinearSlowflow | Method::LinearSteady | Method::ImposedForce
+        )
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
+    /// Free text (empty when omitted).
     #[serde(default)]
     pub title: String,
     #[serde(default)]
@@ -47,56 +107,182 @@ pub struct Scenario {
     pub output: OutputSpec,
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+/// The paper's case (a): every section's default, one exciter at 2l/3 and the
+/// title of `sweep.toml` (a file without `title` gets an empty one).
+impl Default for Scenario {
+    fn default() -> Self {
+        Self {
+            title: DEFAULT_TITLE.into(),
+            structure: StructureSpec::default(),
+            exciter: default_exciters(),
+            excitation: ExcitationSpec::default(),
+            nma: NmaSpec::default(),
+            run: RunSpec::default(),
+            imposed_force: ImposedForceSpec::default(),
+            slowflow: SlowFlowSpec::default(),
+            reference: ReferenceSpec::default(),
+            cosim: CosimSpec::default(),
+            output: OutputSpec::default(),
+        }
+    }
+}
+
+/// `[structure]`: what is tested. One variant per `kind`; the beam is the
+/// default. (Dispatch on `kind` lives in this type's `Deserialize`: with one
+/// kind it forwards to the beam's table so that errors keep their key paths.)
+#[derive(Debug, Clone, PartialEq)]
+pub enum StructureSpec {
+    /// `kind = "beam"`: the paper's Euler-Bernoulli beam with a cubic tip spring.
+    Beam(BeamStructureSpec),
+}
+
+impl Default for StructureSpec {
+    fn default() -> Self {
+        StructureSpec::Beam(BeamStructureSpec::default())
+    }
+}
+
+impl<'de> Deserialize<'de> for StructureSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        BeamStructureSpec::deserialize(d).map(StructureSpec::Beam)
+    }
+}
+
+impl Serialize for StructureSpec {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            StructureSpec::Beam(b) => b.serialize(s),
+        }
+    }
+}
+
+impl StructureSpec {
+    /// The beam of `kind = "beam"`.
+    pub fn beam(&self) -> &BeamStructureSpec {
+        match self {
+            StructureSpec::Beam(b) => b,
+        }
+    }
+}
+
+/// The structure kinds (`structure.kind`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StructureKind {
+    #[default]
+    Beam,
+}
+
+/// Model reduction of the structure (`structure.reduction`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Reduction {
+    /// Craig-Bampton with the tip translation as master and `cb_modes` fixed-interface modes.
+    #[default]
+    CraigBampton,
+    /// The full FE model.
+    None,
+}
+
+/// `[structure]` with `kind = "beam"`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct StructureSpec {
+pub struct BeamStructureSpec {
+    pub kind: StructureKind,
     pub length_m: f64,
     pub height_m: f64,
     pub width_m: f64,
     pub youngs_modulus_pa: f64,
     pub density_kg_m3: f64,
     pub n_nodes: usize,
-    pub boundary: String,
+    /// `clamped-free`, `clamped-clamped`, `pinned-pinned` or `clamped-pinned`.
+    pub boundary: BoundaryCondition,
     pub k3_n_per_m3: f64,
     pub damping_ratio: f64,
-    pub reduction: String,
+    pub reduction: Reduction,
     pub cb_modes: usize,
 }
 
-impl Default for StructureSpec {
+impl Default for BeamStructureSpec {
     fn default() -> Self {
         use nlmode::benchmark as b;
         Self {
+            kind: StructureKind::Beam,
             length_m: b::LENGTH_M,
             height_m: b::HEIGHT_M,
             width_m: b::WIDTH_M,
             youngs_modulus_pa: b::YOUNGS_MODULUS_PA,
             density_kg_m3: b::DENSITY_KG_M3,
             n_nodes: b::N_NODES,
-            boundary: "clamped-free".into(),
+            boundary: BoundaryCondition::ClampedFree,
             k3_n_per_m3: b::K3_N_PER_M3,
             damping_ratio: b::D0,
-            reduction: "craig-bampton".into(),
+            reduction: Reduction::CraigBampton,
             cb_modes: b::CB_MODES,
         }
     }
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+/// The exciter's stinger (`exciter[i].stinger`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StingerKind {
+    /// Elastic, `stinger_stiffness_n_per_m`.
+    #[default]
+    Elastic,
+    /// The armature attached directly.
+    Rigid,
+}
+
+/// A location along the beam as a fraction of its length, written `"l/3"`,
+/// `"2l/3"`, `"l"` or as a number (`0.5`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LengthFraction(pub f64);
+
+impl<'de> Deserialize<'de> for LengthFraction {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Number(f64),
+            Text(String),
+        }
+        let expected =
+            "a fraction of the length like \"l/3\", \"2l/3\", \"l\" or a number in (0, 1]";
+        match Raw::deserialize(d)
+            .map_err(|_| serde::de::Error::custom(format!("expected {expected}")))?
+        {
+            Raw::Number(f) => Ok(LengthFraction(f)),
+            Raw::Text(s) => parse_fraction(&s).map(LengthFraction).ok_or_else(|| {
+                serde::de::Error::custom(format!("expected {expected}, got \"{s}\""))
+            }),
+        }
+    }
+}
+
+impl Serialize for LengthFraction {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_f64(self.0)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ExciterSpec {
     pub name: String,
     /// Fraction of the length: "l/3", "2l/3", "l" or a number in (0, 1].
-    pub location: Option<toml::Value>,
+    pub location: Option<LengthFraction>,
     pub location_m: Option<f64>,
     pub inductance_h: f64,
     pub resistance_ohm: f64,
     pub force_constant_n_per_a: f64,
     pub armature_mass_kg: f64,
     pub armature_stiffness_n_per_m: f64,
+    /// `D_a` incl. electro-mechanical damping; the paper's 1.36 when neither
+    /// this nor `armature_damping_n_s_per_m` is given.
     pub armature_damping_ratio: Option<f64>,
     pub armature_damping_n_s_per_m: Option<f64>,
-    pub stinger: String,
+    pub stinger: StingerKind,
     pub stinger_stiffness_n_per_m: f64,
 }
 
@@ -114,7 +300,7 @@ impl Default for ExciterSpec {
             armature_stiffness_n_per_m: b::SHAKER_KA_N_PER_M,
             armature_damping_ratio: None,
             armature_damping_n_s_per_m: None,
-            stinger: "elastic".into(),
+            stinger: StingerKind::Elastic,
             stinger_stiffness_n_per_m: b::STINGER_KS_N_PER_M,
         }
     }
@@ -122,12 +308,11 @@ impl Default for ExciterSpec {
 
 fn default_exciters() -> Vec<ExciterSpec> {
     vec![ExciterSpec {
-        location: Some(toml::Value::String("2l/3".into())),
+        location: Some(LengthFraction(2.0 / 3.0)),
         ..Default::default()
     }]
 }
-
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ExcitationSpec {
     /// Voltage amplitude `u_hat` [V].
@@ -149,7 +334,7 @@ impl Default for ExcitationSpec {
     }
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct NmaSpec {
     pub harmonics: usize,
@@ -172,10 +357,10 @@ impl Default for NmaSpec {
     }
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RunSpec {
-    pub methods: Vec<String>,
+    pub methods: Vec<Method>,
     /// Number of excitation frequencies of `linear-frf` / `linear-steady`.
     pub frf_points: usize,
 }
@@ -184,24 +369,25 @@ impl Default for RunSpec {
     fn default() -> Self {
         Self {
             methods: vec![
-                "reference".into(),
-                "nlmode".into(),
-                "linear-slowflow".into(),
-                "linear-steady".into(),
-                "linear-frf".into(),
+                Method::Reference,
+                Method::Nlmode,
+                Method::LinearSlowflow,
+                Method::LinearSteady,
+                Method::LinearFrf,
+                Method::Cosim,
             ],
             frf_points: 500,
         }
     }
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ImposedForceSpec {
     /// Where the imposed force envelope comes from: a method of this run
-    /// (`nlmode`, `reference`) or a CSV file (columns omega_rad_s,
-    /// force_amplitude_N, optional force_phase_rad).
-    pub source: String,
+    /// (`nlmode`, `reference`) or a CSV file (columns `omega_rad_s`,
+    /// `force_amplitude_N`, `force_phase_rad`).
+    pub source: ForceSource,
     /// Relative natural-frequency error `eps`: omega(a) -> (1 + eps) omega(a).
     pub frequency_error: f64,
     /// Additive natural-frequency offset [rad/s].
@@ -213,10 +399,43 @@ pub struct ImposedForceSpec {
     pub apply_to_nlmode: bool,
 }
 
+/// Source of the imposed force envelope (`imposed_force.source`): `"nlmode"`,
+/// `"reference"` or the path of a CSV file.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(from = "String", into = "String")]
+pub enum ForceSource {
+    /// The drive-point force of `nlmode` of this run.
+    Nlmode,
+    /// The windowed force envelope of `reference` of this run.
+    Reference,
+    /// A CSV file in the `<method>_envelope.csv` format.
+    Csv(PathBuf),
+}
+
+impl From<String> for ForceSource {
+    fn from(s: String) -> Self {
+        match s.as_str() {
+            "nlmode" => ForceSource::Nlmode,
+            "reference" => ForceSource::Reference,
+            _ => ForceSource::Csv(s.into()),
+        }
+    }
+}
+
+impl From<ForceSource> for String {
+    fn from(s: ForceSource) -> Self {
+        match s {
+            ForceSource::Nlmode => "nlmode".into(),
+            ForceSource::Reference => "reference".into(),
+            ForceSource::Csv(p) => p.display().to_string(),
+        }
+    }
+}
+
 impl Default for ImposedForceSpec {
     fn default() -> Self {
         Self {
-            source: "nlmode".into(),
+            source: ForceSource::Nlmode,
             frequency_error: 0.0,
             frequency_offset_rad_s: 0.0,
             frequency_offset_omega0: 0.0,
@@ -226,7 +445,7 @@ impl Default for ImposedForceSpec {
 }
 
 /// Integration of the slow flow (`nlmode`, `linear-slowflow`, `imposed-force`).
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SlowFlowSpec {
     /// Relative tolerance of `nlmode` and `linear-slowflow`.
@@ -249,10 +468,10 @@ impl Default for SlowFlowSpec {
 }
 
 impl SlowFlowSpec {
-    /// The library options for method `name`.
-    pub fn options(&self, name: &str) -> nlmode::reduced::SlowFlowOptions {
+    /// The library options for `method`.
+    pub fn options(&self, method: Method) -> nlmode::reduced::SlowFlowOptions {
         nlmode::reduced::SlowFlowOptions {
-            rtol: if name == "imposed-force" {
+            rtol: if method == Method::ImposedForce {
                 self.imposed_force_rtol
             } else {
                 self.rtol
@@ -263,41 +482,65 @@ impl SlowFlowSpec {
     }
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ReferenceSpec {
-    /// Integrator of the full-order reference (library default when empty).
-    pub integrator: String,
+    /// Integrator of the full-order reference: `exponential` or
+    /// `dormand-prince`; the library default when omitted or `""`.
+    #[serde(deserialize_with = "integrator_or_empty")]
+    pub integrator: Option<Integrator>,
     pub rtol: f64,
     /// Output sample interval of the time series [s] (0 = a library default).
     pub output_interval_s: f64,
 }
 
+/// `""` (the library default) or an [`Integrator`] name.
+fn integrator_or_empty<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Integrator>, D::Error> {
+    let s = String::deserialize(d)?;
+    if s.is_empty() {
+        return Ok(None);
+    }
+    Integrator::deserialize(serde::de::value::StrDeserializer::<D::Error>::new(&s)).map(Some)
+}
+
 impl Default for ReferenceSpec {
     fn default() -> Self {
         Self {
-            integrator: String::new(),
+            integrator: None,
             rtol: 1e-6,
             output_interval_s: 0.0,
         }
     }
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CosimSpec {
-    /// Co-simulation master algorithm: jacobi | gauss-seidel | iterative.
-    pub algorithm: String,
+    /// Co-simulation master algorithm.
+    pub algorithm: CosimAlgorithm,
     /// Macro (communication) step [s].
     pub macro_step_s: f64,
     pub structure_fmu: Option<String>,
     pub shaker_fmu: Option<String>,
 }
 
+/// Co-simulation master algorithm (`cosim.algorithm`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CosimAlgorithm {
+    /// Both units stepped on the inputs of the last communication point.
+    #[default]
+    Jacobi,
+    /// Units stepped in sequence, each on the new outputs of the one before.
+    GaussSeidel,
+    /// Quasi-Newton iteration of the coupling with rollback.
+    Iterative,
+}
+
 impl Default for CosimSpec {
     fn default() -> Self {
         Self {
-            algorithm: "jacobi".into(),
+            algorithm: CosimAlgorithm::Jacobi,
             macro_step_s: 1e-5,
             structure_fmu: None,
             shaker_fmu: None,
@@ -305,7 +548,7 @@ impl Default for CosimSpec {
     }
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct OutputSpec {
     pub time_series: bool,
@@ -324,18 +567,22 @@ impl Default for OutputSpec {
     }
 }
 
-/// A scenario error: the key at fault and what was expected.
-#[derive(Debug, thiserror::Error)]
-#[error("{key}: {message}")]
+/// A scenario error: the key at fault as the user wrote it (`exciter[1].stinger`,
+/// `structure` for an unknown key in `[structure]`), what was expected and, for
+/// errors found while reading the file, the line.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{key}: {message}{}", line.map(|l| format!(" (line {l})")).unwrap_or_default())]
 pub struct ScenarioError {
     pub key: String,
     pub message: String,
+    pub line: Option<usize>,
 }
 
 fn bad(key: &str, message: impl Into<String>) -> ScenarioError {
     ScenarioError {
         key: key.into(),
         message: message.into(),
+        line: None,
     }
 }
 
@@ -351,10 +598,23 @@ fn positive(key: &str, v: f64) -> Result<(), ScenarioError> {
 }
 
 impl Scenario {
-    /// Parse TOML text (unknown keys are errors) and validate it.
-    pub fn parse(text: &str) -> Result<Self, String> {
-        let s: Scenario = toml::from_str(text).map_err(|e| e.to_string())?;
-        s.validate().map_err(|e| e.to_string())?;
+    /// Parse TOML text (unknown keys and unknown spellings are errors naming the
+    /// key) and validate it.
+    pub fn parse(text: &str) -> Result<Self, ScenarioError> {
+        let s: Scenario =
+            serde_path_to_error::deserialize(toml::Deserializer::new(text)).map_err(|e| {
+                let path = e.path().to_string();
+                let inner = e.into_inner();
+                let line = inner
+                    .span()
+                    .map(|sp| text[..sp.start.min(text.len())].matches('\n').count() + 1);
+                ScenarioError {
+                    key: if path == "." { "scenario".into() } else { path },
+                    message: inner.message().trim().to_string(),
+                    line,
+                }
+            })?;
+        s.validate()?;
         Ok(s)
     }
 
@@ -365,7 +625,7 @@ impl Scenario {
 
     /// Check every value; the error names the key.
     pub fn validate(&self) -> Result<(), ScenarioError> {
-        let st = &self.structure;
+        let StructureSpec::Beam(st) = &self.structure;
         positive("structure.length_m", st.length_m)?;
         positive("structure.height_m", st.height_m)?;
         positive("structure.width_m", st.width_m)?;
@@ -377,17 +637,10 @@ impl Scenario {
                 format!("expected at least 3 nodes, got {}", st.n_nodes),
             ));
         }
-        if ![
-            "clamped-free",
-            "clamped-clamped",
-            "pinned-pinned",
-            "clamped-pinned",
-        ]
-        .contains(&st.boundary.as_str())
-        {
+        if st.boundary == BoundaryCondition::FreeFree {
             return Err(bad(
                 "structure.boundary",
-                format!("expected clamped-free, clamped-clamped, pinned-pinned or clamped-pinned, got '{}'", st.boundary),
+                "expected clamped-free, clamped-clamped, pinned-pinned or clamped-pinned, got 'free-free'",
             ));
         }
         if !(st.k3_n_per_m3.is_finite() && st.k3_n_per_m3 >= 0.0) {
@@ -402,13 +655,7 @@ impl Scenario {
                 format!("expected 0 <= D0 < 1, got {}", st.damping_ratio),
             ));
         }
-        if !["craig-bampton", "none"].contains(&st.reduction.as_str()) {
-            return Err(bad(
-                "structure.reduction",
-                format!("expected 'craig-bampton' or 'none', got '{}'", st.reduction),
-            ));
-        }
-        if st.reduction == "craig-bampton" && st.cb_modes == 0 {
+        if st.reduction == Reduction::CraigBampton && st.cb_modes == 0 {
             return Err(bad(
                 "structure.cb_modes",
                 "expected at least 1 fixed-interface mode",
@@ -441,12 +688,6 @@ impl Scenario {
                     ))
                 }
                 _ => {}
-            }
-            if !["elastic", "rigid"].contains(&ex.stinger.as_str()) {
-                return Err(bad(
-                    &k("stinger"),
-                    format!("expected 'elastic' or 'rigid', got '{}'", ex.stinger),
-                ));
             }
             positive(
                 &k("stinger_stiffness_n_per_m"),
@@ -486,18 +727,11 @@ impl Scenario {
         }
         positive("nma.max_tip_amplitude_m", self.nma.max_tip_amplitude_m)?;
         if self.run.methods.is_empty() {
+            let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
             return Err(bad(
                 "run.methods",
-                format!("expected a non-empty list from {METHODS:?}"),
+                format!("expected a non-empty list from {names:?}"),
             ));
-        }
-        for (i, m) in self.run.methods.iter().enumerate() {
-            if !METHODS.contains(&m.as_str()) {
-                return Err(bad(
-                    &format!("run.methods[{i}]"),
-                    format!("unknown method '{m}', expected one of {METHODS:?}"),
-                ));
-            }
         }
         if self.run.frf_points < 2 {
             return Err(bad(
@@ -527,6 +761,14 @@ impl Scenario {
                 return Err(bad(k, format!("expected a finite number, got {v}")));
             }
         }
+        if let ForceSource::Csv(p) = &self.imposed_force.source {
+            if p.as_os_str().is_empty() {
+                return Err(bad(
+                    "imposed_force.source",
+                    "expected \"nlmode\", \"reference\" or the path of a CSV file, got \"\"",
+                ));
+            }
+        }
         for (k, v) in [
             ("slowflow.rtol", self.slowflow.rtol),
             (
@@ -554,30 +796,26 @@ impl Scenario {
             ));
         }
         positive("cosim.macro_step_s", self.cosim.macro_step_s)?;
-        if !["jacobi", "gauss-seidel", "iterative"].contains(&self.cosim.algorithm.as_str()) {
-            return Err(bad(
-                "cosim.algorithm",
-                format!(
-                    "expected jacobi, gauss-seidel or iterative, got '{}'",
-                    self.cosim.algorithm
-                ),
-            ));
-        }
         Ok(())
     }
 
     /// Location of exciter `i` along the beam [m].
     pub fn exciter_location_m(&self, i: usize) -> Result<f64, ScenarioError> {
         let ex = &self.exciter[i];
-        let l = self.structure.length_m;
+        let l = self.structure.beam().length_m;
         let key = format!("exciter[{i}].location");
-        let x = match (&ex.location, ex.location_m) {
-            (Some(_), Some(_)) => return Err(bad(&key, "give either location or location_m, not both")),
-            (None, None) => return Err(bad(&key, "missing: expected location = \"2l/3\" (fraction of l) or location_m")),
+        let x = match (ex.location, ex.location_m) {
+            (Some(_), Some(_)) => {
+                return Err(bad(&key, "give either location or location_m, not both"))
+            }
+            (None, None) => {
+                return Err(bad(
+                    &key,
+                    "missing: expected location = \"2l/3\" (fraction of l) or location_m",
+                ))
+            }
             (None, Some(x)) => x,
-            (Some(v), None) => l * parse_fraction(v).ok_or_else(|| {
-                bad(&key, format!("expected a fraction of the length like \"l/3\", \"2l/3\", \"l\" or a number in (0, 1], got {v}"))
-            })?,
+            (Some(LengthFraction(f)), None) => l * f,
         };
         if !(x.is_finite() && x > 0.0 && x <= l * (1.0 + 1e-12)) {
             return Err(bad(
@@ -589,30 +827,23 @@ impl Scenario {
     }
 }
 
-/// "l/3" -> 1/3, "2l/3" -> 2/3, "l" -> 1, 0.5 -> 0.5.
-fn parse_fraction(v: &toml::Value) -> Option<f64> {
-    match v {
-        toml::Value::Float(f) => Some(*f),
-        toml::Value::Integer(i) => Some(*i as f64),
-        toml::Value::String(s) => {
-            let s = s.replace(' ', "");
-            let (num, den) = match s.split_once('/') {
-                Some((n, d)) => (n.to_string(), d.parse::<f64>().ok()?),
-                None => (s.clone(), 1.0),
-            };
-            let num = num.strip_suffix('l').or_else(|| num.strip_suffix('L'))?;
-            let k = if num.is_empty() {
-                1.0
-            } else {
-                num.parse::<f64>().ok()?
-            };
-            if den == 0.0 {
-                return None;
-            }
-            Some(k / den)
-        }
-        _ => None,
+/// "l/3" -> 1/3, "2l/3" -> 2/3, "l" -> 1.
+fn parse_fraction(s: &str) -> Option<f64> {
+    let s = s.replace(' ', "");
+    let (num, den) = match s.split_once('/') {
+        Some((n, d)) => (n.to_string(), d.parse::<f64>().ok()?),
+        None => (s.clone(), 1.0),
+    };
+    let num = num.strip_suffix('l').or_else(|| num.strip_suffix('L'))?;
+    let k = if num.is_empty() {
+        1.0
+    } else {
+        num.parse::<f64>().ok()?
+    };
+    if den == 0.0 {
+        return None;
     }
+    Some(k / den)
 }
 
 #[cfg(test)]
@@ -632,7 +863,7 @@ mod tests {
 
     #[test]
     fn fractions() {
-        let f = |s: &str| parse_fraction(&toml::Value::String(s.into()));
+        let f = parse_fraction;
         assert_eq!(f("l/3"), Some(1.0 / 3.0));
         assert_eq!(f("2l/3"), Some(2.0 / 3.0));
         assert_eq!(f("l"), Some(1.0));
@@ -642,37 +873,114 @@ mod tests {
 
     #[test]
     fn unknown_keys_and_bad_values_name_the_key() {
-        let e = Scenario::parse("[structure]\nlenght_m = 1.0\n").unwrap_err();
+        let e = Scenario::parse("[structure]\nlenght_m = 1.0\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("lenght_m"), "{e}");
-        let e = Scenario::parse("[structure]\nlength_m = -1.0\n").unwrap_err();
+        let e = Scenario::parse("[structure]\nlength_m = -1.0\n")
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("structure.length_m") && e.contains("positive"),
             "{e}"
         );
-        let e = Scenario::parse("[[exciter]]\nlocation = \"4l/3\"\n").unwrap_err();
+        let e = Scenario::parse("[[exciter]]\nlocation = \"4l/3\"\n")
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("exciter[0].location") && e.contains("outside"),
             "{e}"
         );
-        let e = Scenario::parse("[excitation]\neta_start = 1.0\neta_end = 1.0\n").unwrap_err();
+        let e = Scenario::parse("[excitation]\neta_start = 1.0\neta_end = 1.0\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("excitation.eta_end"), "{e}");
-        let e = Scenario::parse("[excitation]\nrate_per_pseudo_period = 0.0\n").unwrap_err();
+        let e = Scenario::parse("[excitation]\nrate_per_pseudo_period = 0.0\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("rate_per_pseudo_period"), "{e}");
-        let e = Scenario::parse("[run]\nmethods = [\"magic\"]\n").unwrap_err();
+        let e = Scenario::parse("[run]\nmethods = [\"magic\"]\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("run.methods[0]") && e.contains("magic"), "{e}");
-        let e = Scenario::parse("[slowflow]\nrtol = 0.0\n").unwrap_err();
+        let e = Scenario::parse("[slowflow]\nrtol = 0.0\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("slowflow.rtol"), "{e}");
-        let e = Scenario::parse("[slowflow]\noutput_samples = 1\n").unwrap_err();
+        let e = Scenario::parse("[slowflow]\noutput_samples = 1\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("slowflow.output_samples"), "{e}");
+    }
+
+    #[test]
+    fn embedded_sweep_toml_is_the_rust_default() {
+        let parsed = Scenario::parse(DEFAULT_SCENARIO).unwrap();
+        assert_eq!(parsed, Scenario::default());
+        assert!(parsed.run.methods.contains(&Method::Cosim));
+    }
+
+    #[test]
+    fn method_names_are_the_serde_names() {
+        for m in Method::ALL {
+            let v: Method = serde::Deserialize::deserialize(serde::de::value::StrDeserializer::<
+                serde::de::value::Error,
+            >::new(m.name()))
+            .unwrap();
+            assert_eq!(v, m);
+            assert_eq!(m.to_string(), m.name());
+        }
+    }
+
+    #[test]
+    fn every_spelling_is_typed_and_names_the_key() {
+        let e = Scenario::parse("[reference]\nintegrator = \"rk4\"\n").unwrap_err();
+        assert_eq!(e.key, "reference.integrator");
+        assert!(
+            e.message.contains("rk4") && e.message.contains("dormand-prince"),
+            "{e}"
+        );
+        let s = Scenario::parse("[reference]\nintegrator = \"\"\n").unwrap();
+        assert_eq!(s.reference.integrator, None);
+        let s = Scenario::parse("[reference]\nintegrator = \"dormand-prince\"\n").unwrap();
+        assert_eq!(s.reference.integrator, Some(Integrator::DormandPrince));
+        let two = "[[exciter]]\nlocation = \"l/3\"\n[[exciter]]\nname = \"b\"\nlocation = \"2l/3\"\nstinger = \"glued\"\n";
+        let e = Scenario::parse(two).unwrap_err();
+        assert_eq!(e.key, "exciter[1].stinger");
+        assert!(
+            e.message.contains("glued") && e.message.contains("rigid"),
+            "{e}"
+        );
+        assert_eq!(e.line, Some(6), "{e}");
+        let e = Scenario::parse("[cosim]\nalgorithm = \"newton\"\n").unwrap_err();
+        assert_eq!(e.key, "cosim.algorithm");
+        let e = Scenario::parse("[structure]\nboundary = \"free-free\"\n").unwrap_err();
+        assert_eq!(e.key, "structure.boundary");
+        let e = Scenario::parse("[structure]\nboundary = \"hinged\"\n").unwrap_err();
+        assert_eq!(e.key, "structure.boundary");
+        let e = Scenario::parse("[structure]\nkind = \"matrices\"\n").unwrap_err();
+        assert_eq!(e.key, "structure.kind");
+        let e = Scenario::parse("[structure]\nreduction = \"guyan\"\n").unwrap_err();
+        assert_eq!(e.key, "structure.reduction");
+        let e = Scenario::parse("[[exciter]]\nlocation = \"x\"\n").unwrap_err();
+        assert_eq!(e.key, "exciter[0].location");
+        let e = Scenario::parse("[excitation]\nvoltage_v = -1.0\n").unwrap_err();
+        assert_eq!(e.key, "excitation.voltage_v");
+        let s = Scenario::parse("[imposed_force]\nsource = \"f.csv\"\n").unwrap();
+        assert_eq!(s.imposed_force.source, ForceSource::Csv("f.csv".into()));
+        let s = Scenario::parse("[[exciter]]\nlocation = 1\n").unwrap();
+        assert_eq!(s.exciter[0].location, Some(LengthFraction(1.0)));
     }
 
     #[test]
     fn slowflow_options_per_method() {
         let s = Scenario::parse("[slowflow]\nrtol = 3e-4\noutput_samples = 101\n").unwrap();
-        let o = s.slowflow.options("nlmode");
+        let o = s.slowflow.options(Method::Nlmode);
         assert_eq!((o.rtol, o.output_samples), (3e-4, 101));
-        assert_eq!(s.slowflow.options("imposed-force").rtol, 1e-5);
-        let d = Scenario::default_scenario().slowflow.options("nlmode");
+        assert_eq!(s.slowflow.options(Method::ImposedForce).rtol, 1e-5);
+        let d = Scenario::default_scenario()
+            .slowflow
+            .options(Method::Nlmode);
         assert_eq!(d, nlmode::reduced::SlowFlowOptions::default());
     }
 

@@ -176,6 +176,31 @@ fn bad_scenarios_give_a_clear_message_and_exit_2() {
     );
     expect_failure(&["run"], Some("[run]\nmethods = [\"magic\"]\n"), &["magic"]);
     expect_failure(
+        &["run"],
+        Some("[run]\nmethods = [\"nlmode\", \"magic\"]\n"),
+        &["run.methods[1]", "magic", "imposed-force"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[reference]\nintegrator = \"rk4\"\n"),
+        &["reference.integrator", "rk4", "dormand-prince"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[[exciter]]\nlocation = \"l/3\"\n[[exciter]]\nname = \"b\"\nlocation = \"2l/3\"\nstinger = \"glued\"\n"),
+        &["exciter[1].stinger", "glued", "line 6"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[excitation]\nvoltage_v = -1.0\n"),
+        &["excitation.voltage_v"],
+    );
+    expect_failure(
+        &["run"],
+        Some("[imposed_force]\nsource = \"/nonexistent/force.csv\"\n[run]\nmethods = [\"imposed-force\"]\n[output]\nfmus = false\n"),
+        &["imposed_force.source", "/nonexistent/force.csv"],
+    );
+    expect_failure(
         &["run", "/nonexistent/scenario.toml"],
         None,
         &["/nonexistent/scenario.toml"],
@@ -239,6 +264,37 @@ fn imposed_force_from_the_reference_and_from_nlmode_are_both_hypersensitive() {
         let csv = std::fs::read_to_string(dir.join("out/reference_envelope.csv")).unwrap();
         assert!(csv.lines().next().unwrap().contains("force_phase_rad"));
         peaks.push(pi);
+        if source == "nlmode" {
+            // the same force read back from nlmode's envelope CSV (full precision):
+            // the same imposed-force response
+            let csv = dir.join("out/nlmode_envelope.csv");
+            let toml = format!(
+                "[[exciter]]\nlocation = \"2l/3\"\n[excitation]\nvoltage_v = 5.0\n\
+                 [run]\nmethods = [\"imposed-force\"]\n\
+                 [imposed_force]\nsource = \"{}\"\nfrequency_offset_omega0 = 0.05\n\
+                 [output]\nfmus = false\nplots = false\ntime_series = false\n",
+                csv.display()
+            );
+            let p = dir.join("csv.toml");
+            std::fs::write(&p, toml).unwrap();
+            let o = host()
+                .args(["run"])
+                .arg(&p)
+                .arg("-o")
+                .arg(dir.join("out_csv"))
+                .output()
+                .unwrap();
+            assert!(
+                o.status.success(),
+                "csv: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let s = read_json(&dir.join("out_csv/summary.json"));
+            let pc = s["methods"]["imposed-force"]["peak_tip_amplitude_m"]
+                .as_f64()
+                .unwrap();
+            assert!((pc / pi - 1.0).abs() < 1e-12, "from CSV {pc} vs {pi}");
+        }
         std::fs::remove_dir_all(&dir).ok();
     }
     // the two sources give nearly the same imposed-force response

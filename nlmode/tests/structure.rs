@@ -284,7 +284,10 @@ fn bad_inputs_give_the_right_error() {
         Err(StructureError::LocationOutsideBeam { .. })
     ));
     let few = PaperStructureOptions {
-        n_nodes: 1,
+        beam: BeamSpec {
+            n_nodes: 1,
+            ..BeamSpec::paper()
+        },
         ..Default::default()
     };
     assert!(matches!(
@@ -366,7 +369,7 @@ fn paper_options_deserialise_with_defaults() {
     )
     .unwrap();
     assert_eq!(o.k3_n_per_m3, 0.0);
-    assert_eq!(o.n_nodes, 100);
+    assert_eq!(o.beam.n_nodes, 100);
     assert_eq!(o.cb_modes, Some(10));
     let p = paper_structure(&o).unwrap();
     assert_eq!(p.beam.node_at(o.points[0].1).unwrap(), 66);

@@ -26,20 +26,24 @@ pub const CUBIC_SPRING: &str = "cubic_spring";
 
 /// Options of [`paper_structure`]; `Default` is the paper. Serialisable: missing keys
 /// take the paper's values, unknown keys are rejected; `points` is a list of
-/// `[name, x_m]` pairs.
+/// `[name, x_m]` pairs. The host's beam scenarios are built through these options
+/// (geometry, material, nodes and boundary in `beam`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PaperStructureOptions {
-    /// Number of beam nodes (100).
-    pub n_nodes: usize,
-    /// Cubic spring at the tip `k3` [N/m^3] (6e9; 0 gives the linear beam).
+    /// Geometry, material, number of nodes and boundary conditions of the beam
+    /// ([`BeamSpec::paper`]: 100 nodes, clamped-free).
+    pub beam: BeamSpec,
+    /// Cubic spring at the tip `k3` [N/m^3] (6e9; 0 gives the linear beam, without
+    /// a nonlinear element).
     pub k3_n_per_m3: f64,
     /// Damping ratio of mode 1 for stiffness-proportional damping (0.004).
     pub d0: f64,
     /// Fixed-interface modes of the Craig-Bampton reduction (`Some(10)`); `None`
     /// keeps the unreduced model.
     pub cb_modes: Option<usize>,
-    /// Named points `(name, x [m])` on node translations: `tip` (l), `l3` (l/3), `2l3` (2l/3).
+    /// Named points `(name, x [m])` on node translations, in this order: `tip` (l),
+    /// `l3` (l/3), `2l3` (2l/3).
     pub points: Vec<(String, f64)>,
 }
 
@@ -47,7 +51,7 @@ impl Default for PaperStructureOptions {
     fn default() -> Self {
         let l = benchmark::LENGTH_M;
         Self {
-            n_nodes: benchmark::N_NODES,
+            beam: BeamSpec::paper(),
             k3_n_per_m3: benchmark::K3_N_PER_M3,
             d0: benchmark::D0,
             cb_modes: Some(benchmark::CB_MODES),
@@ -96,22 +100,25 @@ pub fn paper_structure(opts: &PaperStructureOptions) -> Result<PaperStructure> {
             expected: "a finite number",
         });
     }
-    let mut beam = BeamSpec {
-        n_nodes: opts.n_nodes,
-        ..BeamSpec::paper()
-    }
-    .assemble()?;
+    let mut beam = opts.beam.assemble()?;
     let l = beam.spec.length_m;
+    let tip_node = beam.n_nodes() - 1;
+    // The tip translation carries the cubic spring and is the Craig-Bampton master.
+    let tip_dof = beam
+        .translation_dof(tip_node)
+        .ok_or_else(|| StructureError::ConstrainedDof {
+            name: TIP.into(),
+            node: tip_node,
+            x_m: l,
+        })?;
     for (name, x) in &opts.points {
         beam.add_point(name, *x)?;
     }
-    let tip_node = beam.n_nodes() - 1;
-    let tip_dof = beam
-        .translation_dof(tip_node)
-        .expect("the free end's translation is a DOF");
-    let e_tip = beam.translation_vector(CUBIC_SPRING, l)?;
-    beam.model
-        .add_nonlinear(CUBIC_SPRING, e_tip, CubicSpring::new(opts.k3_n_per_m3)?)?;
+    if opts.k3_n_per_m3 != 0.0 {
+        let e_tip = beam.translation_vector(CUBIC_SPRING, l)?;
+        beam.model
+            .add_nonlinear(CUBIC_SPRING, e_tip, CubicSpring::new(opts.k3_n_per_m3)?)?;
+    }
     let modes = modal_analysis(&beam.model, 1)?;
     let omega0_rad_s = modes.omega_rad_s[0];
     let damping_beta_s =
