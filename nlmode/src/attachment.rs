@@ -52,7 +52,10 @@ use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
 mod shaker;
-pub use shaker::{ArmatureDamping, LtiSystem, ShakerParams, Stinger};
+pub use shaker::{
+    sweep_substeps, ArmatureDamping, LtiSystem, ShakerParams, ShakerStepper, Stinger,
+    MAX_PHASE_PER_SUBSTEP,
+};
 
 /// A generic linear attachment of `eq:component2`.
 #[derive(Debug, Clone)]
