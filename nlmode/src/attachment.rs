@@ -254,6 +254,18 @@ impl LinearAttachment {
         self.input_map.ncols()
     }
 
+    /// [`AttachmentError::InputCount`] unless `u` holds one amplitude per input.
+    pub(crate) fn check_input_count(&self, u: &DVector<Complex64>) -> Result<()> {
+        if u.len() != self.ninput() {
+            return Err(AttachmentError::InputCount {
+                attachment: self.name.clone(),
+                expected: self.ninput(),
+                found: u.len(),
+            });
+        }
+        Ok(())
+    }
+
     fn dim_err(&self, what: &str, expected: usize, found: usize) -> AttachmentError {
         AttachmentError::DimensionMismatch {
             attachment: self.name.clone(),
@@ -736,13 +748,7 @@ pub fn condensed_sum(
     let mut zq = DMatrix::<Complex64>::zeros(ndof, ndof);
     let mut f = DVector::<Complex64>::zeros(ndof);
     for (att, u) in attachments.iter().zip(inputs) {
-        if u.len() != att.ninput() {
-            return Err(AttachmentError::InputCount {
-                attachment: att.name.clone(),
-                expected: att.ninput(),
-                found: u.len(),
-            });
-        }
+        att.check_input_count(u)?;
         let e = to_complex(&att.interface_vectors(model)?);
         let cond = att.interface_condensation(omega_rad_s)?;
         zq += &e * &cond.z_g * e.transpose();
