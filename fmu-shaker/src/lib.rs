@@ -10,7 +10,8 @@
 //! F      = k_s (q_a - x)      (stinger force on the structure, + along + x)
 //! ```
 //!
-//! (`nlmode::attachment::ShakerParams::state_space`). The system is LTI, so
+//! (`nlmode::attachment::ShakerParams::state_space`, stepped by
+//! `nlmode::attachment::ShakerStepper`). The system is LTI, so
 //! each step is integrated exactly ([`nlmode::lti`]) with inputs linear in
 //! time: `x` is extrapolated inside the step from `x`, `v` (or the input
 //! derivatives the master gives), which removes most of the apparent damping

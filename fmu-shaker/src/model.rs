@@ -1,13 +1,16 @@
-//! The shaker model behind the FMI layer: variables, parameters, the internal
-//! sweep source, exact stepping and the FMU state.
+//! The shaker FMU's variables, parameters and FMU state, mapped onto
+//! `nlmode`: the internal voltage source is an
+//! [`nlmode::excitation::LinearSweep`], the physics and its exact stepping
+//! are [`nlmode::attachment::ShakerStepper`].
 use fmi2_export::{
     Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader,
     StateWriter, VarType as T, Variability as V, Variable,
 };
-use nalgebra::{Matrix3, Matrix3x2, Vector2, Vector3};
-use nlmode::attachment::{ArmatureDamping, ShakerParams, Stinger};
+use nalgebra::{Vector2, Vector3};
+pub use nlmode::attachment::MAX_PHASE_PER_SUBSTEP;
+use nlmode::attachment::{sweep_substeps, ArmatureDamping, ShakerParams, ShakerStepper, Stinger};
 use nlmode::benchmark as bm;
-use nlmode::lti::FohStep;
+use nlmode::excitation::{LinearSweep, SweepEnd, SweepError};
 
 /// GUID of `modelDescription/shaker/modelDescription.xml`.
 pub const GUID: &str = "{8c4d2f6e-1b7a-4e3d-9f15-2a6b0c9e7d41}";
@@ -43,12 +46,6 @@ pub const DEFAULT_OMEGA_START: f64 = 285.0;
 pub const DEFAULT_OMEGA_END: f64 = 641.0;
 pub const DEFAULT_OMEGA_RATE: f64 = 404.0;
 pub const DEFAULT_U_HAT: f64 = 10.0;
-
-/// Largest excitation-phase increment per internal sub-step [rad] when the
-/// internal sine source drives the shaker: the voltage is interpolated
-/// linearly inside a sub-step, which scales its fundamental by
-/// `1 - (W h)^2/12` (2e-4 at 0.05 rad) and adds no phase lag.
-pub const MAX_PHASE_PER_SUBSTEP: f64 = 0.05;
 
 const fn real(
     name: &'static str,
@@ -183,85 +180,6 @@ pub const VARIABLES: &[Variable] = &[
     real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s"),
 ];
 
-/// The internal voltage source `u = u_hat cos(Phi)`, `Phi' = Omega`, with
-/// `Omega` going linearly from `omega_start` towards `omega_end` at `rate`
-/// [rad/s^2] and staying at `omega_end` afterwards (`rate = 0`: a fixed
-/// sine at `omega_start`). Time `tau` counts from the experiment's start.
-/// (Not `nlmode::excitation::LinearSweep`, which has no hold phase and no
-/// zero rate.)
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SweepSource {
-    pub u_hat: f64,
-    pub omega_start: f64,
-    pub omega_end: f64,
-    pub rate: f64,
-}
-
-impl SweepSource {
-    /// Duration of the frequency ramp [s].
-    fn ramp_duration(&self) -> f64 {
-        if self.rate == 0.0 {
-            0.0
-        } else {
-            (self.omega_end - self.omega_start).abs() / self.rate
-        }
-    }
-    fn signed_rate(&self) -> f64 {
-        if self.omega_end >= self.omega_start {
-            self.rate
-        } else {
-            -self.rate
-        }
-    }
-    /// Instantaneous frequency [rad/s].
-    pub fn omega(&self, tau: f64) -> f64 {
-        if self.rate == 0.0 {
-            self.omega_start
-        } else if tau < self.ramp_duration() {
-            self.omega_start + self.signed_rate() * tau
-        } else {
-            self.omega_end
-        }
-    }
-    /// `dOmega/dt` [rad/s^2].
-    pub fn omega_rate(&self, tau: f64) -> f64 {
-        if self.rate != 0.0 && tau < self.ramp_duration() {
-            self.signed_rate()
-        } else {
-            0.0
-        }
-    }
-    /// Phase `int_0^tau Omega` [rad].
-    pub fn phase(&self, tau: f64) -> f64 {
-        if self.rate == 0.0 {
-            return self.omega_start * tau;
-        }
-        let te = self.ramp_duration();
-        let t = tau.min(te);
-        let ramp = self.omega_start * t + 0.5 * self.signed_rate() * t * t;
-        ramp + self.omega_end * (tau - t)
-    }
-    /// Voltage [V].
-    pub fn voltage(&self, tau: f64) -> f64 {
-        self.u_hat * self.phase(tau).cos()
-    }
-    /// `du/dt` [V/s].
-    pub fn voltage_rate(&self, tau: f64) -> f64 {
-        -self.u_hat * self.phase(tau).sin() * self.omega(tau)
-    }
-}
-
-/// One cached discretization (fixed-size copies of an [`FohStep`]). The shaker
-/// keeps its own small cache of stack matrices instead of
-/// `nlmode::lti::LtiFoh` (heap matrices) to stay well below 1 us per step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Disc {
-    h: f64,
-    phi: Matrix3<f64>,
-    p: Matrix3x2<f64>,
-    q: Matrix3x2<f64>,
-}
-
 /// A held input: value set at time `t_set`, first and second derivatives
 /// used to extrapolate it inside the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -287,7 +205,9 @@ impl Held {
 pub struct Shaker {
     /// Physical parameters (`L, R, G, m_a, k_a, D_a, k_s`).
     pub params: ShakerParams,
-    pub source: SweepSource,
+    /// The internal voltage source (sweep time counts from the experiment's
+    /// start; held at `Omega_end` after the sweep, a fixed sine for a zero rate).
+    pub source: LinearSweep,
     pub use_external_voltage: bool,
     /// States `[I, q_a, v_a]` (A, m, m/s).
     s: Vector3<f64>,
@@ -296,23 +216,20 @@ pub struct Shaker {
     x: Held,
     v: Held,
     u_ext: Held,
-    /// `[A, B]` of the state space once parameters are fixed.
-    ab: Option<(nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>)>,
-    cache: Vec<Disc>,
+    /// The physics once parameters are fixed.
+    stepper: Option<ShakerStepper>,
 }
-
-const CACHE_SIZE: usize = 4;
 
 impl Shaker {
     /// The modelDescription start values.
     pub fn new() -> Self {
         Self {
             params: ShakerParams::paper(),
-            source: SweepSource {
-                u_hat: DEFAULT_U_HAT,
-                omega_start: DEFAULT_OMEGA_START,
-                omega_end: DEFAULT_OMEGA_END,
-                rate: DEFAULT_OMEGA_RATE,
+            source: LinearSweep {
+                omega_start_rad_s: DEFAULT_OMEGA_START,
+                omega_end_rad_s: DEFAULT_OMEGA_END,
+                rate_rad_s2: DEFAULT_OMEGA_RATE,
+                amplitude: DEFAULT_U_HAT,
             },
             use_external_voltage: false,
             s: Vector3::zeros(),
@@ -321,8 +238,7 @@ impl Shaker {
             x: Held::new(0.0),
             v: Held::new(0.0),
             u_ext: Held::new(0.0),
-            ab: None,
-            cache: Vec::with_capacity(CACHE_SIZE),
+            stepper: None,
         }
     }
 
@@ -342,26 +258,20 @@ impl Shaker {
 
     /// Validate the parameters and build the state space (`exit_initialization_mode`).
     pub fn fix_parameters(&mut self) -> Result<(), ModelError> {
-        let src = self.source;
-        for (name, v) in [
-            ("Omega_start", src.omega_start),
-            ("Omega_end", src.omega_end),
-        ] {
-            if v.is_nan() || v < 0.0 {
-                return Err(ModelError::error(format!(
-                    "{name} must be >= 0 rad/s, got {v}"
-                )));
+        self.source.check_source().map_err(|e| match e {
+            SweepError::NegativeSourceFrequency { which, value } => {
+                let name = match which {
+                    SweepEnd::Start => "Omega_start",
+                    SweepEnd::End => "Omega_end",
+                };
+                ModelError::error(format!("{name} must be >= 0 rad/s, got {value}"))
             }
-        }
-        if src.rate.is_nan() || src.rate < 0.0 {
-            return Err(ModelError::error(format!(
-                "Omega_rate must be >= 0 rad/s2, got {}",
-                src.rate
-            )));
-        }
-        let ss = self.params.state_space()?;
-        self.ab = Some((ss.a, ss.b));
-        self.cache.clear();
+            SweepError::NegativeSourceRate(v) => {
+                ModelError::error(format!("Omega_rate must be >= 0 rad/s2, got {v}"))
+            }
+            other => other.into(),
+        })?;
+        self.stepper = Some(ShakerStepper::new(&self.params)?);
         Ok(())
     }
 
@@ -379,75 +289,45 @@ impl Shaker {
         if self.use_external_voltage {
             self.u_ext.value + self.u_ext.der1.unwrap_or(0.0) * (t - self.u_ext.t_set)
         } else {
-            self.source.voltage(t - self.t0)
+            self.source.value(t - self.t0)
         }
     }
 
-    fn disc(&mut self, h: f64) -> Result<Disc, ModelError> {
-        if let Some(d) = self.cache.iter().find(|d| d.h == h) {
-            return Ok(*d);
-        }
-        let (a, b) = self.ab.as_ref().ok_or_else(|| {
-            ModelError::error("parameters not fixed (initialization not completed)")
-        })?;
-        let f = FohStep::new(a, b, h)?;
-        let d = Disc {
-            h,
-            phi: Matrix3::from_fn(|i, j| f.phi[(i, j)]),
-            p: Matrix3x2::from_fn(|i, j| f.p[(i, j)]),
-            q: Matrix3x2::from_fn(|i, j| f.q[(i, j)]),
-        };
-        if self.cache.len() == CACHE_SIZE {
-            self.cache.remove(0);
-        }
-        self.cache.push(d);
-        Ok(d)
-    }
-
-    /// Number of sub-steps for a step `[t, t+h]`.
+    /// Number of sub-steps for a step `[t, t+h]` (the internal sweep is
+    /// followed in phase increments of at most [`MAX_PHASE_PER_SUBSTEP`]).
     fn substeps(&self, t: f64, h: f64) -> usize {
-        if self.use_external_voltage || self.source.u_hat == 0.0 {
-            return 1;
+        if self.use_external_voltage {
+            1
+        } else {
+            sweep_substeps(&self.source, t - self.t0, h)
         }
-        let w = self
-            .source
-            .omega(t - self.t0)
-            .max(self.source.omega(t + h - self.t0));
-        ((w * h / MAX_PHASE_PER_SUBSTEP).ceil() as usize).max(1)
     }
 
     /// Advance the states from `t` to `t + h` exactly for inputs linear in
     /// time inside each sub-step.
     pub fn advance(&mut self, t: f64, h: f64) -> Result<(), ModelError> {
         let n = self.substeps(t, h);
-        let hs = h / n as f64;
-        let d = self.disc(hs)?;
-        let mut u0 = Vector2::new(self.u_at(t), self.x_at(t));
-        for k in 1..=n {
-            let tk = if k == n { t + h } else { t + k as f64 * hs };
-            let u1 = Vector2::new(self.u_at(tk), self.x_at(tk));
-            self.s = d.phi * self.s + d.p * u0 + d.q * u1;
-            u0 = u1;
-        }
+        let mut stepper = self.stepper.take().ok_or_else(|| {
+            ModelError::error("parameters not fixed (initialization not completed)")
+        })?;
+        let mut s = self.s;
+        let stepped = stepper.advance(&mut s, t, h, n, |tk: f64| {
+            Vector2::new(self.u_at(tk), self.x_at(tk))
+        });
+        self.stepper = Some(stepper);
+        stepped?;
+        self.s = s;
         self.t = t + h;
         Ok(())
     }
 
     /// State derivative `[I', q_a', v_a']` at the current time.
-    fn rates(&self) -> Vector3<f64> {
-        let p = &self.params;
-        let (i, q, va) = (self.s[0], self.s[1], self.s[2]);
-        let x = self.x_at(self.t);
-        Vector3::new(
-            (self.u_at(self.t) - p.resistance_ohm * i - p.force_constant_n_per_a * va)
-                / p.inductance_h,
-            va,
-            (p.force_constant_n_per_a * i
-                - p.d_a() * va
-                - p.armature_stiffness_n_per_m * q
-                - self.k_s() * (q - x))
-                / p.armature_mass_kg,
-        )
+    fn rates(&self) -> Result<Vector3<f64>, ModelError> {
+        let (u, x) = (self.u_at(self.t), self.x_at(self.t));
+        Ok(match &self.stepper {
+            Some(st) => st.rates(&self.s, u, x),
+            None => ShakerStepper::new(&self.params)?.rates(&self.s, u, x),
+        })
     }
 
     /// Current states `[I, q_a, v_a]` (A, m, m/s).
@@ -503,10 +383,10 @@ impl CoSimModel for Shaker {
             VR_K_A => p.armature_stiffness_n_per_m,
             VR_D_A_RATIO => self.d_a_ratio(),
             VR_K_S => self.k_s(),
-            VR_U_HAT => self.source.u_hat,
-            VR_OMEGA_START => self.source.omega_start,
-            VR_OMEGA_END => self.source.omega_end,
-            VR_OMEGA_RATE => self.source.rate,
+            VR_U_HAT => self.source.amplitude,
+            VR_OMEGA_START => self.source.omega_start_rad_s,
+            VR_OMEGA_END => self.source.omega_end_rad_s,
+            VR_OMEGA_RATE => self.source.rate_rad_s2,
             VR_D_A => p.d_a(),
             VR_X => self.x.value,
             VR_V => self.v.value,
@@ -520,7 +400,7 @@ impl CoSimModel for Shaker {
                 if self.use_external_voltage {
                     0.0
                 } else {
-                    self.source.omega(self.t - self.t0)
+                    self.source.omega_rad_s(self.t - self.t0)
                 }
             }
             _ => f64::NAN, // unreachable: the layer only passes Real vrs of VARIABLES
@@ -541,10 +421,10 @@ impl CoSimModel for Shaker {
                     stiffness_n_per_m: value,
                 }
             }
-            VR_U_HAT => self.source.u_hat = value,
-            VR_OMEGA_START => self.source.omega_start = value,
-            VR_OMEGA_END => self.source.omega_end = value,
-            VR_OMEGA_RATE => self.source.rate = value,
+            VR_U_HAT => self.source.amplitude = value,
+            VR_OMEGA_START => self.source.omega_start_rad_s = value,
+            VR_OMEGA_END => self.source.omega_end_rad_s = value,
+            VR_OMEGA_RATE => self.source.rate_rad_s2 = value,
             VR_X => {
                 self.x = Held {
                     value,
@@ -623,7 +503,7 @@ impl CoSimModel for Shaker {
                 "only first-order output derivatives are available, got order {order} for value reference {vr}"
             )));
         }
-        let r = self.rates();
+        let r = self.rates()?;
         Ok(match vr {
             VR_F => self.k_s() * (r[1] - self.xdot()),
             VR_I => r[0],
@@ -633,14 +513,14 @@ impl CoSimModel for Shaker {
                 if self.use_external_voltage {
                     self.u_ext.der1.unwrap_or(0.0)
                 } else {
-                    self.source.voltage_rate(self.t - self.t0)
+                    self.source.value_rate(self.t - self.t0)
                 }
             }
             VR_OMEGA => {
                 if self.use_external_voltage {
                     0.0
                 } else {
-                    self.source.omega_rate(self.t - self.t0)
+                    self.source.omega_rate_rad_s2(self.t - self.t0)
                 }
             }
             _ => return Err(bad_vr(vr)),
@@ -676,10 +556,10 @@ impl CoSimModel for Shaker {
             p.armature_stiffness_n_per_m,
             self.d_a_ratio(),
             self.k_s(),
-            self.source.u_hat,
-            self.source.omega_start,
-            self.source.omega_end,
-            self.source.rate,
+            self.source.amplitude,
+            self.source.omega_start_rad_s,
+            self.source.omega_end_rad_s,
+            self.source.rate_rad_s2,
             self.s[0],
             self.s[1],
             self.s[2],
@@ -687,7 +567,7 @@ impl CoSimModel for Shaker {
             self.t0,
         ]);
         w.bool(self.use_external_voltage);
-        w.bool(self.ab.is_some());
+        w.bool(self.stepper.is_some());
         for h in [&self.x, &self.v, &self.u_ext] {
             w.f64(h.value);
             w.f64(h.t_set);
@@ -708,11 +588,11 @@ impl CoSimModel for Shaker {
         self.params.stinger = Stinger::Elastic {
             stiffness_n_per_m: v[6],
         };
-        self.source = SweepSource {
-            u_hat: v[7],
-            omega_start: v[8],
-            omega_end: v[9],
-            rate: v[10],
+        self.source = LinearSweep {
+            amplitude: v[7],
+            omega_start_rad_s: v[8],
+            omega_end_rad_s: v[9],
+            rate_rad_s2: v[10],
         };
         self.s = Vector3::new(v[11], v[12], v[13]);
         self.t = v[14];
@@ -727,9 +607,8 @@ impl CoSimModel for Shaker {
             h.der1 = has.then_some(d);
         }
         if !fixed {
-            self.ab = None;
-            self.cache.clear();
-        } else if self.ab.is_none() || old != self.params {
+            self.stepper = None;
+        } else if self.stepper.is_none() || old != self.params {
             self.fix_parameters()?;
         }
         Ok(())

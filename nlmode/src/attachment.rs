@@ -52,7 +52,10 @@ use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
 mod shaker;
-pub use shaker::{ArmatureDamping, LtiSystem, ShakerParams, Stinger};
+pub use shaker::{
+    sweep_substeps, ArmatureDamping, LtiSystem, ShakerParams, ShakerStepper, Stinger,
+    MAX_PHASE_PER_SUBSTEP,
+};
 
 /// A generic linear attachment of `eq:component2`.
 #[derive(Debug, Clone)]
@@ -249,6 +252,18 @@ impl LinearAttachment {
     /// Number of inputs `u` (columns of the input map).
     pub fn ninput(&self) -> usize {
         self.input_map.ncols()
+    }
+
+    /// [`AttachmentError::InputCount`] unless `u` holds one amplitude per input.
+    pub(crate) fn check_input_count(&self, u: &DVector<Complex64>) -> Result<()> {
+        if u.len() != self.ninput() {
+            return Err(AttachmentError::InputCount {
+                attachment: self.name.clone(),
+                expected: self.ninput(),
+                found: u.len(),
+            });
+        }
+        Ok(())
     }
 
     fn dim_err(&self, what: &str, expected: usize, found: usize) -> AttachmentError {
@@ -733,13 +748,7 @@ pub fn condensed_sum(
     let mut zq = DMatrix::<Complex64>::zeros(ndof, ndof);
     let mut f = DVector::<Complex64>::zeros(ndof);
     for (att, u) in attachments.iter().zip(inputs) {
-        if u.len() != att.ninput() {
-            return Err(AttachmentError::InputCount {
-                attachment: att.name.clone(),
-                expected: att.ninput(),
-                found: u.len(),
-            });
-        }
+        att.check_input_count(u)?;
         let e = to_complex(&att.interface_vectors(model)?);
         let cond = att.interface_condensation(omega_rad_s)?;
         zq += &e * &cond.z_g * e.transpose();

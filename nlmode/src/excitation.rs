@@ -19,6 +19,26 @@ pub enum SweepError {
     BadRate(f64),
     #[error("reference frequency omega0 must be positive and finite, got {0} rad/s")]
     BadOmega0(f64),
+    #[error("sweep source {which} frequency must be >= 0 rad/s, got {value}")]
+    NegativeSourceFrequency { which: SweepEnd, value: f64 },
+    #[error("sweep source rate must be >= 0 rad/s^2, got {0}")]
+    NegativeSourceRate(f64),
+}
+
+/// Which end of a sweep a value belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SweepEnd {
+    Start,
+    End,
+}
+
+impl std::fmt::Display for SweepEnd {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SweepEnd::Start => "start",
+            SweepEnd::End => "end",
+        })
+    }
 }
 
 /// A linear sine sweep from `omega_start_rad_s` to `omega_end_rad_s`; forward when
@@ -84,6 +104,24 @@ impl LinearSweep {
         )
     }
 
+    /// Accepts the sweep as a free-running source (fields set one by one, as
+    /// the shaker FMU's parameters are): frequencies `>= 0` rad/s, rate
+    /// `>= 0` rad/s^2 (`0`: a fixed sine at `omega_start_rad_s`), not NaN.
+    pub fn check_source(&self) -> Result<(), SweepError> {
+        for (which, value) in [
+            (SweepEnd::Start, self.omega_start_rad_s),
+            (SweepEnd::End, self.omega_end_rad_s),
+        ] {
+            if value.is_nan() || value < 0.0 {
+                return Err(SweepError::NegativeSourceFrequency { which, value });
+            }
+        }
+        if self.rate_rad_s2.is_nan() || self.rate_rad_s2 < 0.0 {
+            return Err(SweepError::NegativeSourceRate(self.rate_rad_s2));
+        }
+        Ok(())
+    }
+
     /// `+1` for a forward (up) sweep, `-1` for a backward one.
     pub fn direction(&self) -> f64 {
         if self.omega_end_rad_s > self.omega_start_rad_s {
@@ -91,6 +129,14 @@ impl LinearSweep {
         } else {
             -1.0
         }
+    }
+
+    /// Whether `t` lies within the frequency ramp, `rate t <= |Omega_end -
+    /// Omega_start|` (a product, not the duration's division: the slow flow
+    /// asks at every stage); always true for a zero rate.
+    #[inline]
+    fn in_ramp(&self, t_s: f64) -> bool {
+        self.rate_rad_s2 * t_s <= (self.omega_end_rad_s - self.omega_start_rad_s).abs()
     }
 
     /// Signed `dOmega/dt` [rad/s^2].
@@ -103,19 +149,46 @@ impl LinearSweep {
         (self.omega_end_rad_s - self.omega_start_rad_s).abs() / self.rate_rad_s2
     }
 
-    /// Instantaneous excitation frequency `Omega(t)` [rad/s].
+    /// Instantaneous excitation frequency `Omega(t)` [rad/s]; held at
+    /// `omega_end_rad_s` after the sweep, `omega_start_rad_s` for a zero rate.
     pub fn omega_rad_s(&self, t_s: f64) -> f64 {
-        self.omega_start_rad_s + self.signed_rate_rad_s2() * t_s
+        if self.in_ramp(t_s) {
+            // a zero rate gives Omega_start exactly
+            self.omega_start_rad_s + self.signed_rate_rad_s2() * t_s
+        } else {
+            self.omega_end_rad_s
+        }
+    }
+
+    /// `dOmega/dt` at `t` [rad/s^2]: the signed rate during the sweep, `0`
+    /// after it (and for a zero rate).
+    pub fn omega_rate_rad_s2(&self, t_s: f64) -> f64 {
+        if self.rate_rad_s2 != 0.0 && t_s < self.duration_s() {
+            self.signed_rate_rad_s2()
+        } else {
+            0.0
+        }
     }
 
     /// Phase `Phi(t) = int_0^t Omega dt` [rad].
     pub fn phase_rad(&self, t_s: f64) -> f64 {
-        self.omega_start_rad_s * t_s + 0.5 * self.signed_rate_rad_s2() * t_s * t_s
+        let ramp = |t: f64| self.omega_start_rad_s * t + 0.5 * self.signed_rate_rad_s2() * t * t;
+        if self.in_ramp(t_s) {
+            ramp(t_s)
+        } else {
+            let te = self.duration_s();
+            ramp(te) + self.omega_end_rad_s * (t_s - te)
+        }
     }
 
     /// Excitation signal `u_hat cos(Phi(t))`.
     pub fn value(&self, t_s: f64) -> f64 {
         self.amplitude * self.phase_rad(t_s).cos()
+    }
+
+    /// `d/dt` of the excitation signal, `-u_hat sin(Phi(t)) Omega(t)`.
+    pub fn value_rate(&self, t_s: f64) -> f64 {
+        -self.amplitude * self.phase_rad(t_s).sin() * self.omega_rad_s(t_s)
     }
 
     /// Time [s] at which `Omega(t)` equals `omega_rad_s`.
@@ -177,5 +250,44 @@ mod tests {
             Err(SweepError::BadRate(0.0))
         );
         assert!(LinearSweep::new(1.0, 2.0, f64::NAN, 1.0).is_err());
+    }
+
+    #[test]
+    fn source_holds_the_end_frequency_and_allows_a_fixed_sine() {
+        let s = LinearSweep::new(100.0, 300.0, 50.0, 2.0).unwrap();
+        let te = s.duration_s();
+        assert_eq!(s.omega_rad_s(te + 1.0), 300.0);
+        assert_eq!(s.omega_rate_rad_s2(te + 1.0), 0.0);
+        assert_eq!(s.omega_rate_rad_s2(0.5 * te), 50.0);
+        assert!((s.phase_rad(te + 1.0) - s.phase_rad(te) - 300.0).abs() < 1e-9);
+        let fixed = LinearSweep {
+            rate_rad_s2: 0.0,
+            ..s
+        };
+        assert_eq!(fixed.check_source(), Ok(()));
+        assert_eq!(fixed.omega_rad_s(7.0), 100.0);
+        assert_eq!(fixed.phase_rad(2.0), 200.0);
+        let h = 1e-6;
+        let du = (s.value(1.0 + h) - s.value(1.0 - h)) / (2.0 * h);
+        assert!((du - s.value_rate(1.0)).abs() < 1e-4 * s.amplitude * 300.0);
+        let bad = LinearSweep {
+            omega_end_rad_s: -1.0,
+            ..s
+        };
+        assert_eq!(
+            bad.check_source(),
+            Err(SweepError::NegativeSourceFrequency {
+                which: SweepEnd::End,
+                value: -1.0
+            })
+        );
+        let bad_rate = LinearSweep {
+            rate_rad_s2: f64::NAN,
+            ..s
+        };
+        assert!(matches!(
+            bad_rate.check_source(),
+            Err(SweepError::NegativeSourceRate(_))
+        ));
     }
 }

@@ -89,14 +89,7 @@ pub fn assembled_frf(
     }
     let mut prepared = Vec::with_capacity(attachments.len());
     for (att, u) in attachments.iter().zip(inputs) {
-        if u.len() != att.ninput() {
-            return Err(AttachmentError::InputCount {
-                attachment: att.name.clone(),
-                expected: att.ninput(),
-                found: u.len(),
-            }
-            .into());
-        }
+        att.check_input_count(u)?;
         let condenser = Condenser::new(att)?;
         let e = att.interface_vectors(model)?;
         let nc = e.ncols();

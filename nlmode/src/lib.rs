@@ -17,6 +17,7 @@
 
 pub mod attachment;
 pub mod benchmark;
+mod dopri;
 pub mod envelope;
 pub mod excitation;
 pub mod frf;

@@ -103,17 +103,72 @@ impl FohStep {
     }
 }
 
+/// A small most-recently-used cache of per-step-size data keyed by the exact
+/// step size [s] (a co-simulation master usually repeats one or two step
+/// sizes).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepCache<D> {
+    entries: Vec<(f64, D)>,
+}
+
+/// How many step sizes a [`StepCache`] keeps.
+const CACHE_SIZE: usize = 4;
+
+impl<D> Default for StepCache<D> {
+    fn default() -> Self {
+        Self {
+            entries: Vec::with_capacity(CACHE_SIZE),
+        }
+    }
+}
+
+impl<D> StepCache<D> {
+    /// The entry for step `h`, made by `make` if absent (then the least
+    /// recently used entry is dropped when full); the entry moves to the front.
+    #[inline]
+    pub fn get_or_try_insert<E>(
+        &mut self,
+        h: f64,
+        make: impl FnOnce() -> Result<D, E>,
+    ) -> Result<&D, E> {
+        if let Some(i) = self.entries.iter().position(|(hi, _)| *hi == h) {
+            if i != 0 {
+                self.entries[..=i].rotate_right(1);
+            }
+        } else {
+            let d = make()?;
+            if self.entries.len() == CACHE_SIZE {
+                self.entries.pop();
+            }
+            self.entries.insert(0, (h, d));
+        }
+        Ok(&self.entries[0].1)
+    }
+
+    /// Number of cached step sizes.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether nothing is cached.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Drop every entry.
+    pub fn clear(&mut self) {
+        self.entries.clear();
+    }
+}
+
 /// An LTI system with a small cache of discretizations keyed by the exact step
-/// size (a co-simulation master usually repeats one or two step sizes).
+/// size ([`StepCache`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct LtiFoh {
     pub a: DMatrix<f64>,
     pub b: DMatrix<f64>,
-    cache: Vec<FohStep>,
+    cache: StepCache<FohStep>,
 }
-
-/// How many step sizes are kept.
-const CACHE_SIZE: usize = 4;
 
 impl LtiFoh {
     pub fn new(a: DMatrix<f64>, b: DMatrix<f64>) -> Self {
@@ -122,25 +177,14 @@ impl LtiFoh {
         Self {
             a,
             b,
-            cache: Vec::with_capacity(CACHE_SIZE),
+            cache: StepCache::default(),
         }
     }
 
-    /// The discretization for step `h` (computed once, then cached; the most
-    /// recently used step sits first).
+    /// The discretization for step `h` (computed once, then cached).
     pub fn discretization(&mut self, h: f64) -> Result<&FohStep, LtiError> {
-        if let Some(i) = self.cache.iter().position(|s| s.h == h) {
-            if i != 0 {
-                self.cache[..=i].rotate_right(1);
-            }
-        } else {
-            let s = FohStep::new(&self.a, &self.b, h)?;
-            if self.cache.len() == CACHE_SIZE {
-                self.cache.pop();
-            }
-            self.cache.insert(0, s);
-        }
-        Ok(&self.cache[0])
+        let (a, b) = (&self.a, &self.b);
+        self.cache.get_or_try_insert(h, || FohStep::new(a, b, h))
     }
 
     /// Advance `x` by `h` with inputs going linearly from `u0` to `u1`.

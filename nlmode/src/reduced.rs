@@ -90,7 +90,6 @@ use num_complex::Complex64;
 use std::fmt::Debug;
 use std::sync::Arc;
 
-pub mod dopri;
 mod fast;
 mod imposed;
 mod output;
@@ -99,7 +98,7 @@ pub mod problems;
 mod steady;
 mod sweep;
 
-pub use dopri::IntegratorStats;
+pub use crate::dopri::IntegratorStats;
 pub use imposed::ForceEnvelope;
 pub use post::TimeSignals;
 pub use steady::{LinearSteady, SteadyFrequency, SteadyPoint};
@@ -327,7 +326,7 @@ impl ReducedModel {
     /// and as drive point (where the force is measured).
     pub fn new(table: &ModalTable, tip: &str, drive: &str) -> Result<Self, ReducedError> {
         let interp = table.interpolator()?;
-        let fast = fast::FastTable::new(&interp, &table.amplitude, table.points.len())?;
+        let fast = fast::FastTable::new(&interp);
         Ok(Self {
             fast,
             tip: interp.point_index(tip)?,

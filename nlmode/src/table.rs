@@ -282,6 +282,20 @@ impl Pchip {
         Self { y: y.to_vec(), d }
     }
 
+    /// Power-form coefficients of segment `k` (width `h`) in its local
+    /// coordinate `t in [0, 1]`: the same cubic as [`Self::eval`], written
+    /// `c0 + t (c1 + t (c2 + t c3))` with `c0` the node value exactly.
+    fn power_form(&self, k: usize, h: f64) -> [f64; 4] {
+        let (y0, y1) = (self.y[k], self.y[k + 1]);
+        let (m0, m1) = (h * self.d[k], h * self.d[k + 1]);
+        [
+            y0,
+            m0,
+            3.0 * (y1 - y0) - 2.0 * m0 - m1,
+            2.0 * (y0 - y1) + m0 + m1,
+        ]
+    }
+
     /// Value on a located segment with the precomputed Hermite weights; the
     /// same arithmetic, in the same order, as the value of [`Self::eval`].
     #[inline]
@@ -395,6 +409,37 @@ impl TableInterpolator {
     /// Harmonic truncation order `H` of the shapes.
     pub fn harmonics(&self) -> usize {
         self.harmonics
+    }
+
+    /// Number of named points.
+    pub(crate) fn point_count(&self) -> usize {
+        self.shapes.len()
+    }
+
+    /// The tabulated amplitudes (the breakpoints of every interpolant).
+    pub(crate) fn amplitudes(&self) -> &[f64] {
+        &self.amplitude
+    }
+
+    /// The interpolants of `omega`, `D` and the fundamental shape (`Re`,
+    /// `Im` at every point) in power form, per segment `k` the quantities
+    /// `[omega, D, Re phi_1(p0), Im phi_1(p0), Re phi_1(p1), ...]` at
+    /// `c[k * (2 + 2 npoints) + q]` (see [`Pchip::power_form`]): the same
+    /// cubics for the slow flow's hot loop (`reduced::fast`).
+    pub(crate) fn fundamental_power_form(&self) -> Vec<[f64; 4]> {
+        let nq = 2 + 2 * self.shapes.len();
+        let mut c = Vec::with_capacity((self.amplitude.len() - 1) * nq);
+        for (k, w) in self.amplitude.windows(2).enumerate() {
+            let h = w[1] - w[0];
+            c.push(self.omega.power_form(k, h));
+            c.push(self.damping.power_form(k, h));
+            for point in &self.shapes {
+                let (re, im) = &point[1];
+                c.push(re.power_form(k, h));
+                c.push(im.power_form(k, h));
+            }
+        }
+        c
     }
 
     /// Index of a named point.

@@ -4,12 +4,11 @@
 //! (one segment search per call, value and derivative each time). The slow
 //! flow needs `omega`, `D` and the fundamental shape at a few points at the same
 //! amplitude thousands of times per sweep, so the same piecewise cubics are
-//! converted once into power-form coefficients per segment (from four samples
-//! of the interpolant per segment, which determine a cubic exactly), and one
-//! segment search serves all quantities. The range policy is the table's:
+//! taken once in power form per segment
+//! ([`TableInterpolator::fundamental_power_form`], from the table's PCHIP
+//! slopes), and one segment search serves all quantities. The range policy is the table's:
 //! held below the first amplitude, [`TableError::AboveRange`] above the last.
 use crate::table::{TableError, TableInterpolator};
-use nalgebra::{Matrix4, Vector4};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Segment and local coordinate `t in [0, 1]` of an abscissa.
@@ -108,43 +107,13 @@ pub(crate) struct FastTable {
 }
 
 impl FastTable {
-    pub fn new(
-        table: &TableInterpolator,
-        grid: &[f64],
-        npoints: usize,
-    ) -> Result<Self, TableError> {
-        let nq = 2 + 2 * npoints;
-        let ts: [f64; 4] = [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0];
-        let v = Matrix4::from_fn(|i, j| ts[i].powi(j as i32));
-        let vinv = v
-            .try_inverse()
-            .expect("Vandermonde matrix of distinct nodes is regular");
-        let mut c = Vec::with_capacity((grid.len() - 1) * nq);
-        let mut vals = vec![[0.0; 4]; nq];
-        for k in 0..grid.len() - 1 {
-            let h = grid[k + 1] - grid[k];
-            for (i, &t) in ts.iter().enumerate() {
-                let a = if i == 3 { grid[k + 1] } else { grid[k] + t * h };
-                let p = table.eval(a)?;
-                vals[0][i] = p.omega_rad_s;
-                vals[1][i] = p.damping_ratio;
-                for pt in 0..npoints {
-                    let s = table.shape(pt, 1, a)?;
-                    vals[2 + 2 * pt][i] = s.re;
-                    vals[3 + 2 * pt][i] = s.im;
-                }
-            }
-            for q in &vals {
-                let co = vinv * Vector4::from_column_slice(q);
-                // keep the node value exact at t = 0
-                c.push([q[0], co[1], co[2], co[3]]);
-            }
+    /// The table's fundamental-harmonic interpolants in power form.
+    pub fn new(table: &TableInterpolator) -> Self {
+        Self {
+            x: Breaks::new(table.amplitudes()),
+            nq: 2 + 2 * table.point_count(),
+            c: table.fundamental_power_form(),
         }
-        Ok(Self {
-            x: Breaks::new(grid),
-            nq,
-            c,
-        })
     }
 
     #[inline(always)]
@@ -218,7 +187,7 @@ mod tests {
             truncated_at_fold: None,
         };
         let ip = t.interpolator().unwrap();
-        let f = FastTable::new(&ip, &t.amplitude, 2).unwrap();
+        let f = FastTable::new(&ip);
         let amax = *a.last().unwrap();
         let mut worst: f64 = 0.0;
         for k in 0..=5000 {

@@ -1,9 +1,9 @@
 //! Slow-flow integration of `eq:NM` along a sine sweep (`nlmode`,
 //! `linear-slowflow`, `imposed-force`).
-use super::dopri::{integrate, IntegratorStats, Stop, Tolerances};
 use super::fast::Breaks;
 use super::output::OutputStates;
 use super::{ReducedError, ReducedModel, MAX_PHI};
+use crate::dopri::{integrate, ErrorScale, IntegratorStats, Stop, Tolerances};
 use crate::excitation::LinearSweep;
 use crate::table::TableError;
 use num_complex::Complex64;
@@ -430,6 +430,7 @@ impl ReducedModel {
         let tol = Tolerances {
             rtol: opts.rtol,
             atol: [atol; 2],
+            scale: ErrorScale::Local,
             h_max: opts.max_step_fraction * duration,
             h_min: 1e-12 * duration,
             max_steps: 10_000_000,
@@ -437,11 +438,12 @@ impl ReducedModel {
         };
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
-        let rhs = |t: f64, y: &[f64; 2]| -> Result<[f64; 2], ReducedError> {
+        let rhs = |t: f64, y: &[f64; 2], dy: &mut [f64; 2]| -> Result<(), ReducedError> {
             let w = sweep.omega_rad_s(t);
             cache.eval(w, &mut ch);
             let fi = self.imposed_at(w)?;
-            self.rhs(y, w, &ch, fi, &mut phi)
+            *dy = self.rhs(y, w, &ch, fi, &mut phi)?;
+            Ok(())
         };
         let n = opts.output_samples;
         let mut ts: Vec<f64> = Vec::with_capacity(n + 1);
@@ -450,7 +452,7 @@ impl ReducedModel {
         let dt = duration / (n - 1) as f64;
         let sample_t = |j: usize| if j + 1 == n { duration } else { j as f64 * dt };
         let mut last_state = (0.0, [a0.re, a0.im]);
-        let (stats, stop) = integrate(rhs, 0.0, [a0.re, a0.im], duration, &tol, |d| {
+        let (stats, stop) = integrate(rhs, 0.0, [a0.re, a0.im], duration, &tol, |d, _| {
             let t1 = d.t0 + d.h;
             while next < n && sample_t(next) <= t1 * (1.0 + 1e-14) {
                 let t = sample_t(next).max(d.t0);
@@ -460,6 +462,7 @@ impl ReducedModel {
                 next += 1;
             }
             last_state = (t1, d.eval(t1));
+            Ok(())
         });
         if ts.is_empty() {
             ts.push(0.0);
@@ -484,7 +487,7 @@ impl ReducedModel {
                         a: Complex64::new(last_state.1[0], last_state.1[1]).norm(),
                         a_max: max,
                     },
-                    Stop::Rhs { error, .. } => return Err(error),
+                    Stop::Rhs { error, .. } | Stop::Observer { error, .. } => return Err(error),
                     Stop::StepTooSmall { h, .. } => SweepStatus::StepSizeTooSmall {
                         t_s: t_stop,
                         omega_rad_s: w,

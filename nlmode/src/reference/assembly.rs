@@ -214,6 +214,8 @@ fn point_direction<'a>(
 /// Basis of `null(B)` from the reduced row-echelon form (partial pivoting), and
 /// the rank. Free columns get unit entries, so a signed-Boolean `B` gives an
 /// exact, sparse basis.
+/// Hand-written for exactness: an SVD null space (nalgebra) would be dense
+/// and only accurate to rounding.
 fn rref_null_space(b: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
     let (rows, cols) = b.shape();
     let mut r = b.clone();

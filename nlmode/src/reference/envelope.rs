@@ -16,6 +16,9 @@
 //! the samples (`dPhi = Omega dt` is not uniform during a sweep), with the
 //! window ends interpolated linearly between samples. `Phi(t)` increases for
 //! forward and backward sweeps alike (`Omega > 0`).
+//!
+//! Hand-written for exactness: an FFT (`rustfft`) needs uniform samples in
+//! `Phi`, which a sweep sampled uniformly in time does not give.
 use num_complex::Complex64;
 
 /// Amplitudes `|X|` of `x` (sampled at phases `phase`, increasing) for windows
