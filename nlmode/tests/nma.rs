@@ -919,3 +919,181 @@ fn paper_beam_conservative_small_steps_find_the_1_to_5_loop() {
     let rd = nonlinear_modal_analysis(&ps.model, &opts_d).unwrap();
     assert!(rd.folds.is_empty(), "{:?}", rd.folds);
 }
+
+// ---------------------------------------------------------------------------
+// Continuation through internal resonances (harmonic-energy normalisation)
+// ---------------------------------------------------------------------------
+
+/// The loops of a branch: (internal resonance, index of the amplitude maximum,
+/// index of the following amplitude minimum).
+fn loops(r: &NmaResult) -> Vec<(InternalResonance, usize, usize)> {
+    let mut out = vec![];
+    for (i, f) in r.folds.iter().enumerate() {
+        if let Some(ir) = f.internal_resonance {
+            let min = r.folds[i + 1..]
+                .iter()
+                .find(|g| g.kind == FoldKind::AmplitudeMinimum)
+                .map(|g| g.index)
+                .unwrap_or(r.branch.len() - 1);
+            out.push((ir, f.index, min));
+        }
+    }
+    out
+}
+
+/// Every loop: `|q_tip,1|` has a local maximum and then dips below 20 % of it,
+/// at the frequency where `n omega` meets the participating mode's (hardened)
+/// frequency.
+fn check_loop(r: &NmaResult, lin: &[f64], ir: &InternalResonance, start: usize, end: usize) {
+    let tip = r.point_fundamental_amplitude("tip").unwrap();
+    let peak = tip[start.saturating_sub(2)..=(start + 2).min(tip.len() - 1)]
+        .iter()
+        .cloned()
+        .fold(0.0, f64::max);
+    let dip = tip[start..=end]
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min);
+    assert!(dip < 0.2 * peak, "{ir}: dip {dip:e}, peak {peak:e}");
+    let ratio = ir.harmonic as f64 * ir.omega_rad_s / lin[ir.mode_index];
+    assert!(
+        ratio > 1.0 && ratio < 1.1,
+        "{ir}: n omega / omega_k = {ratio}"
+    );
+}
+
+#[test]
+fn conservative_paper_backbone_passes_the_internal_resonance_loops() {
+    let ps = paper_beam();
+    let lin = modal_analysis(&ps.model, 4).unwrap().omega_rad_s;
+    let opts = BackboneOptions::default().nma_options(true);
+    let r = nonlinear_modal_analysis(&ps.model, &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    let last = r.branch.last().unwrap();
+    assert!(last.omega_rad_s >= 2.7 * r.linear_omega_rad_s);
+    let l = loops(&r);
+    let found: Vec<(usize, usize)> = l
+        .iter()
+        .map(|(ir, _, _)| (ir.harmonic, ir.mode_index))
+        .collect();
+    // the paper's figure: 1:5 with mode 2, 1:9 with mode 3, 1:3 with mode 2
+    assert_eq!(&found[..3], &[(5, 1), (9, 2), (3, 1)], "{found:?}");
+    for (ir, s, e) in &l[..3] {
+        check_loop(&r, &lin, ir, *s, *e);
+        assert_eq!(
+            ir.to_string().split(" (").next().unwrap(),
+            format!("1:{} with mode {}", ir.harmonic, ir.mode_index + 1)
+        );
+    }
+    assert!(r.branch.iter().all(|b| b.damping_ratio.abs() < 1e-8));
+    // consecutive points never jump in frequency (no loop stepped over)
+    let dmax = r
+        .branch
+        .windows(2)
+        .map(|w| (w[1].omega_rad_s - w[0].omega_rad_s).abs() / r.linear_omega_rad_s)
+        .fold(0.0, f64::max);
+    assert!(dmax < 0.03, "{dmax}");
+}
+
+#[test]
+fn damped_paper_backbone_keeps_only_the_1_3_loop_and_traces_it_back() {
+    let ps = paper_beam();
+    let lin = modal_analysis(&ps.model, 4).unwrap().omega_rad_s;
+    let opts = BackboneOptions::default().nma_options(false);
+    let r = nonlinear_modal_analysis(&ps.model, &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    let l = loops(&r);
+    assert_eq!(l.len(), 1, "{:?}", r.folds);
+    let (ir, s, e) = &l[0];
+    assert_eq!((ir.harmonic, ir.mode_index), (3, 1));
+    // traced to its amplitude minimum and back: the amplitude rises after it
+    assert!(*e < r.branch.len() - 1);
+    let a_min = r.branch[*e].amplitude;
+    assert!(r.branch[e + 1..].iter().any(|b| b.amplitude > 2.0 * a_min));
+    assert!(r.branch.last().unwrap().omega_rad_s >= 2.7 * r.linear_omega_rad_s);
+    let ratio = ir.harmonic as f64 * ir.omega_rad_s / lin[ir.mode_index];
+    assert!(ratio > 1.0 && ratio < 1.1, "{ir}: {ratio}");
+    let _ = s;
+    // the primary-branch table policy is unchanged: it ends at the first fold
+    let t = r.to_table(TablePolicy::PrimaryBranch);
+    assert_eq!(t.truncated_at_fold, Some(r.first_fold().unwrap().amplitude));
+}
+
+#[test]
+fn two_dof_1_3_internal_resonance_loop_agrees_with_direct_hb_solves() {
+    use nlmode::nma::problems::two_dof_internal_resonance;
+    // omega_2 = 3.3 omega_1: the hardening mode 1 meets 3 omega = omega_2(a)
+    // at omega ~ 1.106 rad/s (an exact 3:1 ratio is degenerate at a -> 0: the
+    // third harmonic of mode 2 is then undetermined in the linear limit)
+    let model = two_dof_internal_resonance(3.3, 1.0);
+    let mut opts = NmaOptions {
+        harmonics: 5,
+        conservative: true,
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -3.0,
+            log10_end: 0.5,
+        },
+        normalisation: Normalisation::HarmonicEnergy,
+        ..Default::default()
+    };
+    let b = BackboneOptions::default().nma_options(true).continuation;
+    opts.continuation = ContinuationOptions {
+        tolerance: 1e-12,
+        ..b
+    };
+    let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    assert_eq!(r.stop, Some(StopReason::ReachedEnd));
+    let l = loops(&r);
+    assert_eq!(l.len(), 1, "{:?}", r.folds);
+    let (ir, s, e) = &l[0];
+    assert_eq!((ir.harmonic, ir.mode_index), (3, 1), "{ir}");
+    assert!(
+        ir.min_fundamental_share < 1e-2 && ir.max_share > 0.99,
+        "{ir}"
+    );
+    assert!((3.0 * ir.omega_rad_s / 3.3 - 1.0).abs() < 0.02, "{ir}");
+    let x1 = r.point_fundamental_amplitude("x1").unwrap();
+    assert!(x1[*s..=*e].iter().cloned().fold(f64::INFINITY, f64::min) < 0.2 * x1[*s]);
+    // direct HB solves (paper normalisation, fixed a) at every 7th point
+    let basis = Arc::new(ModalBasis::new(&model, true).unwrap());
+    let fixed = NmaOptions {
+        normalisation: Normalisation::Fundamental,
+        continuation: ContinuationOptions {
+            tolerance: 1e-12,
+            max_iterations: 30,
+            ..Default::default()
+        },
+        ..opts.clone()
+    };
+    let mut checked = 0;
+    for b in r.branch.iter().step_by(7) {
+        let d = solve_at_amplitude(&model, basis.clone(), &fixed, b.amplitude, b).unwrap();
+        assert!(
+            (d.omega_rad_s / b.omega_rad_s - 1.0).abs() < 1e-9,
+            "a {}: {} {}",
+            b.amplitude,
+            d.omega_rad_s,
+            b.omega_rad_s
+        );
+        let scale = b
+            .coordinates
+            .iter()
+            .flatten()
+            .map(|c| c.norm())
+            .fold(0.0, f64::max);
+        for (pd, pb) in d
+            .coordinates
+            .iter()
+            .flatten()
+            .zip(b.coordinates.iter().flatten())
+        {
+            assert!(
+                (pd - pb).norm() < 1e-9 * scale,
+                "a {}: {pd} {pb}",
+                b.amplitude
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked > 20, "{checked}");
+}

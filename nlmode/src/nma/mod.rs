@@ -90,3 +90,4 @@ pub mod problems;
 
 pub use continuation::{ContinuationOptions, StopReason};
 pub use driver::*;
+pub use epmc::Normalisation;
