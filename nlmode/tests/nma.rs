@@ -1097,3 +1097,106 @@ fn two_dof_1_3_internal_resonance_loop_agrees_with_direct_hb_solves() {
     }
     assert!(checked > 20, "{checked}");
 }
+
+#[test]
+fn refined_table_meets_its_stated_accuracy_against_fresh_hb_solves() {
+    let ps = paper_beam();
+    let opts = NmaOptions::default();
+    let basis = Arc::new(ModalBasis::new(&ps.model, false).unwrap());
+    let r = nonlinear_modal_analysis_with_basis(&ps.model, basis.clone(), &opts).unwrap();
+    let coarse = r.to_table(TablePolicy::PrimaryBranch);
+    let t0 = std::time::Instant::now();
+    let t = r
+        .refined_table(
+            &ps.model,
+            basis.clone(),
+            &opts,
+            TablePolicy::PrimaryBranch,
+            &RefineOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    let acc = t.accuracy.clone().unwrap();
+    println!(
+        "coarse {} points, refined {} points, {} checks, {:?}, {:?}",
+        coarse.amplitude.len(),
+        t.amplitude.len(),
+        acc.checks,
+        acc,
+        t0.elapsed()
+    );
+    assert!(!acc.capped);
+    assert!(
+        acc.omega_rel <= 1e-5 && acc.damping_rel <= 1e-4 && acc.shape_rel <= 1e-4,
+        "{acc:?}"
+    );
+    assert_eq!(t.truncated_at_fold, coarse.truncated_at_fold);
+    assert!(t.description.contains("refined"));
+    // the file format keeps the accuracy; old files without it still load
+    let back = ModalTable::from_json(&t.to_json()).unwrap();
+    assert_eq!(back.accuracy, t.accuracy);
+    let old = ModalTable::from_json(&coarse.to_json().replace(",\"accuracy\":null", "")).unwrap();
+    assert_eq!(old.accuracy, None);
+    // 50 pseudo-random amplitudes over the tabulated range: fresh HB solves
+    let interp = t.interpolator().unwrap();
+    let (a0, a1) = interp.amplitude_range();
+    let u = pseudo_random(50, 7);
+    let fixed = NmaOptions {
+        points: r.point_names.clone(),
+        ..opts.clone()
+    };
+    let mut worst = (0.0f64, 0.0f64, 0.0f64);
+    for k in 0..50 {
+        let a = a0 * (a1 / a0).powf(u[k] + 0.5);
+        let j = t
+            .amplitude
+            .partition_point(|&x| x < a)
+            .clamp(1, t.amplitude.len() - 1);
+        // guess: the refined table's nearest node
+        let j = if a - t.amplitude[j - 1] < t.amplitude[j] - a {
+            j - 1
+        } else {
+            j
+        };
+        let guess = BranchPoint {
+            amplitude: t.amplitude[j],
+            omega_rad_s: t.omega_rad_s[j],
+            damping_ratio: t.damping_ratio[j],
+            coordinates: t
+                .coordinates
+                .iter()
+                .map(|c| {
+                    c.re[j]
+                        .iter()
+                        .zip(&c.im[j])
+                        .map(|(&re, &im)| nlmode::Complex64::new(re, im))
+                        .collect()
+                })
+                .collect(),
+            ..r.branch[0].clone()
+        };
+        let sol = solve_at_amplitude(&ps.model, basis.clone(), &fixed, a, &guess)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let e = table_errors(&interp, &sol).unwrap();
+        worst = (worst.0.max(e.0), worst.1.max(e.1), worst.2.max(e.2));
+    }
+    println!("50 random amplitudes: {worst:?}");
+    assert!(
+        worst.0 <= 1e-5 && worst.1 <= 1e-4 && worst.2 <= 1e-4,
+        "{worst:?}"
+    );
+    // the converged values of the issue (H = 13, damped)
+    for (a, w, d) in [(1e-3, 429.3106, 3.3854e-3), (2.5e-3, 641.2458, 4.9818e-3)] {
+        let p = interp.eval(a).unwrap();
+        println!("a = {a}: omega {} D {}", p.omega_rad_s, p.damping_ratio);
+        assert!(
+            (p.omega_rad_s - w).abs() < 1e-4 * 1.0 + 1e-5 * w,
+            "{}",
+            p.omega_rad_s
+        );
+        assert!(
+            (p.damping_ratio / d - 1.0).abs() < 2e-4,
+            "{}",
+            p.damping_ratio
+        );
+    }
+}

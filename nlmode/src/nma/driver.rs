@@ -6,7 +6,7 @@ use super::continuation::{
 };
 use super::epmc::{EpmcResidual, ForcedResidual, ModalBasis, Normalisation};
 use super::hb::default_samples;
-use super::{ModalTable, PointShape, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
+use super::{ModalTable, PointShape, TableAccuracy, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
 use crate::structure::StructuralModel;
 use crate::Complex64;
 use nalgebra::DVector;
@@ -75,6 +75,16 @@ pub enum NmaError {
     },
     #[error("measured modal data, line {line}: {message}")]
     MeasuredData { line: usize, message: String },
+    #[error("table refinement needs the branch's generalized-coordinate shapes (NmaOptions::store_coordinates = true)")]
+    RefinementNeedsCoordinates,
+    #[error("table refinement: HB solve at a = {amplitude:e} failed (residual norm {residual_norm:e} after {iterations} iterations)")]
+    RefinementSolveFailed {
+        amplitude: f64,
+        residual_norm: f64,
+        iterations: usize,
+    },
+    #[error("table refinement: {0}")]
+    Table(String),
 }
 
 impl NmaError {
@@ -460,15 +470,26 @@ impl NmaResult {
     /// every stored point and of all generalized coordinates (if stored).
     pub fn to_table(&self, policy: TablePolicy) -> ModalTable {
         let (idx, truncated) = self.table_indices(policy);
+        let pts: Vec<&BranchPoint> = idx.iter().map(|&i| &self.branch[i]).collect();
+        self.table_of(&pts, truncated, policy)
+    }
+
+    /// The table of the points `pts` (strictly increasing `a`).
+    fn table_of(
+        &self,
+        pts: &[&BranchPoint],
+        truncated: Option<f64>,
+        policy: TablePolicy,
+    ) -> ModalTable {
         let shape = |name: String, get: &dyn Fn(&BranchPoint) -> &Vec<Complex64>| PointShape {
             name,
-            re: idx
+            re: pts
                 .iter()
-                .map(|&i| get(&self.branch[i]).iter().map(|c| c.re).collect())
+                .map(|b| get(b).iter().map(|c| c.re).collect())
                 .collect(),
-            im: idx
+            im: pts
                 .iter()
-                .map(|&i| get(&self.branch[i]).iter().map(|c| c.im).collect())
+                .map(|b| get(b).iter().map(|c| c.im).collect())
                 .collect(),
         };
         let points = (0..self.point_names.len())
@@ -490,7 +511,7 @@ impl NmaResult {
             if self.conservative { "conservative" } else { "damped" },
             self.linear_omega_rad_s,
             self.linear_damping_ratio,
-            idx.len(),
+            pts.len(),
             self.branch.len()
         );
         if let Some(a) = truncated {
@@ -506,13 +527,218 @@ impl NmaResult {
             version: MODAL_TABLE_VERSION,
             description,
             harmonics: self.harmonics,
-            amplitude: idx.iter().map(|&i| self.branch[i].amplitude).collect(),
-            omega_rad_s: idx.iter().map(|&i| self.branch[i].omega_rad_s).collect(),
-            damping_ratio: idx.iter().map(|&i| self.branch[i].damping_ratio).collect(),
+            amplitude: pts.iter().map(|b| b.amplitude).collect(),
+            omega_rad_s: pts.iter().map(|b| b.omega_rad_s).collect(),
+            damping_ratio: pts.iter().map(|b| b.damping_ratio).collect(),
             points,
             coordinates,
             truncated_at_fold: truncated,
+            accuracy: None,
         }
+    }
+}
+
+/// Targets of [`NmaResult::refined_table`] (serialisable; missing keys take
+/// the defaults): `omega_rel = 1e-5`, `rel = 1e-4` (damping ratio and point
+/// shapes), `max_points = 400` (the cap on table points).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RefineOptions {
+    /// Relative accuracy target of `omega(a)`.
+    pub omega_rel: f64,
+    /// Relative accuracy target of `D(a)` and of the point shapes.
+    pub rel: f64,
+    /// Largest number of table points; refinement stops there (recorded as
+    /// [`TableAccuracy::capped`]).
+    pub max_points: usize,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        Self {
+            omega_rel: 1e-5,
+            rel: 1e-4,
+            max_points: 400,
+        }
+    }
+}
+
+/// PCHIP errors of `interp` at `a` against the HB solution `sol`: relative
+/// `omega`, relative `D` (against `max(|D|, 1e-10)`), largest point-shape
+/// error relative to the point's largest harmonic.
+pub fn table_errors(
+    interp: &crate::table::TableInterpolator,
+    sol: &BranchPoint,
+) -> Result<(f64, f64, f64), crate::table::TableError> {
+    let a = sol.amplitude;
+    let p = interp.eval(a)?;
+    let e_w = (p.omega_rad_s / sol.omega_rad_s - 1.0).abs();
+    let e_d = (p.damping_ratio - sol.damping_ratio).abs() / sol.damping_ratio.abs().max(1e-10);
+    let mut e_s: f64 = 0.0;
+    let mut buf = vec![Complex64::new(0.0, 0.0); interp.harmonics() + 1];
+    for (k, shape) in sol.points.iter().enumerate() {
+        interp.shape_all(k, a, &mut buf)?;
+        let scale = shape
+            .iter()
+            .map(|c| c.norm())
+            .fold(0.0, f64::max)
+            .max(1e-300);
+        for (x, y) in buf.iter().zip(shape) {
+            e_s = e_s.max((x - y).norm() / scale);
+        }
+    }
+    Ok((e_w, e_d, e_s))
+}
+
+impl NmaResult {
+    /// The modal table under `policy`, refined to a stated accuracy: the PCHIP
+    /// interpolation is compared with fresh Harmonic Balance solves
+    /// ([`solve_at_amplitude`], paper normalisation) at the midpoint of every
+    /// interval, and each solve that misses a target is inserted, until
+    /// `omega` is within `refine.omega_rel / 2` and `D` and the shapes within
+    /// `refine.rel / 2` at every midpoint (half the target: the midpoint error
+    /// underestimates the largest error of an interval), or the table has
+    /// `refine.max_points`.
+    /// Intervals whose PCHIP slopes change by an insertion are checked again,
+    /// so [`ModalTable::accuracy`] holds the midpoint errors of the final table.
+    ///
+    /// `model`, `basis` and `opts` are those of the analysis; the branch must
+    /// have been computed with `store_coordinates` (the Newton guesses).
+    pub fn refined_table(
+        &self,
+        model: &StructuralModel,
+        basis: Arc<ModalBasis>,
+        opts: &NmaOptions,
+        policy: TablePolicy,
+        refine: &RefineOptions,
+    ) -> Result<ModalTable, NmaError> {
+        let (idx, truncated) = self.table_indices(policy);
+        let mut pts: Vec<BranchPoint> = idx.iter().map(|&i| self.branch[i].clone()).collect();
+        if pts.iter().any(|b| b.coordinates.is_empty()) {
+            return Err(NmaError::RefinementNeedsCoordinates);
+        }
+        let fixed = NmaOptions {
+            normalisation: Normalisation::Fundamental,
+            store_coordinates: true,
+            points: self.point_names.clone(),
+            ..opts.clone()
+        };
+        let n_int = pts.len().saturating_sub(1);
+        // per interval: checked against the current table, and its errors
+        let mut checked = vec![false; n_int];
+        let mut errors = vec![(0.0, 0.0, 0.0); n_int];
+        let mut checks = 0;
+        let mut capped = false;
+        loop {
+            let refs: Vec<&BranchPoint> = pts.iter().collect();
+            let table = self.table_of(&refs, truncated, policy);
+            let interp = table
+                .interpolator()
+                .map_err(|e| NmaError::Table(e.to_string()))?;
+            let mut next: Vec<BranchPoint> = Vec::with_capacity(2 * pts.len());
+            let mut next_checked = Vec::new();
+            let mut next_errors = Vec::new();
+            let mut inserted = Vec::new();
+            for i in 0..pts.len().saturating_sub(1) {
+                next.push(pts[i].clone());
+                if checked[i] {
+                    next_checked.push(true);
+                    next_errors.push(errors[i]);
+                    continue;
+                }
+                let (p, q) = (&pts[i], &pts[i + 1]);
+                let am = 0.5 * (p.amplitude + q.amplitude);
+                let guess = BranchPoint {
+                    omega_rad_s: 0.5 * (p.omega_rad_s + q.omega_rad_s),
+                    damping_ratio: 0.5 * (p.damping_ratio + q.damping_ratio),
+                    coordinates: p
+                        .coordinates
+                        .iter()
+                        .zip(&q.coordinates)
+                        .map(|(u, v)| u.iter().zip(v).map(|(x, y)| 0.5 * (x + y)).collect())
+                        .collect(),
+                    ..p.clone()
+                };
+                // Newton from the blended neighbours, else from either one
+                // (near the fold ending the primary branch `omega(a)` is steep)
+                let sol = solve_at_amplitude(model, basis.clone(), &fixed, am, &guess)
+                    .or_else(|_| solve_at_amplitude(model, basis.clone(), &fixed, am, q))
+                    .or_else(|_| solve_at_amplitude(model, basis.clone(), &fixed, am, p))
+                    .map_err(|e| match e {
+                        NmaError::StartNotConverged {
+                            residual_norm,
+                            iterations,
+                            ..
+                        } => NmaError::RefinementSolveFailed {
+                            amplitude: am,
+                            residual_norm,
+                            iterations,
+                        },
+                        other => other,
+                    })?;
+                checks += 1;
+                let err =
+                    table_errors(&interp, &sol).map_err(|e| NmaError::Table(e.to_string()))?;
+                // the midpoint error underestimates an interval's largest
+                // error (PCHIP's error is not symmetric): ask half the target
+                let good = err.0 <= 0.5 * refine.omega_rel
+                    && err.1 <= 0.5 * refine.rel
+                    && err.2 <= 0.5 * refine.rel;
+                if good || pts.len() + inserted.len() >= refine.max_points {
+                    capped |= !good;
+                    next_checked.push(true);
+                    next_errors.push(err);
+                } else {
+                    inserted.push(next.len());
+                    next.push(sol);
+                    next_checked.extend([false, false]);
+                    next_errors.extend([err, err]);
+                }
+            }
+            if let Some(last) = pts.last() {
+                next.push(last.clone());
+            }
+            if inserted.is_empty() {
+                errors = next_errors;
+                break;
+            }
+            // PCHIP slopes at the nodes next to an insertion change: check the
+            // neighbouring intervals again
+            for &node in &inserted {
+                if node >= 2 {
+                    next_checked[node - 2] = false;
+                }
+                if node + 1 < next_checked.len() {
+                    next_checked[node + 1] = false;
+                }
+            }
+            pts = next;
+            checked = next_checked;
+            errors = next_errors;
+        }
+        let refs: Vec<&BranchPoint> = pts.iter().collect();
+        let mut table = self.table_of(&refs, truncated, policy);
+        let worst = errors.iter().fold((0.0f64, 0.0f64, 0.0f64), |w, e| {
+            (w.0.max(e.0), w.1.max(e.1), w.2.max(e.2))
+        });
+        table.description += &format!(
+            "; refined to {} points: PCHIP vs HB at every interval midpoint within omega {:.1e}, D {:.1e}, shapes {:.1e} (relative){}",
+            pts.len(),
+            worst.0,
+            worst.1,
+            worst.2,
+            if capped { ", capped" } else { "" }
+        );
+        table.accuracy = Some(TableAccuracy {
+            omega_rel: worst.0,
+            damping_rel: worst.1,
+            shape_rel: worst.2,
+            target_omega_rel: refine.omega_rel,
+            target_rel: refine.rel,
+            checks,
+            capped,
+        });
+        Ok(table)
     }
 }
 
@@ -1296,6 +1522,7 @@ pub fn table_from_measured_csv(text: &str, point_name: &str) -> Result<ModalTabl
         }],
         coordinates: vec![],
         truncated_at_fold: None,
+        accuracy: None,
     };
     for (ln, line) in lines {
         let vals: Vec<&str> = line.split(',').map(|v| v.trim()).collect();
