@@ -58,6 +58,7 @@ fn paper_like_table() -> ModalTable {
         amplitude,
         coordinates: vec![],
         truncated_at_fold: None,
+        accuracy: None,
     }
 }
 

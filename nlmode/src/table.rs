@@ -103,6 +103,7 @@ impl ModalTable {
             points,
             coordinates: Vec::new(),
             truncated_at_fold: None,
+            accuracy: None,
         }
     }
 
@@ -598,6 +599,7 @@ mod tests {
             }],
             coordinates: vec![],
             truncated_at_fold: Some(0.5),
+            accuracy: None,
         }
     }
 

@@ -919,3 +919,284 @@ fn paper_beam_conservative_small_steps_find_the_1_to_5_loop() {
     let rd = nonlinear_modal_analysis(&ps.model, &opts_d).unwrap();
     assert!(rd.folds.is_empty(), "{:?}", rd.folds);
 }
+
+// ---------------------------------------------------------------------------
+// Continuation through internal resonances (harmonic-energy normalisation)
+// ---------------------------------------------------------------------------
+
+/// The loops of a branch: (internal resonance, index of the amplitude maximum,
+/// index of the following amplitude minimum).
+fn loops(r: &NmaResult) -> Vec<(InternalResonance, usize, usize)> {
+    let mut out = vec![];
+    for (i, f) in r.folds.iter().enumerate() {
+        if let Some(ir) = f.internal_resonance {
+            let min = r.folds[i + 1..]
+                .iter()
+                .find(|g| g.kind == FoldKind::AmplitudeMinimum)
+                .map(|g| g.index)
+                .unwrap_or(r.branch.len() - 1);
+            out.push((ir, f.index, min));
+        }
+    }
+    out
+}
+
+/// Every loop: `|q_tip,1|` has a local maximum and then dips below 20 % of it,
+/// at the frequency where `n omega` meets the participating mode's (hardened)
+/// frequency.
+fn check_loop(r: &NmaResult, lin: &[f64], ir: &InternalResonance, start: usize, end: usize) {
+    let tip = r.point_fundamental_amplitude("tip").unwrap();
+    let peak = tip[start.saturating_sub(2)..=(start + 2).min(tip.len() - 1)]
+        .iter()
+        .cloned()
+        .fold(0.0, f64::max);
+    let dip = tip[start..=end]
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min);
+    assert!(dip < 0.2 * peak, "{ir}: dip {dip:e}, peak {peak:e}");
+    let ratio = ir.harmonic as f64 * ir.omega_rad_s / lin[ir.mode_index];
+    assert!(
+        ratio > 1.0 && ratio < 1.1,
+        "{ir}: n omega / omega_k = {ratio}"
+    );
+}
+
+#[test]
+fn conservative_paper_backbone_passes_the_internal_resonance_loops() {
+    let ps = paper_beam();
+    let lin = modal_analysis(&ps.model, 4).unwrap().omega_rad_s;
+    let opts = BackboneOptions::default().nma_options(true);
+    let r = nonlinear_modal_analysis(&ps.model, &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    let last = r.branch.last().unwrap();
+    assert!(last.omega_rad_s >= 2.7 * r.linear_omega_rad_s);
+    let l = loops(&r);
+    let found: Vec<(usize, usize)> = l
+        .iter()
+        .map(|(ir, _, _)| (ir.harmonic, ir.mode_index))
+        .collect();
+    // the paper's figure: 1:5 with mode 2, 1:9 with mode 3, 1:3 with mode 2
+    assert_eq!(&found[..3], &[(5, 1), (9, 2), (3, 1)], "{found:?}");
+    for (ir, s, e) in &l[..3] {
+        check_loop(&r, &lin, ir, *s, *e);
+        assert_eq!(
+            ir.to_string().split(" (").next().unwrap(),
+            format!("1:{} with mode {}", ir.harmonic, ir.mode_index + 1)
+        );
+    }
+    assert!(r.branch.iter().all(|b| b.damping_ratio.abs() < 1e-8));
+    // consecutive points never jump in frequency (no loop stepped over)
+    let dmax = r
+        .branch
+        .windows(2)
+        .map(|w| (w[1].omega_rad_s - w[0].omega_rad_s).abs() / r.linear_omega_rad_s)
+        .fold(0.0, f64::max);
+    assert!(dmax < 0.03, "{dmax}");
+}
+
+#[test]
+fn damped_paper_backbone_keeps_only_the_1_3_loop_and_traces_it_back() {
+    let ps = paper_beam();
+    let lin = modal_analysis(&ps.model, 4).unwrap().omega_rad_s;
+    let opts = BackboneOptions::default().nma_options(false);
+    let r = nonlinear_modal_analysis(&ps.model, &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    let l = loops(&r);
+    assert_eq!(l.len(), 1, "{:?}", r.folds);
+    let (ir, s, e) = &l[0];
+    assert_eq!((ir.harmonic, ir.mode_index), (3, 1));
+    // traced to its amplitude minimum and back: the amplitude rises after it
+    assert!(*e < r.branch.len() - 1);
+    let a_min = r.branch[*e].amplitude;
+    assert!(r.branch[e + 1..].iter().any(|b| b.amplitude > 2.0 * a_min));
+    assert!(r.branch.last().unwrap().omega_rad_s >= 2.7 * r.linear_omega_rad_s);
+    let ratio = ir.harmonic as f64 * ir.omega_rad_s / lin[ir.mode_index];
+    assert!(ratio > 1.0 && ratio < 1.1, "{ir}: {ratio}");
+    let _ = s;
+    // the primary-branch table policy is unchanged: it ends at the first fold
+    let t = r.to_table(TablePolicy::PrimaryBranch);
+    assert_eq!(t.truncated_at_fold, Some(r.first_fold().unwrap().amplitude));
+}
+
+#[test]
+fn two_dof_1_3_internal_resonance_loop_agrees_with_direct_hb_solves() {
+    use nlmode::nma::problems::two_dof_internal_resonance;
+    // omega_2 = 3.3 omega_1: the hardening mode 1 meets 3 omega = omega_2(a)
+    // at omega ~ 1.106 rad/s (an exact 3:1 ratio is degenerate at a -> 0: the
+    // third harmonic of mode 2 is then undetermined in the linear limit)
+    let model = two_dof_internal_resonance(3.3, 1.0);
+    let mut opts = NmaOptions {
+        harmonics: 5,
+        conservative: true,
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -3.0,
+            log10_end: 0.5,
+        },
+        normalisation: Normalisation::HarmonicEnergy,
+        ..Default::default()
+    };
+    let b = BackboneOptions::default().nma_options(true).continuation;
+    opts.continuation = ContinuationOptions {
+        tolerance: 1e-12,
+        ..b
+    };
+    let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    assert_eq!(r.stop, Some(StopReason::ReachedEnd));
+    let l = loops(&r);
+    assert_eq!(l.len(), 1, "{:?}", r.folds);
+    let (ir, s, e) = &l[0];
+    assert_eq!((ir.harmonic, ir.mode_index), (3, 1), "{ir}");
+    assert!(
+        ir.min_fundamental_share < 1e-2 && ir.max_share > 0.99,
+        "{ir}"
+    );
+    assert!((3.0 * ir.omega_rad_s / 3.3 - 1.0).abs() < 0.02, "{ir}");
+    let x1 = r.point_fundamental_amplitude("x1").unwrap();
+    assert!(x1[*s..=*e].iter().cloned().fold(f64::INFINITY, f64::min) < 0.2 * x1[*s]);
+    // direct HB solves (paper normalisation, fixed a) at every 7th point
+    let basis = Arc::new(ModalBasis::new(&model, true).unwrap());
+    let fixed = NmaOptions {
+        normalisation: Normalisation::Fundamental,
+        continuation: ContinuationOptions {
+            tolerance: 1e-12,
+            max_iterations: 30,
+            ..Default::default()
+        },
+        ..opts.clone()
+    };
+    let mut checked = 0;
+    for b in r.branch.iter().step_by(7) {
+        let d = solve_at_amplitude(&model, basis.clone(), &fixed, b.amplitude, b).unwrap();
+        assert!(
+            (d.omega_rad_s / b.omega_rad_s - 1.0).abs() < 1e-9,
+            "a {}: {} {}",
+            b.amplitude,
+            d.omega_rad_s,
+            b.omega_rad_s
+        );
+        let scale = b
+            .coordinates
+            .iter()
+            .flatten()
+            .map(|c| c.norm())
+            .fold(0.0, f64::max);
+        for (pd, pb) in d
+            .coordinates
+            .iter()
+            .flatten()
+            .zip(b.coordinates.iter().flatten())
+        {
+            assert!(
+                (pd - pb).norm() < 1e-9 * scale,
+                "a {}: {pd} {pb}",
+                b.amplitude
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked > 20, "{checked}");
+}
+
+#[test]
+fn refined_table_meets_its_stated_accuracy_against_fresh_hb_solves() {
+    let ps = paper_beam();
+    let opts = NmaOptions::default();
+    let basis = Arc::new(ModalBasis::new(&ps.model, false).unwrap());
+    let r = nonlinear_modal_analysis_with_basis(&ps.model, basis.clone(), &opts).unwrap();
+    let coarse = r.to_table(TablePolicy::PrimaryBranch);
+    let t0 = std::time::Instant::now();
+    let t = r
+        .refined_table(
+            &ps.model,
+            basis.clone(),
+            &opts,
+            TablePolicy::PrimaryBranch,
+            &RefineOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    let acc = t.accuracy.clone().unwrap();
+    println!(
+        "coarse {} points, refined {} points, {} checks, {:?}, {:?}",
+        coarse.amplitude.len(),
+        t.amplitude.len(),
+        acc.checks,
+        acc,
+        t0.elapsed()
+    );
+    assert!(!acc.capped);
+    assert!(
+        acc.omega_rel <= 1e-5 && acc.damping_rel <= 1e-4 && acc.shape_rel <= 1e-4,
+        "{acc:?}"
+    );
+    assert_eq!(t.truncated_at_fold, coarse.truncated_at_fold);
+    assert!(t.description.contains("refined"));
+    // the file format keeps the accuracy; old files without it still load
+    let back = ModalTable::from_json(&t.to_json()).unwrap();
+    assert_eq!(back.accuracy, t.accuracy);
+    let old = ModalTable::from_json(&coarse.to_json().replace(",\"accuracy\":null", "")).unwrap();
+    assert_eq!(old.accuracy, None);
+    // 50 pseudo-random amplitudes over the tabulated range: fresh HB solves
+    let interp = t.interpolator().unwrap();
+    let (a0, a1) = interp.amplitude_range();
+    let u = pseudo_random(50, 7);
+    let fixed = NmaOptions {
+        points: r.point_names.clone(),
+        ..opts.clone()
+    };
+    let mut worst = (0.0f64, 0.0f64, 0.0f64);
+    for k in 0..50 {
+        let a = a0 * (a1 / a0).powf(u[k] + 0.5);
+        let j = t
+            .amplitude
+            .partition_point(|&x| x < a)
+            .clamp(1, t.amplitude.len() - 1);
+        // guess: the refined table's nearest node
+        let j = if a - t.amplitude[j - 1] < t.amplitude[j] - a {
+            j - 1
+        } else {
+            j
+        };
+        let guess = BranchPoint {
+            amplitude: t.amplitude[j],
+            omega_rad_s: t.omega_rad_s[j],
+            damping_ratio: t.damping_ratio[j],
+            coordinates: t
+                .coordinates
+                .iter()
+                .map(|c| {
+                    c.re[j]
+                        .iter()
+                        .zip(&c.im[j])
+                        .map(|(&re, &im)| nlmode::Complex64::new(re, im))
+                        .collect()
+                })
+                .collect(),
+            ..r.branch[0].clone()
+        };
+        let sol = solve_at_amplitude(&ps.model, basis.clone(), &fixed, a, &guess)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let e = table_errors(&interp, &sol).unwrap();
+        worst = (worst.0.max(e.0), worst.1.max(e.1), worst.2.max(e.2));
+    }
+    println!("50 random amplitudes: {worst:?}");
+    assert!(
+        worst.0 <= 1e-5 && worst.1 <= 1e-4 && worst.2 <= 1e-4,
+        "{worst:?}"
+    );
+    // the converged values of the issue (H = 13, damped)
+    for (a, w, d) in [(1e-3, 429.3106, 3.3854e-3), (2.5e-3, 641.2458, 4.9818e-3)] {
+        let p = interp.eval(a).unwrap();
+        println!("a = {a}: omega {} D {}", p.omega_rad_s, p.damping_ratio);
+        assert!(
+            (p.omega_rad_s - w).abs() < 1e-4 * 1.0 + 1e-5 * w,
+            "{}",
+            p.omega_rad_s
+        );
+        assert!(
+            (p.damping_ratio / d - 1.0).abs() < 2e-4,
+            "{}",
+            p.damping_ratio
+        );
+    }
+}

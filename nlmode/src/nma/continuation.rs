@@ -17,6 +17,11 @@
 //! 4. step adaptation `ds <- ds * clamp(n_opt / n_iter, 1/2, 2)` within
 //!    `[dsmin, dsmax]`; a failed corrector halves `ds`; below `dsmin` the
 //!    continuation stops with [`ContinuationFailure::StepSizeCollapse`].
+//!    Optional controls reject a step (and halve `ds`) whose tangent turns by
+//!    more than `max_tangent_angle_deg` or whose corrector contracts by less
+//!    than `max_contraction` per iteration; with them, `dsmax` bounds how far
+//!    one step can go along a straight branch, and curved parts (loops) are
+//!    resolved by the angle limit.
 use nalgebra::DVector;
 
 /// A Jacobian that can solve the square system obtained by appending one
@@ -74,6 +79,17 @@ pub struct ContinuationOptions {
     pub tolerance: f64,
     /// Maximum number of branch points (including the start point).
     pub max_points: usize,
+    /// Tangent-angle control: a step whose new tangent turns by more than
+    /// this angle [deg] from the previous one is rejected and retried with
+    /// half the step (unless `ds` is at `dsmin`). `None` (default): no control.
+    /// Keeps the continuation from cutting across sharply curved parts of a
+    /// branch such as internal-resonance loops.
+    pub max_tangent_angle_deg: Option<f64>,
+    /// Corrector-contraction control: a corrector whose second residual norm
+    /// exceeds this fraction of the first (a Newton iteration that contracts
+    /// badly, the sign of a predictor far from the branch) is rejected and
+    /// the step halved. `None` (default): no control.
+    pub max_contraction: Option<f64>,
 }
 
 impl Default for ContinuationOptions {
@@ -87,6 +103,8 @@ impl Default for ContinuationOptions {
             max_iterations: 12,
             tolerance: 1e-10,
             max_points: 2000,
+            max_tangent_angle_deg: None,
+            max_contraction: None,
         }
     }
 }
@@ -177,6 +195,7 @@ fn newton<R: Residual>(
     opts: &ContinuationOptions,
 ) -> Result<NewtonOk<R::Jacobian>, NewtonErr> {
     let mut first_norm = None;
+    let mut prev_norm = f64::INFINITY;
     for it in 0..=opts.max_iterations {
         let (r, jac) = res.eval(&x);
         let extra = row.dot(&x) - target;
@@ -191,6 +210,15 @@ fn newton<R: Residual>(
         if it == opts.max_iterations || norm > 1e6 * f0.max(opts.tolerance) {
             return Err((norm, it));
         }
+        // corrector contraction: Newton near a solution contracts (at least)
+        // linearly; a residual that shrinks by less than `max_contraction`
+        // signals a predictor far from the branch
+        if let Some(kappa) = opts.max_contraction {
+            if it >= 1 && norm > kappa * prev_norm && norm > 1e3 * opts.tolerance {
+                return Err((norm, it));
+            }
+        }
+        prev_norm = norm;
         let mut rhs = -r;
         rhs = rhs.push(-extra);
         match jac.solve_bordered(row, &rhs) {
@@ -263,7 +291,12 @@ pub fn continuation<R: Residual>(
         stop: StopReason::ReachedEnd,
     };
 
-    let (mut x, mut jac, iters) = match solve_fixed_parameter(res, x0, opts) {
+    // the start point has no predictor: no contraction control there
+    let start_opts = ContinuationOptions {
+        max_contraction: None,
+        ..opts.clone()
+    };
+    let (mut x, mut jac, iters) = match solve_fixed_parameter(res, x0, &start_opts) {
         Ok(v) => v,
         Err((norm, it)) => {
             return Err((
@@ -316,7 +349,7 @@ pub fn continuation<R: Residual>(
         }
         // corrector with step halving
         let mut last_norm = f64::NAN;
-        let (x_new, jac_new, it) = loop {
+        let (x_new, jac_new, it, t_new) = loop {
             let xs = x.component_div(scale);
             let mut xp = (&xs + &t * ds).component_mul(scale);
             let mut row = t.component_div(scale);
@@ -341,6 +374,20 @@ pub fn continuation<R: Residual>(
                     Ok((xn, jn, it))
                 }
             });
+            // new tangent; tangent-angle control rejects a step that turns
+            // the branch direction by more than the allowed angle
+            let attempt = attempt.and_then(|(xn, jn, it)| match tangent(&jn, &t, scale) {
+                Some(tn) => {
+                    let cos = tn.dot(&t).clamp(-1.0, 1.0);
+                    match opts.max_tangent_angle_deg {
+                        Some(max_deg) if cos.acos().to_degrees() > max_deg && ds / 2.0 >= dsmin => {
+                            Err((0.0, it, true))
+                        }
+                        _ => Ok((xn, jn, it, Some(tn))),
+                    }
+                }
+                None => Ok((xn, jn, it, None)),
+            });
             match attempt {
                 Ok(v) => break v,
                 Err((norm, it, jumped)) => {
@@ -364,7 +411,7 @@ pub fn continuation<R: Residual>(
                 }
             }
         };
-        let t_new = match tangent(&jac_new, &t, scale) {
+        let t_new = match t_new {
             Some(tn) => tn,
             None => {
                 return Err((

@@ -4,9 +4,9 @@ use super::continuation::{
     continuation, BranchState, ContinuationFailure, ContinuationOptions, ContinuationSummary,
     StopReason,
 };
-use super::epmc::{EpmcResidual, ForcedResidual, ModalBasis};
+use super::epmc::{EpmcResidual, ForcedResidual, ModalBasis, Normalisation};
 use super::hb::default_samples;
-use super::{ModalTable, PointShape, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
+use super::{ModalTable, PointShape, TableAccuracy, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
 use crate::structure::StructuralModel;
 use crate::Complex64;
 use nalgebra::DVector;
@@ -75,6 +75,16 @@ pub enum NmaError {
     },
     #[error("measured modal data, line {line}: {message}")]
     MeasuredData { line: usize, message: String },
+    #[error("table refinement needs the branch's generalized-coordinate shapes (NmaOptions::store_coordinates = true)")]
+    RefinementNeedsCoordinates,
+    #[error("table refinement: HB solve at a = {amplitude:e} failed (residual norm {residual_norm:e} after {iterations} iterations)")]
+    RefinementSolveFailed {
+        amplitude: f64,
+        residual_norm: f64,
+        iterations: usize,
+    },
+    #[error("table refinement: {0}")]
+    Table(String),
 }
 
 impl NmaError {
@@ -110,6 +120,14 @@ pub enum NmaWarning {
         "the branch turned back below the start amplitude (a = {amplitude:e}) and was stopped"
     )]
     LeftRange { amplitude: f64 },
+    #[error("the end frequency {end_omega_rad_s} rad/s was not reached: the branch stopped at a = {amplitude:e}, omega = {omega_rad_s} rad/s (fundamental energy share {share:e}, last step {step:e})")]
+    EndFrequencyNotReached {
+        end_omega_rad_s: f64,
+        amplitude: f64,
+        omega_rad_s: f64,
+        share: f64,
+        step: f64,
+    },
 }
 
 /// Amplitude range of the continuation (serialised externally tagged,
@@ -155,8 +173,19 @@ pub struct NmaOptions {
     /// Stop (with a warning) once the fundamental harmonic's share of the
     /// kinetic energy ([`BranchPoint::fundamental_energy_share`]) falls below
     /// this: the branch has turned into another mode's internal-resonance
-    /// branch, where `a -> 0` (default 0.005).
+    /// branch, where `a -> 0` (default 0.005). Only with
+    /// [`Normalisation::Fundamental`]; the harmonic-energy normalisation
+    /// passes such loops.
     pub min_fundamental_share: f64,
+    /// Normalisation and continuation parameter of the EPMC unknowns (default
+    /// [`Normalisation::Fundamental`], continuation in `log10 a`; use
+    /// [`Normalisation::HarmonicEnergy`] to pass internal-resonance loops: the
+    /// amplitude range then bounds the harmonic-energy amplitude `A >= a`).
+    pub normalisation: Normalisation,
+    /// End the branch once `omega / omega0` reaches this (default `None`: no
+    /// frequency end; the amplitude range ends the branch). A branch ending
+    /// before it is reported with [`NmaWarning::EndFrequencyNotReached`].
+    pub end_omega_over_omega0: Option<f64>,
 }
 
 impl Default for NmaOptions {
@@ -177,6 +206,85 @@ impl Default for NmaOptions {
             points: vec![],
             store_coordinates: true,
             min_fundamental_share: 0.005,
+            normalisation: Normalisation::Fundamental,
+            end_omega_over_omega0: None,
+        }
+    }
+}
+
+/// Options of a backbone continuation through internal-resonance loops (the
+/// scenario's `[nma]` backbone settings; serialisable, missing keys take the
+/// defaults). [`BackboneOptions::nma_options`] turns them into [`NmaOptions`]
+/// with [`Normalisation::HarmonicEnergy`].
+///
+/// Defaults (chosen on the paper beam, H = 13, where they pass the 1:5, 1:9,
+/// 1:3, 1:7 and 1:13 loops up to 2.7 omega0 in about 660 points):
+/// `harmonics = 13`, `log10_start = -6` (start at `A = 1e-6`, linear regime),
+/// `log10_end = 0` (`A = 1`, in practice never reached), `end_omega_over_omega0
+/// = 2.7`, `ds = 0.03`, `dsmin = 1e-5`, `dsmax = 0.03` (scaled arc length:
+/// unit-norm shape, `omega / omega0`, `log10 A`; larger steps cut across the
+/// narrow 1:5 and 1:9 loops), `max_tangent_angle_deg = 10`,
+/// `max_contraction = 0.6`, `tolerance = 1e-8` (scaled residual; inside the
+/// 1:13 loop at H = 13 Newton stalls near 1e-7 relative to 1e-10, the
+/// conditioning of that branch), `max_points = 5000`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BackboneOptions {
+    pub harmonics: usize,
+    pub log10_start: f64,
+    pub log10_end: f64,
+    pub end_omega_over_omega0: Option<f64>,
+    pub ds: f64,
+    pub dsmin: f64,
+    pub dsmax: f64,
+    pub max_tangent_angle_deg: f64,
+    pub max_contraction: f64,
+    pub tolerance: f64,
+    pub max_points: usize,
+}
+
+impl Default for BackboneOptions {
+    fn default() -> Self {
+        Self {
+            harmonics: 13,
+            log10_start: -6.0,
+            log10_end: 0.0,
+            end_omega_over_omega0: Some(2.7),
+            ds: 0.03,
+            dsmin: 1e-5,
+            dsmax: 0.03,
+            max_tangent_angle_deg: 10.0,
+            max_contraction: 0.6,
+            tolerance: 1e-8,
+            max_points: 5000,
+        }
+    }
+}
+
+impl BackboneOptions {
+    /// The [`NmaOptions`] of this backbone continuation (mode 0, all named
+    /// points, coordinates stored).
+    pub fn nma_options(&self, conservative: bool) -> NmaOptions {
+        NmaOptions {
+            harmonics: self.harmonics,
+            amplitude: AmplitudeRange::Modal {
+                log10_start: self.log10_start,
+                log10_end: self.log10_end,
+            },
+            conservative,
+            normalisation: Normalisation::HarmonicEnergy,
+            end_omega_over_omega0: self.end_omega_over_omega0,
+            continuation: ContinuationOptions {
+                ds: self.ds,
+                dsmin: Some(self.dsmin),
+                dsmax: Some(self.dsmax),
+                max_tangent_angle_deg: Some(self.max_tangent_angle_deg),
+                max_contraction: Some(self.max_contraction),
+                tolerance: self.tolerance,
+                max_points: self.max_points,
+                ..Default::default()
+            },
+            ..Default::default()
         }
     }
 }
@@ -195,6 +303,12 @@ pub struct BranchPoint {
     /// oscillation, `|phi_1|_M^2 / sum_n n^2 |phi_n|_M^2` (1 for a harmonic
     /// motion; drops where energy localizes in higher harmonics along loops).
     pub fundamental_energy_share: f64,
+    /// Kinetic-energy share of every harmonic `n = 0..=H` (summed over the
+    /// modes; `[0]` is 0, `[1]` is [`Self::fundamental_energy_share`]).
+    pub harmonic_energy_shares: Vec<f64>,
+    /// The largest energy component other than the continued mode's
+    /// fundamental: where the energy goes along an internal-resonance loop.
+    pub secondary: EnergyComponent,
     /// `points[p][n]`: harmonic `phi_n` (`n = 0..=H`) at stored named point `p`
     /// [m / (sqrt(kg) m)], so the point moves as `Re(a sum_n phi_n e^{i n psi})`.
     pub points: Vec<Vec<Complex64>>,
@@ -211,6 +325,47 @@ pub enum FoldKind {
     AmplitudeMinimum,
 }
 
+/// One (harmonic, linear mode) component of the oscillation and its share of
+/// the kinetic energy, `n^2 |Psi_{n,k}|^2 / sum_{n,k} n^2 |Psi_{n,k}|^2`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergyComponent {
+    pub harmonic: usize,
+    /// 0-based linear mode index (the paper's "mode 2" is index 1).
+    pub mode_index: usize,
+    pub share: f64,
+}
+
+/// An internal resonance `1:n` of the continued mode with another mode: the
+/// `n`-th harmonic of the motion meets that mode's frequency, `n omega ~
+/// omega_k(a)`, and takes over the energy along a loop of the backbone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InternalResonance {
+    /// Harmonic order `n` (ratio `1:n`).
+    pub harmonic: usize,
+    /// 0-based index of the participating linear mode.
+    pub mode_index: usize,
+    /// Largest energy share of that component along the loop.
+    pub max_share: f64,
+    /// Smallest fundamental energy share along the loop.
+    pub min_fundamental_share: f64,
+    /// `omega` at the loop's amplitude minimum [rad/s].
+    pub omega_rad_s: f64,
+}
+
+impl std::fmt::Display for InternalResonance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "1:{} with mode {} (n omega = {:.2} rad/s, {:.0} % of the energy in that component, fundamental down to {:.1} %)",
+            self.harmonic,
+            self.mode_index + 1,
+            self.harmonic as f64 * self.omega_rad_s,
+            100.0 * self.max_share,
+            100.0 * self.min_fundamental_share
+        )
+    }
+}
+
 /// A turning point of `a` along the branch (loops from internal resonances).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fold {
@@ -219,6 +374,10 @@ pub struct Fold {
     pub kind: FoldKind,
     pub amplitude: f64,
     pub omega_rad_s: f64,
+    /// For an [`FoldKind::AmplitudeMaximum`]: the internal resonance of the
+    /// loop that starts there, identified from the harmonic energy
+    /// distribution between it and the next amplitude minimum.
+    pub internal_resonance: Option<InternalResonance>,
 }
 
 /// Full nonlinear-mode branch including loops/folds.
@@ -311,15 +470,26 @@ impl NmaResult {
     /// every stored point and of all generalized coordinates (if stored).
     pub fn to_table(&self, policy: TablePolicy) -> ModalTable {
         let (idx, truncated) = self.table_indices(policy);
+        let pts: Vec<&BranchPoint> = idx.iter().map(|&i| &self.branch[i]).collect();
+        self.table_of(&pts, truncated, policy)
+    }
+
+    /// The table of the points `pts` (strictly increasing `a`).
+    fn table_of(
+        &self,
+        pts: &[&BranchPoint],
+        truncated: Option<f64>,
+        policy: TablePolicy,
+    ) -> ModalTable {
         let shape = |name: String, get: &dyn Fn(&BranchPoint) -> &Vec<Complex64>| PointShape {
             name,
-            re: idx
+            re: pts
                 .iter()
-                .map(|&i| get(&self.branch[i]).iter().map(|c| c.re).collect())
+                .map(|b| get(b).iter().map(|c| c.re).collect())
                 .collect(),
-            im: idx
+            im: pts
                 .iter()
-                .map(|&i| get(&self.branch[i]).iter().map(|c| c.im).collect())
+                .map(|b| get(b).iter().map(|c| c.im).collect())
                 .collect(),
         };
         let points = (0..self.point_names.len())
@@ -341,7 +511,7 @@ impl NmaResult {
             if self.conservative { "conservative" } else { "damped" },
             self.linear_omega_rad_s,
             self.linear_damping_ratio,
-            idx.len(),
+            pts.len(),
             self.branch.len()
         );
         if let Some(a) = truncated {
@@ -357,13 +527,218 @@ impl NmaResult {
             version: MODAL_TABLE_VERSION,
             description,
             harmonics: self.harmonics,
-            amplitude: idx.iter().map(|&i| self.branch[i].amplitude).collect(),
-            omega_rad_s: idx.iter().map(|&i| self.branch[i].omega_rad_s).collect(),
-            damping_ratio: idx.iter().map(|&i| self.branch[i].damping_ratio).collect(),
+            amplitude: pts.iter().map(|b| b.amplitude).collect(),
+            omega_rad_s: pts.iter().map(|b| b.omega_rad_s).collect(),
+            damping_ratio: pts.iter().map(|b| b.damping_ratio).collect(),
             points,
             coordinates,
             truncated_at_fold: truncated,
+            accuracy: None,
         }
+    }
+}
+
+/// Targets of [`NmaResult::refined_table`] (serialisable; missing keys take
+/// the defaults): `omega_rel = 1e-5`, `rel = 1e-4` (damping ratio and point
+/// shapes), `max_points = 400` (the cap on table points).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RefineOptions {
+    /// Relative accuracy target of `omega(a)`.
+    pub omega_rel: f64,
+    /// Relative accuracy target of `D(a)` and of the point shapes.
+    pub rel: f64,
+    /// Largest number of table points; refinement stops there (recorded as
+    /// [`TableAccuracy::capped`]).
+    pub max_points: usize,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        Self {
+            omega_rel: 1e-5,
+            rel: 1e-4,
+            max_points: 400,
+        }
+    }
+}
+
+/// PCHIP errors of `interp` at `a` against the HB solution `sol`: relative
+/// `omega`, relative `D` (against `max(|D|, 1e-10)`), largest point-shape
+/// error relative to the point's largest harmonic.
+pub fn table_errors(
+    interp: &crate::table::TableInterpolator,
+    sol: &BranchPoint,
+) -> Result<(f64, f64, f64), crate::table::TableError> {
+    let a = sol.amplitude;
+    let p = interp.eval(a)?;
+    let e_w = (p.omega_rad_s / sol.omega_rad_s - 1.0).abs();
+    let e_d = (p.damping_ratio - sol.damping_ratio).abs() / sol.damping_ratio.abs().max(1e-10);
+    let mut e_s: f64 = 0.0;
+    let mut buf = vec![Complex64::new(0.0, 0.0); interp.harmonics() + 1];
+    for (k, shape) in sol.points.iter().enumerate() {
+        interp.shape_all(k, a, &mut buf)?;
+        let scale = shape
+            .iter()
+            .map(|c| c.norm())
+            .fold(0.0, f64::max)
+            .max(1e-300);
+        for (x, y) in buf.iter().zip(shape) {
+            e_s = e_s.max((x - y).norm() / scale);
+        }
+    }
+    Ok((e_w, e_d, e_s))
+}
+
+impl NmaResult {
+    /// The modal table under `policy`, refined to a stated accuracy: the PCHIP
+    /// interpolation is compared with fresh Harmonic Balance solves
+    /// ([`solve_at_amplitude`], paper normalisation) at the midpoint of every
+    /// interval, and each solve that misses a target is inserted, until
+    /// `omega` is within `refine.omega_rel / 2` and `D` and the shapes within
+    /// `refine.rel / 2` at every midpoint (half the target: the midpoint error
+    /// underestimates the largest error of an interval), or the table has
+    /// `refine.max_points`.
+    /// Intervals whose PCHIP slopes change by an insertion are checked again,
+    /// so [`ModalTable::accuracy`] holds the midpoint errors of the final table.
+    ///
+    /// `model`, `basis` and `opts` are those of the analysis; the branch must
+    /// have been computed with `store_coordinates` (the Newton guesses).
+    pub fn refined_table(
+        &self,
+        model: &StructuralModel,
+        basis: Arc<ModalBasis>,
+        opts: &NmaOptions,
+        policy: TablePolicy,
+        refine: &RefineOptions,
+    ) -> Result<ModalTable, NmaError> {
+        let (idx, truncated) = self.table_indices(policy);
+        let mut pts: Vec<BranchPoint> = idx.iter().map(|&i| self.branch[i].clone()).collect();
+        if pts.iter().any(|b| b.coordinates.is_empty()) {
+            return Err(NmaError::RefinementNeedsCoordinates);
+        }
+        let fixed = NmaOptions {
+            normalisation: Normalisation::Fundamental,
+            store_coordinates: true,
+            points: self.point_names.clone(),
+            ..opts.clone()
+        };
+        let n_int = pts.len().saturating_sub(1);
+        // per interval: checked against the current table, and its errors
+        let mut checked = vec![false; n_int];
+        let mut errors = vec![(0.0, 0.0, 0.0); n_int];
+        let mut checks = 0;
+        let mut capped = false;
+        loop {
+            let refs: Vec<&BranchPoint> = pts.iter().collect();
+            let table = self.table_of(&refs, truncated, policy);
+            let interp = table
+                .interpolator()
+                .map_err(|e| NmaError::Table(e.to_string()))?;
+            let mut next: Vec<BranchPoint> = Vec::with_capacity(2 * pts.len());
+            let mut next_checked = Vec::new();
+            let mut next_errors = Vec::new();
+            let mut inserted = Vec::new();
+            for i in 0..pts.len().saturating_sub(1) {
+                next.push(pts[i].clone());
+                if checked[i] {
+                    next_checked.push(true);
+                    next_errors.push(errors[i]);
+                    continue;
+                }
+                let (p, q) = (&pts[i], &pts[i + 1]);
+                let am = 0.5 * (p.amplitude + q.amplitude);
+                let guess = BranchPoint {
+                    omega_rad_s: 0.5 * (p.omega_rad_s + q.omega_rad_s),
+                    damping_ratio: 0.5 * (p.damping_ratio + q.damping_ratio),
+                    coordinates: p
+                        .coordinates
+                        .iter()
+                        .zip(&q.coordinates)
+                        .map(|(u, v)| u.iter().zip(v).map(|(x, y)| 0.5 * (x + y)).collect())
+                        .collect(),
+                    ..p.clone()
+                };
+                // Newton from the blended neighbours, else from either one
+                // (near the fold ending the primary branch `omega(a)` is steep)
+                let sol = solve_at_amplitude(model, basis.clone(), &fixed, am, &guess)
+                    .or_else(|_| solve_at_amplitude(model, basis.clone(), &fixed, am, q))
+                    .or_else(|_| solve_at_amplitude(model, basis.clone(), &fixed, am, p))
+                    .map_err(|e| match e {
+                        NmaError::StartNotConverged {
+                            residual_norm,
+                            iterations,
+                            ..
+                        } => NmaError::RefinementSolveFailed {
+                            amplitude: am,
+                            residual_norm,
+                            iterations,
+                        },
+                        other => other,
+                    })?;
+                checks += 1;
+                let err =
+                    table_errors(&interp, &sol).map_err(|e| NmaError::Table(e.to_string()))?;
+                // the midpoint error underestimates an interval's largest
+                // error (PCHIP's error is not symmetric): ask half the target
+                let good = err.0 <= 0.5 * refine.omega_rel
+                    && err.1 <= 0.5 * refine.rel
+                    && err.2 <= 0.5 * refine.rel;
+                if good || pts.len() + inserted.len() >= refine.max_points {
+                    capped |= !good;
+                    next_checked.push(true);
+                    next_errors.push(err);
+                } else {
+                    inserted.push(next.len());
+                    next.push(sol);
+                    next_checked.extend([false, false]);
+                    next_errors.extend([err, err]);
+                }
+            }
+            if let Some(last) = pts.last() {
+                next.push(last.clone());
+            }
+            if inserted.is_empty() {
+                errors = next_errors;
+                break;
+            }
+            // PCHIP slopes at the nodes next to an insertion change: check the
+            // neighbouring intervals again
+            for &node in &inserted {
+                if node >= 2 {
+                    next_checked[node - 2] = false;
+                }
+                if node + 1 < next_checked.len() {
+                    next_checked[node + 1] = false;
+                }
+            }
+            pts = next;
+            checked = next_checked;
+            errors = next_errors;
+        }
+        let refs: Vec<&BranchPoint> = pts.iter().collect();
+        let mut table = self.table_of(&refs, truncated, policy);
+        let worst = errors.iter().fold((0.0f64, 0.0f64, 0.0f64), |w, e| {
+            (w.0.max(e.0), w.1.max(e.1), w.2.max(e.2))
+        });
+        table.description += &format!(
+            "; refined to {} points: PCHIP vs HB at every interval midpoint within omega {:.1e}, D {:.1e}, shapes {:.1e} (relative){}",
+            pts.len(),
+            worst.0,
+            worst.1,
+            worst.2,
+            if capped { ", capped" } else { "" }
+        );
+        table.accuracy = Some(TableAccuracy {
+            omega_rel: worst.0,
+            damping_rel: worst.1,
+            shape_rel: worst.2,
+            target_omega_rel: refine.omega_rel,
+            target_rel: refine.rel,
+            checks,
+            capped,
+        });
+        Ok(table)
     }
 }
 
@@ -457,7 +832,8 @@ pub fn nonlinear_modal_analysis_with_basis(
             .collect::<Result<_, _>>()?
     };
     let j = opts.mode_index;
-    let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, j);
+    let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, j)
+        .with_normalisation(opts.normalisation);
     let point_modal: Vec<DVector<f64>> = point_ids
         .iter()
         .map(|&p| basis.phi.transpose() * &model.points[p].direction)
@@ -543,27 +919,32 @@ pub fn nonlinear_modal_analysis_with_basis(
             .map(|b| b.fundamental_energy_share)
             .unwrap_or(1.0)
     };
+    let mut end_omega_reached = false;
+    let mut last_step = 0.0;
     let on_point = |s: &BranchState| -> bool {
-        let x = s.x;
-        let bp = BranchPoint {
-            amplitude: 10f64.powf(x[m + 2]),
-            omega_rad_s: x[m],
-            damping_ratio: x[m + 1],
-            newton_iterations: s.newton_iterations,
-            fundamental_energy_share: res.fundamental_energy_share(x),
-            points: point_modal.iter().map(|e| res.observe(x, e)).collect(),
-            coordinates: if opts.store_coordinates {
-                let h = res.shape_harmonics(x);
-                (0..n).map(|i| h.iter().map(|hn| hn[i]).collect()).collect()
-            } else {
-                vec![]
-            },
-        };
+        last_step = s.step;
+        let bp = branch_point(
+            &res,
+            s.x,
+            &point_modal,
+            opts.store_coordinates,
+            s.newton_iterations,
+        );
+        let x = &res.to_fundamental(s.x);
         result.branch.push(bp);
         tangent_sign.push(s.tangent[m + 2].signum());
-        if s.index > 0 && bp_share(&result) < opts.min_fundamental_share {
+        if opts.normalisation == Normalisation::Fundamental
+            && s.index > 0
+            && bp_share(&result) < opts.min_fundamental_share
+        {
             share_stop = true;
             return false;
+        }
+        if let Some(end) = opts.end_omega_over_omega0 {
+            if x[m] >= end * omega0 {
+                end_omega_reached = true;
+                return false;
+            }
         }
         if let Some((em, end_m)) = &stop_point {
             let amp = 10f64.powf(x[m + 2]) * res.observe(x, em)[1].norm();
@@ -586,7 +967,25 @@ pub fn nonlinear_modal_analysis_with_basis(
         Ok(s) => s.clone(),
         Err((_, s)) => s.clone(),
     };
-    finish(&mut result, &summary, &tangent_sign);
+    if opts.normalisation == Normalisation::Fundamental {
+        finish(&mut result, &summary, &tangent_sign);
+    } else {
+        finish_from_amplitudes(&mut result, &summary);
+    }
+    identify_internal_resonances(&mut result);
+    if let Some(end) = opts.end_omega_over_omega0 {
+        if !end_omega_reached {
+            if let Some(b) = result.branch.last() {
+                result.warnings.push(NmaWarning::EndFrequencyNotReached {
+                    end_omega_rad_s: end * omega0,
+                    amplitude: b.amplitude,
+                    omega_rad_s: b.omega_rad_s,
+                    share: b.fundamental_energy_share,
+                    step: last_step,
+                });
+            }
+        }
+    }
     match outcome {
         Ok(s) => {
             result.stop = Some(s.stop);
@@ -658,6 +1057,148 @@ pub fn nonlinear_modal_analysis_with_basis(
     }
 }
 
+/// The branch point of a converged solution `x` of `res` (any
+/// [`Normalisation`]): amplitude, frequency, damping, energy shares and the
+/// shape harmonics in the paper's normalisation.
+fn branch_point(
+    res: &EpmcResidual,
+    x_native: &DVector<f64>,
+    point_modal: &[DVector<f64>],
+    store_coordinates: bool,
+    newton_iterations: usize,
+) -> BranchPoint {
+    let j = res.mode();
+    let n = res.basis().n_modes();
+    let m = res.n_coeffs();
+    let x = &res.to_fundamental(x_native);
+    let shares = res.harmonic_energy_shares(x_native);
+    let mut secondary = EnergyComponent {
+        harmonic: 1,
+        mode_index: j,
+        share: 0.0,
+    };
+    for (nn, row) in shares.iter().enumerate() {
+        for (k, &e) in row.iter().enumerate() {
+            if (nn, k) != (1, j) && e > secondary.share {
+                secondary = EnergyComponent {
+                    harmonic: nn,
+                    mode_index: k,
+                    share: e,
+                };
+            }
+        }
+    }
+    BranchPoint {
+        amplitude: 10f64.powf(x[m + 2]),
+        omega_rad_s: x[m],
+        damping_ratio: x[m + 1],
+        newton_iterations,
+        fundamental_energy_share: res.fundamental_energy_share(x),
+        harmonic_energy_shares: shares.iter().map(|r| r.iter().sum()).collect(),
+        secondary,
+        points: point_modal.iter().map(|e| res.observe(x, e)).collect(),
+        coordinates: if store_coordinates {
+            let h = res.shape_harmonics(x);
+            (0..n).map(|i| h.iter().map(|hn| hn[i]).collect()).collect()
+        } else {
+            vec![]
+        },
+    }
+}
+
+/// A direct Harmonic Balance solve of the EPMC at the fixed modal amplitude
+/// `amplitude` (paper normalisation, [`Normalisation::Fundamental`], Newton
+/// from `guess`, which must carry the generalized-coordinate shapes, e.g. a
+/// branch point computed with `store_coordinates`): the independent check of
+/// continuation points and the solver behind table refinement. Uses
+/// `opts.harmonics`, `opts.samples`, `opts.mode_index`, `opts.conservative`,
+/// `opts.points`, `opts.store_coordinates` and `opts.continuation`'s Newton
+/// settings.
+pub fn solve_at_amplitude(
+    model: &StructuralModel,
+    basis: Arc<ModalBasis>,
+    opts: &NmaOptions,
+    amplitude: f64,
+    guess: &BranchPoint,
+) -> Result<BranchPoint, NmaError> {
+    let samples = check_harmonics(opts.harmonics, opts.samples)?;
+    let n = model.mass.nrows();
+    if guess.coordinates.len() != n {
+        return Err(NmaError::InvalidAmplitudeRange {
+            start: amplitude,
+            end: amplitude,
+            reason: "the guess carries no generalized-coordinate shapes",
+        });
+    }
+    let point_ids: Vec<usize> = if opts.points.is_empty() {
+        (0..model.points.len()).collect()
+    } else {
+        opts.points
+            .iter()
+            .map(|p| find_point(model, p))
+            .collect::<Result<_, _>>()?
+    };
+    let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, opts.mode_index);
+    let point_modal: Vec<DVector<f64>> = point_ids
+        .iter()
+        .map(|&p| basis.phi.transpose() * &model.points[p].direction)
+        .collect();
+    // modal coordinates eta_n = Phi^T M q_n of the guess (q_n = c_n - i s_n)
+    let pm = basis.phi.transpose() * &model.mass;
+    let m = res.n_coeffs();
+    let mut x0 = DVector::zeros(m + 3);
+    for nn in 0..=opts.harmonics {
+        let re = DVector::from_fn(n, |i, _| guess.coordinates[i][nn].re);
+        let im = DVector::from_fn(n, |i, _| guess.coordinates[i][nn].im);
+        let (c, s) = (&pm * re, &pm * im);
+        for k in 0..n {
+            x0[super::hb::cos_index(nn) * n + k] = c[k];
+            if nn > 0 {
+                x0[super::hb::sin_index(nn) * n + k] = -s[k];
+            }
+        }
+    }
+    x0[m] = guess.omega_rad_s;
+    x0[m + 1] = guess.damping_ratio;
+    x0[m + 2] = amplitude.log10();
+    let opts_fixed = ContinuationOptions {
+        max_contraction: None,
+        ..opts.continuation.clone()
+    };
+    match super::continuation::solve_fixed_parameter(&res, x0, &opts_fixed) {
+        Ok((x, _, it)) => Ok(branch_point(
+            &res,
+            &x,
+            &point_modal,
+            opts.store_coordinates,
+            it,
+        )),
+        Err((residual_norm, iterations)) => Err(NmaError::StartNotConverged {
+            amplitude,
+            residual_norm,
+            iterations,
+            partial: Box::new(NmaResult {
+                harmonics: opts.harmonics,
+                samples,
+                mode_index: opts.mode_index,
+                conservative: opts.conservative,
+                linear_omega_rad_s: basis.omega(opts.mode_index),
+                linear_damping_ratio: basis.damping_ratio(opts.mode_index),
+                point_names: point_ids
+                    .iter()
+                    .map(|&p| model.points[p].name.clone())
+                    .collect(),
+                branch: vec![],
+                folds: vec![],
+                newton_iterations: iterations,
+                rejected_steps: 0,
+                stop: None,
+                warnings: vec![],
+            }),
+        }),
+    }
+}
+
 /// Folds, iteration count and the linear-regime warning from the summary.
 fn finish(result: &mut NmaResult, summary: &ContinuationSummary, tangent_sign: &[f64]) {
     result.newton_iterations = summary.newton_iterations;
@@ -684,9 +1225,94 @@ fn finish(result: &mut NmaResult, summary: &ContinuationSummary, tangent_sign: &
             kind,
             amplitude: b.amplitude,
             omega_rad_s: b.omega_rad_s,
+            internal_resonance: None,
         });
     }
-    if let (Some(first), Some(_)) = (result.branch.first(), result.branch.last()) {
+    linear_regime_warning(result);
+}
+
+/// [`finish`] for a continuation parameter other than `log10 a`: the folds of
+/// `a` are the local extrema of the computed amplitudes.
+fn finish_from_amplitudes(result: &mut NmaResult, summary: &ContinuationSummary) {
+    result.newton_iterations = summary.newton_iterations;
+    result.rejected_steps = summary.rejected_steps;
+    let a: Vec<f64> = result.branch.iter().map(|b| b.amplitude).collect();
+    let mut rising = true;
+    for i in 1..a.len() {
+        let kind = if rising && a[i] < a[i - 1] {
+            rising = false;
+            FoldKind::AmplitudeMaximum
+        } else if !rising && a[i] > a[i - 1] {
+            rising = true;
+            FoldKind::AmplitudeMinimum
+        } else {
+            continue;
+        };
+        let b = &result.branch[i - 1];
+        result.folds.push(Fold {
+            index: i - 1,
+            kind,
+            amplitude: b.amplitude,
+            omega_rad_s: b.omega_rad_s,
+            internal_resonance: None,
+        });
+    }
+    linear_regime_warning(result);
+}
+
+/// The internal resonance of every loop (from an amplitude maximum to the next
+/// minimum, or the branch end): the energy component other than the
+/// fundamental that carries most energy at the point of least fundamental share.
+fn identify_internal_resonances(result: &mut NmaResult) {
+    let n_folds = result.folds.len();
+    for f in 0..n_folds {
+        if result.folds[f].kind != FoldKind::AmplitudeMaximum {
+            continue;
+        }
+        let start = result.folds[f].index;
+        let end = result.folds[f + 1..]
+            .iter()
+            .find(|g| g.kind == FoldKind::AmplitudeMinimum)
+            .map(|g| g.index)
+            .unwrap_or(result.branch.len() - 1);
+        let Some(low) = (start..=end).min_by(|&p, &q| {
+            result.branch[p]
+                .fundamental_energy_share
+                .total_cmp(&result.branch[q].fundamental_energy_share)
+        }) else {
+            continue;
+        };
+        let c = result.branch[low].secondary;
+        let max_share = (start..=end)
+            .map(|i| {
+                let s = result.branch[i].secondary;
+                if (s.harmonic, s.mode_index) == (c.harmonic, c.mode_index) {
+                    s.share
+                } else {
+                    0.0
+                }
+            })
+            .fold(0.0, f64::max);
+        let lowest = (start..=end)
+            .min_by(|&p, &q| {
+                result.branch[p]
+                    .amplitude
+                    .total_cmp(&result.branch[q].amplitude)
+            })
+            .unwrap_or(low);
+        result.folds[f].internal_resonance = Some(InternalResonance {
+            harmonic: c.harmonic,
+            mode_index: c.mode_index,
+            max_share,
+            min_fundamental_share: result.branch[low].fundamental_energy_share,
+            omega_rad_s: result.branch[lowest].omega_rad_s,
+        });
+    }
+}
+
+/// The warning that the branch never left the linear regime.
+fn linear_regime_warning(result: &mut NmaResult) {
+    if let Some(first) = result.branch.first() {
         let mut omega_shift_rel: f64 = 0.0;
         let mut damping_shift: f64 = 0.0;
         let mut max_amplitude: f64 = 0.0;
@@ -896,6 +1522,7 @@ pub fn table_from_measured_csv(text: &str, point_name: &str) -> Result<ModalTabl
         }],
         coordinates: vec![],
         truncated_at_fold: None,
+        accuracy: None,
     };
     for (ln, line) in lines {
         let vals: Vec<&str> = line.split(',').map(|v| v.trim()).collect();

@@ -700,14 +700,37 @@ fn linear_rows(
     (r, dr_dom, dr_dd)
 }
 
+/// How the EPMC unknowns are normalised and which amplitude is the
+/// continuation parameter (last unknown `X = [Psi; omega; D; log10 A]`,
+/// `q = A Psi` in modal coordinates).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Normalisation {
+    /// `A = a = sqrt(q_1^H M q_1)` (paper Section 3.1): `Psi_1^H Psi_1 = 1` and
+    /// phase `Im(Psi_{1,j}) = 0` on the continued mode `j` (default). Along an
+    /// internal-resonance loop the fundamental passes near zero, so `Psi`
+    /// diverges and `log10 a -> -inf`: this form cannot pass loops.
+    #[default]
+    Fundamental,
+    /// `A^2 = sum_{n>=1} n^2 q_n^H M q_n` (the kinetic-energy norm over all
+    /// harmonics, `2 T_mean / omega^2`): `sum_n n^2 Psi_n^H Psi_n = 1` and phase
+    /// `sum_n n s_{n,j} = 0` (the continued mode's modal velocity vanishes at
+    /// `t = 0`), neither of which rests on the fundamental. All unknowns stay
+    /// finite along loops; the paper's `a = A |Psi_1|` and `phi_n = Psi_n /
+    /// |Psi_1|` are computed after each solve
+    /// ([`EpmcResidual::to_fundamental`]).
+    HarmonicEnergy,
+}
+
 /// The EPMC residual (`eq:EPMC`) in modal Harmonic Balance form; unknowns
-/// `X = [Psi; omega; D; log10 a]` (see module doc).
+/// `X = [Psi; omega; D; log10 A]` (see module doc and [`Normalisation`]).
 #[derive(Debug, Clone)]
 pub struct EpmcResidual {
     basis: Arc<ModalBasis>,
     aft: Aft,
     mode: usize,
     row_scale: Arc<DVector<f64>>,
+    normalisation: Normalisation,
 }
 
 impl EpmcResidual {
@@ -721,7 +744,84 @@ impl EpmcResidual {
             basis,
             mode,
             row_scale,
+            normalisation: Normalisation::Fundamental,
         }
+    }
+
+    /// The same residual with another normalisation.
+    pub fn with_normalisation(mut self, normalisation: Normalisation) -> Self {
+        self.normalisation = normalisation;
+        self
+    }
+
+    /// The continued linear mode (0-based).
+    pub fn mode(&self) -> usize {
+        self.mode
+    }
+
+    pub fn normalisation(&self) -> Normalisation {
+        self.normalisation
+    }
+
+    /// A solution `x` in the [`Normalisation::Fundamental`] form
+    /// `[Psi; omega; D; log10 a]`: `a = A |Psi_1|`, `Psi_n` divided by `|Psi_1|`
+    /// and shifted in time (`Psi_n e^{i n theta}`) so that `Im(Psi_{1,j}) = 0`,
+    /// `Re(Psi_{1,j}) >= 0`. Identity for the fundamental normalisation.
+    pub fn to_fundamental(&self, x: &DVector<f64>) -> DVector<f64> {
+        if self.normalisation == Normalisation::Fundamental {
+            return x.clone();
+        }
+        let n = self.basis.n_modes();
+        let m = self.n_coeffs();
+        let (ic, is) = (cos_index(1) * n, sin_index(1) * n);
+        let p1 = (0..n)
+            .map(|k| x[ic + k].powi(2) + x[is + k].powi(2))
+            .sum::<f64>()
+            .sqrt();
+        // q_1j = c - i s; rotate by theta = -arg(q_1j)
+        let theta = -(-x[is + self.mode]).atan2(x[ic + self.mode]);
+        let mut y = x.clone();
+        for nn in 0..=self.harmonics() {
+            let (sn, cs) = ((nn as f64) * theta).sin_cos();
+            for k in 0..n {
+                let ck = x[cos_index(nn) * n + k];
+                if nn == 0 {
+                    y[k] = ck / p1;
+                    continue;
+                }
+                let sk = x[sin_index(nn) * n + k];
+                y[cos_index(nn) * n + k] = (ck * cs + sk * sn) / p1;
+                y[sin_index(nn) * n + k] = (sk * cs - ck * sn) / p1;
+            }
+        }
+        y[m + 2] = x[m + 2] + p1.log10();
+        y
+    }
+
+    /// Kinetic-energy shares `n^2 Psi_{n,k}^2 / sum` of every harmonic `n`
+    /// (index `n`, `0..=H`) and mode `k` (index `k`): `shares[n][k]`.
+    pub fn harmonic_energy_shares(&self, x: &DVector<f64>) -> Vec<Vec<f64>> {
+        let n = self.basis.n_modes();
+        let mut e: Vec<Vec<f64>> = (0..=self.harmonics())
+            .map(|nn| {
+                (0..n)
+                    .map(|k| {
+                        if nn == 0 {
+                            0.0
+                        } else {
+                            (nn * nn) as f64
+                                * (x[cos_index(nn) * n + k].powi(2)
+                                    + x[sin_index(nn) * n + k].powi(2))
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let total: f64 = e.iter().flatten().sum();
+        for v in e.iter_mut().flatten() {
+            *v /= total;
+        }
+        e
     }
 
     pub fn basis(&self) -> &ModalBasis {
@@ -860,21 +960,40 @@ impl super::continuation::Residual for EpmcResidual {
         for i in 0..m {
             res[i] = r[i] / self.row_scale[i];
         }
-        let (ic, is) = (cos_index(1) * n, sin_index(1) * n);
-        res[m] = psi[is + self.mode];
-        res[m + 1] = (0..n)
-            .map(|k| psi[ic + k].powi(2) + psi[is + k].powi(2))
-            .sum::<f64>()
-            - 1.0;
         let mut border_cols = DMatrix::zeros(m, 3);
         border_cols.set_column(0, &dr_dom);
         border_cols.set_column(1, &dr_dd);
         border_cols.set_column(2, &dr_dlg);
         let mut border_rows = DMatrix::zeros(2, m + 3);
-        border_rows[(0, is + self.mode)] = 1.0;
-        for k in 0..n {
-            border_rows[(1, ic + k)] = 2.0 * psi[ic + k];
-            border_rows[(1, is + k)] = 2.0 * psi[is + k];
+        match self.normalisation {
+            Normalisation::Fundamental => {
+                let (ic, is) = (cos_index(1) * n, sin_index(1) * n);
+                res[m] = psi[is + self.mode];
+                res[m + 1] = (0..n)
+                    .map(|k| psi[ic + k].powi(2) + psi[is + k].powi(2))
+                    .sum::<f64>()
+                    - 1.0;
+                border_rows[(0, is + self.mode)] = 1.0;
+                for k in 0..n {
+                    border_rows[(1, ic + k)] = 2.0 * psi[ic + k];
+                    border_rows[(1, is + k)] = 2.0 * psi[is + k];
+                }
+            }
+            Normalisation::HarmonicEnergy => {
+                let mut norm = -1.0;
+                for nn in 1..=self.harmonics() {
+                    let (w, nf) = (((nn * nn) as f64), nn as f64);
+                    let (ic, is) = (cos_index(nn) * n, sin_index(nn) * n);
+                    res[m] += nf * psi[is + self.mode];
+                    border_rows[(0, is + self.mode)] = nf;
+                    for k in 0..n {
+                        norm += w * (psi[ic + k].powi(2) + psi[is + k].powi(2));
+                        border_rows[(1, ic + k)] = 2.0 * w * psi[ic + k];
+                        border_rows[(1, is + k)] = 2.0 * w * psi[is + k];
+                    }
+                }
+                res[m + 1] = norm;
+            }
         }
         let jac = HbJacobian {
             basis: self.basis.clone(),

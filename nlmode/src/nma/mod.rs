@@ -80,6 +80,32 @@ pub struct ModalTable {
     /// if any [sqrt(kg) m].
     #[serde(default)]
     pub truncated_at_fold: Option<f64>,
+    /// Measured interpolation accuracy of the table (set by
+    /// [`NmaResult::refined_table`]; `None` for unrefined or measured tables
+    /// and for files written before this field existed).
+    #[serde(default)]
+    pub accuracy: Option<TableAccuracy>,
+}
+
+/// Interpolation accuracy of a refined [`ModalTable`]: the largest PCHIP
+/// errors against fresh Harmonic Balance solves at the midpoints of all table
+/// intervals, and the targets of the refinement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TableAccuracy {
+    /// Largest relative error of `omega` [-].
+    pub omega_rel: f64,
+    /// Largest relative error of `D` [-] (against `max(|D|, 1e-10)`).
+    pub damping_rel: f64,
+    /// Largest error of the point shapes relative to each point's largest harmonic [-].
+    pub shape_rel: f64,
+    /// Target for `omega_rel`.
+    pub target_omega_rel: f64,
+    /// Target for `damping_rel` and `shape_rel`.
+    pub target_rel: f64,
+    /// Midpoint solves made (including those that led to insertions).
+    pub checks: usize,
+    /// `true` if the point cap stopped the refinement before all targets were met.
+    pub capped: bool,
 }
 
 pub mod continuation;
@@ -90,3 +116,4 @@ pub mod problems;
 
 pub use continuation::{ContinuationOptions, StopReason};
 pub use driver::*;
+pub use epmc::Normalisation;

@@ -133,6 +133,36 @@ pub fn chain(
     }
 }
 
+/// Two uncoupled unit oscillators `x_i'' + omega_i^2 x_i = ...` (unit masses,
+/// `omega_1 = 1 rad/s`, `omega_2 = ratio rad/s`), coupled only by a grounded
+/// cubic spring `k3 u^3` on `u = x_1 + x_2`: for `ratio = 3` a 1:3 internal
+/// resonance of the hardening first mode with the second. Named points `x1`,
+/// `x2`; no linear damping.
+pub fn two_dof_internal_resonance(ratio: f64, k3: f64) -> StructuralModel {
+    let u = DVector::from_vec(vec![1.0, 1.0]);
+    let e = |i: usize| DVector::from_fn(2, |j, _| if i == j { 1.0 } else { 0.0 });
+    StructuralModel {
+        mass: DMatrix::identity(2, 2),
+        stiffness: DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, ratio * ratio])),
+        damping: DMatrix::zeros(2, 2),
+        nonlinear: vec![NonlinearElement {
+            name: "cubic".into(),
+            direction: u,
+            law: Arc::new(CubicLaw { k3, c3: 0.0 }),
+        }],
+        points: vec![
+            NamedPoint {
+                name: "x1".into(),
+                direction: e(0),
+            },
+            NamedPoint {
+                name: "x2".into(),
+                direction: e(1),
+            },
+        ],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

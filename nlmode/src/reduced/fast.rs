@@ -185,6 +185,7 @@ mod tests {
             ],
             coordinates: vec![],
             truncated_at_fold: None,
+            accuracy: None,
         };
         let ip = t.interpolator().unwrap();
         let f = FastTable::new(&ip);

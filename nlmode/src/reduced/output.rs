@@ -229,6 +229,7 @@ mod tests {
             ],
             coordinates: vec![],
             truncated_at_fold: None,
+            accuracy: None,
         }
     }
 

@@ -58,6 +58,7 @@ pub fn duffing_table(
             .collect(),
         coordinates: Vec::new(),
         truncated_at_fold: None,
+        accuracy: None,
     }
 }
 
