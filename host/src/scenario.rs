@@ -568,8 +568,9 @@ impl Default for OutputSpec {
 }
 
 /// A scenario error: the key at fault as the user wrote it (`exciter[1].stinger`,
-/// `structure` for an unknown key in `[structure]`), what was expected and, for
-/// errors found while reading the file, the line.
+/// `structure.lenght_m` for an unknown key), what was expected and, for errors
+/// found while reading the file, the line (`key` is `scenario` for TOML syntax
+/// errors).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{key}: {message}{}", line.map(|l| format!(" (line {l})")).unwrap_or_default())]
 pub struct ScenarioError {
