@@ -93,6 +93,10 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
     // The FMUs: packaged before the methods when cosim needs them.
     let mut fmus = None;
     let mut failed = FailedMethods::new();
+    let given_fmus = match (&sc.cosim.structure_fmu, &sc.cosim.shaker_fmu) {
+        (Some(a), Some(b)) => Some((a.into(), b.into())),
+        _ => None,
+    };
     if wants(Method::Cosim) || sc.output.fmus {
         match crate::package::package(&out.join("fmus"), fmu_dir) {
             Ok(paths) => {
@@ -106,7 +110,10 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                 );
                 fmus = Some((paths[0].clone(), paths[1].clone()));
             }
-            Err(e) if !wants(Method::Cosim) => println!("warning: FMUs not packaged: {e:#}"),
+            // cosim with FMUs given by the scenario does not need the packaged ones
+            Err(e) if !wants(Method::Cosim) || given_fmus.is_some() => {
+                println!("warning: FMUs not packaged: {e:#}")
+            }
             Err(e) => {
                 let msg = format!("cosim needs the FMUs: {e:#}");
                 println!("error: {msg}; the other methods run");
@@ -230,7 +237,7 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                 );
             }
             Method::Cosim => {
-                let Some(f) = fmus.as_ref() else {
+                let Some(f) = fmus.as_ref().or(given_fmus.as_ref()) else {
                     continue; // FMUs not packaged: recorded in `failed`
                 };
                 let mut bar = Progress::new("cosim");

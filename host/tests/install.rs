@@ -111,7 +111,10 @@ fn installed_host_without_the_libraries_runs_the_other_methods() {
     let s = summary(&out);
     let why = s["failed_methods"]["cosim"].as_str().unwrap_or_default();
     assert!(why.contains("libstructure.so"), "{s}");
-    assert!(why.contains(&host.parent().unwrap().display().to_string()), "{why}");
+    assert!(
+        why.contains(&host.parent().unwrap().display().to_string()),
+        "{why}"
+    );
     assert!(s["methods"]["linear-frf"]["peak_tip_amplitude_m"]
         .as_f64()
         .is_some());
@@ -119,8 +122,46 @@ fn installed_host_without_the_libraries_runs_the_other_methods() {
     assert!(!out.join("cosim_envelope.csv").exists());
 
     // `host package` fails with the same advice; --fmu-dir / NLMODE_FMU_DIR point elsewhere
-    let o = run_clean(&host, &work, &["package", "--fmu-dir", "nowhere", "-o", "f"]);
+    let o = run_clean(
+        &host,
+        &work,
+        &["package", "--fmu-dir", "nowhere", "-o", "f"],
+    );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("nowhere") && err.contains("cargo build --release"), "{err}");
+    assert!(
+        err.contains("nowhere") && err.contains("cargo build --release"),
+        "{err}"
+    );
+}
+
+#[test]
+fn installed_host_cosimulates_fmus_it_is_given() {
+    let (_prefix, host, work) = install(false);
+    // the libraries elsewhere: `host package --fmu-dir` packages from there
+    let libs = cosim::repo::locate_libraries(None).unwrap();
+    let lib_dir = work.join("libs");
+    std::fs::create_dir_all(&lib_dir).unwrap();
+    std::fs::copy(&libs.structure, lib_dir.join("libstructure.so")).unwrap();
+    std::fs::copy(&libs.shaker, lib_dir.join("libshaker.so")).unwrap();
+    let o = run_clean(
+        &host,
+        &work,
+        &["package", "--fmu-dir", "libs", "-o", "given"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // a scenario naming those FMUs needs no libraries beside the host
+    std::fs::write(
+        work.join("given.toml"),
+        "[run]\nmethods = [\"cosim\"]\n[output]\nfmus = false\n\
+         [cosim]\nstructure_fmu = \"given/structure.fmu\"\nshaker_fmu = \"given/shaker.fmu\"\n",
+    )
+    .unwrap();
+    let o = run_clean(&host, &work, &["run", "given.toml", "-o", "out"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = summary(&work.join("out"));
+    assert!(s.get("failed_methods").is_none(), "{s}");
+    assert!(s["methods"]["cosim"]["peak_tip_amplitude_m"]
+        .as_f64()
+        .is_some());
 }
