@@ -83,6 +83,30 @@ fn weighted<S: State>(w: &[f64], k: &[S], i: usize) -> f64 {
     s
 }
 
+/// `out = sum_j w_j k_j` over the non-zero weights, term by term in the
+/// order of `j` (the same sums as [`weighted`], one vector operation per
+/// stage, so that long states vectorize).
+#[inline(always)]
+fn weighted_sum<S: State>(out: &mut [f64], w: &[f64], k: &[S]) {
+    let mut first = true;
+    for (wj, kj) in w.iter().zip(k) {
+        if *wj == 0.0 {
+            continue;
+        }
+        let kj = kj.as_slice();
+        if first {
+            for (o, x) in out.iter_mut().zip(kj) {
+                *o = wj * x;
+            }
+            first = false;
+        } else {
+            for (o, x) in out.iter_mut().zip(kj) {
+                *o += wj * x;
+            }
+        }
+    }
+}
+
 /// Storage of an ODE state: a contiguous vector of `f64`.
 pub(crate) trait State: Clone {
     fn as_slice(&self) -> &[f64];
@@ -296,13 +320,13 @@ pub(crate) fn integrate<S: State, E>(
         let mut failed = None;
         for st in 1..7 {
             let stage = if st == 6 { &mut y1 } else { &mut ys };
-            let (yv, sv) = (y.as_slice(), stage.as_mut_slice());
-            for i in 0..n {
-                sv[i] = yv[i] + h * weighted(&A[st][..st], &k[..st], i);
+            let (done, rest) = k.split_at_mut(st);
+            let sv = stage.as_mut_slice();
+            weighted_sum(sv, &A[st][..st], done);
+            for (s, yi) in sv.iter_mut().zip(y.as_slice()) {
+                *s = yi + h * *s;
             }
             stats.rhs_evaluations += 1;
-            let (done, rest) = k.split_at_mut(st);
-            let _ = done;
             if let Err(error) = f(t + C[st] * h, &*stage, &mut rest[0]) {
                 failed = Some(error);
                 break;
@@ -319,8 +343,9 @@ pub(crate) fn integrate<S: State, E>(
             reject_streak = true;
             continue;
         }
-        for (i, ei) in e.as_mut_slice().iter_mut().enumerate() {
-            *ei = h * weighted(&E, &k, i);
+        weighted_sum(e.as_mut_slice(), &E, &k);
+        for ei in e.as_mut_slice() {
+            *ei *= h;
         }
         let scale = match tol.scale {
             ErrorScale::Local => y.as_slice(),
