@@ -1,5 +1,6 @@
 //! Adaptive explicit Runge-Kutta Dormand-Prince 5(4) with FSAL, the dopri5 PI
-//! step-size controller and the free 4th-order continuous extension
+//! step-size controller (or the elementary one, [`Controller`]) and the free
+//! 4th-order continuous extension
 //! (coefficients of Hairer, Norsett & Wanner, *Solving ODEs I*, Table II.5.2
 //! and `dopri5`), written once for every state storage ([`State`]): the
 //! slow flow of [`crate::reduced`] integrates a fixed-size `[f64; 2]`, the
@@ -82,6 +83,30 @@ fn weighted<S: State>(w: &[f64], k: &[S], i: usize) -> f64 {
     s
 }
 
+/// `out = sum_j w_j k_j` over the non-zero weights, term by term in the
+/// order of `j` (the same sums as [`weighted`], one vector operation per
+/// stage, so that long states vectorize).
+#[inline(always)]
+fn weighted_sum<S: State>(out: &mut [f64], w: &[f64], k: &[S]) {
+    let mut first = true;
+    for (wj, kj) in w.iter().zip(k) {
+        if *wj == 0.0 {
+            continue;
+        }
+        let kj = kj.as_slice();
+        if first {
+            for (o, x) in out.iter_mut().zip(kj) {
+                *o = wj * x;
+            }
+            first = false;
+        } else {
+            for (o, x) in out.iter_mut().zip(kj) {
+                *o += wj * x;
+            }
+        }
+    }
+}
+
 /// Storage of an ODE state: a contiguous vector of `f64`.
 pub(crate) trait State: Clone {
     fn as_slice(&self) -> &[f64];
@@ -121,6 +146,18 @@ pub(crate) enum ErrorScale {
     RunningMax,
 }
 
+/// Step-size rule after an accepted step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Controller {
+    /// dopri5's PI controller (Gustafsson, beta = 0.04), no growth right
+    /// after a rejection: smooth steps for the slow flow.
+    Pi,
+    /// The elementary controller `h *= 0.9 err^(-1/5)` in `[0.2, 5]`: on a
+    /// stability-bounded explicit integration (the reference's stiff
+    /// stinger) it takes fewer steps than the PI controller.
+    Integral,
+}
+
 /// Tolerances and step limits.
 #[derive(Debug, Clone)]
 pub(crate) struct Tolerances<S> {
@@ -128,6 +165,7 @@ pub(crate) struct Tolerances<S> {
     /// Absolute tolerance per component.
     pub atol: S,
     pub scale: ErrorScale,
+    pub controller: Controller,
     pub h_max: f64,
     pub h_min: f64,
     /// Largest number of steps, accepted and rejected.
@@ -160,22 +198,31 @@ pub struct IntegratorStats {
     pub rhs_evaluations: usize,
 }
 
-/// The continuous extension of one accepted step on `[t0, t0 + h]`.
-#[derive(Debug, Clone)]
-pub(crate) struct DenseStep<S> {
+/// The continuous extension of one accepted step on `[t0, t0 + h]`, evaluated
+/// on demand from the step's stages (most steps of a stiff reference run are
+/// never sampled).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DenseStep<'a, S> {
     pub t0: f64,
     pub h: f64,
     inv_h: f64,
-    r: [S; 5],
+    y0: &'a S,
+    y1: &'a S,
+    k: &'a [S; 7],
 }
 
-impl<S: State> DenseStep<S> {
-    /// Component `i` of the state at `t` in `[t0, t0 + h]` (4th-order accurate).
+impl<S: State> DenseStep<'_, S> {
+    /// Component `i` of the state at local time `s in [0, 1]` (4th-order
+    /// accurate; `contd5` of `dopri5`).
     #[inline(always)]
     fn component(&self, s: f64, i: usize) -> f64 {
-        let s1 = 1.0 - s;
-        let r = |j: usize| self.r[j].as_slice()[i];
-        r(0) + s * (r(1) + s1 * (r(2) + s * (r(3) + s1 * r(4))))
+        let (h, s1) = (self.h, 1.0 - s);
+        let y0 = self.y0.as_slice()[i];
+        let ydiff = self.y1.as_slice()[i] - y0;
+        let bspl = h * self.k[0].as_slice()[i] - ydiff;
+        let r3 = ydiff - h * self.k[6].as_slice()[i] - bspl;
+        let r4 = h * weighted(&D, self.k, i);
+        y0 + s * (ydiff + s1 * (bspl + s * (r3 + s1 * r4)))
     }
 
     /// The state at `t` in `[t0, t0 + h]` into `out`.
@@ -187,7 +234,7 @@ impl<S: State> DenseStep<S> {
     }
 }
 
-impl<const N: usize> DenseStep<[f64; N]> {
+impl<const N: usize> DenseStep<'_, [f64; N]> {
     /// The state at `t` in `[t0, t0 + h]`.
     #[inline]
     pub fn eval(&self, t: f64) -> [f64; N] {
@@ -236,12 +283,6 @@ pub(crate) fn integrate<S: State, E>(
     let mut ys = zeros();
     let mut e = zeros();
     let mut k: [S; 7] = std::array::from_fn(|_| zeros());
-    let mut dense = DenseStep {
-        t0,
-        h: 0.0,
-        inv_h: 0.0,
-        r: std::array::from_fn(|_| zeros()),
-    };
     if let Err(error) = f(t, &y, &mut k[0]) {
         return (stats, Some(Stop::Rhs { t, error }));
     }
@@ -279,13 +320,13 @@ pub(crate) fn integrate<S: State, E>(
         let mut failed = None;
         for st in 1..7 {
             let stage = if st == 6 { &mut y1 } else { &mut ys };
-            let (yv, sv) = (y.as_slice(), stage.as_mut_slice());
-            for i in 0..n {
-                sv[i] = yv[i] + h * weighted(&A[st][..st], &k[..st], i);
+            let (done, rest) = k.split_at_mut(st);
+            let sv = stage.as_mut_slice();
+            weighted_sum(sv, &A[st][..st], done);
+            for (s, yi) in sv.iter_mut().zip(y.as_slice()) {
+                *s = yi + h * *s;
             }
             stats.rhs_evaluations += 1;
-            let (done, rest) = k.split_at_mut(st);
-            let _ = done;
             if let Err(error) = f(t + C[st] * h, &*stage, &mut rest[0]) {
                 failed = Some(error);
                 break;
@@ -302,8 +343,9 @@ pub(crate) fn integrate<S: State, E>(
             reject_streak = true;
             continue;
         }
-        for (i, ei) in e.as_mut_slice().iter_mut().enumerate() {
-            *ei = h * weighted(&E, &k, i);
+        weighted_sum(e.as_mut_slice(), &E, &k);
+        for ei in e.as_mut_slice() {
+            *ei *= h;
         }
         let scale = match tol.scale {
             ErrorScale::Local => y.as_slice(),
@@ -320,31 +362,20 @@ pub(crate) fn integrate<S: State, E>(
             continue;
         }
         if err <= 1.0 {
-            {
-                let (yv, y1v) = (y.as_slice(), y1.as_slice());
-                let [r0, r1, r2, r3, r4] = &mut dense.r;
-                let (r0, r1, r2, r3, r4) = (
-                    r0.as_mut_slice(),
-                    r1.as_mut_slice(),
-                    r2.as_mut_slice(),
-                    r3.as_mut_slice(),
-                    r4.as_mut_slice(),
-                );
-                for i in 0..n {
-                    let ydiff = y1v[i] - yv[i];
-                    let bspl = h * k[0].as_slice()[i] - ydiff;
-                    r0[i] = yv[i];
-                    r1[i] = ydiff;
-                    r2[i] = bspl;
-                    r3[i] = ydiff - h * k[6].as_slice()[i] - bspl;
-                    r4[i] = h * weighted(&D, &k, i);
-                }
-            }
-            dense.t0 = t;
-            dense.h = h;
-            dense.inv_h = 1.0 / h;
             stats.accepted_steps += 1;
+            let dense = DenseStep {
+                t0: t,
+                h,
+                inv_h: 1.0 / h,
+                y0: &y,
+                y1: &y1,
+                k: &k,
+            };
+            let observed = on_step(&dense, &y1);
             t = if last { t_end } else { t + h };
+            if let Err(error) = observed {
+                return (stats, Some(Stop::Observer { t, error }));
+            }
             std::mem::swap(&mut y, &mut y1);
             k.swap(0, 6);
             if tol.scale == ErrorScale::RunningMax {
@@ -352,8 +383,10 @@ pub(crate) fn integrate<S: State, E>(
                     *wi = wi.abs().max(yi.abs());
                 }
             }
-            if let Err(error) = on_step(&dense, &y) {
-                return (stats, Some(Stop::Observer { t, error }));
+            if tol.controller == Controller::Integral {
+                h *= (0.9 * err.max(1e-10).powf(-0.2)).clamp(0.2, 5.0);
+                h = h.min(tol.h_max);
+                continue;
             }
             // PI controller (Gustafsson / dopri5: beta = 0.04):
             // fac = 0.9 err^(-0.2 + 0.08) last^0.08, as one exp of logarithms
@@ -388,6 +421,7 @@ mod tests {
             rtol,
             atol: [rtol; 2],
             scale: ErrorScale::Local,
+            controller: Controller::Pi,
             h_max,
             h_min: 1e-14,
             max_steps: 1_000_000,
@@ -433,6 +467,7 @@ mod tests {
                 rtol: 1e3,
                 atol: [1e3; 2],
                 scale: ErrorScale::Local,
+                controller: Controller::Pi,
                 h_max: h,
                 h_min: 1e-14,
                 max_steps: 1000,
@@ -475,6 +510,7 @@ mod tests {
             rtol: 1e-8,
             atol: [1e-8; 2],
             scale: ErrorScale::Local,
+            controller: Controller::Pi,
             h_max: 0.3,
             h_min: 1e-9,
             max_steps: 10000,

@@ -3,7 +3,7 @@
 use super::fast::Breaks;
 use super::output::OutputStates;
 use super::{ReducedError, ReducedModel, MAX_PHI};
-use crate::dopri::{integrate, ErrorScale, IntegratorStats, Stop, Tolerances};
+use crate::dopri::{integrate, Controller, ErrorScale, IntegratorStats, Stop, Tolerances};
 use crate::excitation::LinearSweep;
 use crate::table::TableError;
 use num_complex::Complex64;
@@ -430,6 +430,7 @@ impl ReducedModel {
         let tol = Tolerances {
             rtol: opts.rtol,
             atol: [atol; 2],
+            controller: Controller::Pi,
             scale: ErrorScale::Local,
             h_max: opts.max_step_fraction * duration,
             h_min: 1e-12 * duration,

@@ -4,15 +4,18 @@
 //!
 //! The right-hand side is evaluated into the integrator's preallocated
 //! `nalgebra` vectors; the error of a component is scaled by the running
-//! maximum of its modulus (the states oscillate through zero). Samples on the
-//! output grid come from the method's 4th-order continuous extension.
+//! maximum of its modulus (the states oscillate through zero), and the step
+//! follows the elementary controller (on case (a) 87 k steps against 120 k
+//! with the PI controller: the step is bounded by stability, not accuracy).
+//! Samples on the output grid come from the method's 4th-order continuous
+//! extension.
 //!
 //! The method is explicit: its stable step is bounded by about `3.3 / |lambda_max|`
 //! of the assembled system (stinger and Craig-Bampton modes), which is what makes
 //! it slow here and useless for the unreduced FE model.
 use super::assembly::FirstOrderSystem;
 use super::{IntegrationStats, ReferenceError, SampleGrid, StepControl};
-use crate::dopri::{self, ErrorScale, Stop, Tolerances};
+use crate::dopri::{self, Controller, ErrorScale, Stop, Tolerances};
 use nalgebra::DVector;
 
 /// Integrate from `z0` at `t = 0` over the sample grid, calling `on_sample(i, z)`
@@ -37,6 +40,7 @@ pub(crate) fn integrate(
     let tol = Tolerances {
         rtol: ctl.rtol,
         atol: DVector::from_element(nz, ctl.atol),
+        controller: Controller::Integral,
         scale: ErrorScale::RunningMax,
         h_max: t_end,
         h_min: 1e-14 * t_end.max(dt),
