@@ -15,7 +15,7 @@
 //! `cargo bench -p cosim --bench cosim` (add `COSIM_CASE_A=1` for the table).
 use cosim::import::Fmu;
 use cosim::master::{run, Algorithm, Master, MasterOptions, ParamValue};
-use cosim::paper::{run_cosim, CosimOutput, CosimParams, SweepSpec};
+use cosim::paper::{run_cosim, CosimOutput, CosimParams};
 use criterion::{criterion_group, Criterion};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -189,7 +189,7 @@ fn case_a() {
     );
     let dir = tempfile::tempdir().unwrap();
     let (st, sh) = release_fmus(dir.path(), &table);
-    let base = CosimParams::new(shaker, SweepSpec::from(&sweep));
+    let base = CosimParams::new(shaker, sweep);
     // finest co-simulation as the converged FMU solution
     let mut pf = base.clone();
     pf.algorithm = Algorithm::Iterative;

@@ -25,4 +25,4 @@ pub mod ssp;
 mod tests;
 
 pub use master::{Algorithm, Master, MasterError, MasterOptions, ParamValue};
-pub use paper::{run_cosim, CosimEnvelope, CosimError, CosimOutput, CosimParams, SweepSpec};
+pub use paper::{run_cosim, CosimError, CosimOutput, CosimParams};

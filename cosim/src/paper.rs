@@ -9,32 +9,12 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use nlmode::attachment::{ShakerParams, Stinger};
+use nlmode::envelope::Envelope;
+use nlmode::excitation::LinearSweep;
 use nlmode::reference::envelope::fundamental_amplitudes;
 
 use crate::import::Fmu;
 use crate::master::{run, Algorithm, Master, MasterError, MasterOptions, MasterStats, ParamValue};
-
-/// The sweep the shaker FMU generates: `u = u_hat cos(Phi)`, `dPhi/dt = Omega`,
-/// `Omega` linear from start to end at `|dOmega/dt| = rate` (0: fixed sine at
-/// `omega_start_rad_s`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SweepSpec {
-    pub u_hat_v: f64,
-    pub omega_start_rad_s: f64,
-    pub omega_end_rad_s: f64,
-    pub rate_rad_s2: f64,
-}
-
-impl From<&nlmode::excitation::LinearSweep> for SweepSpec {
-    fn from(s: &nlmode::excitation::LinearSweep) -> Self {
-        Self {
-            u_hat_v: s.amplitude,
-            omega_start_rad_s: s.omega_start_rad_s,
-            omega_end_rad_s: s.omega_end_rad_s,
-            rate_rad_s2: s.rate_rad_s2,
-        }
-    }
-}
 
 /// Everything `run_cosim` needs besides the two FMU files.
 #[derive(Debug, Clone)]
@@ -46,7 +26,10 @@ pub struct CosimParams {
     /// Gauss-Seidel: step the shaker before the structure (default: structure first).
     pub shaker_first: bool,
     pub shaker: ShakerParams,
-    pub sweep: SweepSpec,
+    /// The sweep the shaker FMU generates (its internal source):
+    /// `u = amplitude cos(Phi)`, `dPhi/dt = Omega`, `Omega` linear from start to
+    /// end at `|dOmega/dt| = rate_rad_s2` (0: fixed sine at `omega_start_rad_s`).
+    pub sweep: LinearSweep,
     /// Drive point name in the modal table (`2l3`, `l3`).
     pub drive_point: String,
     /// Modal table file; `None`: the one in the structure FMU's `resources/`.
@@ -65,7 +48,7 @@ pub struct CosimParams {
 impl CosimParams {
     /// Defaults for a shaker and sweep: Gauss-Seidel, structure first,
     /// extrapolation on, `h = 1e-5 s`, drive point `2l3`.
-    pub fn new(shaker: ShakerParams, sweep: SweepSpec) -> Self {
+    pub fn new(shaker: ShakerParams, sweep: LinearSweep) -> Self {
         Self {
             algorithm: Algorithm::GaussSeidel,
             macro_step_s: 1e-5,
@@ -96,15 +79,6 @@ impl CosimParams {
     }
 }
 
-/// Envelope (fundamental harmonics against the excitation frequency).
-#[derive(Debug, Clone, Default)]
-pub struct CosimEnvelope {
-    pub omega_rad_s: Vec<f64>,
-    pub force_amplitude_n: Vec<f64>,
-    pub tip_amplitude_m: Vec<f64>,
-    pub drive_amplitude_m: Vec<f64>,
-}
-
 /// Result of `run_cosim`.
 #[derive(Debug, Clone, Default)]
 pub struct CosimOutput {
@@ -118,7 +92,8 @@ pub struct CosimOutput {
     pub force_n: Vec<f64>,
     pub voltage_v: Vec<f64>,
     pub current_a: Vec<f64>,
-    pub envelope: CosimEnvelope,
+    /// Fundamental harmonics against the excitation frequency (with the drive-point amplitude).
+    pub envelope: Envelope,
     /// Set when an FMU failed mid-run: the time [s] and the error with the FMU's log.
     pub stopped: Option<(f64, String)>,
     pub stats: MasterStats,
@@ -171,7 +146,7 @@ pub fn parameters(p: &CosimParams) -> Result<Vec<(String, ParamValue)>, CosimErr
         ("k_a", s.armature_stiffness_n_per_m),
         ("D_a", s.damping_ratio()),
         ("k_s", ks),
-        ("u_hat", p.sweep.u_hat_v),
+        ("u_hat", p.sweep.amplitude),
         ("Omega_start", p.sweep.omega_start_rad_s),
         ("Omega_end", p.sweep.omega_end_rad_s),
         ("Omega_rate", p.sweep.rate_rad_s2),
@@ -337,7 +312,7 @@ pub fn phase_from_omega(t: &[f64], omega: &[f64]) -> Vec<f64> {
 /// Fourier projection on the excitation phase of `nlmode::reference`
 /// (the same extractor as the `reference` method), with window centres
 /// every eighth of an excitation period.
-pub fn envelope_of(o: &CosimOutput) -> CosimEnvelope {
+pub fn envelope_of(o: &CosimOutput) -> Envelope {
     let phi = phase_from_omega(&o.time_s, &o.omega_rad_s);
     let mut centers = Vec::new();
     let mut next = 0.0;
@@ -349,14 +324,19 @@ pub fn envelope_of(o: &CosimOutput) -> CosimEnvelope {
     }
     let amps = |x: &[f64]| fundamental_amplitudes(&phi, x, &centers, 1.0);
     let (f, tip, x) = (amps(&o.force_n), amps(&o.x_tip_m), amps(&o.x_m));
-    let mut e = CosimEnvelope::default();
+    let mut e = Envelope {
+        drive_amplitude_m: Some(Vec::new()),
+        ..Default::default()
+    };
+    let mut drive = Vec::new();
     for (j, &c) in centers.iter().enumerate() {
         if let (Some(f), Some(tip), Some(x)) = (f[j], tip[j], x[j]) {
             e.omega_rad_s.push(o.omega_rad_s[c]);
             e.force_amplitude_n.push(f);
             e.tip_amplitude_m.push(tip);
-            e.drive_amplitude_m.push(x);
+            drive.push(x);
         }
     }
+    e.drive_amplitude_m = Some(drive);
     e
 }

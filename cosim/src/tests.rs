@@ -542,6 +542,8 @@ mod fmus {
     use super::super::repo::{locate_libraries, package_repo_fmus};
     use super::*;
     use nlmode::attachment::ShakerParams;
+    use nlmode::envelope::Envelope;
+    use nlmode::excitation::LinearSweep;
     use nlmode::nma::ModalTable;
     use nlmode::structure::modal_analysis;
     use nlmode::structure::{paper_structure, PaperStructureOptions};
@@ -609,8 +611,8 @@ mod fmus {
         let w = eta * b.omega0;
         let mut p = CosimParams::new(
             b.shaker,
-            SweepSpec {
-                u_hat_v: 1.0,
+            LinearSweep {
+                amplitude: 1.0,
                 omega_start_rad_s: w,
                 omega_end_rad_s: w,
                 rate_rad_s2: 0.0,
@@ -720,7 +722,7 @@ mod fmus {
     /// Envelope comparison: (peak tip relative error, jump-down relative
     /// error, RMS tip difference / peak, RMS force difference / max force),
     /// the other envelope interpolated linearly at the co-simulation's frequencies.
-    fn compare(e: &CosimEnvelope, om: &[f64], f: &[f64], tip: &[f64]) -> (f64, f64, f64, f64) {
+    fn compare(e: &Envelope, om: &[f64], f: &[f64], tip: &[f64]) -> (f64, f64, f64, f64) {
         let interp = |y: &[f64], x0: f64| {
             let k = om.partition_point(|&v| v <= x0);
             (k > 0 && k < om.len())
@@ -820,7 +822,7 @@ mod fmus {
             .envelope();
         let dir = tempfile::tempdir().unwrap();
         let (st, sh) = package(dir.path(), &table);
-        let mut p = CosimParams::new(shaker, SweepSpec::from(&sweep));
+        let mut p = CosimParams::new(shaker, sweep);
         p.drive_point = point.into();
         p.algorithm = Algorithm::Jacobi;
         p.macro_step_s = 1e-5;

@@ -24,9 +24,10 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use cosim::paper::{export_ssp, run_cosim, CosimParams, SweepSpec};
+use cosim::paper::{export_ssp, run_cosim, CosimParams};
 use cosim::Algorithm;
 use nlmode::attachment::ShakerParams;
+use nlmode::excitation::LinearSweep;
 
 const USAGE: &str =
     "usage: cosim_ssp STRUCTURE.fmu SHAKER.fmu OUT_DIR U_HAT_V OMEGA_START_RAD_S OMEGA_END_RAD_S \
@@ -47,8 +48,8 @@ fn main_inner() -> Result<(), String> {
     let structure = PathBuf::from(&args[0]);
     let shaker = PathBuf::from(&args[1]);
     let out = PathBuf::from(&args[2]);
-    let sweep = SweepSpec {
-        u_hat_v: number(&args, 3, "U_HAT_V")?,
+    let sweep = LinearSweep {
+        amplitude: number(&args, 3, "U_HAT_V")?,
         omega_start_rad_s: number(&args, 4, "OMEGA_START_RAD_S")?,
         omega_end_rad_s: number(&args, 5, "OMEGA_END_RAD_S")?,
         rate_rad_s2: number(&args, 6, "RATE_RAD_S2")?,

@@ -315,7 +315,7 @@ pub fn cosim(
     fmus: &(std::path::PathBuf, std::path::PathBuf),
     progress: &mut dyn FnMut(f64),
 ) -> Result<MethodResult> {
-    use cosim::{run_cosim, Algorithm, CosimParams, SweepSpec};
+    use cosim::{run_cosim, Algorithm, CosimParams};
     let structure = sc
         .cosim
         .structure_fmu
@@ -328,7 +328,7 @@ pub fn cosim(
         .as_ref()
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| fmus.1.clone());
-    let mut p = CosimParams::new(setup.shakers[0], SweepSpec::from(&setup.sweep));
+    let mut p = CosimParams::new(setup.shakers[0], setup.sweep);
     p.algorithm = match sc.cosim.algorithm {
         CosimAlgorithm::Jacobi => Algorithm::Jacobi,
         CosimAlgorithm::GaussSeidel => Algorithm::GaussSeidel,
@@ -337,14 +337,7 @@ pub fn cosim(
     p.macro_step_s = sc.cosim.macro_step_s;
     p.drive_point = setup.exciter_points[0].clone();
     let out = run_cosim(&structure, &shaker, &p, progress).context("cosim")?;
-    let e = &out.envelope;
-    let env = Envelope {
-        omega_rad_s: e.omega_rad_s.clone(),
-        force_amplitude_n: e.force_amplitude_n.clone(),
-        tip_amplitude_m: e.tip_amplitude_m.clone(),
-        drive_amplitude_m: Some(e.drive_amplitude_m.clone()),
-        ..Default::default()
-    };
+    let env = out.envelope.clone();
     let mut r = MethodResult::new(Method::Cosim.name(), out.wall_time_s, env, true);
     r.time_series = Some(crate::results::TimeSeries {
         columns: vec![
