@@ -31,8 +31,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use nlmode::nma::epmc::ModalBasis;
 use nlmode::nma::{
-    nonlinear_modal_analysis, nonlinear_modal_analysis_with_basis, AmplitudeRange,
-    ContinuationOptions, NmaOptions,
+    nonlinear_modal_analysis, nonlinear_modal_analysis_with_basis, AmplitudeRange, BackboneOptions,
+    ContinuationOptions, NmaOptions, RefineOptions, TablePolicy,
 };
 use nlmode::structure::{paper_structure, PaperStructureOptions};
 use std::sync::Arc;
@@ -155,5 +155,71 @@ fn scaling(_c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, paper_cb, scaling);
+/// Issue 12: the conservative H = 13 backbone through the internal-resonance
+/// loops up to 2.7 omega0 ([`BackboneOptions`] defaults; target <= 0.35 s),
+/// and the refined damped H = 13 table to the first fold (continuation plus
+/// refinement to omega 1e-5, D and shapes 1e-4; target <= 50 ms). The modal
+/// bases are computed once outside the timing.
+fn loops(c: &mut Criterion) {
+    let ps = paper_structure(&PaperStructureOptions::default()).expect("paper structure");
+    let mut group = c.benchmark_group("nma_loops");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(6));
+    let cons = Arc::new(ModalBasis::new(&ps.model, true).expect("modes"));
+    let bb = BackboneOptions::default().nma_options(true);
+    let bb = NmaOptions {
+        store_coordinates: false,
+        ..bb
+    };
+    let r = nonlinear_modal_analysis_with_basis(&ps.model, cons.clone(), &bb).expect("backbone");
+    let t = Instant::now();
+    let _ = nonlinear_modal_analysis_with_basis(&ps.model, cons.clone(), &bb).expect("backbone");
+    let dt = t.elapsed().as_secs_f64();
+    eprintln!(
+        "conservative H = 13 backbone to 2.7 omega0: {} points, {} Newton iterations, {} rejected steps, {} loops, {:.3} ms/point",
+        r.n_points(),
+        r.newton_iterations,
+        r.rejected_steps,
+        r.folds.iter().filter(|f| f.internal_resonance.is_some()).count(),
+        1e3 * dt / r.n_points() as f64
+    );
+    group.bench_function("conservative_H13_to_2.7", |b| {
+        b.iter(|| nonlinear_modal_analysis_with_basis(&ps.model, cons.clone(), &bb).unwrap())
+    });
+    let damped = Arc::new(ModalBasis::new(&ps.model, false).expect("modes"));
+    let topts = NmaOptions::default();
+    let refine = RefineOptions::default();
+    let table = |basis: &Arc<ModalBasis>| {
+        let r = nonlinear_modal_analysis_with_basis(&ps.model, basis.clone(), &topts).unwrap();
+        let t = r
+            .refined_table(
+                &ps.model,
+                basis.clone(),
+                &topts,
+                TablePolicy::PrimaryBranch,
+                &refine,
+            )
+            .unwrap();
+        (r, t)
+    };
+    let t = Instant::now();
+    let (r, tab) = table(&damped);
+    let dt = t.elapsed().as_secs_f64();
+    let acc = tab.accuracy.clone().expect("refined");
+    eprintln!(
+        "refined damped H = 13 table: {} branch points ({} Newton iterations), {} table points, {} HB checks, {:.1} ms, {:.3} ms per table point; accuracy {:?}",
+        r.n_points(),
+        r.newton_iterations,
+        tab.amplitude.len(),
+        acc.checks,
+        1e3 * dt,
+        1e3 * dt / tab.amplitude.len() as f64,
+        acc
+    );
+    group.bench_function("refined_table_H13", |b| b.iter(|| table(&damped)));
+    group.finish();
+}
+
+criterion_group!(benches, paper_cb, scaling, loops);
 criterion_main!(benches);
