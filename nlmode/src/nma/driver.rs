@@ -598,8 +598,8 @@ impl NmaResult {
     /// `omega` is within `refine.omega_rel / 2` and `D` and the shapes within
     /// `refine.rel / 2` at every midpoint (half the target: the midpoint error
     /// underestimates the largest error of an interval), or the table has
-    /// `refine.max_points`, or an interval is narrower than `1e-9 a` (next to
-    /// a fold; both end the refinement there with `capped`).
+    /// `refine.max_points`, or an interval is too narrow to split in floating
+    /// point (next to a fold; both end the refinement there with `capped`).
     /// Intervals whose PCHIP slopes change by an insertion are checked again,
     /// so [`ModalTable::accuracy`] holds the midpoint errors of the final table.
     ///
@@ -685,9 +685,9 @@ impl NmaResult {
                 let good = err.0 <= 0.5 * refine.omega_rel
                     && err.1 <= 0.5 * refine.rel
                     && err.2 <= 0.5 * refine.rel;
-                // an interval narrower than 1e-9 a (next to the fold, where
-                // omega(a) has an infinite slope) is not split further
-                let narrow = q.amplitude - p.amplitude <= 1e-9 * q.amplitude;
+                // an interval too narrow to split in floating point (next to
+                // the fold, where omega(a) has an infinite slope) stays as is
+                let narrow = !(sol.amplitude > p.amplitude && sol.amplitude < q.amplitude);
                 if good || narrow || pts.len() + inserted.len() >= refine.max_points {
                     capped |= !good;
                     next_checked.push(true);
