@@ -25,6 +25,14 @@
 //! | full 301 nodes | 600 | 0.51 | 7.5 | 2.7 |
 //! | full 1000 nodes | 1998 | 85 | 53 | 19 |
 //!
+//! Issue 12 (`nma_loops`, release, shared 2-core machine with other jobs
+//! running, 2026-12-01): conservative H = 13 backbone through the 1:5, 1:9,
+//! 1:3, 1:7 and 1:13 loops to 2.7 omega0: 341 ms (660 points, 1467 Newton
+//! iterations, 95 rejected steps, 0.36 ms/point; target 350 ms). Refined damped
+//! H = 13 table (default `log10 a` = -6 .. -1 continuation, 135 points, then
+//! 193 table points from 503 midpoint HB solves): 284 ms (target 50 ms, not
+//! met: the midpoint solves dominate, about 0.5 ms each).
+//!
 //! The cost per point grows about linearly with the number of DOFs (x3 DOFs:
 //! x3.9, x3.3 DOFs: x7, the largest case leaving the caches); the one-off
 //! dense eigen-decomposition (O(n^3)) dominates the unreduced analyses.
