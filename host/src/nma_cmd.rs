@@ -6,65 +6,155 @@ use crate::plot::{self, Curve};
 use crate::results::write_csv;
 use crate::run::load_scenario;
 use anyhow::{Context, Result};
-use nlmode::nma::NmaResult;
+use nlmode::nma::epmc::ModalBasis;
+use nlmode::nma::{
+    nonlinear_modal_analysis_with_basis, AmplitudeRange, BackboneOptions, FoldKind, NmaOptions,
+    NmaResult, RefineOptions, TablePolicy,
+};
 use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
 
+/// Loop label of every branch point: `1:n with mode k` inside a loop (from an
+/// amplitude maximum to the next minimum), empty elsewhere.
+fn loop_labels(r: &NmaResult) -> Vec<String> {
+    let mut labels = vec![String::new(); r.branch.len()];
+    for (i, f) in r.folds.iter().enumerate() {
+        if let Some(ir) = &f.internal_resonance {
+            let end = r.folds[i + 1..]
+                .iter()
+                .find(|g| g.kind == FoldKind::AmplitudeMinimum)
+                .map(|g| g.index)
+                .unwrap_or(r.branch.len() - 1);
+            for l in &mut labels[f.index..=end] {
+                *l = format!("1:{} mode {}", ir.harmonic, ir.mode_index + 1);
+            }
+        }
+    }
+    labels
+}
+
+/// `<name>_branch.csv`: every branch point with the energy shares and the
+/// loop it belongs to.
 fn branch_csv(out: &Path, name: &str, r: &NmaResult) -> Result<()> {
+    use std::io::Write;
     let tip = r
         .point_fundamental_amplitude(TIP)
         .context("branch has no tip point")?;
-    let a: Vec<f64> = r.branch.iter().map(|b| b.amplitude).collect();
-    let w: Vec<f64> = r.branch.iter().map(|b| b.omega_rad_s).collect();
-    let d: Vec<f64> = r.branch.iter().map(|b| b.damping_ratio).collect();
-    write_csv(
-        &out.join(format!("{name}_branch.csv")),
-        &[
-            "amplitude".into(),
-            "tip_amplitude_m".into(),
-            "omega_rad_s".into(),
-            "damping_ratio".into(),
-        ],
-        &[&a, &tip, &w, &d],
-    )
+    let path = out.join(format!("{name}_branch.csv"));
+    let mut f = std::io::BufWriter::new(
+        std::fs::File::create(&path)
+            .with_context(|| format!("cannot create {}", path.display()))?,
+    );
+    let h = r.harmonics;
+    write!(f, "amplitude,tip_amplitude_m,omega_rad_s,omega_over_omega0,damping_ratio,secondary_harmonic,secondary_mode,loop")?;
+    for n in 1..=h {
+        write!(f, ",energy_share_h{n}")?;
+    }
+    writeln!(f)?;
+    let labels = loop_labels(r);
+    for (i, b) in r.branch.iter().enumerate() {
+        write!(
+            f,
+            "{:e},{:e},{},{},{:e},{},{},{}",
+            b.amplitude,
+            tip[i],
+            b.omega_rad_s,
+            b.omega_rad_s / r.linear_omega_rad_s,
+            b.damping_ratio,
+            b.secondary.harmonic,
+            b.secondary.mode_index + 1,
+            labels[i]
+        )?;
+        for n in 1..=h {
+            write!(
+                f,
+                ",{:e}",
+                b.harmonic_energy_shares.get(n).copied().unwrap_or(0.0)
+            )?;
+        }
+        writeln!(f)?;
+    }
+    f.flush()?;
+    Ok(())
 }
 
-fn report(label: &str, r: &NmaResult, table: &nlmode::nma::ModalTable, wall: f64) {
-    let a0 = table.amplitude[0];
-    let a1 = *table.amplitude.last().unwrap();
+fn report(label: &str, r: &NmaResult, wall: f64) {
     println!(
-        "{label}: H = {}, {} branch points ({} Newton iterations), {:.1} ms; table: {} points, a = {:.3e} .. {:.3e}",
+        "{label}: H = {}, {} branch points ({} Newton iterations, {} rejected steps), {:.1} ms, omega up to {:.3} omega0",
         r.harmonics,
         r.branch.len(),
         r.newton_iterations,
+        r.rejected_steps,
         1e3 * wall,
-        table.amplitude.len(),
-        a0,
-        a1
+        r.branch
+            .iter()
+            .map(|b| b.omega_rad_s)
+            .fold(0.0, f64::max)
+            / r.linear_omega_rad_s
     );
-    match r.first_fold() {
-        Some(f) => println!(
-            "  first fold of a at a = {:.4e}, omega = {:.2} rad/s ({:.3} omega0): the table keeps the primary branch up to it",
-            f.amplitude,
-            f.omega_rad_s,
-            f.omega_rad_s / r.linear_omega_rad_s
-        ),
-        None => println!("  no fold of a on the computed branch"),
+    let mut n = 0;
+    for (i, f) in r.folds.iter().enumerate() {
+        if let Some(ir) = &f.internal_resonance {
+            n += 1;
+            let min = r.folds[i + 1..]
+                .iter()
+                .find(|g| g.kind == FoldKind::AmplitudeMinimum);
+            println!(
+                "  loop {n}: {ir}; a from {:.4e} (omega = {:.2} rad/s) down to {}",
+                f.amplitude,
+                f.omega_rad_s,
+                match min {
+                    Some(m) => format!(
+                        "{:.4e} (omega = {:.2} rad/s) and back",
+                        m.amplitude, m.omega_rad_s
+                    ),
+                    None => "the end of the branch".to_string(),
+                }
+            );
+        }
     }
-    for (i, f) in r.folds.iter().enumerate().skip(1) {
-        println!(
-            "  fold {}: {:?} at a = {:.4e}, omega = {:.2} rad/s",
-            i + 1,
-            f.kind,
-            f.amplitude,
-            f.omega_rad_s
-        );
+    if n == 0 {
+        println!("  no loop on the computed branch");
     }
     for w in &r.warnings {
         println!("  warning: {w}");
     }
 }
 
-/// `host nma [SCENARIO] -o DIR`.
+/// Run an analysis; on a continuation failure print the warning with its
+/// numbers and go on with the branch computed so far.
+fn analyse(
+    model: &nlmode::structure::StructuralModel,
+    basis: Arc<ModalBasis>,
+    opts: &NmaOptions,
+    label: &str,
+) -> Result<NmaResult> {
+    match nonlinear_modal_analysis_with_basis(model, basis, opts) {
+        Ok(r) => Ok(r),
+        Err(e) => match e.partial() {
+            Some(p) if !p.branch.is_empty() => {
+                let b = p.branch.last().expect("non-empty");
+                println!(
+                    "warning: {label}: {e}; last point a = {:.4e}, omega = {:.2} rad/s, fundamental energy share {:.3e}, secondary {}:{} with mode {} ({:.3e}); the branch so far is written and plotted",
+                    b.amplitude,
+                    b.omega_rad_s,
+                    b.fundamental_energy_share,
+                    1,
+                    b.secondary.harmonic,
+                    b.secondary.mode_index + 1,
+                    b.secondary.share
+                );
+                Ok(p.clone())
+            }
+            _ => Err(anyhow::anyhow!("nma ({label}): {e}")),
+        },
+    }
+}
+
+/// `host nma [SCENARIO] -o DIR`: the refined modal table (damped primary
+/// branch to the first fold), and the backbones through the internal-resonance
+/// loops (damped, and conservative if `nma.conservative`) with plots.
 pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
     let (sc, source) = load_scenario(path)?;
     std::fs::create_dir_all(out)
@@ -76,72 +166,125 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         setup.model.ndof(),
         setup.omega0_rad_s
     );
-    let (damped, dres) = methods::nma_table(&setup, &sc, false)?;
-    let dres = dres.context("nma: a table file was given (nma.table); nothing to compute")?;
-    report("damped", &dres, &damped.table, damped.wall_time_s);
-    let table_path = out.join("modal_table.json");
-    damped.table.write(&table_path)?;
-    branch_csv(out, "damped", &dres)?;
-    let mut curves_w = vec![];
-    let mut curves_d = vec![];
-    let tip_d = dres.point_fundamental_amplitude(TIP).unwrap_or_default();
-    let w_d: Vec<f64> = dres
-        .branch
-        .iter()
-        .map(|b| b.omega_rad_s / setup.omega0_rad_s)
-        .collect();
-    let d_d: Vec<f64> = dres
-        .branch
-        .iter()
-        .map(|b| 100.0 * b.damping_ratio)
-        .collect();
-    let cons = if sc.nma.conservative {
-        let (c, cres) = methods::nma_table(&setup, &sc, true)?;
-        let cres = cres.expect("computed");
-        report("conservative", &cres, &c.table, c.wall_time_s);
-        branch_csv(out, "conservative", &cres)?;
-        Some(cres)
-    } else {
-        None
+    let h = sc.nma.harmonics;
+    let points: Vec<String> = setup.model.points.iter().map(|p| p.name.clone()).collect();
+    // the modal table: damped primary branch, refined
+    let t0 = Instant::now();
+    let basis_d =
+        Arc::new(ModalBasis::new(&setup.model, false).map_err(|e| anyhow::anyhow!("nma: {e}"))?);
+    let topts = NmaOptions {
+        harmonics: h,
+        amplitude: AmplitudeRange::Point {
+            name: TIP.into(),
+            start_m: 1e-7,
+            end_m: sc.nma.max_tip_amplitude_m,
+        },
+        conservative: false,
+        points: points.clone(),
+        store_coordinates: true,
+        ..Default::default()
     };
-    let tip_c = cons
-        .as_ref()
-        .and_then(|c| c.point_fundamental_amplitude(TIP))
-        .unwrap_or_default();
-    let w_c: Vec<f64> = cons
-        .as_ref()
-        .map(|c| {
-            c.branch
+    let tres = analyse(&setup.model, basis_d.clone(), &topts, "table")?;
+    let table = tres
+        .refined_table(
+            &setup.model,
+            basis_d.clone(),
+            &topts,
+            TablePolicy::PrimaryBranch,
+            &RefineOptions::default(),
+        )
+        .map_err(|e| anyhow::anyhow!("nma: {e}"))?;
+    let wall = t0.elapsed().as_secs_f64();
+    let acc = table.accuracy.clone().expect("refined");
+    println!(
+        "modal table: H = {h}, {} points refined from {} branch points ({} HB checks), a = {:.3e} .. {:.3e}, {:.1} ms; PCHIP within omega {:.1e}, D {:.1e}, shapes {:.1e} (relative){}",
+        table.amplitude.len(),
+        tres.branch.len(),
+        acc.checks,
+        table.amplitude[0],
+        table.amplitude.last().copied().unwrap_or(f64::NAN),
+        1e3 * wall,
+        acc.omega_rel,
+        acc.damping_rel,
+        acc.shape_rel,
+        if acc.capped { " (point cap reached)" } else { "" }
+    );
+    if let Some(a) = table.truncated_at_fold {
+        println!("  primary branch truncated at the first fold of a = {a:.4e}");
+    }
+    let table_path = out.join("modal_table.json");
+    table.write(&table_path)?;
+    // backbones through the loops
+    let bb = BackboneOptions {
+        harmonics: h,
+        ..Default::default()
+    };
+    let mut branches: Vec<(&str, NmaResult)> = vec![];
+    let kinds: &[(&str, bool)] = if sc.nma.conservative {
+        &[("conservative", true), ("damped", false)]
+    } else {
+        &[("damped", false)]
+    };
+    for &(label, conservative) in kinds {
+        let basis = if conservative {
+            Arc::new(ModalBasis::new(&setup.model, true).map_err(|e| anyhow::anyhow!("nma: {e}"))?)
+        } else {
+            basis_d.clone()
+        };
+        let opts = NmaOptions {
+            points: points.clone(),
+            store_coordinates: false,
+            ..bb.nma_options(conservative)
+        };
+        let t0 = Instant::now();
+        let r = analyse(&setup.model, basis, &opts, label)?;
+        report(label, &r, t0.elapsed().as_secs_f64());
+        branch_csv(out, label, &r)?;
+        branches.push((label, r));
+    }
+    let series: Vec<(String, Vec<f64>, Vec<f64>, Vec<f64>)> = branches
+        .iter()
+        .map(|(label, r)| {
+            let tip = r.point_fundamental_amplitude(TIP).unwrap_or_default();
+            let w = r
+                .branch
                 .iter()
                 .map(|b| b.omega_rad_s / setup.omega0_rad_s)
-                .collect()
+                .collect();
+            let d = r.branch.iter().map(|b| 100.0 * b.damping_ratio).collect();
+            let label = if *label == "damped" {
+                format!("damped (D0 = {:.2} %)", 100.0 * setup.d0)
+            } else {
+                label.to_string()
+            };
+            (label, tip, w, d)
         })
-        .unwrap_or_default();
-    if cons.is_some() {
-        curves_w.push(Curve {
-            label: "conservative".into(),
-            x: &tip_c,
-            y: &w_c,
-        });
-    }
-    curves_w.push(Curve {
-        label: format!("damped (D0 = {:.2} %)", 100.0 * setup.d0),
-        x: &tip_d,
-        y: &w_d,
-    });
-    curves_d.push(Curve {
-        label: "damped".into(),
-        x: &tip_d,
-        y: &d_d,
-    });
+        .collect();
+    let curves_w: Vec<Curve> = series
+        .iter()
+        .map(|(l, tip, w, _)| Curve {
+            label: l.clone(),
+            x: tip,
+            y: w,
+        })
+        .collect();
     plot::xy_plot(
         &out.join("backbone.svg"),
-        &format!("Modal frequency vs amplitude (H = {})", dres.harmonics),
+        &format!("Modal frequency vs amplitude (H = {h}), internal-resonance loops"),
         "|q_tip,1| [m]",
         "omega / omega0 [-]",
         &curves_w,
         plot::Style::LinesLogX,
     )?;
+    let curves_d: Vec<Curve> = series
+        .iter()
+        .filter(|(l, ..)| l.starts_with("damped"))
+        .map(|(l, tip, _, d)| Curve {
+            label: l.clone(),
+            x: tip,
+            y: d,
+        })
+        .collect();
     plot::xy_plot(
         &out.join("damping.svg"),
         "Modal damping ratio vs amplitude",
@@ -150,8 +293,43 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         &curves_d,
         plot::Style::LinesLogX,
     )?;
+    // harmonic energy shares along the first branch (conservative if computed)
+    let (label, r) = &branches[0];
+    let w: Vec<f64> = r
+        .branch
+        .iter()
+        .map(|b| b.omega_rad_s / setup.omega0_rad_s)
+        .collect();
+    let shares: Vec<(usize, Vec<f64>)> = (1..=h)
+        .map(|n| {
+            (
+                n,
+                r.branch
+                    .iter()
+                    .map(|b| b.harmonic_energy_shares.get(n).copied().unwrap_or(0.0))
+                    .collect::<Vec<f64>>(),
+            )
+        })
+        .filter(|(n, s)| *n == 1 || s.iter().cloned().fold(0.0, f64::max) > 0.01)
+        .collect();
+    let curves_e: Vec<Curve> = shares
+        .iter()
+        .map(|(n, s)| Curve {
+            label: format!("harmonic {n}"),
+            x: &w,
+            y: s,
+        })
+        .collect();
+    plot::xy_plot(
+        &out.join("energy_shares.svg"),
+        &format!("Kinetic-energy share of each harmonic along the {label} branch"),
+        "omega / omega0 [-]",
+        "energy share [-]",
+        &curves_e,
+        plot::Style::Dots,
+    )?;
     println!(
-        "wrote {}, backbone.svg, damping.svg, *_branch.csv to {}",
+        "wrote {}, backbone.svg, damping.svg, energy_shares.svg, *_branch.csv to {}",
         table_path.display(),
         out.display()
     );
@@ -166,7 +344,11 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
     let setup = Setup::new(&sc).with_context(|| format!("scenario {source}"))?;
     let (nma, _) = methods::nma_table(&setup, &sc, false)?;
-    println!("{}", nma.note);
+    println!(
+        "{} (table ready after {:.1} ms)",
+        nma.note,
+        1e3 * nma.wall_time_s
+    );
     let model = methods::reduced_model(&setup, &nma.table, None)?;
     let omegas = methods::frf_omegas(&setup, sc.run.frf_points);
     let t0 = std::time::Instant::now();

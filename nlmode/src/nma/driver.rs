@@ -356,12 +356,12 @@ impl std::fmt::Display for InternalResonance {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "1:{} with mode {} (n omega = {:.2} rad/s, {:.0} % of the energy in that component, fundamental down to {:.1} %)",
+            "1:{} with mode {} (n omega = {:.2} rad/s, {:.0} % of the energy in that component, fundamental share down to {:.1e})",
             self.harmonic,
             self.mode_index + 1,
             self.harmonic as f64 * self.omega_rad_s,
             100.0 * self.max_share,
-            100.0 * self.min_fundamental_share
+            self.min_fundamental_share
         )
     }
 }
@@ -598,7 +598,8 @@ impl NmaResult {
     /// `omega` is within `refine.omega_rel / 2` and `D` and the shapes within
     /// `refine.rel / 2` at every midpoint (half the target: the midpoint error
     /// underestimates the largest error of an interval), or the table has
-    /// `refine.max_points`.
+    /// `refine.max_points`, or an interval is too narrow to split in floating
+    /// point (next to a fold; both end the refinement there with `capped`).
     /// Intervals whose PCHIP slopes change by an insertion are checked again,
     /// so [`ModalTable::accuracy`] holds the midpoint errors of the final table.
     ///
@@ -684,7 +685,10 @@ impl NmaResult {
                 let good = err.0 <= 0.5 * refine.omega_rel
                     && err.1 <= 0.5 * refine.rel
                     && err.2 <= 0.5 * refine.rel;
-                if good || pts.len() + inserted.len() >= refine.max_points {
+                // an interval too narrow to split in floating point (next to
+                // the fold, where omega(a) has an infinite slope) stays as is
+                let narrow = !(sol.amplitude > p.amplitude && sol.amplitude < q.amplitude);
+                if good || narrow || pts.len() + inserted.len() >= refine.max_points {
                     capped |= !good;
                     next_checked.push(true);
                     next_errors.push(err);
