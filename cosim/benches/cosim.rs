@@ -150,7 +150,7 @@ fn compare(o: &CosimOutput, r_om: &[f64], r_f: &[f64], r_tip: &[f64]) -> (f64, f
 fn case_a() {
     use nlmode::attachment::{LinearAttachment, ShakerParams};
     use nlmode::excitation::LinearSweep;
-    use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, NmaOptions, TablePolicy};
+    use nlmode::nma::{nonlinear_modal_analysis, TablePolicy};
     use nlmode::reference::{simulate_sweep, ReferenceOptions};
     use nlmode::structure::{paper_structure, PaperStructureOptions};
 
@@ -158,20 +158,8 @@ fn case_a() {
     let shaker = ShakerParams::paper();
     let sweep = LinearSweep::per_pseudo_period(ps.omega0_rad_s, 0.8, 1.8, 0.02, 10.0).unwrap();
     let t0 = Instant::now();
-    let nma = nonlinear_modal_analysis(
-        &ps.model,
-        &NmaOptions {
-            harmonics: 3,
-            amplitude: AmplitudeRange::Point {
-                name: "tip".into(),
-                start_m: 1e-6,
-                end_m: 0.02,
-            },
-            store_coordinates: false,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let nma =
+        nonlinear_modal_analysis(&ps.model, &nlmode::benchmark::tip_range_table_options()).unwrap();
     let table = nma.to_table(TablePolicy::PrimaryBranch);
     println!(
         "NMA (H = 3): {} points in {:.2} s",

@@ -784,24 +784,13 @@ mod fmus {
     fn case_vs_reference_and_nlmode(point: &str, volts: f64, rate: f64) {
         use nlmode::attachment::LinearAttachment;
         use nlmode::excitation::LinearSweep;
-        use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, NmaOptions, TablePolicy};
+        use nlmode::nma::{nonlinear_modal_analysis, TablePolicy};
         use nlmode::reduced::{ReducedModel, SlowFlowOptions};
         use nlmode::reference::{simulate_sweep, ReferenceOptions};
         let ps = paper_structure(&PaperStructureOptions::default()).unwrap();
-        let nma = nonlinear_modal_analysis(
-            &ps.model,
-            &NmaOptions {
-                harmonics: 3,
-                amplitude: AmplitudeRange::Point {
-                    name: "tip".into(),
-                    start_m: 1e-6,
-                    end_m: 0.02,
-                },
-                store_coordinates: false,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let nma =
+            nonlinear_modal_analysis(&ps.model, &nlmode::benchmark::tip_range_table_options())
+                .unwrap();
         let table = nma.to_table(TablePolicy::PrimaryBranch);
         let shaker = ShakerParams::paper();
         let sweep = LinearSweep::per_pseudo_period(ps.omega0_rad_s, 0.8, 1.8, rate, volts).unwrap();

@@ -234,6 +234,48 @@ fn check_finite(attachment: &str, name: &str, m: &DMatrix<f64>) -> Result<()> {
 }
 
 impl LinearAttachment {
+    /// A tuned-mass damper at the structure point `point`: a mass `m` on a spring
+    /// `k` and a dashpot `d` to the interface (eq:component2 with `x = [x_m, x_s]`,
+    /// `x_s` the interface coordinate fixed to the structure by `B2 = [0, 1]`):
+    /// `A_0 = k [[1, -1], [-1, 1]]`, `A_1 = d [[1, -1], [-1, 1]]`,
+    /// `A_2 = [[m, 0], [0, 0]]`. `m > 0`, `k > 0`, `d >= 0` (SI units).
+    pub fn tuned_mass_damper(
+        name: &str,
+        point: &str,
+        mass_kg: f64,
+        stiffness_n_per_m: f64,
+        damping_n_s_per_m: f64,
+    ) -> Result<Self> {
+        for (name, value) in [
+            ("mass_kg", mass_kg),
+            ("stiffness_n_per_m", stiffness_n_per_m),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(AttachmentError::NonPositive { name, value });
+            }
+        }
+        if !(damping_n_s_per_m.is_finite() && damping_n_s_per_m >= 0.0) {
+            return Err(AttachmentError::Negative {
+                name: "damping_n_s_per_m",
+                value: damping_n_s_per_m,
+            });
+        }
+        let (m, k, d) = (mass_kg, stiffness_n_per_m, damping_n_s_per_m);
+        Ok(LinearAttachment {
+            name: name.into(),
+            coefficients: vec![
+                DMatrix::from_row_slice(2, 2, &[k, -k, -k, k]),
+                DMatrix::from_row_slice(2, 2, &[d, -d, -d, d]),
+                DMatrix::from_row_slice(2, 2, &[m, 0.0, 0.0, 0.0]),
+            ],
+            b2: DMatrix::from_row_slice(1, 2, &[0.0, 1.0]),
+            interface_points: vec![point.into()],
+            input_map: DMatrix::zeros(2, 0),
+            state_names: vec!["x_m".into(), "x_s".into()],
+            input_names: vec![],
+        })
+    }
+
     /// Number of attachment states `N = dim x`.
     pub fn ndim(&self) -> usize {
         self.b2.ncols()

@@ -66,6 +66,23 @@ pub fn sweep_table_options() -> crate::nma::NmaOptions {
     }
 }
 
+/// NMA options of the tables the co-simulation checks and benches use: the
+/// damped mode with `H = 3`, the tip's fundamental amplitude `|q_tip,1|` from
+/// 1e-6 m to 0.02 m, default continuation steps.
+pub fn tip_range_table_options() -> crate::nma::NmaOptions {
+    use crate::nma::{AmplitudeRange, NmaOptions};
+    NmaOptions {
+        harmonics: 3,
+        amplitude: AmplitudeRange::Point {
+            name: "tip".into(),
+            start_m: 1e-6,
+            end_m: 0.02,
+        },
+        store_coordinates: false,
+        ..Default::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -229,19 +229,7 @@ fn recovered_states_satisfy_attachment_equations() {
 
 /// A tuned-mass damper (mass m on spring k and dashpot d to the interface point).
 fn tmd(point: &str, m: f64, k: f64, d: f64) -> LinearAttachment {
-    LinearAttachment {
-        name: "tmd".into(),
-        coefficients: vec![
-            DMatrix::from_row_slice(2, 2, &[k, -k, -k, k]),
-            DMatrix::from_row_slice(2, 2, &[d, -d, -d, d]),
-            DMatrix::from_row_slice(2, 2, &[m, 0.0, 0.0, 0.0]),
-        ],
-        b2: DMatrix::from_row_slice(1, 2, &[0.0, 1.0]),
-        interface_points: vec![point.into()],
-        input_map: DMatrix::zeros(2, 0),
-        state_names: vec!["x_m".into(), "x_s".into()],
-        input_names: vec![],
-    }
+    LinearAttachment::tuned_mass_damper("tmd", point, m, k, d).unwrap()
 }
 
 #[test]
