@@ -69,12 +69,10 @@
 //! Hermite in `Omega`, refined until the interpolation error is below
 //! `channel_tol`, default 1e-9 relative), and the modal table's PCHIP
 //! interpolant is evaluated in power form with one segment search for all
-//! quantities (`fast`). A sweep of the paper's case (a) takes about 0.13 ms
-//! with 2001 output samples (0.06 ms of it the integration, 153 steps), about
-//! 60-70 times less than the reference's exponential integrator on the same case
-//! and 1000 times less than its Dormand-Prince integrator (`cargo bench -p
-//! nlmode --bench reduced`). The output phases (`theta`, force phase) are
-//! computed on demand ([`SlowFlowSample::theta_rad`]).
+//! quantities (`fast`). Measured times against the reference: the README's
+//! performance table (`cargo bench -p nlmode --bench reduced`). The output
+//! phases (`theta`, force phase) are computed on demand
+//! ([`SlowFlowSample::theta_rad`]).
 //!
 //! # Range policy
 //!

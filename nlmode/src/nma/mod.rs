@@ -30,9 +30,8 @@
 //! Cost: the Newton systems are condensed onto the nonlinear DOFs (see
 //! [`epmc`]), so a continuation point costs `O(n H)` for `n` DOFs plus a dense
 //! solve of size `~ E (2H+1)` for `E` nonlinear elements; the one-off modal
-//! decomposition is `O(n^3)`. Paper beam (CB, 11 DOF), `a = 1e-6` through the
-//! first loop: H = 3 in about 8 ms, H = 13 in about 40 ms (release build;
-//! `benches/nma.rs`).
+//! decomposition is `O(n^3)`. Measured times: the README's performance table
+//! (`cargo bench -p nlmode --bench nma`).
 use serde::{Deserialize, Serialize};
 
 /// Identifier written into every modal-table file.

@@ -96,55 +96,6 @@ impl ForceEnvelope {
         Self::new(&[lo, hi], &[force_n.norm(); 2], &[force_n.arg(); 2])
     }
 
-    /// Parses CSV text with a header row naming the columns `omega_rad_s`,
-    /// `force_amplitude_N` and `force_phase_rad` (any order, other columns
-    /// ignored, comma separated, `#` comment lines skipped). Written by hand:
-    /// three numeric columns need no CSV crate.
-    pub fn from_csv(text: &str) -> Result<Self, ReducedError> {
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
-        let (_, header) = lines
-            .next()
-            .ok_or_else(|| ReducedError::Envelope("CSV is empty".into()))?;
-        let cols: Vec<&str> = header.split(',').map(|c| c.trim()).collect();
-        let find = |name: &str| {
-            cols.iter()
-                .position(|c| c.eq_ignore_ascii_case(name))
-                .ok_or_else(|| {
-                    ReducedError::Envelope(format!(
-                        "CSV header has no column '{name}' (columns: {})",
-                        cols.join(", ")
-                    ))
-                })
-        };
-        let (iw, ia, ip) = (
-            find("omega_rad_s")?,
-            find("force_amplitude_N")?,
-            find("force_phase_rad")?,
-        );
-        let (mut w, mut a, mut p) = (Vec::new(), Vec::new(), Vec::new());
-        for (ln, line) in lines {
-            let fields: Vec<&str> = line.split(',').map(|c| c.trim()).collect();
-            let get = |i: usize, name: &str| -> Result<f64, ReducedError> {
-                let s = fields.get(i).ok_or_else(|| {
-                    ReducedError::Envelope(format!("line {}: missing column '{name}'", ln + 1))
-                })?;
-                s.parse::<f64>().map_err(|_| {
-                    ReducedError::Envelope(format!(
-                        "line {}: '{s}' in column '{name}' is not a number",
-                        ln + 1
-                    ))
-                })
-            };
-            w.push(get(iw, "omega_rad_s")?);
-            a.push(get(ia, "force_amplitude_N")?);
-            p.push(get(ip, "force_phase_rad")?);
-        }
-        Self::new(&w, &a, &p)
-    }
-
     /// Frequency range `(min, max)` \[rad/s\].
     pub fn range(&self) -> (f64, f64) {
         (self.omega_rad_s[0], *self.omega_rad_s.last().unwrap())
@@ -233,9 +184,10 @@ mod tests {
     }
 
     #[test]
-    fn csv_parsing_interpolation_and_unwrapping() {
-        let text = "# test\nforce_phase_rad,omega_rad_s,force_amplitude_N\n3.0,200,1.0\n-3.0,100,3.0\n\n3.1,300,2.0\n";
-        let e = ForceEnvelope::from_csv(text).unwrap();
+    fn unsorted_rows_interpolation_and_unwrapping() {
+        // rows out of frequency order (CSV files are read by host::results::read_envelope)
+        let e = ForceEnvelope::new(&[200.0, 100.0, 300.0], &[1.0, 3.0, 2.0], &[3.0, -3.0, 3.1])
+            .unwrap();
         assert_eq!(e.omega_rad_s, vec![100.0, 200.0, 300.0]);
         // phase -3 -> 3 jumps by 6 > pi: unwrapped to 3 - 2 pi
         let tau = std::f64::consts::TAU;
@@ -249,13 +201,11 @@ mod tests {
             Err(ReducedError::EnvelopeRange { .. })
         ));
         assert!(matches!(
-            ForceEnvelope::from_csv("omega_rad_s,force_amplitude_N\n1,2\n"),
+            ForceEnvelope::new(&[1.0, 2.0], &[1.0], &[0.0, 0.0]),
             Err(ReducedError::Envelope(_))
         ));
         assert!(matches!(
-            ForceEnvelope::from_csv(
-                "omega_rad_s,force_amplitude_N,force_phase_rad\n1,x,0\n2,1,0\n"
-            ),
+            ForceEnvelope::new(&[1.0, 2.0], &[f64::NAN, 1.0], &[0.0, 0.0]),
             Err(ReducedError::Envelope(_))
         ));
         assert!(matches!(

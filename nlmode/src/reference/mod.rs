@@ -17,7 +17,9 @@
 //!
 //! Case (a) (exciter at 2l/3, 10 V, 2 % per pseudo period, 0.8 -> 1.8 omega0,
 //! 0.88 s), Craig-Bampton model (25 states, eigenvalues up to 2.4e5 rad/s),
-//! release build, CPU time on one core of this machine:
+//! release build, CPU time on one core when the choice was made (the times of
+//! today's build are in the README's performance table, `cargo bench -p nlmode
+//! --bench reference`):
 //!
 //! | method | CPU time | steps | tip deviation from a tight run |
 //! |---|---|---|---|
