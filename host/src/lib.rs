@@ -7,6 +7,7 @@
 //! `host nma` computes the nonlinear mode; `host frf` the steady-state
 //! frequency responses; `host package` packages the FMUs; `host cosim` runs a
 //! generic co-simulation file.
+#![forbid(unsafe_code)]
 pub mod cosim_cmd;
 pub mod methods;
 pub mod model;
