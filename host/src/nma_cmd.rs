@@ -1,7 +1,7 @@
 //! `host nma` and `host frf`: the nonlinear mode (table, backbone plots) and
 //! the steady-state frequency responses of the single-nonlinear-mode model.
 use crate::methods;
-use crate::model::{Setup, TIP};
+use crate::model::Setup;
 use crate::plot::{self, Curve};
 use crate::results::write_csv;
 use crate::run::load_scenario;
@@ -9,10 +9,10 @@ use anyhow::{Context, Result};
 use nlmode::nma::NmaResult;
 use std::path::Path;
 
-fn branch_csv(out: &Path, name: &str, r: &NmaResult) -> Result<()> {
+fn branch_csv(out: &Path, name: &str, r: &NmaResult, point: &str) -> Result<()> {
     let tip = r
-        .point_fundamental_amplitude(TIP)
-        .context("branch has no tip point")?;
+        .point_fundamental_amplitude(point)
+        .context("branch has no response point")?;
     let a: Vec<f64> = r.branch.iter().map(|b| b.amplitude).collect();
     let w: Vec<f64> = r.branch.iter().map(|b| b.omega_rad_s).collect();
     let d: Vec<f64> = r.branch.iter().map(|b| b.damping_ratio).collect();
@@ -81,10 +81,12 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
     report("damped", &dres, &damped.table, damped.wall_time_s);
     let table_path = out.join("modal_table.json");
     damped.table.write(&table_path)?;
-    branch_csv(out, "damped", &dres)?;
+    branch_csv(out, "damped", &dres, &setup.response_point)?;
     let mut curves_w = vec![];
     let mut curves_d = vec![];
-    let tip_d = dres.point_fundamental_amplitude(TIP).unwrap_or_default();
+    let tip_d = dres
+        .point_fundamental_amplitude(&setup.response_point)
+        .unwrap_or_default();
     let w_d: Vec<f64> = dres
         .branch
         .iter()
@@ -99,14 +101,14 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         let (c, cres) = methods::nma_table(&setup, &sc, true)?;
         let cres = cres.expect("computed");
         report("conservative", &cres, &c.table, c.wall_time_s);
-        branch_csv(out, "conservative", &cres)?;
+        branch_csv(out, "conservative", &cres, &setup.response_point)?;
         Some(cres)
     } else {
         None
     };
     let tip_c = cons
         .as_ref()
-        .and_then(|c| c.point_fundamental_amplitude(TIP))
+        .and_then(|c| c.point_fundamental_amplitude(&setup.response_point))
         .unwrap_or_default();
     let w_c: Vec<f64> = cons
         .as_ref()
