@@ -34,7 +34,7 @@ pub struct Setup {
     pub mode_index: usize,
     pub sweep: LinearSweep,
     /// Linear modal damping ratio of the followed mode, `D0` (beam: the scenario's
-    /// `damping_ratio`; matrices: `phi^T C phi / (2 omega0)` of the model).
+    /// `damping_ratio`; matrices: `phi^T C phi / (2 omega0)` of the full model).
     pub d0: f64,
     /// Modal mass `1/phi(x)^2` of mode 1 at each exciter [kg] and the mass ratio `m_a/m_mod`.
     pub modal_masses: Vec<(f64, f64)>,
@@ -119,13 +119,13 @@ pub fn build_structure(
     Ok((ps.model, ps.omega0_rad_s, ps.beam.model.ndof()))
 }
 
-/// The matrices structure of the scenario (paths already resolved): the model to
-/// simulate, `omega0` of the full model [rad/s], the full model's DOF count and the
-/// number of rigid-body modes. Errors name the scenario key (and file, line).
+/// The matrices structure of the scenario (paths already resolved), built by
+/// `nlmode::structure::matrix_structure`. Errors name the scenario key (and
+/// file, line).
 pub fn build_matrices_structure(
     sc: &Scenario,
     st: &MatricesStructureSpec,
-) -> Result<(StructuralModel, f64, usize, usize)> {
+) -> Result<nlmode::structure::MatrixStructure> {
     use nlmode::structure::{
         matrix_structure, read_matrix_market, MatricesError, MatrixDamping, MatrixRole,
         MatrixStructureOptions,
@@ -211,18 +211,12 @@ pub fn build_matrices_structure(
         },
         allow_rigid_body_modes: st.allow_rigid_body_modes,
     };
-    let ms = matrix_structure(&opts).map_err(key)?;
-    Ok((
-        ms.model,
-        ms.omega0_rad_s,
-        ms.full.ndof(),
-        ms.rigid_body_modes,
-    ))
+    matrix_structure(&opts).map_err(key)
 }
 
 impl Setup {
     pub fn new(sc: &Scenario) -> Result<Self> {
-        let (model, omega0, full_ndof, mode_index, pts) = match &sc.structure {
+        let (model, omega0, full_ndof, mode_index, pts, d0) = match &sc.structure {
             StructureSpec::Beam(beam) => {
                 let l = beam.length_m;
                 let mut pts = Vec::new();
@@ -238,16 +232,24 @@ impl Setup {
                 }
                 let (model, omega0, full_ndof) = build_structure(sc, &pts)?;
                 let names: Vec<String> = pts.into_iter().map(|(n, _)| n).collect();
-                (model, omega0, full_ndof, 0, names)
+                (model, omega0, full_ndof, 0, names, beam.damping_ratio)
             }
             StructureSpec::Matrices(m) => {
-                let (model, omega0, full_ndof, rigid) = build_matrices_structure(sc, m)?;
+                let ms = build_matrices_structure(sc, m)?;
                 let names = sc
                     .exciter
                     .iter()
                     .map(|e| e.point.clone().context("exciter point"))
                     .collect::<Result<Vec<_>>>()?;
-                (model, omega0, full_ndof, rigid, names)
+                let n = ms.full.ndof();
+                (
+                    ms.model,
+                    ms.omega0_rad_s,
+                    n,
+                    ms.rigid_body_modes,
+                    names,
+                    ms.damping_ratio,
+                )
             }
         };
         let response_point = sc.response_point();
@@ -278,13 +280,6 @@ impl Setup {
         )
         .context("excitation")?;
         let modes = modal_analysis(&model, mode_index + 1).context("structure: modal analysis")?;
-        let d0 = match &sc.structure {
-            StructureSpec::Beam(b) => b.damping_ratio,
-            StructureSpec::Matrices(_) => {
-                let phi = modes.shape(mode_index);
-                phi.dot(&(&model.damping * &phi)) / (2.0 * modes.omega_rad_s[mode_index])
-            }
-        };
         let modal_masses = exciter_points
             .iter()
             .zip(&shakers)

@@ -284,6 +284,10 @@ pub struct MatrixStructure {
     pub rigid_body_modes: usize,
     /// Lowest non-zero natural frequency of the full model [rad/s].
     pub omega0_rad_s: f64,
+    /// Modal damping ratio of that mode of the full model [-]: `D omega0 /
+    /// omega_j` (stiffness-proportional on mode `j`), `alpha / (2 omega0) + beta
+    /// omega0 / 2` (Rayleigh), `phi^T C phi / (2 omega0)` (a matrix, mass-normalised `phi`).
+    pub damping_ratio: f64,
     /// Natural frequencies of the fixed-interface modes (empty when unreduced) [rad/s].
     pub interface_omega_rad_s: Vec<f64>,
 }
@@ -474,6 +478,20 @@ pub fn matrix_structure(opts: &MatrixStructureOptions) -> Result<MatrixStructure
             stiffness_proportional_damping_from_modes(&mut full, &modes, *mode_index, *ratio)?;
         }
     }
+    // exact for the proportional kinds (damping.rs), the projection for a matrix
+    let damping_ratio = match &opts.damping {
+        MatrixDamping::StiffnessProportional { ratio, mode_index } => {
+            ratio * omega0_rad_s / modes.omega_rad_s[*mode_index]
+        }
+        MatrixDamping::Rayleigh {
+            alpha_per_s,
+            beta_s,
+        } => alpha_per_s / (2.0 * omega0_rad_s) + beta_s * omega0_rad_s / 2.0,
+        MatrixDamping::Matrix(c) => {
+            let phi = modes.shape(rigid_body_modes);
+            phi.dot(&(c * &phi)) / (2.0 * omega0_rad_s)
+        }
+    };
     let (model, transform, interface_omega_rad_s) = match &opts.craig_bampton {
         Some((masters, n_modes)) => {
             let dofs = masters
@@ -491,6 +509,7 @@ pub fn matrix_structure(opts: &MatrixStructureOptions) -> Result<MatrixStructure
         transform,
         rigid_body_modes,
         omega0_rad_s,
+        damping_ratio,
         interface_omega_rad_s,
     })
 }
