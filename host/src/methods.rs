@@ -1,6 +1,6 @@
 //! The sweep methods of `host run`: each returns a [`MethodResult`] following
 //! the output contract. The physics is in `nlmode`; this is orchestration.
-use crate::model::{Setup, TIP};
+use crate::model::Setup;
 use crate::results::{Envelope, MethodResult};
 use crate::scenario::{CosimAlgorithm, Method};
 use anyhow::{Context, Result};
@@ -31,8 +31,8 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
         .model
         .points
         .iter()
-        .position(|p| p.name == TIP)
-        .context("tip point")?;
+        .position(|p| p.name == setup.response_point)
+        .context("response point")?;
     let drive = setup
         .model
         .points
@@ -82,9 +82,10 @@ pub fn closed_form(setup: &Setup, n: usize) -> Result<MethodResult> {
     let (m_mod, mu) = setup.modal_masses[0];
     let f0 = shaker.force_constant_n_per_a * setup.sweep.amplitude / shaker.resistance_ohm;
     let ra = shaker.omega_a() / setup.omega0_rad_s;
-    let modes = nlmode::structure::modal_analysis(&setup.model, 1)?;
-    let phi_tip = modes.deflection(0, &setup.model.point(TIP)?.direction);
-    let phi_ex = modes.deflection(0, &setup.model.point(&setup.exciter_points[0])?.direction);
+    let j = setup.mode_index;
+    let modes = nlmode::structure::modal_analysis(&setup.model, j + 1)?;
+    let phi_tip = modes.deflection(j, &setup.model.point(&setup.response_point)?.direction);
+    let phi_ex = modes.deflection(j, &setup.model.point(&setup.exciter_points[0])?.direction);
     let (mut f, mut tip) = (Vec::new(), Vec::new());
     for &w in &omegas {
         let eta = w / setup.omega0_rad_s;
@@ -117,8 +118,9 @@ pub struct Nma {
     pub note: String,
 }
 
-/// NMA of the scenario's structure (or the table file it names): points `tip`
-/// and every named point of the model (the exciter locations).
+/// NMA of the scenario's structure (or the table file it names) on the mode
+/// `setup.mode_index`, amplitude range at the response point: every named point
+/// of the model (response point, exciter points) in the table.
 pub fn nma_table(
     setup: &Setup,
     sc: &crate::scenario::Scenario,
@@ -144,8 +146,9 @@ pub fn nma_table(
     }
     let opts = NmaOptions {
         harmonics: sc.nma.harmonics,
+        mode_index: setup.mode_index,
         amplitude: AmplitudeRange::Point {
-            name: TIP.into(),
+            name: setup.response_point.clone(),
             start_m: 1e-7,
             end_m: sc.nma.max_tip_amplitude_m,
         },
@@ -188,7 +191,8 @@ pub fn reduced_model(
     table: &nlmode::nma::ModalTable,
     error: Option<nlmode::reduced::FrequencyError>,
 ) -> Result<nlmode::reduced::ReducedModel> {
-    let mut m = nlmode::reduced::ReducedModel::new(table, TIP, &setup.exciter_points[0])?;
+    let mut m =
+        nlmode::reduced::ReducedModel::new(table, &setup.response_point, &setup.exciter_points[0])?;
     for att in &setup.attachments {
         m = m.with_linear_attachment(att, &[Complex64::new(1.0, 0.0)])?;
     }
@@ -277,7 +281,7 @@ pub fn reference(
         rtol: sc.reference.rtol,
         output_interval_s: (sc.reference.output_interval_s > 0.0)
             .then_some(sc.reference.output_interval_s),
-        tip_point: TIP.into(),
+        tip_point: setup.response_point.clone(),
         ..Default::default()
     };
     let t0 = Instant::now();
@@ -309,10 +313,18 @@ pub fn reference(
 }
 
 /// `cosim`: the structure and shaker FMUs co-simulated by the host's master.
+///
+/// `table`: the modal table of the scenario's own structure (a matrices
+/// structure), written to `out/cosim_modal_table.json` and given to the
+/// structure FMU by its `modal_table` parameter; `None`: the FMU's own table
+/// (the paper beam's, in its `resources/`). The FMU reports `x_tip` at the
+/// table's point `tip`; a table without one gets the response point's shape a
+/// second time under that name.
 pub fn cosim(
     setup: &Setup,
     sc: &crate::scenario::Scenario,
     fmus: &(std::path::PathBuf, std::path::PathBuf),
+    table: Option<(&nlmode::nma::ModalTable, &std::path::Path)>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<MethodResult> {
     use cosim::{run_cosim, Algorithm, CosimParams};
@@ -336,6 +348,23 @@ pub fn cosim(
     };
     p.macro_step_s = sc.cosim.macro_step_s;
     p.drive_point = setup.exciter_points[0].clone();
+    if let Some((table, out)) = table {
+        let mut t = table.clone();
+        let tip = nlmode::structure::paper::TIP;
+        if t.points.iter().all(|q| q.name != tip) {
+            let mut alias = t
+                .points
+                .iter()
+                .find(|q| q.name == setup.response_point)
+                .context("cosim: the modal table lacks the response point")?
+                .clone();
+            alias.name = tip.into();
+            t.points.push(alias);
+        }
+        let path = out.join("cosim_modal_table.json");
+        t.write(&path)?;
+        p.modal_table = Some(std::fs::canonicalize(&path).unwrap_or(path));
+    }
     let out = run_cosim(&structure, &shaker, &p, progress).context("cosim")?;
     let env = out.envelope.clone();
     let mut r = MethodResult::new(Method::Cosim.name(), out.wall_time_s, env, true);

@@ -1,7 +1,10 @@
 //! Scenario -> physical model: the beam (Craig-Bampton reduced or full, built by
-//! `nlmode::structure::paper_structure`), the shakers as generic linear
+//! `nlmode::structure::paper_structure`) or the user's matrices (read and built
+//! by `nlmode::structure::matrices`), the shakers as generic linear
 //! attachments, the sweep. Thin mapping onto `nlmode`.
-use crate::scenario::{ExciterSpec, Reduction, Scenario, StingerKind};
+use crate::scenario::{
+    ExciterSpec, MatricesStructureSpec, Reduction, Scenario, StingerKind, StructureSpec,
+};
 use anyhow::{Context, Result};
 use nlmode::attachment::{ArmatureDamping, LinearAttachment, ShakerParams, Stinger};
 use nlmode::excitation::LinearSweep;
@@ -9,7 +12,7 @@ use nlmode::structure::{
     modal_analysis, paper_structure, BeamSpec, PaperStructureOptions, StructuralModel,
 };
 
-/// Name of the tip point.
+/// Name of the tip point of a beam.
 pub const TIP: &str = nlmode::structure::paper::TIP;
 
 /// Everything the methods need, built once per run.
@@ -24,8 +27,14 @@ pub struct Setup {
     pub attachments: Vec<LinearAttachment>,
     /// Structure point of each exciter.
     pub exciter_points: Vec<String>,
+    /// The point whose displacement is `tip_amplitude_m` (`[output] response_point`).
+    pub response_point: String,
+    /// 0-based index of the linear mode the single-mode methods follow (the lowest
+    /// elastic mode: the number of rigid-body modes, 0 for the beam).
+    pub mode_index: usize,
     pub sweep: LinearSweep,
-    /// Linear modal damping ratio of mode 1, `D0`.
+    /// Linear modal damping ratio of the followed mode, `D0` (beam: the scenario's
+    /// `damping_ratio`; matrices: `phi^T C phi / (2 omega0)` of the full model).
     pub d0: f64,
     /// Modal mass `1/phi(x)^2` of mode 1 at each exciter [kg] and the mass ratio `m_a/m_mod`.
     pub modal_masses: Vec<(f64, f64)>,
@@ -73,7 +82,10 @@ pub fn build_structure(
     sc: &Scenario,
     extra_points: &[(String, f64)],
 ) -> Result<(StructuralModel, f64, usize)> {
-    let st = sc.structure.beam();
+    let st = sc
+        .structure
+        .beam()
+        .context("build_structure: the structure is not a beam")?;
     let mut points = vec![(TIP.to_string(), st.length_m)];
     for (name, x) in extra_points {
         if points.iter().all(|(p, _)| p != name) {
@@ -107,28 +119,150 @@ pub fn build_structure(
     Ok((ps.model, ps.omega0_rad_s, ps.beam.model.ndof()))
 }
 
+/// The matrices structure of the scenario (paths already resolved), built by
+/// `nlmode::structure::matrix_structure`. Errors name the scenario key (and
+/// file, line).
+pub fn build_matrices_structure(
+    sc: &Scenario,
+    st: &MatricesStructureSpec,
+) -> Result<nlmode::structure::MatrixStructure> {
+    use nlmode::structure::{
+        matrix_structure, read_matrix_market, MatricesError, MatrixDamping, MatrixRole,
+        MatrixStructureOptions,
+    };
+    let key = |e: MatricesError| -> anyhow::Error {
+        let k = match &e {
+            MatricesError::DofOutOfRange { name, .. } => {
+                let i = st.point.iter().position(|p| &p.name == name).unwrap_or(0);
+                format!("structure.point[{i}].dof")
+            }
+            MatricesError::DuplicatePoint { .. } => "structure.point".into(),
+            MatricesError::UnknownPoint { key, .. }
+            | MatricesError::InvalidParameter { key, .. } => {
+                format!("structure.{key}")
+            }
+            MatricesError::Structure(_) => "structure".into(),
+            MatricesError::MassNotPositiveDefinite { .. } => "structure.mass_mtx".into(),
+            MatricesError::StiffnessIndefinite { .. } | MatricesError::RigidBodyModes { .. } => {
+                "structure.stiffness_mtx".into()
+            }
+            MatricesError::Io { role, .. }
+            | MatricesError::Malformed { role, .. }
+            | MatricesError::NotSquare { role, .. }
+            | MatricesError::SizeMismatch { role, .. }
+            | MatricesError::NonFinite { role, .. }
+            | MatricesError::NotSymmetric { role, .. }
+            | MatricesError::BadDiagonal { role, .. } => format!("structure.{}", role.key()),
+        };
+        anyhow::anyhow!("{k}: {e}")
+    };
+    let mass = read_matrix_market(MatrixRole::Mass, &st.mass_mtx).map_err(key)?;
+    let stiffness = read_matrix_market(MatrixRole::Stiffness, &st.stiffness_mtx).map_err(key)?;
+    let damping = match (&st.damping_mtx, st.rayleigh, st.damping_ratio) {
+        (Some(p), _, _) => {
+            MatrixDamping::Matrix(read_matrix_market(MatrixRole::Damping, p).map_err(key)?)
+        }
+        (None, Some([alpha_per_s, beta_s]), _) => MatrixDamping::Rayleigh {
+            alpha_per_s,
+            beta_s,
+        },
+        (None, None, Some(ratio)) => MatrixDamping::StiffnessProportional {
+            ratio,
+            mode_index: st.damping_mode.unwrap_or(1) - 1,
+        },
+        (None, None, None) => anyhow::bail!("structure.damping_mtx: missing damping"),
+    };
+    let points: Vec<(String, usize)> = st.point.iter().map(|p| (p.name.clone(), p.dof)).collect();
+    let dof = |name: &str| st.point.iter().find(|p| p.name == name).map(|p| p.dof);
+    let cubic_spring = st
+        .nonlinear_point
+        .as_ref()
+        .map(|p| (p.clone(), st.k3_n_per_m3));
+    // Default masters: the nonlinear point and every exciter point, one per DOF.
+    let masters = match &st.cb_masters {
+        Some(m) => m.clone(),
+        None => {
+            let mut m: Vec<String> = Vec::new();
+            let used = st
+                .nonlinear_point
+                .iter()
+                .filter(|_| st.k3_n_per_m3 != 0.0)
+                .chain(sc.exciter.iter().filter_map(|e| e.point.as_ref()));
+            for p in used {
+                if m.iter().all(|q| dof(q) != dof(p)) {
+                    m.push(p.clone());
+                }
+            }
+            m
+        }
+    };
+    let opts = MatrixStructureOptions {
+        mass,
+        mass_path: st.mass_mtx.clone(),
+        stiffness,
+        stiffness_path: st.stiffness_mtx.clone(),
+        damping,
+        damping_path: st.damping_mtx.clone(),
+        points,
+        cubic_spring,
+        craig_bampton: match st.reduction {
+            Reduction::CraigBampton => Some((masters, st.cb_modes)),
+            Reduction::None => None,
+        },
+        allow_rigid_body_modes: st.allow_rigid_body_modes,
+    };
+    matrix_structure(&opts).map_err(key)
+}
+
 impl Setup {
     pub fn new(sc: &Scenario) -> Result<Self> {
-        let l = sc.structure.beam().length_m;
-        let mut pts = Vec::new();
-        for i in 0..sc.exciter.len() {
-            let x = sc.exciter_location_m(i)?;
-            pts.push((point_name(x, l), x));
-        }
-        // The standard points of the paper, so that one modal table serves both locations.
-        for (n, x) in [("l3", l / 3.0), ("2l3", 2.0 * l / 3.0)] {
-            if pts.iter().all(|(p, _)| p != n) && sc.structure.beam().n_nodes % 3 == 1 {
-                pts.push((n.into(), x));
+        let (model, omega0, full_ndof, mode_index, pts, d0) = match &sc.structure {
+            StructureSpec::Beam(beam) => {
+                let l = beam.length_m;
+                let mut pts = Vec::new();
+                for i in 0..sc.exciter.len() {
+                    let x = sc.exciter_location_m(i)?;
+                    pts.push((point_name(x, l), x));
+                }
+                // The standard points of the paper, so that one modal table serves both locations.
+                for (n, x) in [("l3", l / 3.0), ("2l3", 2.0 * l / 3.0)] {
+                    if pts.iter().all(|(p, _)| p != n) && beam.n_nodes % 3 == 1 {
+                        pts.push((n.into(), x));
+                    }
+                }
+                let (model, omega0, full_ndof) = build_structure(sc, &pts)?;
+                let names: Vec<String> = pts.into_iter().map(|(n, _)| n).collect();
+                (model, omega0, full_ndof, 0, names, beam.damping_ratio)
             }
-        }
-        let (model, omega0, full_ndof) = build_structure(sc, &pts)?;
+            StructureSpec::Matrices(m) => {
+                let ms = build_matrices_structure(sc, m)?;
+                let names = sc
+                    .exciter
+                    .iter()
+                    .map(|e| e.point.clone().context("exciter point"))
+                    .collect::<Result<Vec<_>>>()?;
+                let n = ms.full.ndof();
+                (
+                    ms.model,
+                    ms.omega0_rad_s,
+                    n,
+                    ms.rigid_body_modes,
+                    names,
+                    ms.damping_ratio,
+                )
+            }
+        };
+        let response_point = sc.response_point();
+        model
+            .point(&response_point)
+            .map_err(|e| anyhow::anyhow!("output.response_point: {e}"))?;
         let mut shakers = Vec::new();
         let mut attachments = Vec::new();
         let mut exciter_points = Vec::new();
         for (i, ex) in sc.exciter.iter().enumerate() {
             let p = shaker_params(ex);
             p.validate().with_context(|| format!("exciter[{i}]"))?;
-            let point = pts[i].0.clone();
+            let point = pts[i].clone();
             attachments.push(
                 LinearAttachment::shaker(&ex.name, &p, &point)
                     .with_context(|| format!("exciter[{i}]"))?,
@@ -145,12 +279,12 @@ impl Setup {
             e.voltage_v,
         )
         .context("excitation")?;
-        let modes = modal_analysis(&model, 1).context("structure: modal analysis")?;
+        let modes = modal_analysis(&model, mode_index + 1).context("structure: modal analysis")?;
         let modal_masses = exciter_points
             .iter()
             .zip(&shakers)
             .map(|(p, s)| {
-                let m = modes.modal_mass_kg(0, &model.point(p)?.direction);
+                let m = modes.modal_mass_kg(mode_index, &model.point(p)?.direction);
                 Ok((m, s.armature_mass_kg / m))
             })
             .collect::<Result<Vec<_>>>()?;
@@ -161,8 +295,10 @@ impl Setup {
             shakers,
             attachments,
             exciter_points,
+            response_point,
+            mode_index,
             sweep,
-            d0: sc.structure.beam().damping_ratio,
+            d0,
             modal_masses,
         })
     }

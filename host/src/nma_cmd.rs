@@ -1,7 +1,7 @@
 //! `host nma` and `host frf`: the nonlinear mode (table, backbone plots) and
 //! the steady-state frequency responses of the single-nonlinear-mode model.
 use crate::methods;
-use crate::model::{Setup, TIP};
+use crate::model::Setup;
 use crate::plot::{self, Curve};
 use crate::results::write_csv;
 use crate::run::load_scenario;
@@ -36,11 +36,11 @@ fn loop_labels(r: &NmaResult) -> Vec<String> {
 
 /// `<name>_branch.csv`: every branch point with the energy shares and the
 /// loop it belongs to.
-fn branch_csv(out: &Path, name: &str, r: &NmaResult) -> Result<()> {
+fn branch_csv(out: &Path, name: &str, r: &NmaResult, point: &str) -> Result<()> {
     use std::io::Write;
     let tip = r
-        .point_fundamental_amplitude(TIP)
-        .context("branch has no tip point")?;
+        .point_fundamental_amplitude(point)
+        .context("branch has no response point")?;
     let path = out.join(format!("{name}_branch.csv"));
     let mut f = std::io::BufWriter::new(
         std::fs::File::create(&path)
@@ -175,7 +175,7 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
     let topts = NmaOptions {
         harmonics: h,
         amplitude: AmplitudeRange::Point {
-            name: TIP.into(),
+            name: setup.response_point.clone(),
             start_m: 1e-7,
             end_m: sc.nma.max_tip_amplitude_m,
         },
@@ -239,13 +239,15 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         let t0 = Instant::now();
         let r = analyse(&setup.model, basis, &opts, label)?;
         report(label, &r, t0.elapsed().as_secs_f64());
-        branch_csv(out, label, &r)?;
+        branch_csv(out, label, &r, &setup.response_point)?;
         branches.push((label, r));
     }
     let series: Vec<(String, Vec<f64>, Vec<f64>, Vec<f64>)> = branches
         .iter()
         .map(|(label, r)| {
-            let tip = r.point_fundamental_amplitude(TIP).unwrap_or_default();
+            let tip = r
+                .point_fundamental_amplitude(&setup.response_point)
+                .unwrap_or_default();
             let w = r
                 .branch
                 .iter()

@@ -17,8 +17,10 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
         Some(p) => {
             let text = std::fs::read_to_string(p)
                 .with_context(|| format!("cannot read scenario file {}", p.display()))?;
-            let sc = Scenario::parse(&text)
+            let mut sc = Scenario::parse(&text)
                 .map_err(|e| anyhow::anyhow!("scenario {}: {e}", p.display()))?;
+            // paths in the scenario (the Matrix Market files) are relative to its folder
+            sc.resolve_paths(p.parent().unwrap_or(Path::new("")));
             Ok((sc, p.display().to_string()))
         }
     }
@@ -72,7 +74,9 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
     );
     let mut done: Vec<MethodResult> = Vec::new();
     let wants = |m: Method| sc.run.methods.contains(&m);
-    let needs_mode = sc.run.methods.iter().any(|m| m.needs_mode());
+    // cosim of a matrices structure needs its modal table for the structure FMU
+    let own_table = sc.structure.matrices().is_some() && wants(Method::Cosim);
+    let needs_mode = own_table || sc.run.methods.iter().any(|m| m.needs_mode());
     let mut nma = None;
     if needs_mode {
         let (n, _) = methods::nma_table(&setup, &sc, false)?;
@@ -221,7 +225,7 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                 };
                 let model = nlmode::reduced::ReducedModel::imposed_force(
                     table(),
-                    crate::model::TIP,
+                    &setup.response_point,
                     &setup.exciter_points[0],
                     envelope,
                 )?
@@ -241,7 +245,8 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                     continue; // FMUs not packaged: recorded in `failed`
                 };
                 let mut bar = Progress::new("cosim");
-                done.push(methods::cosim(&setup, &sc, f, &mut |x| bar.set(x))?);
+                let table = own_table.then(|| (table(), out));
+                done.push(methods::cosim(&setup, &sc, f, table, &mut |x| bar.set(x))?);
                 bar.finish();
             }
         }

@@ -128,12 +128,16 @@ impl Default for Scenario {
 }
 
 /// `[structure]`: what is tested. One variant per `kind`; the beam is the
-/// default. (Dispatch on `kind` lives in this type's `Deserialize`: with one
-/// kind it forwards to the beam's table so that errors keep their key paths.)
+/// default. (Dispatch on `kind` lives in this type's `Deserialize`: every key of
+/// every kind is read into one table, so that unknown keys and bad spellings keep
+/// their key paths, then the kind's keys are taken and a key of another kind is
+/// rejected by name.)
 #[derive(Debug, Clone, PartialEq)]
 pub enum StructureSpec {
     /// `kind = "beam"`: the paper's Euler-Bernoulli beam with a cubic tip spring.
     Beam(BeamStructureSpec),
+    /// `kind = "matrices"`: the user's structure from Matrix Market files.
+    Matrices(MatricesStructureSpec),
 }
 
 impl Default for StructureSpec {
@@ -142,9 +146,112 @@ impl Default for StructureSpec {
     }
 }
 
+/// Every key of every structure kind (the `[structure]` table as read).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawStructure {
+    kind: Option<StructureKind>,
+    length_m: Option<f64>,
+    height_m: Option<f64>,
+    width_m: Option<f64>,
+    youngs_modulus_pa: Option<f64>,
+    density_kg_m3: Option<f64>,
+    n_nodes: Option<usize>,
+    boundary: Option<BoundaryCondition>,
+    k3_n_per_m3: Option<f64>,
+    damping_ratio: Option<f64>,
+    reduction: Option<Reduction>,
+    cb_modes: Option<usize>,
+    mass_mtx: Option<PathBuf>,
+    stiffness_mtx: Option<PathBuf>,
+    damping_mtx: Option<PathBuf>,
+    rayleigh: Option<[f64; 2]>,
+    damping_mode: Option<usize>,
+    cb_masters: Option<Vec<String>>,
+    point: Option<Vec<PointSpec>>,
+    nonlinear_point: Option<String>,
+    allow_rigid_body_modes: Option<bool>,
+}
+
 impl<'de> Deserialize<'de> for StructureSpec {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        BeamStructureSpec::deserialize(d).map(StructureSpec::Beam)
+        use serde::de::Error;
+        let r = RawStructure::deserialize(d)?;
+        let other = |kind: &str, keys: &[(&str, bool)]| -> Result<(), D::Error> {
+            match keys.iter().find(|(_, given)| *given) {
+                Some((k, _)) => Err(D::Error::custom(format!(
+                    "structure.{k} is not a key of kind = \"{kind}\""
+                ))),
+                None => Ok(()),
+            }
+        };
+        match r.kind.unwrap_or_default() {
+            StructureKind::Beam => {
+                other(
+                    "beam",
+                    &[
+                        ("mass_mtx", r.mass_mtx.is_some()),
+                        ("stiffness_mtx", r.stiffness_mtx.is_some()),
+                        ("damping_mtx", r.damping_mtx.is_some()),
+                        ("rayleigh", r.rayleigh.is_some()),
+                        ("damping_mode", r.damping_mode.is_some()),
+                        ("cb_masters", r.cb_masters.is_some()),
+                        ("point", r.point.is_some()),
+                        ("nonlinear_point", r.nonlinear_point.is_some()),
+                        ("allow_rigid_body_modes", r.allow_rigid_body_modes.is_some()),
+                    ],
+                )?;
+                let b = BeamStructureSpec::default();
+                Ok(StructureSpec::Beam(BeamStructureSpec {
+                    kind: StructureKind::Beam,
+                    length_m: r.length_m.unwrap_or(b.length_m),
+                    height_m: r.height_m.unwrap_or(b.height_m),
+                    width_m: r.width_m.unwrap_or(b.width_m),
+                    youngs_modulus_pa: r.youngs_modulus_pa.unwrap_or(b.youngs_modulus_pa),
+                    density_kg_m3: r.density_kg_m3.unwrap_or(b.density_kg_m3),
+                    n_nodes: r.n_nodes.unwrap_or(b.n_nodes),
+                    boundary: r.boundary.unwrap_or(b.boundary),
+                    k3_n_per_m3: r.k3_n_per_m3.unwrap_or(b.k3_n_per_m3),
+                    damping_ratio: r.damping_ratio.unwrap_or(b.damping_ratio),
+                    reduction: r.reduction.unwrap_or(b.reduction),
+                    cb_modes: r.cb_modes.unwrap_or(b.cb_modes),
+                }))
+            }
+            StructureKind::Matrices => {
+                other(
+                    "matrices",
+                    &[
+                        ("length_m", r.length_m.is_some()),
+                        ("height_m", r.height_m.is_some()),
+                        ("width_m", r.width_m.is_some()),
+                        ("youngs_modulus_pa", r.youngs_modulus_pa.is_some()),
+                        ("density_kg_m3", r.density_kg_m3.is_some()),
+                        ("n_nodes", r.n_nodes.is_some()),
+                        ("boundary", r.boundary.is_some()),
+                    ],
+                )?;
+                let missing = |k: &str| {
+                    D::Error::custom(format!(
+                        "structure.{k} is missing: kind = \"matrices\" needs mass_mtx and stiffness_mtx (Matrix Market files)"
+                    ))
+                };
+                Ok(StructureSpec::Matrices(MatricesStructureSpec {
+                    mass_mtx: r.mass_mtx.ok_or_else(|| missing("mass_mtx"))?,
+                    stiffness_mtx: r.stiffness_mtx.ok_or_else(|| missing("stiffness_mtx"))?,
+                    damping_mtx: r.damping_mtx,
+                    rayleigh: r.rayleigh,
+                    damping_ratio: r.damping_ratio,
+                    damping_mode: r.damping_mode,
+                    reduction: r.reduction.unwrap_or_default(),
+                    cb_modes: r.cb_modes.unwrap_or(nlmode::benchmark::CB_MODES),
+                    cb_masters: r.cb_masters,
+                    point: r.point.unwrap_or_default(),
+                    k3_n_per_m3: r.k3_n_per_m3.unwrap_or(0.0),
+                    nonlinear_point: r.nonlinear_point,
+                    allow_rigid_body_modes: r.allow_rigid_body_modes.unwrap_or(false),
+                }))
+            }
+        }
     }
 }
 
@@ -152,15 +259,25 @@ impl Serialize for StructureSpec {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         match self {
             StructureSpec::Beam(b) => b.serialize(s),
+            StructureSpec::Matrices(m) => m.serialize(s),
         }
     }
 }
 
 impl StructureSpec {
-    /// The beam of `kind = "beam"`.
-    pub fn beam(&self) -> &BeamStructureSpec {
+    /// The beam of `kind = "beam"`, `None` for other kinds.
+    pub fn beam(&self) -> Option<&BeamStructureSpec> {
         match self {
-            StructureSpec::Beam(b) => b,
+            StructureSpec::Beam(b) => Some(b),
+            StructureSpec::Matrices(_) => None,
+        }
+    }
+
+    /// The matrices of `kind = "matrices"`, `None` for other kinds.
+    pub fn matrices(&self) -> Option<&MatricesStructureSpec> {
+        match self {
+            StructureSpec::Matrices(m) => Some(m),
+            StructureSpec::Beam(_) => None,
         }
     }
 }
@@ -171,17 +288,53 @@ impl StructureSpec {
 pub enum StructureKind {
     #[default]
     Beam,
+    Matrices,
 }
 
 /// Model reduction of the structure (`structure.reduction`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Reduction {
-    /// Craig-Bampton with the tip translation as master and `cb_modes` fixed-interface modes.
+    /// Craig-Bampton with the masters (beam: the tip translation; matrices:
+    /// `cb_masters`) and `cb_modes` fixed-interface modes.
     #[default]
     CraigBampton,
     /// The full FE model.
     None,
+}
+
+/// A named DOF of a matrices structure (`[[structure.point]]`).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointSpec {
+    pub name: String,
+    /// 0-based row of `M` and `K`.
+    pub dof: usize,
+}
+
+/// `[structure]` with `kind = "matrices"` (docs/scenario.md). Paths are relative
+/// to the scenario file ([`Scenario::resolve_paths`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MatricesStructureSpec {
+    pub mass_mtx: PathBuf,
+    pub stiffness_mtx: PathBuf,
+    pub damping_mtx: Option<PathBuf>,
+    /// `[alpha, beta]`: `C = alpha M + beta K` (`alpha` [1/s], `beta` [s]).
+    pub rayleigh: Option<[f64; 2]>,
+    /// Stiffness-proportional damping with this ratio on `damping_mode`.
+    pub damping_ratio: Option<f64>,
+    /// 1-based mode of the full model for `damping_ratio` (default 1).
+    pub damping_mode: Option<usize>,
+    pub reduction: Reduction,
+    pub cb_modes: usize,
+    /// Craig-Bampton master points; default: the nonlinear point and every
+    /// exciter point.
+    pub cb_masters: Option<Vec<String>>,
+    pub point: Vec<PointSpec>,
+    /// Grounded cubic spring `f = k3 u^3` at `nonlinear_point` [N/m^3] (0: none).
+    pub k3_n_per_m3: f64,
+    pub nonlinear_point: Option<String>,
+    pub allow_rigid_body_modes: bool,
 }
 
 /// `[structure]` with `kind = "beam"`.
@@ -270,8 +423,10 @@ impl Serialize for LengthFraction {
 #[serde(deny_unknown_fields, default)]
 pub struct ExciterSpec {
     pub name: String,
-    /// Fraction of the length: "l/3", "2l/3", "l" or a number in (0, 1].
+    /// Beam: fraction of the length: "l/3", "2l/3", "l" or a number in (0, 1].
     pub location: Option<LengthFraction>,
+    /// Matrices: the `[[structure.point]]` the exciter drives.
+    pub point: Option<String>,
     pub location_m: Option<f64>,
     pub inductance_h: f64,
     pub resistance_ohm: f64,
@@ -292,6 +447,7 @@ impl Default for ExciterSpec {
         Self {
             name: "shaker".into(),
             location: None,
+            point: None,
             location_m: None,
             inductance_h: b::SHAKER_L_H,
             resistance_ohm: b::SHAKER_R_OHM,
@@ -555,6 +711,9 @@ pub struct OutputSpec {
     pub plots: bool,
     /// Package structure.fmu and shaker.fmu into `<out>/fmus`.
     pub fmus: bool,
+    /// The point whose displacement the envelopes call `tip_amplitude_m`
+    /// (default `tip` for beams; required for matrices).
+    pub response_point: Option<String>,
 }
 
 impl Default for OutputSpec {
@@ -563,6 +722,7 @@ impl Default for OutputSpec {
             time_series: true,
             plots: true,
             fmus: true,
+            response_point: None,
         }
     }
 }
@@ -626,7 +786,144 @@ impl Scenario {
 
     /// Check every value; the error names the key.
     pub fn validate(&self) -> Result<(), ScenarioError> {
-        let StructureSpec::Beam(st) = &self.structure;
+        match &self.structure {
+            StructureSpec::Beam(st) => self.validate_beam(st)?,
+            StructureSpec::Matrices(st) => self.validate_matrices(st)?,
+        }
+        self.validate_rest()
+    }
+
+    /// `[structure]` of `kind = "matrices"` and the keys that refer to its points
+    /// (the matrices themselves are checked when they are read).
+    fn validate_matrices(&self, st: &MatricesStructureSpec) -> Result<(), ScenarioError> {
+        for (i, p) in st.point.iter().enumerate() {
+            if p.name.is_empty() {
+                return Err(bad(
+                    &format!("structure.point[{i}].name"),
+                    "expected a non-empty name",
+                ));
+            }
+            if st.point[..i].iter().any(|o| o.name == p.name) {
+                return Err(bad(
+                    &format!("structure.point[{i}].name"),
+                    format!("point names must be unique, '{}' repeats", p.name),
+                ));
+            }
+        }
+        let names: Vec<&str> = st.point.iter().map(|p| p.name.as_str()).collect();
+        let known = |key: &str, name: &str| {
+            if names.contains(&name) {
+                Ok(())
+            } else {
+                Err(bad(
+                    key,
+                    format!("unknown point '{name}'; the [[structure.point]] names are {names:?}"),
+                ))
+            }
+        };
+        let given = [
+            st.damping_mtx.is_some(),
+            st.rayleigh.is_some(),
+            st.damping_ratio.is_some(),
+        ];
+        if given.iter().filter(|g| **g).count() != 1 {
+            return Err(bad(
+                "structure.damping_mtx",
+                "give exactly one of damping_mtx, rayleigh = [alpha, beta] or damping_ratio (+ damping_mode)",
+            ));
+        }
+        if st.damping_mode.is_some() && st.damping_ratio.is_none() {
+            return Err(bad(
+                "structure.damping_mode",
+                "damping_mode needs damping_ratio",
+            ));
+        }
+        if let Some(r) = st.damping_ratio {
+            if !(r.is_finite() && (0.0..1.0).contains(&r)) {
+                return Err(bad(
+                    "structure.damping_ratio",
+                    format!("expected 0 <= D < 1, got {r}"),
+                ));
+            }
+        }
+        if st.damping_mode == Some(0) {
+            return Err(bad(
+                "structure.damping_mode",
+                "expected a mode number >= 1 (1 = the lowest mode)",
+            ));
+        }
+        if let Some([a, b]) = st.rayleigh {
+            for (k, v) in [("structure.rayleigh[0]", a), ("structure.rayleigh[1]", b)] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(bad(k, format!("expected a finite number >= 0, got {v}")));
+                }
+            }
+        }
+        if !(st.k3_n_per_m3.is_finite() && st.k3_n_per_m3 >= 0.0) {
+            return Err(bad(
+                "structure.k3_n_per_m3",
+                format!("expected a finite number >= 0, got {}", st.k3_n_per_m3),
+            ));
+        }
+        match &st.nonlinear_point {
+            Some(p) => known("structure.nonlinear_point", p)?,
+            None if st.k3_n_per_m3 != 0.0 => {
+                return Err(bad(
+                    "structure.nonlinear_point",
+                    "missing: k3_n_per_m3 needs the point of the cubic spring",
+                ))
+            }
+            None => {}
+        }
+        if st.reduction == Reduction::CraigBampton && st.cb_modes == 0 {
+            return Err(bad(
+                "structure.cb_modes",
+                "expected at least 1 fixed-interface mode",
+            ));
+        }
+        if let Some(m) = &st.cb_masters {
+            for (i, p) in m.iter().enumerate() {
+                known(&format!("structure.cb_masters[{i}]"), p)?;
+            }
+        }
+        for (i, ex) in self.exciter.iter().enumerate() {
+            if ex.location.is_some() || ex.location_m.is_some() {
+                return Err(bad(
+                    &format!("exciter[{i}].location"),
+                    "a structure of kind = \"matrices\" takes point = \"name\", not location",
+                ));
+            }
+            match &ex.point {
+                Some(p) => known(&format!("exciter[{i}].point"), p)?,
+                None => {
+                    return Err(bad(
+                        &format!("exciter[{i}].point"),
+                        "missing: expected point = \"name\" of a [[structure.point]]",
+                    ))
+                }
+            }
+        }
+        match &self.output.response_point {
+            Some(p) => known("output.response_point", p)?,
+            None => {
+                return Err(bad(
+                    "output.response_point",
+                    "missing: a structure of kind = \"matrices\" needs the point whose displacement is tip_amplitude_m",
+                ))
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_beam(&self, st: &BeamStructureSpec) -> Result<(), ScenarioError> {
+        for (i, ex) in self.exciter.iter().enumerate() {
+            if ex.point.is_some() {
+                return Err(bad(
+                    &format!("exciter[{i}].point"),
+                    "a beam takes location = \"2l/3\" or location_m, not point",
+                ));
+            }
+        }
         positive("structure.length_m", st.length_m)?;
         positive("structure.height_m", st.height_m)?;
         positive("structure.width_m", st.width_m)?;
@@ -662,12 +959,18 @@ impl Scenario {
                 "expected at least 1 fixed-interface mode",
             ));
         }
+        for i in 0..self.exciter.len() {
+            self.exciter_location_m(i)?;
+        }
+        Ok(())
+    }
+
+    fn validate_rest(&self) -> Result<(), ScenarioError> {
         if self.exciter.is_empty() {
             return Err(bad("exciter", "expected at least one [[exciter]] table"));
         }
         for (i, ex) in self.exciter.iter().enumerate() {
             let k = |f: &str| format!("exciter[{i}].{f}");
-            self.exciter_location_m(i)?;
             positive(&k("inductance_h"), ex.inductance_h)?;
             positive(&k("resistance_ohm"), ex.resistance_ohm)?;
             positive(&k("force_constant_n_per_a"), ex.force_constant_n_per_a)?;
@@ -800,10 +1103,40 @@ impl Scenario {
         Ok(())
     }
 
-    /// Location of exciter `i` along the beam [m].
+    /// Makes the relative paths of `[structure]` (the Matrix Market files)
+    /// relative to `base`, the folder of the scenario file.
+    pub fn resolve_paths(&mut self, base: &std::path::Path) {
+        if let StructureSpec::Matrices(m) = &mut self.structure {
+            for p in [&mut m.mass_mtx, &mut m.stiffness_mtx]
+                .into_iter()
+                .chain(m.damping_mtx.as_mut())
+            {
+                if p.is_relative() {
+                    *p = base.join(&*p);
+                }
+            }
+        }
+    }
+
+    /// The point whose displacement is `tip_amplitude_m`: `[output]
+    /// response_point`, `tip` for beams when not given.
+    pub fn response_point(&self) -> String {
+        self.output
+            .response_point
+            .clone()
+            .unwrap_or_else(|| nlmode::structure::paper::TIP.into())
+    }
+
+    /// Location of exciter `i` along the beam [m] (an error for other kinds).
     pub fn exciter_location_m(&self, i: usize) -> Result<f64, ScenarioError> {
         let ex = &self.exciter[i];
-        let l = self.structure.beam().length_m;
+        let Some(beam) = self.structure.beam() else {
+            return Err(bad(
+                &format!("exciter[{i}].location"),
+                "only a beam has locations; use point = \"name\"",
+            ));
+        };
+        let l = beam.length_m;
         let key = format!("exciter[{i}].location");
         let x = match (ex.location, ex.location_m) {
             (Some(_), Some(_)) => {
@@ -959,8 +1292,10 @@ mod tests {
         assert_eq!(e.key, "structure.boundary");
         let e = Scenario::parse("[structure]\nboundary = \"hinged\"\n").unwrap_err();
         assert_eq!(e.key, "structure.boundary");
-        let e = Scenario::parse("[structure]\nkind = \"matrices\"\n").unwrap_err();
+        let e = Scenario::parse("[structure]\nkind = \"plate\"\n").unwrap_err();
         assert_eq!(e.key, "structure.kind");
+        let e = Scenario::parse("[structure]\nkind = \"matrices\"\n").unwrap_err();
+        assert!(e.message.contains("mass_mtx"), "{e}");
         let e = Scenario::parse("[structure]\nreduction = \"guyan\"\n").unwrap_err();
         assert_eq!(e.key, "structure.reduction");
         let e = Scenario::parse("[[exciter]]\nlocation = \"x\"\n").unwrap_err();

@@ -13,6 +13,7 @@
 //! * [`modal`]: linear modal analysis, `K phi = omega^2 M phi`.
 //! * [`mod@craig_bampton`]: Craig-Bampton reduction with chosen master DOFs and fixed-interface modes.
 //! * [`paper`]: the benchmark structure of the paper (Section 5).
+//! * [`matrices`]: the user's structure from FE matrices (Matrix Market files).
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
@@ -66,6 +67,7 @@ pub mod beam;
 pub mod craig_bampton;
 pub mod damping;
 pub mod laws;
+pub mod matrices;
 pub mod modal;
 pub mod paper;
 
@@ -76,6 +78,10 @@ pub use damping::{
     stiffness_proportional_damping_from_modes,
 };
 pub use laws::{RegularizedFriction, UnilateralSpring};
+pub use matrices::{
+    matrix_structure, read_matrix_market, MatricesError, MatrixDamping, MatrixRole,
+    MatrixStructure, MatrixStructureOptions,
+};
 pub use modal::{modal_analysis, LinearModes};
 pub use paper::{paper_structure, PaperStructure, PaperStructureOptions};
 

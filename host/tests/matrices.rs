@@ -1,0 +1,360 @@
+//! `[structure] kind = "matrices"` end to end.
+//!
+//! * The paper beam, written to Matrix Market files by this test (its full `M`
+//!   and `K` from `nlmode`'s beam) and read back as `kind = "matrices"` with the
+//!   same points (`tip`, `2l3`, `l3`), damping (`D0 = 0.4 %` stiffness-proportional
+//!   on mode 1), reduction (Craig-Bampton, master `tip`, 10 modes) and cubic
+//!   spring, reproduces the beam scenario's `omega0`, NMA table and case-(a)
+//!   envelopes of `nlmode` and `reference` to 1e-9 (relative to each array's
+//!   largest value).
+//! * Bad matrices input through the CLI: one message naming the key (and the file,
+//!   the line), exit 2, no panic.
+//! * The example `examples/matrices_frame.toml` runs with `host run`.
+use host::methods;
+use host::model::Setup;
+use host::scenario::{Method, Scenario};
+use nlmode::structure::matrices::write_matrix_market;
+use nlmode::structure::{paper_structure, PaperStructureOptions};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("host-mtx-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The paper beam as a matrices scenario in `dir` (files `M.mtx`, `K.mtx`).
+fn beam_as_matrices(dir: &Path) -> Scenario {
+    let ps = paper_structure(&PaperStructureOptions::default()).unwrap();
+    let b = &ps.beam;
+    std::fs::write(dir.join("M.mtx"), write_matrix_market(&b.model.mass)).unwrap();
+    std::fs::write(dir.join("K.mtx"), write_matrix_market(&b.model.stiffness)).unwrap();
+    let l = b.spec.length_m;
+    let dof = |x: f64| b.translation_dof(b.node_at(x).unwrap()).unwrap();
+    let text = format!(
+        "[structure]\nkind = \"matrices\"\nmass_mtx = \"M.mtx\"\nstiffness_mtx = \"K.mtx\"\n\
+         damping_ratio = 0.004\ndamping_mode = 1\nreduction = \"craig-bampton\"\ncb_modes = 10\n\
+         cb_masters = [\"tip\"]\nk3_n_per_m3 = 6e9\nnonlinear_point = \"tip\"\n\
+         [[structure.point]]\nname = \"tip\"\ndof = {}\n\
+         [[structure.point]]\nname = \"2l3\"\ndof = {}\n\
+         [[structure.point]]\nname = \"l3\"\ndof = {}\n\
+         [[exciter]]\npoint = \"2l3\"\n[output]\nresponse_point = \"tip\"\n",
+        dof(l),
+        dof(2.0 * l / 3.0),
+        dof(l / 3.0)
+    );
+    let mut sc = Scenario::parse(&text).unwrap();
+    sc.resolve_paths(dir);
+    sc
+}
+
+fn assert_close(what: &str, a: &[f64], b: &[f64], rtol: f64) {
+    assert_eq!(a.len(), b.len(), "{what}: lengths");
+    let scale = a.iter().chain(b).fold(0.0f64, |m, v| m.max(v.abs()));
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        assert!(
+            (x - y).abs() <= rtol * scale,
+            "{what}[{i}]: {x} vs {y} (scale {scale:e})"
+        );
+    }
+}
+
+#[test]
+fn the_paper_beam_read_back_from_matrix_market_reproduces_the_beam() {
+    let dir = tmpdir("beam");
+    let mtx = beam_as_matrices(&dir);
+    let beam = Scenario::default_scenario();
+    let (sb, sm) = (Setup::new(&beam).unwrap(), Setup::new(&mtx).unwrap());
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    assert!(rel(sm.omega0_rad_s, sb.omega0_rad_s) < 1e-12);
+    assert!((sm.omega0_rad_s - 356.2).abs() < 0.1);
+    assert_eq!(
+        (sm.full_ndof, sm.model.ndof()),
+        (sb.full_ndof, sb.model.ndof())
+    );
+    assert!(rel(sm.d0, sb.d0) < 1e-9, "{} vs {}", sm.d0, sb.d0);
+    assert_eq!(sm.exciter_points, sb.exciter_points);
+    for (mb, mm) in sb.modal_masses.iter().zip(&sm.modal_masses) {
+        assert!(rel(mm.0, mb.0) < 1e-9 && rel(mm.1, mb.1) < 1e-9);
+    }
+    // the NMA table
+    let (tb, _) = methods::nma_table(&sb, &beam, false).unwrap();
+    let (tm, _) = methods::nma_table(&sm, &mtx, false).unwrap();
+    let (tb, tm) = (&tb.table, &tm.table);
+    assert!(tb.amplitude.len() > 10);
+    assert_close("amplitude", &tm.amplitude, &tb.amplitude, 1e-9);
+    assert_close("omega", &tm.omega_rad_s, &tb.omega_rad_s, 1e-9);
+    assert_close("damping", &tm.damping_ratio, &tb.damping_ratio, 1e-9);
+    for p in &tb.points {
+        let q = tm.points.iter().find(|q| q.name == p.name).unwrap();
+        let flat = |v: &Vec<Vec<f64>>| v.iter().flatten().copied().collect::<Vec<f64>>();
+        assert_close(&format!("{} re", p.name), &flat(&q.re), &flat(&p.re), 1e-9);
+        assert_close(&format!("{} im", p.name), &flat(&q.im), &flat(&p.im), 1e-9);
+    }
+    // case (a) by nlmode and reference
+    let opts = beam.slowflow.options(Method::Nlmode);
+    let nb = methods::reduced_model(&sb, tb, None).unwrap();
+    let nm = methods::reduced_model(&sm, tm, None).unwrap();
+    let (rb, _) = methods::slow_flow("nlmode", &sb, &nb, &opts).unwrap();
+    let (rm, _) = methods::slow_flow("nlmode", &sm, &nm, &opts).unwrap();
+    for (b, m, what) in [(&rb, &rm, "nlmode")] {
+        assert_close(
+            &format!("{what} omega"),
+            &m.envelope.omega_rad_s,
+            &b.envelope.omega_rad_s,
+            1e-9,
+        );
+        assert_close(
+            &format!("{what} tip"),
+            &m.envelope.tip_amplitude_m,
+            &b.envelope.tip_amplitude_m,
+            1e-9,
+        );
+        assert_close(
+            &format!("{what} force"),
+            &m.envelope.force_amplitude_n,
+            &b.envelope.force_amplitude_n,
+            1e-9,
+        );
+    }
+    let peak = rm
+        .envelope
+        .tip_amplitude_m
+        .iter()
+        .fold(0.0f64, |a, b| a.max(*b));
+    assert!((peak - 2.274e-3).abs() < 0.01e-3, "nlmode peak {peak}");
+    let fb = methods::reference(&sb, &beam, &mut |_| {}).unwrap();
+    let fm = methods::reference(&sm, &mtx, &mut |_| {}).unwrap();
+    assert_close(
+        "reference omega",
+        &fm.envelope.omega_rad_s,
+        &fb.envelope.omega_rad_s,
+        1e-9,
+    );
+    assert_close(
+        "reference tip",
+        &fm.envelope.tip_amplitude_m,
+        &fb.envelope.tip_amplitude_m,
+        1e-9,
+    );
+    assert_close(
+        "reference force",
+        &fm.envelope.force_amplitude_n,
+        &fb.envelope.force_amplitude_n,
+        1e-9,
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn host() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host"))
+}
+
+/// `host nma` on `toml` (written to `dir`) fails with exit 2 and every needle.
+fn expect_failure(dir: &Path, toml: &str, needles: &[&str]) {
+    let p = dir.join("bad.toml");
+    std::fs::write(&p, toml).unwrap();
+    let o = host()
+        .arg("nma")
+        .arg(&p)
+        .arg("-o")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked") && !err.contains("NaN"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "expected '{n}' in: {err}");
+    }
+}
+
+#[test]
+fn bad_matrices_input_names_the_key_and_exits_2() {
+    let dir = tmpdir("bad");
+    let m2 = "%%MatrixMarket matrix coordinate real symmetric\n2 2 2\n1 1 1.0\n2 2 2.0\n";
+    let k2 = "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 3e4\n2 1 -1e4\n2 2 1e4\n";
+    std::fs::write(dir.join("M.mtx"), m2).unwrap();
+    std::fs::write(dir.join("K.mtx"), k2).unwrap();
+    std::fs::write(
+        dir.join("bad_line.mtx"),
+        "%%MatrixMarket matrix coordinate real general\n2 2 2\n1 1 1.0\n2 2 two\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("K3.mtx"),
+        "%%MatrixMarket matrix array real general\n3 3\n1\n0\n0\n0\n1\n0\n0\n0\n1\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("Kasym.mtx"),
+        "%%MatrixMarket matrix coordinate real general\n2 2 3\n1 1 3e4\n2 1 -1e4\n2 2 1e4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("Mindef.mtx"),
+        "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 1.0\n2 1 3.0\n2 2 2.0\n",
+    )
+    .unwrap();
+    let sc = |mass: &str, stiff: &str, extra: &str, dof_b: usize| {
+        format!(
+            "[structure]\nkind = \"matrices\"\nmass_mtx = \"{mass}\"\nstiffness_mtx = \"{stiff}\"\n\
+             rayleigh = [0.0, 1e-4]\nreduction = \"none\"\nk3_n_per_m3 = 1e9\nnonlinear_point = \"b\"\n{extra}\
+             [[structure.point]]\nname = \"a\"\ndof = 0\n[[structure.point]]\nname = \"b\"\ndof = {dof_b}\n\
+             [[exciter]]\npoint = \"a\"\n[output]\nresponse_point = \"b\"\n"
+        )
+    };
+    let ok = sc("M.mtx", "K.mtx", "", 1);
+    // the good one parses and builds (relative paths from the scenario's folder)
+    let mut good = Scenario::parse(&ok).unwrap();
+    good.resolve_paths(&dir);
+    let s = Setup::new(&good).unwrap();
+    assert_eq!(s.model.ndof(), 2);
+    assert!(s.omega0_rad_s > 0.0 && s.d0 > 0.0);
+    expect_failure(
+        &dir,
+        &sc("missing.mtx", "K.mtx", "", 1),
+        &["structure.mass_mtx", "missing.mtx", "cannot read"],
+    );
+    expect_failure(
+        &dir,
+        &sc("M.mtx", "bad_line.mtx", "", 1),
+        &["structure.stiffness_mtx", "bad_line.mtx", "line 4"],
+    );
+    expect_failure(
+        &dir,
+        &sc("M.mtx", "K3.mtx", "", 1),
+        &["structure.stiffness_mtx", "3x3", "mass_mtx is 2x2"],
+    );
+    expect_failure(
+        &dir,
+        &sc("M.mtx", "Kasym.mtx", "", 1),
+        &["structure.stiffness_mtx", "not symmetric"],
+    );
+    expect_failure(
+        &dir,
+        &sc("Mindef.mtx", "K.mtx", "", 1),
+        &["structure.mass_mtx", "not positive definite"],
+    );
+    expect_failure(
+        &dir,
+        &sc("M.mtx", "K.mtx", "", 2),
+        &["structure.point[1].dof", "out of range"],
+    );
+    expect_failure(
+        &dir,
+        &ok.replace("name = \"b\"", "name = \"a\""),
+        &["structure.point[1].name", "unique"],
+    );
+    expect_failure(
+        &dir,
+        &ok.replace("response_point = \"b\"", "response_point = \"c\""),
+        &["output.response_point", "unknown point 'c'"],
+    );
+    expect_failure(
+        &dir,
+        &ok.replace("point = \"a\"\n[output]", "point = \"z\"\n[output]"),
+        &["exciter[0].point", "unknown point 'z'"],
+    );
+    expect_failure(
+        &dir,
+        &ok.replace("k3_n_per_m3 = 1e9", "k3_n_per_m3 = -1e9"),
+        &["structure.k3_n_per_m3"],
+    );
+    expect_failure(
+        &dir,
+        &ok.replace("rayleigh = [0.0, 1e-4]", "rayleigh = [0.0, -1e-4]"),
+        &["structure.rayleigh[1]"],
+    );
+    expect_failure(
+        &dir,
+        &ok.replace("rayleigh = [0.0, 1e-4]\n", ""),
+        &["structure.damping_mtx", "exactly one"],
+    );
+    expect_failure(
+        &dir,
+        &ok.replace("[output]", "location = \"l/3\"\n[output]"),
+        &["exciter[0].location", "point"],
+    );
+    expect_failure(
+        &dir,
+        &ok.replace("reduction = \"none\"", "length_m = 1.0"),
+        &["structure.length_m", "not a key of kind"],
+    );
+    // a rigid-body mode (free-free two-mass chain): refused unless confirmed
+    std::fs::write(
+        dir.join("Kfree.mtx"),
+        "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 1e4\n2 1 -1e4\n2 2 1e4\n",
+    )
+    .unwrap();
+    expect_failure(
+        &dir,
+        &sc("M.mtx", "Kfree.mtx", "", 1),
+        &[
+            "structure.stiffness_mtx",
+            "rigid-body mode",
+            "allow_rigid_body_modes",
+        ],
+    );
+    let mut free = Scenario::parse(&sc(
+        "M.mtx",
+        "Kfree.mtx",
+        "allow_rigid_body_modes = true\n",
+        1,
+    ))
+    .unwrap();
+    free.resolve_paths(&dir);
+    let s = Setup::new(&free).unwrap();
+    assert_eq!(s.mode_index, 1);
+    // the elastic mode of the free two-mass chain: k (1/m1 + 1/m2)
+    let w = (1e4f64 * (1.0 + 0.5)).sqrt();
+    assert!((s.omega0_rad_s - w).abs() < 1e-9 * w, "{}", s.omega0_rad_s);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_frame_example_runs_with_host_run() {
+    let out = tmpdir("frame");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/matrices_frame.toml");
+    let o = host()
+        .arg("run")
+        .arg(&example)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "stdout: {stdout}\nstderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["full_ndof"].as_u64(), Some(33));
+    let peak = |m: &str| s["methods"][m]["peak_tip_amplitude_m"].as_f64().unwrap();
+    for m in [
+        "reference",
+        "nlmode",
+        "linear-frf",
+        "linear-steady",
+        "cosim",
+    ] {
+        assert!(peak(m).is_finite() && peak(m) > 0.0, "{m}");
+    }
+    // the reduced model follows the reference and cosim the nlmode path
+    let r = peak("reference");
+    assert!(
+        (peak("nlmode") - r).abs() < 0.05 * r,
+        "{} vs {r}",
+        peak("nlmode")
+    );
+    assert!(
+        (peak("cosim") - r).abs() < 0.05 * r,
+        "{} vs {r}",
+        peak("cosim")
+    );
+    std::fs::remove_dir_all(&out).ok();
+}
