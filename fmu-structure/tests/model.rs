@@ -350,3 +350,23 @@ fn cached_output_derivatives_follow_the_input_the_step_and_the_state() {
     assert_eq!(m.get_real_output_derivative(vr::V, 1).unwrap(), dv0);
     assert_eq!(m.get_real_output_derivative(vr::X, 1).unwrap(), dx0);
 }
+
+/// `<ModelStructure>` agrees with the code's actual dependencies: no output
+/// feeds through from `F`; initially only `omega` depends on a known
+/// (`frequency_error`; the table path is a String, listed but not perturbed).
+#[test]
+fn model_structure_dependencies_match_the_code() {
+    let md = fmi2_export::xml::ModelDescription::parse(XML).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let table = linear_table(dir.path());
+    let errs = fmi2_export::xml::check_dependencies(&md, 1, |_| {
+        let mut m = instantiate(None);
+        m.set_string(vr::MODAL_TABLE, table.to_str().unwrap())
+            .unwrap();
+        m
+    });
+    assert!(errs.is_empty(), "{errs:#?}");
+    for u in &md.initial_unknowns {
+        assert!(u.dependencies.is_some(), "initial unknown {}", u.index);
+    }
+}
