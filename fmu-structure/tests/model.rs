@@ -370,3 +370,24 @@ fn model_structure_dependencies_match_the_code() {
         assert!(u.dependencies.is_some(), "initial unknown {}", u.index);
     }
 }
+
+/// Issue 14: `fmi2DoStep` of 1e6 s, or with `frequency_error` 1e9, never
+/// returned; now it is an error naming the step, the sub-step and the cap.
+#[test]
+fn do_step_work_is_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    linear_table(dir.path());
+    let log = Logger::silent();
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.exit_initialization_mode(&log).unwrap();
+    let t0 = std::time::Instant::now();
+    let e = m.do_step(0.0, 1e6, &log).unwrap_err();
+    assert!(e.message.contains("communication step 1e6 s"), "{}", e.message);
+    assert!(e.message.contains("cap of 1000000"), "{}", e.message);
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.set_real(vr::FREQUENCY_ERROR, 1e9).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    let e = m.do_step(0.0, 1e-4, &log).unwrap_err();
+    assert!(e.message.contains("sub-steps"), "{}", e.message);
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+}
