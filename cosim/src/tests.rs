@@ -855,3 +855,132 @@ mod fmus {
         }
     }
 }
+
+/// Issue 14, item 5: a `modelIdentifier` with a path made the host dlopen a
+/// library outside the FMU (its constructor ran) before any check failed.
+#[test]
+fn model_identifier_must_be_a_plain_file_name() {
+    let dir = tempfile::tempdir().unwrap();
+    for id in ["/abs/path/x", "../../x", "a/b", "..", "", "x\\y"] {
+        let md = test_md(TEST_GUID).replace(
+            "modelIdentifier=\"testosc\"",
+            &format!("modelIdentifier=\"{id}\""),
+        );
+        let p = test_fmu(dir.path(), "id.fmu", &md, true);
+        match fmu_err(&p) {
+            FmuError::BadIdentifier { identifier, .. } => assert_eq!(identifier, id),
+            e => panic!("{id}: {e}"),
+        }
+    }
+}
+
+/// Issue 14: a truncated ELF inside an `.fmu` killed the host with SIGBUS;
+/// a non-ELF or foreign binary must be an error too, before dlopen.
+#[test]
+fn truncated_or_foreign_binaries_are_refused_before_loading() {
+    let dir = tempfile::tempdir().unwrap();
+    let lib = test_lib();
+    let md = test_md(TEST_GUID);
+    for (what, bytes) in [
+        ("half", lib[..lib.len() / 2].to_vec()),
+        ("header only", lib[..64].to_vec()),
+        ("text", b"not a library".to_vec()),
+        ("empty", Vec::new()),
+    ] {
+        let p = dir.path().join("bad.fmu");
+        write_zip(
+            &p,
+            &[
+                ("modelDescription.xml", md.as_bytes().to_vec()),
+                ("binaries/linux64/testosc.so", bytes),
+            ],
+            &[],
+        );
+        match fmu_err(&p) {
+            FmuError::BadBinary { reason, .. } => assert!(!reason.is_empty()),
+            e => panic!("{what}: {e}"),
+        }
+    }
+}
+
+/// Issue 14: a duplicate value reference recorded the wrong signal with exit 0;
+/// unclosed XML was accepted.
+#[test]
+fn duplicate_value_references_and_unclosed_xml_are_refused_with_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let md = test_md(TEST_GUID).replace(
+        "name=\"v\" valueReference=\"5\"",
+        "name=\"v\" valueReference=\"4\"",
+    );
+    let e = fmu_err(&test_fmu(dir.path(), "dup.fmu", &md, true));
+    assert!(
+        e.to_string().contains("line 11") && e.to_string().contains("used twice"),
+        "{e}"
+    );
+    let md = test_md(TEST_GUID).replace("</fmiModelDescription>\n", "");
+    let e = fmu_err(&test_fmu(dir.path(), "open.fmu", &md, true));
+    assert!(e.to_string().contains("not closed"), "{e}");
+}
+
+/// Issue 14: a 1.4 MB `.fmu` expanded to 934 MB; entry count and unpacked
+/// size are bounded (configurable), and an `.fmu` that is a named pipe or a
+/// device is refused at once.
+#[test]
+fn unpacking_is_bounded_and_only_regular_files_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = test_fmu(dir.path(), "ok.fmu", &test_md(TEST_GUID), true);
+    let small = ImportLimits {
+        max_unpacked_bytes: 1000,
+        ..ImportLimits::default()
+    };
+    assert!(matches!(
+        Fmu::load_with(&good, &small),
+        Err(FmuError::TooLarge { max: 1000, .. })
+    ));
+    let few = ImportLimits {
+        max_entries: 1,
+        ..ImportLimits::default()
+    };
+    assert!(matches!(
+        Fmu::load_with(&good, &few),
+        Err(FmuError::TooManyEntries {
+            entries: 2,
+            max: 1,
+            ..
+        })
+    ));
+    Fmu::load_with(&good, &ImportLimits::default()).unwrap();
+    // a bomb: 600 MiB of zeros compress to well under 1 MB
+    let bomb = dir.path().join("bomb.fmu");
+    {
+        let f = std::fs::File::create(&bomb).unwrap();
+        let mut z = zip::ZipWriter::new(f);
+        let o = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated)
+            .large_file(true);
+        z.start_file("resources/zeros", o).unwrap();
+        let block = vec![0u8; 1 << 20];
+        for _ in 0..600 {
+            z.write_all(&block).unwrap();
+        }
+        z.finish().unwrap();
+    }
+    assert!(std::fs::metadata(&bomb).unwrap().len() < 2 << 20);
+    assert!(matches!(fmu_err(&bomb), FmuError::TooLarge { .. }));
+    let t0 = std::time::Instant::now();
+    assert!(matches!(
+        fmu_err(Path::new("/dev/zero")),
+        FmuError::File { .. }
+    ));
+    let fifo = dir.path().join("pipe.fmu");
+    if std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false)
+    {
+        let e = fmu_err(&fifo);
+        assert!(e.to_string().contains("named pipe"), "{e}");
+    }
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+}

@@ -143,3 +143,146 @@ pub fn check_start_values<M: CoSimModel>(model: &M) -> Vec<String> {
         })
         .collect()
 }
+
+/// Perturb a known (`Real` or `Boolean`) of a model; `None` for the types the
+/// check does not perturb (String, Integer: listing them is not verified).
+fn perturb<M: CoSimModel>(m: &mut M, v: &fmi2::schema::ScalarVariable) -> Option<()> {
+    match v.ty {
+        fmi2::schema::VarType::Real => {
+            let x = m.get_real(v.value_reference);
+            // small enough to keep every parameter in its valid range
+            let y = if x == 0.0 { 1e-3 } else { x * (1.0 + 1e-3) };
+            m.set_real(v.value_reference, y).ok()
+        }
+        fmi2::schema::VarType::Boolean => {
+            let b = m.get_boolean(v.value_reference).ok()?;
+            m.set_boolean(v.value_reference, !b).ok()
+        }
+        _ => None,
+    }
+}
+
+/// Check `<ModelStructure>` against the code's actual dependencies
+/// (the algebraic-loop information a master relies on, FMI 2.0 section 2.2.8):
+///
+/// * `<Outputs>`: an output lists input `j` iff setting `j` (without a step)
+///   changes the output's `fmi2GetReal` (direct feedthrough);
+/// * `<InitialUnknowns>`: an unknown lists input or parameter `j` iff setting
+///   `j` before `fmi2ExitInitializationMode` changes its value after it; every
+///   initial unknown must carry a `dependencies` attribute (absent means
+///   "depends on everything", which masters read as an algebraic loop).
+///
+/// `instantiate(k)` returns a fresh instance in configuration `k` of
+/// `configurations` (parameters set, not yet initialized); a dependency counts
+/// as present when it shows in any configuration (e.g. `u_ext` only acts with
+/// `use_external_voltage = true`). Real knowns are perturbed by 0.1 % (or
+/// 1e-3 from zero), Booleans toggled; String and Integer knowns are not
+/// perturbed, so listing them is accepted unchecked. Returns the disagreements.
+pub fn check_dependencies<M: CoSimModel>(
+    md: &ModelDescription,
+    configurations: usize,
+    instantiate: impl Fn(usize) -> M,
+) -> Vec<String> {
+    let log = crate::model::Logger::silent();
+    let mut errs = Vec::new();
+    let var = |i: usize| md.variables.iter().find(|v| v.index == i);
+    let initialize = |mut m: M, errs: &mut Vec<String>| -> Option<M> {
+        let r = m
+            .setup_experiment(0.0, None)
+            .and_then(|_| m.enter_initialization_mode(&log))
+            .and_then(|_| m.exit_initialization_mode(&log));
+        match r {
+            Ok(()) => Some(m),
+            Err(e) => {
+                errs.push(format!("initialization failed: {e}"));
+                None
+            }
+        }
+    };
+    let read = |m: &M, i: usize| -> Option<f64> {
+        let v = var(i)?;
+        match v.ty {
+            fmi2::schema::VarType::Real => Some(m.get_real(v.value_reference)),
+            _ => None,
+        }
+    };
+    // <Outputs>: direct feedthrough from the inputs in the initialized state
+    let inputs: Vec<_> = md
+        .variables
+        .iter()
+        .filter(|v| v.causality == "input")
+        .collect();
+    for u in &md.outputs {
+        let listed = u.dependencies.clone().unwrap_or_default();
+        for inp in &inputs {
+            let mut changes = false;
+            for k in 0..configurations {
+                let Some(base) = initialize(instantiate(k), &mut errs) else {
+                    return errs;
+                };
+                let mut m = base.clone();
+                if perturb(&mut m, inp).is_none() {
+                    continue;
+                }
+                changes |= read(&base, u.index) != read(&m, u.index);
+            }
+            if changes != listed.contains(&inp.index) {
+                errs.push(format!(
+                    "<Outputs> index {}: direct dependency on input {} (index {}) is {} in the code, {} in the XML",
+                    u.index,
+                    inp.name,
+                    inp.index,
+                    if changes { "present" } else { "absent" },
+                    if listed.contains(&inp.index) { "listed" } else { "not listed" }
+                ));
+            }
+        }
+    }
+    // <InitialUnknowns>: values after initialization vs inputs and parameters set before it
+    let knowns: Vec<_> = md
+        .variables
+        .iter()
+        .filter(|v| v.causality == "input" || v.causality == "parameter")
+        .collect();
+    let bases: Vec<M> = (0..configurations)
+        .filter_map(|k| initialize(instantiate(k), &mut errs))
+        .collect();
+    if bases.len() != configurations {
+        return errs;
+    }
+    for u in &md.initial_unknowns {
+        let Some(listed) = u.dependencies.clone() else {
+            errs.push(format!(
+                "<InitialUnknowns> index {} (line {}) has no dependencies attribute (= depends on all knowns)",
+                u.index, u.line
+            ));
+            continue;
+        };
+        for kn in &knowns {
+            let mut changes = false;
+            let mut checked = false;
+            for (k, base) in bases.iter().enumerate() {
+                let mut m = instantiate(k);
+                if perturb(&mut m, kn).is_none() {
+                    continue;
+                }
+                checked = true;
+                let Some(m) = initialize(m, &mut errs) else {
+                    return errs;
+                };
+                changes |= read(base, u.index) != read(&m, u.index);
+            }
+            if checked && changes != listed.contains(&kn.index) {
+                errs.push(format!(
+                    "<InitialUnknowns> index {}: dependency on {} (index {}) is {} in the code, {} in the XML",
+                    u.index,
+                    kn.name,
+                    kn.index,
+                    if changes { "present" } else { "absent" },
+                    if listed.contains(&kn.index) { "listed" } else { "not listed" }
+                ));
+            }
+        }
+    }
+    errs
+}

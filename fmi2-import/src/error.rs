@@ -28,6 +28,26 @@ pub enum FmuError {
         entry: String,
         source: std::io::Error,
     },
+    #[error(transparent)]
+    File { source: fmi2::FileError },
+    #[error("{path}: {entries} archive entries, more than the limit of {max} (ImportLimits::max_entries); nothing unpacked")]
+    TooManyEntries {
+        path: PathBuf,
+        entries: usize,
+        max: usize,
+    },
+    #[error("{path}: unpacks to more than {max} bytes ({size} so far; ImportLimits::max_unpacked_bytes)")]
+    TooLarge { path: PathBuf, size: u64, max: u64 },
+    #[error("FMU '{model}': modelIdentifier '{identifier}' must be a plain file name (no path separator, no '..', not absolute, not empty)")]
+    BadIdentifier { model: String, identifier: String },
+    #[error("FMU '{model}': binary {path} resolves outside the unpacked FMU folder")]
+    BinaryOutside { model: String, path: PathBuf },
+    #[error("FMU '{model}': binary {path} is not a loadable shared library: {reason}")]
+    BadBinary {
+        model: String,
+        path: PathBuf,
+        reason: String,
+    },
     #[error("{path}: no modelDescription.xml at the archive root")]
     NoModelDescription { path: PathBuf },
     #[error("FMU '{model}': binary {path} is missing (platform linux64, modelIdentifier '{identifier}')")]

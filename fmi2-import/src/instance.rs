@@ -2,15 +2,13 @@
 //! loaded library) and [`Instance`] (one `fmi2Component`, freed in `Drop`).
 use std::collections::VecDeque;
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
-use std::fs::File;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use fmi2::types::{CallbackFunctions, Component, FmuState};
 use fmi2::ModelDescription;
 
-use crate::archive::unpack;
+use crate::archive::{unpack_with, ImportLimits};
 use crate::error::{FmuError, Result};
 use crate::library::{Fns, RawStatus};
 use crate::logger::{
@@ -54,8 +52,15 @@ fn file_uri(p: &Path) -> String {
 impl Fmu {
     /// Unpack `path` into a fresh temporary folder, parse and check the model
     /// description (FMI 2.0, Co-Simulation), load the linux64 binary and check
-    /// that it reports version 2.0.
+    /// that it reports version 2.0; within the default [`ImportLimits`].
     pub fn load(path: &Path) -> Result<Self> {
+        Self::load_with(path, &ImportLimits::default())
+    }
+
+    /// [`Self::load`] within `limits`. Before the binary is loaded: no
+    /// duplicate value reference, a plain-file-name `modelIdentifier`, the
+    /// binary inside the unpacked folder and a well-formed ELF for this host.
+    pub fn load_with(path: &Path, limits: &ImportLimits) -> Result<Self> {
         let dir = tempfile::Builder::new()
             .prefix("host-fmu-")
             .tempdir()
@@ -63,26 +68,58 @@ impl Fmu {
                 path: path.into(),
                 source,
             })?;
-        unpack(path, dir.path())?;
+        unpack_with(path, dir.path(), limits)?;
         let mdp = dir.path().join("modelDescription.xml");
-        let mut text = String::new();
-        File::open(&mdp)
-            .and_then(|mut f| f.read_to_string(&mut text))
-            .map_err(|_| FmuError::NoModelDescription { path: path.into() })?;
+        if !mdp.exists() {
+            return Err(FmuError::NoModelDescription { path: path.into() });
+        }
+        let text = fmi2::read_regular_to_string(&mdp, limits.max_unpacked_bytes)
+            .map_err(|source| FmuError::File { source })?;
         let md = ModelDescription::parse(&text)?;
+        if let Some(p) = md.duplicate_value_references().into_iter().next() {
+            return Err(FmuError::Schema(fmi2::SchemaError::Xml {
+                line: p.line.unwrap_or(0),
+                message: format!("{}; each variable needs its own", p.message),
+            }));
+        }
         let id = &md.co_simulation.model_identifier;
-        let so = dir
-            .path()
-            .join("binaries")
-            .join("linux64")
-            .join(format!("{id}.so"));
+        let plain = !id.is_empty()
+            && !id.contains(['/', '\\', '\0'])
+            && id != "."
+            && id != ".."
+            && !id.contains("..");
+        if !plain {
+            return Err(FmuError::BadIdentifier {
+                model: md.model_name.clone(),
+                identifier: id.clone(),
+            });
+        }
+        let rel = PathBuf::from(format!("binaries/linux64/{id}.so"));
+        let so = dir.path().join(&rel);
         if !so.is_file() {
             return Err(FmuError::MissingBinary {
                 model: md.model_name.clone(),
                 identifier: id.clone(),
-                path: PathBuf::from(format!("binaries/linux64/{id}.so")),
+                path: rel,
             });
         }
+        let outside = || FmuError::BinaryOutside {
+            model: md.model_name.clone(),
+            path: rel.clone(),
+        };
+        let root = dir.path().canonicalize().map_err(|_| outside())?;
+        let so = so.canonicalize().map_err(|_| outside())?;
+        if !so.starts_with(&root) {
+            return Err(outside());
+        }
+        let bytes = fmi2::read_regular(&so, limits.max_unpacked_bytes)
+            .map_err(|source| FmuError::File { source })?;
+        crate::elf::check(&bytes).map_err(|reason| FmuError::BadBinary {
+            model: md.model_name.clone(),
+            path: rel.clone(),
+            reason,
+        })?;
+        drop(bytes);
         let fns = Fns::load(&so)?;
         // SAFETY: fmi2GetVersion takes no arguments and returns a static C string.
         let v = unsafe { (fns.get_version)() };

@@ -6,7 +6,14 @@
 //! rules it keeps:
 //! * the archive is unpacked into a fresh temporary folder that is removed
 //!   when the [`Fmu`] is dropped; entries with absolute paths, `..`
-//!   components or symbolic links are refused before anything is written;
+//!   components or symbolic links are refused before anything is written,
+//!   and so are archives beyond the [`ImportLimits`] (entries, unpacked bytes);
+//! * only regular files are read (a named pipe or device is refused at once);
+//! * the `modelIdentifier` must be a plain file name, the binary must resolve
+//!   (canonicalised) inside the unpacked folder and be a well-formed ELF
+//!   shared object for this architecture, fully inside its file, before it is
+//!   loaded (a truncated ELF would kill the process with SIGBUS);
+//! * duplicate (type, value reference) pairs are refused with their line;
 //! * the library stays loaded while any [`Instance`] of it lives (`Arc`);
 //! * every `fmi2Status` becomes a `Result`: `fmi2OK` / `fmi2Warning` are `Ok`,
 //!   `fmi2Discard` / `fmi2Error` / `fmi2Fatal` (and `fmi2Pending`, which this
@@ -24,12 +31,13 @@
 //! sink behind the C shim), [`instance`] (the safe [`Fmu`] and [`Instance`]).
 //! The modelDescription schema is the FMI core's ([`fmi2::schema`]).
 pub mod archive;
+mod elf;
 pub mod error;
 pub mod instance;
 pub mod library;
 pub mod logger;
 
-pub use archive::unpack;
+pub use archive::{unpack, unpack_with, ImportLimits};
 pub use error::{FmuError, Result};
 pub use fmi2::schema::{
     Causality, CoSimCapabilities, DefaultExperiment, ModelDescription, Problem, ScalarVariable,

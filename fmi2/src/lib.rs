@@ -9,14 +9,17 @@
 //!   size of the file) with [`ModelDescription::validate`] (fmpy-like problems
 //!   with the XML line);
 //! * [`uri`]: `fmuResourceLocation` decoding;
-//! * [`archive`]: the deflated zip writer (an `.fmu` and an `.ssp` are zips).
+//! * [`archive`]: the deflated zip writer (an `.fmu` and an `.ssp` are zips);
+//! * [`file`]: bounded reading of regular files only (no pipe or device).
 #![forbid(unsafe_code)]
 pub mod archive;
+pub mod file;
 pub mod schema;
 pub mod types;
 pub mod uri;
 
 pub use archive::{write_zip, ZipWriteError};
+pub use file::{open_regular, read_regular, read_regular_to_string, FileError};
 pub use schema::{
     Causality, CoSimCapabilities, DefaultExperiment, ModelDescription, Problem, ScalarVariable,
     SchemaError, Unknown, VarType, Variability,

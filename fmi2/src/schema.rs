@@ -450,6 +450,13 @@ impl ModelDescription {
                 stack.push(name);
             }
         }
+        if let Some(open) = stack.last() {
+            // quick-xml accepts a document that ends inside an element
+            return Err(SchemaError::Xml {
+                line: lines.at(text.len()),
+                message: format!("end of file inside <{open}>: the element is not closed"),
+            });
+        }
         if !has_root {
             return Err(SchemaError::Xml {
                 line: 1,
@@ -607,24 +614,34 @@ impl ModelDescription {
     /// parameters, independent), start values parseable for their type,
     /// causality/variability combinations (parameters fixed or tunable,
     /// constants only outputs or locals).
-    pub fn validate(&self) -> Vec<Problem> {
-        let mut p = Vec::new();
-        let mut push = |line: Option<usize>, message: String| p.push(Problem { line, message });
+    /// Variables sharing a (type, value reference) with an earlier one, each
+    /// with its line: a master addresses variables by them, so such an FMU
+    /// would record or set the wrong signal (the importer refuses it).
+    pub fn duplicate_value_references(&self) -> Vec<Problem> {
         let mut seen: std::collections::HashMap<(u32, &'static str), &str> =
             std::collections::HashMap::with_capacity(self.variables.len());
+        let mut p = Vec::new();
         for v in &self.variables {
-            let l = Some(v.line);
             if let Some(first) = seen.insert((v.value_reference, v.ty.name()), &v.name) {
-                push(
-                    l,
-                    format!(
+                p.push(Problem {
+                    line: Some(v.line),
+                    message: format!(
                         "valueReference {} used twice for {} ({first} and {})",
                         v.value_reference,
                         v.ty.name(),
                         v.name
                     ),
-                );
+                });
             }
+        }
+        p
+    }
+
+    pub fn validate(&self) -> Vec<Problem> {
+        let mut p = self.duplicate_value_references();
+        let mut push = |line: Option<usize>, message: String| p.push(Problem { line, message });
+        for v in &self.variables {
+            let l = Some(v.line);
             let needs_start = matches!(v.causality, Causality::Input | Causality::Parameter)
                 || v.variability == Variability::Constant;
             let forbids_start = matches!(
@@ -824,6 +841,59 @@ mod tests {
             ModelDescription::parse(&bad),
             Err(SchemaError::Xml { line: 14, .. })
         ));
+    }
+
+    /// Issue 14: a modelDescription without its closing root tag was accepted,
+    /// a duplicate value reference recorded the wrong signal.
+    #[test]
+    fn unclosed_misnested_duplicate_and_unknown_causality_are_refused_with_the_line() {
+        let bad = MD.replace("</fmiModelDescription>\n", "");
+        match ModelDescription::parse(&bad) {
+            Err(SchemaError::Xml { line, message }) => assert!(
+                line == 16 && message.contains("<fmiModelDescription>"),
+                "line {line}: {message}"
+            ),
+            other => panic!("{other:?}"),
+        }
+        let bad = MD.replace("</ModelVariables>", "</ModelStructure></ModelVariables>");
+        assert!(matches!(
+            ModelDescription::parse(&bad),
+            Err(SchemaError::Xml { line: 12, .. })
+        ));
+        let bad = MD.replace("valueReference=\"4\"", "valueReference=\"3\"");
+        let d = ModelDescription::parse(&bad)
+            .unwrap()
+            .duplicate_value_references();
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].line, Some(11));
+        assert!(d[0].message.contains("(F and x)"), "{d:?}");
+        let bad = MD.replace("causality=\"output\"", "causality=\"outptu\"");
+        match ModelDescription::parse(&bad) {
+            Err(SchemaError::Xml { line, message }) => assert!(
+                line == 11 && message.contains("outptu"),
+                "line {line}: {message}"
+            ),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// Issue 14: parsing was quadratic; 100k variables must take well under 1 s
+    /// (checked loosely here: the test profile is shared by parallel tests).
+    #[test]
+    fn parsing_is_linear_in_the_number_of_variables() {
+        let mut s = String::from(
+            "<fmiModelDescription fmiVersion=\"2.0\" modelName=\"big\" guid=\"{g}\">\n<CoSimulation modelIdentifier=\"big\"/>\n<ModelVariables>\n",
+        );
+        for i in 0..100_000 {
+            s.push_str(&format!(
+                "<ScalarVariable name=\"v{i}\" valueReference=\"{i}\" causality=\"local\"><Real/></ScalarVariable>\n"
+            ));
+        }
+        s.push_str("</ModelVariables>\n</fmiModelDescription>\n");
+        let t0 = std::time::Instant::now();
+        let md = ModelDescription::parse(&s).unwrap();
+        assert_eq!(md.variables.len(), 100_000);
+        assert!(t0.elapsed().as_secs_f64() < 5.0, "{:?}", t0.elapsed());
     }
 
     #[test]

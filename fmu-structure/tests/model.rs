@@ -350,3 +350,44 @@ fn cached_output_derivatives_follow_the_input_the_step_and_the_state() {
     assert_eq!(m.get_real_output_derivative(vr::V, 1).unwrap(), dv0);
     assert_eq!(m.get_real_output_derivative(vr::X, 1).unwrap(), dx0);
 }
+
+/// `<ModelStructure>` agrees with the code's actual dependencies: no output
+/// feeds through from `F`; initially only `omega` depends on a known
+/// (`frequency_error`; the table path is a String, listed but not perturbed).
+#[test]
+fn model_structure_dependencies_match_the_code() {
+    let md = fmi2_export::xml::ModelDescription::parse(XML).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let table = linear_table(dir.path());
+    let errs = fmi2_export::xml::check_dependencies(&md, 1, |_| {
+        let mut m = instantiate(None);
+        m.set_string(vr::MODAL_TABLE, table.to_str().unwrap())
+            .unwrap();
+        m
+    });
+    assert!(errs.is_empty(), "{errs:#?}");
+    for u in &md.initial_unknowns {
+        assert!(u.dependencies.is_some(), "initial unknown {}", u.index);
+    }
+}
+
+/// Issue 14: `fmi2DoStep` of 1e6 s, or with `frequency_error` 1e9, never
+/// returned; now it is an error naming the step, the sub-step and the cap.
+#[test]
+fn do_step_work_is_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    linear_table(dir.path());
+    let log = Logger::silent();
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.exit_initialization_mode(&log).unwrap();
+    let t0 = std::time::Instant::now();
+    let e = m.do_step(0.0, 1e6, &log).unwrap_err();
+    assert!(e.message.contains("communication step 1e6 s"), "{}", e.message);
+    assert!(e.message.contains("cap of 1000000"), "{}", e.message);
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.set_real(vr::FREQUENCY_ERROR, 1e9).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    let e = m.do_step(0.0, 1e-4, &log).unwrap_err();
+    assert!(e.message.contains("sub-steps"), "{}", e.message);
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+}

@@ -108,8 +108,22 @@ pub const STEPS_PER_PERIOD: f64 = 40.0;
 pub enum OscillatorError {
     #[error(transparent)]
     Table(#[from] TableError),
-    #[error("modal amplitude a = {a:.6e} sqrt(kg) m at t = {time_s:.9} s lies above the modal table's range (max {max:.6e}); the response left the computed nonlinear mode (extend the modal analysis or lower the excitation)")]
-    AboveRange { a: f64, max: f64, time_s: f64 },
+    /// `step_s`: the communication step in which the amplitude left the table
+    /// (`None` for a state set directly).
+    #[error("modal amplitude a = {a:.6e} sqrt(kg) m at t = {time_s:.9} s lies above the modal table's range (max {max:.6e}){}", above_range_hint(*step_s))]
+    AboveRange {
+        a: f64,
+        max: f64,
+        time_s: f64,
+        step_s: Option<f64>,
+    },
+    #[error("communication step {step_s:e} s needs {substeps:e} RK4 sub-steps of at most {substep_s:e} s ({STEPS_PER_PERIOD} per period of the highest modal frequency), more than the cap of {cap} per step: use a smaller communication step")]
+    TooManySubsteps {
+        step_s: f64,
+        substep_s: f64,
+        substeps: f64,
+        cap: u64,
+    },
     #[error("communication step {0} s: must be finite and non-negative")]
     BadStep(f64),
     #[error("input force coefficient {name} = {value}: must be finite")]
@@ -119,6 +133,25 @@ pub enum OscillatorError {
     #[error("oscillator state {field} = {value}: must be finite")]
     BadState { field: &'static str, value: f64 },
 }
+
+/// The end of the [`OscillatorError::AboveRange`] message: the likely causes.
+fn above_range_hint(step_s: Option<f64>) -> String {
+    match step_s {
+        None => "; the response left the computed nonlinear mode (extend the modal analysis or lower the excitation)".into(),
+        Some(h) => format!(
+            " after a communication step of {h:e} s: either the response left the computed nonlinear mode \
+             (extend the modal analysis or lower the excitation), or the macro step is too large for an \
+             explicitly coupled stiff attachment (the paper's shaker stinger, k_s = 2.6e7 N/m, is stable \
+             up to about 2e-5 s): use a smaller macro step (1e-5 s) or an iterative master"
+        ),
+    }
+}
+
+/// Most RK4 sub-steps one [`ModalOscillator::step`] takes (a bound on the work
+/// of one `fmi2DoStep`: about 0.5 s at 0.5 us per sub-step); a longer step is
+/// [`OscillatorError::TooManySubsteps`]. The paper's table (highest
+/// `omega` about 400 rad/s, sub-step 3.9e-4 s) allows steps up to about 390 s.
+pub const MAX_SUBSTEPS_PER_STEP: u64 = 1_000_000;
 
 /// The integration state: modal coordinate `eta` [sqrt(kg) m], `u = eta'/omega(a)`
 /// [sqrt(kg) m] and time [s]. `z = eta - i u = a e^{i psi}`.
@@ -281,6 +314,7 @@ impl ModalOscillator {
                 a,
                 max: self.a_max,
                 time_s: state.time_s,
+                step_s: None,
             });
         }
         self.state = state;
@@ -291,7 +325,12 @@ impl ModalOscillator {
     #[inline]
     fn locate(&self, a: f64, time_s: f64) -> Result<TableLocation, OscillatorError> {
         self.interp.locate(a).map_err(|e| match e {
-            TableError::AboveRange { a, max } => OscillatorError::AboveRange { a, max, time_s },
+            TableError::AboveRange { a, max } => OscillatorError::AboveRange {
+                a,
+                max,
+                time_s,
+                step_s: None,
+            },
             e => OscillatorError::Table(e),
         })
     }
@@ -333,6 +372,33 @@ impl ModalOscillator {
             return Ok(());
         }
         let n = (dt_s / self.h_max_s).ceil().max(1.0);
+        if n.is_nan() || n > MAX_SUBSTEPS_PER_STEP as f64 {
+            return Err(OscillatorError::TooManySubsteps {
+                step_s: dt_s,
+                substep_s: self.h_max_s,
+                substeps: n,
+                cap: MAX_SUBSTEPS_PER_STEP,
+            });
+        }
+        self.advance(dt_s, n, input).map_err(|e| match e {
+            OscillatorError::AboveRange { a, max, time_s, .. } => OscillatorError::AboveRange {
+                a,
+                max,
+                time_s,
+                step_s: Some(dt_s),
+            },
+            e => e,
+        })
+    }
+
+    /// [`Self::step`] in `n` equal RK4 sub-steps.
+    #[inline]
+    fn advance(
+        &mut self,
+        dt_s: f64,
+        n: f64,
+        input: InputPolynomial,
+    ) -> Result<(), OscillatorError> {
         let h = dt_s / n;
         let t0 = self.state.time_s;
         let (mut eta, mut u) = (self.state.eta, self.state.u);
@@ -357,6 +423,7 @@ impl ModalOscillator {
                 a,
                 max: self.a_max,
                 time_s: t0 + dt_s,
+                step_s: None,
             });
         }
         self.state = OscillatorState {
@@ -1093,6 +1160,16 @@ mod tests {
             "{e}"
         );
         assert!(e.to_string().contains("above the modal table's range"));
+        // the message names the step and the explicit-coupling cause (issue 14, item 3)
+        assert!(
+            matches!(e, OscillatorError::AboveRange { step_s: Some(h), .. } if h == 1e-3),
+            "{e}"
+        );
+        assert!(
+            e.to_string().contains("communication step of 1e-3 s"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("smaller macro step"), "{e}");
         assert!(matches!(
             osc.step(-1.0, InputPolynomial::constant(0.0)),
             Err(OscillatorError::BadStep(_))
@@ -1109,6 +1186,29 @@ mod tests {
             ModalOscillator::new(&t, "nope", 0.0),
             Err(OscillatorError::Table(TableError::UnknownPoint { .. }))
         ));
+    }
+
+    /// Issue 14: a step of 1e6 s, or `frequency_error` 1e9, used to run
+    /// without bound; now the sub-step cap refuses it at once with the numbers.
+    #[test]
+    fn substeps_per_step_are_capped() {
+        let t = ModalTable::linear(100.0, 0.01, &[("ex", Complex64::new(1.0, 0.0))], 1e-6, 1e-3);
+        let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
+        let before = osc.state();
+        let e = osc.step(1e6, InputPolynomial::constant(0.0)).unwrap_err();
+        assert!(
+            matches!(e, OscillatorError::TooManySubsteps { step_s, cap, substeps, .. }
+                if step_s == 1e6 && cap == MAX_SUBSTEPS_PER_STEP && substeps > cap as f64),
+            "{e}"
+        );
+        assert!(e.to_string().contains("communication step 1e6 s"), "{e}");
+        assert_eq!(osc.state(), before);
+        let mut fast = ModalOscillator::new(&t, "ex", 1e9).unwrap();
+        let e = fast.step(1e-4, InputPolynomial::constant(0.0)).unwrap_err();
+        assert!(matches!(e, OscillatorError::TooManySubsteps { .. }), "{e}");
+        // a step right at the cap still runs
+        let h = osc.max_substep_s() * 1000.0;
+        osc.step(h, InputPolynomial::constant(0.0)).unwrap();
     }
 
     #[test]
