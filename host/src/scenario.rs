@@ -890,7 +890,8 @@ impl Scenario {
             if ex.location.is_some() || ex.location_m.is_some() {
                 return Err(bad(
                     &format!("exciter[{i}].location"),
-                    "a structure of kind = \"matrices\" takes point = \"name\", not location",
+                    "a structure of kind = \"matrices\" takes point = \"name\", not location \
+                     (without [[exciter]] tables the default exciter at 2l/3 applies: add one with point = \"name\")",
                 ));
             }
             match &ex.point {

@@ -99,26 +99,15 @@ fn the_paper_beam_read_back_from_matrix_market_reproduces_the_beam() {
     let nm = methods::reduced_model(&sm, tm, None).unwrap();
     let (rb, _) = methods::slow_flow("nlmode", &sb, &nb, &opts).unwrap();
     let (rm, _) = methods::slow_flow("nlmode", &sm, &nm, &opts).unwrap();
-    for (b, m, what) in [(&rb, &rm, "nlmode")] {
-        assert_close(
-            &format!("{what} omega"),
-            &m.envelope.omega_rad_s,
-            &b.envelope.omega_rad_s,
-            1e-9,
-        );
-        assert_close(
-            &format!("{what} tip"),
-            &m.envelope.tip_amplitude_m,
-            &b.envelope.tip_amplitude_m,
-            1e-9,
-        );
-        assert_close(
-            &format!("{what} force"),
-            &m.envelope.force_amplitude_n,
-            &b.envelope.force_amplitude_n,
-            1e-9,
-        );
-    }
+    let (b, m) = (&rb.envelope, &rm.envelope);
+    assert_close("nlmode omega", &m.omega_rad_s, &b.omega_rad_s, 1e-9);
+    assert_close("nlmode tip", &m.tip_amplitude_m, &b.tip_amplitude_m, 1e-9);
+    assert_close(
+        "nlmode force",
+        &m.force_amplitude_n,
+        &b.force_amplitude_n,
+        1e-9,
+    );
     let peak = rm
         .envelope
         .tip_amplitude_m

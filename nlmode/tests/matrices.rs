@@ -232,3 +232,40 @@ fn every_bad_model_gives_its_message() {
     };
     assert!(err(o).contains("damping_mode"));
 }
+
+/// Not a timed test (run with `--ignored --nocapture`): reading a model from
+/// Matrix Market text and reducing it by Craig-Bampton to 20 modes with the
+/// dense path (nalgebra), on the paper beam with 1001 nodes (2000 DOFs). The
+/// issue's 20,000-DOF target needs a sparse path (sparse Cholesky, a sparse
+/// eigensolver for the fixed-interface modes), not built yet.
+#[test]
+#[ignore]
+fn measure_read_and_reduce_2000_dofs() {
+    use nlmode::structure::BeamSpec;
+    let b = BeamSpec {
+        n_nodes: 1001,
+        ..BeamSpec::paper()
+    }
+    .assemble()
+    .unwrap();
+    let (mt, kt) = (
+        write_matrix_market(&b.model.mass),
+        write_matrix_market(&b.model.stiffness),
+    );
+    let t0 = std::time::Instant::now();
+    let m = read_matrix_market_str(M, Path::new("M.mtx"), &mt).unwrap();
+    let k = read_matrix_market_str(MatrixRole::Stiffness, Path::new("K.mtx"), &kt).unwrap();
+    let t_read = t0.elapsed().as_secs_f64();
+    let tip = b.translation_dof(1000).unwrap();
+    let mut o = opts(m, k);
+    o.points = vec![("tip".into(), tip)];
+    o.cubic_spring = Some(("tip".into(), 6e9));
+    o.craig_bampton = Some((vec!["tip".into()], 20));
+    let s = matrix_structure(&o).unwrap();
+    let t_all = t0.elapsed().as_secs_f64();
+    println!(
+        "{} DOFs: read {t_read:.3} s, read + checks + modes + Craig-Bampton (20 modes) {t_all:.3} s, omega0 = {:.3} rad/s",
+        s.full.ndof(),
+        s.omega0_rad_s
+    );
+}
