@@ -100,7 +100,7 @@ pub fn macro_steps(
     let n = ((stop_time_s - start_time_s) / macro_step_s - 1e-9)
         .ceil()
         .max(0.0);
-    if !(n <= MAX_MACRO_STEPS as f64) {
+    if n.is_nan() || n > MAX_MACRO_STEPS as f64 {
         return Err(err(format!(
             "{n:e} macro steps, more than the limit of {MAX_MACRO_STEPS:e} (shorten the run or enlarge the step)"
         )));
