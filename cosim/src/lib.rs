@@ -11,8 +11,11 @@
 //!   libraries (found beside the executable or in `--fmu-dir`) and the parts
 //!   embedded at compile time.
 //!
-//! FMUs are loaded by `fmi2-import` (re-exported as [`import`]).
+//! FMUs are loaded by `fmi2-import` (re-exported as [`import`]); input files
+//! are read by the FMI core's bounded regular-file reader (re-exported as
+//! [`file`], also for the host's scenario files).
 #![forbid(unsafe_code)]
+pub use fmi2::file;
 pub use fmi2_import as import;
 
 pub mod master;

@@ -71,6 +71,50 @@ impl std::str::FromStr for Algorithm {
     }
 }
 
+/// Most macro steps one run may take (at about 1 us per step of the paper's
+/// pair, a quarter of an hour): a longer run is [`MasterError::Steps`] before
+/// anything is allocated or stepped.
+pub const MAX_MACRO_STEPS: u64 = 1_000_000_000;
+
+/// Number of macro steps of `macro_step_s` from `start_time_s` until the first
+/// communication point at or after `stop_time_s`, checked: finite times,
+/// at most [`MAX_MACRO_STEPS`], and a step that advances the time at both ends
+/// (`1e300 + 1e-5 == 1e300`).
+pub fn macro_steps(
+    start_time_s: f64,
+    stop_time_s: f64,
+    macro_step_s: f64,
+) -> Result<u64, MasterError> {
+    let err = |reason: String| MasterError::Steps {
+        start_time_s,
+        stop_time_s,
+        macro_step_s,
+        reason,
+    };
+    if !(macro_step_s.is_finite() && macro_step_s > 0.0) {
+        return Err(MasterError::BadStep(macro_step_s));
+    }
+    if !(start_time_s.is_finite() && stop_time_s.is_finite()) {
+        return Err(err("both times must be finite".into()));
+    }
+    let n = ((stop_time_s - start_time_s) / macro_step_s - 1e-9)
+        .ceil()
+        .max(0.0);
+    if n.is_nan() || n > MAX_MACRO_STEPS as f64 {
+        return Err(err(format!(
+            "{n:e} macro steps, more than the limit of {MAX_MACRO_STEPS:e} (shorten the run or enlarge the step)"
+        )));
+    }
+    for t in [start_time_s, stop_time_s] {
+        if t + macro_step_s == t {
+            return Err(err(format!(
+                "the step is below the resolution of the time {t:e} s (time would not advance)"
+            )));
+        }
+    }
+    Ok(n as u64)
+}
+
 /// Errors of the master; FMU failures keep the FMU's own error.
 #[derive(Debug, thiserror::Error)]
 pub enum MasterError {
@@ -94,6 +138,16 @@ pub enum MasterError {
     DoubleInput(String),
     #[error("macro step must be positive and finite, got {0} s")]
     BadStep(f64),
+    /// The run from `start_time_s` to `stop_time_s` at `macro_step_s` needs
+    /// more than [`MAX_MACRO_STEPS`] steps, or the step is lost in rounding at
+    /// the start time.
+    #[error("start_time_s = {start_time_s:e} s to stop_time_s = {stop_time_s:e} s at macro_step_s = {macro_step_s:e} s: {reason}")]
+    Steps {
+        start_time_s: f64,
+        stop_time_s: f64,
+        macro_step_s: f64,
+        reason: String,
+    },
     #[error("unit '{unit}' does not support {what}, which the {algorithm:?} algorithm needs")]
     Unsupported {
         unit: String,
@@ -803,10 +857,10 @@ pub fn run(
             None => groups.push((u, vec![vr], vec![k])),
         }
     }
-    let h = m.opts.macro_step_s;
-    let n_steps = (((t_end - m.time()) / h) - 1e-9).ceil().max(0.0) as u64;
+    let n_steps = macro_steps(m.time(), t_end, m.opts.macro_step_s)?;
     let every = every.max(1) as u64;
-    let cap = (n_steps / every + 2) as usize;
+    // reserve for the whole run, but not more than a few MB up front
+    let cap = (n_steps / every + 2).min(1 << 18) as usize;
     let mut rec = Recording {
         time_s: Vec::with_capacity(cap),
         columns: record
@@ -905,9 +959,7 @@ pub fn run_generic(
         m.set_parameter(ui, name, v)?;
     }
     let h = spec.options.macro_step_s;
-    let n = ((spec.stop_time_s - spec.start_time_s) / h - 1e-9)
-        .ceil()
-        .max(0.0);
+    let n = macro_steps(spec.start_time_s, spec.stop_time_s, h)? as f64;
     m.initialize(spec.start_time_s, Some(spec.start_time_s + n * h))?;
     run(
         &mut m,

@@ -241,7 +241,7 @@ pub fn build_master(
         return Err(CosimError::BadDuration(dur));
     }
     // the run ends at the first communication point at or after `dur`
-    let n = (dur / p.macro_step_s - 1e-9).ceil().max(1.0);
+    let n = (crate::master::macro_steps(0.0, dur, p.macro_step_s)? as f64).max(1.0);
     m.initialize(0.0, Some(n * p.macro_step_s))?;
     Ok(m)
 }

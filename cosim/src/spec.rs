@@ -29,6 +29,13 @@ pub enum SpecError {
         start: f64,
         stop: f64,
     },
+    #[error("{path}: master.{0}", .source)]
+    Steps {
+        path: PathBuf,
+        source: crate::master::MasterError,
+    },
+    #[error(transparent)]
+    File(#[from] fmi2::FileError),
     #[error("{path}: units: expected at least one `name = \"file.fmu\"`")]
     NoUnits { path: PathBuf },
     #[error("parameters.\"{key}\": {value} does not fit an fmi2Integer")]
@@ -99,13 +106,14 @@ fn param(key: &str, v: &toml::Value) -> Result<ParamValue, SpecError> {
     })
 }
 
-/// Read and check the co-simulation file `path`; relative `.fmu` paths are
+/// Largest co-simulation file read [bytes] (a real one is a few hundred).
+pub const MAX_SPEC_BYTES: u64 = 1 << 20;
+
+/// Read and check the co-simulation file `path` (a regular file of at most
+/// [`MAX_SPEC_BYTES`]); relative `.fmu` paths are
 /// taken relative to the file's folder.
 pub fn load_spec(path: &Path) -> Result<GenericSpec, SpecError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SpecError::Read {
-        path: path.into(),
-        source,
-    })?;
+    let text = fmi2::read_regular_to_string(path, MAX_SPEC_BYTES)?;
     parse_spec(&text, path)
 }
 
@@ -134,6 +142,12 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<GenericSpec, SpecError> {
             stop: m.stop_time_s,
         });
     }
+    crate::master::macro_steps(m.start_time_s, m.stop_time_s, m.macro_step_s).map_err(
+        |source| SpecError::Steps {
+            path: path.into(),
+            source,
+        },
+    )?;
     if spec.units.is_empty() {
         return Err(SpecError::NoUnits { path: path.into() });
     }

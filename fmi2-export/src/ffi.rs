@@ -238,19 +238,26 @@ impl<M: CoSimModel> Instance<M> {
             ));
         }
         let mut r = StateReader::new(&bytes[8..]);
-        let glen = r.u64()? as usize;
+        let glen = r.u64()?;
         let start = 16;
-        if bytes.len() < start + glen || &bytes[start..start + glen] != M::GUID.as_bytes() {
+        if glen != M::GUID.len() as u64
+            || bytes.len() < start + M::GUID.len()
+            || &bytes[start..start + M::GUID.len()] != M::GUID.as_bytes()
+        {
             return Err(ModelError::error(format!(
                 "serialized FMU state was written by a different FMU (expected GUID {})",
                 M::GUID
             )));
         }
-        let mut r = StateReader::new(&bytes[start + glen..]);
+        let mut r = StateReader::new(&bytes[start + M::GUID.len()..]);
         let st = r.u64()?;
-        let state = State::from_u64(st).ok_or_else(|| {
-            ModelError::error(format!("serialized FMU state: bad state code {st}"))
-        })?;
+        let state = State::from_u64(st)
+            .filter(|s| !matches!(s, State::Error | State::Fatal))
+            .ok_or_else(|| {
+                ModelError::error(format!(
+                    "serialized FMU state: bad state code {st} (a saved state is never in Error or Fatal)"
+                ))
+            })?;
         let time = r.f64()?;
         let start_time = r.f64()?;
         let has_stop = r.bool()?;
@@ -459,6 +466,7 @@ pub unsafe fn enter_initialization_mode<M: CoSimModel>(c: Component) -> Status {
 pub unsafe fn exit_initialization_mode<M: CoSimModel>(c: Component) -> Status {
     run::<M>(c, "fmi2ExitInitializationMode", INIT, |inst| {
         inst.model.exit_initialization_mode(&inst.logger)?;
+        outputs_finite(&inst.model, inst.time)?;
         inst.state = State::StepComplete;
         Ok(Status::Ok)
     })
@@ -519,8 +527,39 @@ macro_rules! getter {
     };
 }
 
-getter!(get_real, "fmi2GetReal", Real, VarType::Real, |m, v| m
-    .get_real(v));
+getter!(get_real, "fmi2GetReal", Real, VarType::Real, |m, v| finite(
+    v,
+    m.get_real(v)
+)?);
+
+/// A Real value handed out must be finite: never fmi2OK with NaN or inf.
+fn finite(vr: ValueReference, x: f64) -> Result<f64, ModelError> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(ModelError::error(format!(
+            "Real value reference {vr} is {x} (not finite); the model left its valid range"
+        )))
+    }
+}
+
+/// After a step or initialization: every Real output finite, or an error
+/// naming the first that is not (so the step itself fails, not a later get).
+fn outputs_finite<M: CoSimModel>(m: &M, t: f64) -> Result<(), ModelError> {
+    for v in M::VARIABLES {
+        if v.ty == VarType::Real && v.causality == Causality::Output {
+            let x = m.get_real(v.vr);
+            if !x.is_finite() {
+                return Err(ModelError::error(format!(
+                    "output {} = {x} at t = {t} s is not finite; the model left its valid range \
+                     (check parameters and inputs)",
+                    v.name
+                )));
+            }
+        }
+    }
+    Ok(())
+}
 getter!(
     get_integer,
     "fmi2GetInteger",
@@ -854,7 +893,7 @@ pub unsafe fn get_real_output_derivatives<M: CoSimModel>(
                     var.name
                 )));
             }
-            *o = inst.model.get_real_output_derivative(v, order_of(k)?)?;
+            *o = finite(v, inst.model.get_real_output_derivative(v, order_of(k)?)?)?;
         }
         Ok(Status::Ok)
     })
@@ -892,7 +931,11 @@ pub unsafe fn do_step<M: CoSimModel>(
                 )));
             }
         }
-        match inst.model.do_step(t, h, &inst.logger) {
+        match inst
+            .model
+            .do_step(t, h, &inst.logger)
+            .and_then(|()| outputs_finite(&inst.model, t + h))
+        {
             Ok(()) => {
                 inst.time = t + h;
                 inst.last_successful_time = inst.time;

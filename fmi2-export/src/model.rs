@@ -249,10 +249,18 @@ impl<'a> StateReader<'a> {
         self.pos += n;
         Ok(s)
     }
+    /// The next value; non-finite values are refused (every Real an FMU
+    /// state holds is finite, so NaN or inf means a corrupted state, which
+    /// would otherwise return NaN with fmi2OK or hang the next step).
     pub fn f64(&mut self) -> Result<f64, ModelError> {
-        Ok(f64::from_le_bytes(
-            self.take(8)?.try_into().expect("8 bytes"),
-        ))
+        let at = self.pos;
+        let x = f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes"));
+        if !x.is_finite() {
+            return Err(ModelError::error(format!(
+                "serialized FMU state: non-finite value {x} at byte {at}"
+            )));
+        }
+        Ok(x)
     }
     pub fn u64(&mut self) -> Result<u64, ModelError> {
         Ok(u64::from_le_bytes(

@@ -755,3 +755,81 @@ fn xml_checker_finds_drift() {
             .is_err()
     );
 }
+
+/// Issue 14, item 6: no fmi2OK with a non-finite output (`y = x + d u` with
+/// `u = 1.5e308` overflows), neither from fmi2GetReal nor from fmi2DoStep.
+#[test]
+fn non_finite_outputs_are_errors_not_ok() {
+    let log = Log::default();
+    let i = new(&log, "inf", Lag::GUID, None).unwrap();
+    init(&i);
+    assert_eq!(set(&i, VR_U, 1.5e308), Status::Ok);
+    let mut v = 0.0;
+    assert_eq!(unsafe { fmi2GetReal(i.c, &VR_Y, 1, &mut v) }, Status::Error);
+    assert!(last(&log).3.contains("not finite"), "{}", last(&log).3);
+    let j = new(&log, "inf-step", Lag::GUID, None).unwrap();
+    init(&j);
+    assert_eq!(set(&j, VR_U, 1.5e308), Status::Ok);
+    assert_eq!(unsafe { fmi2DoStep(j.c, 0.0, 0.05, 1) }, Status::Error);
+    assert!(last(&log).3.contains("output y = inf"), "{}", last(&log).3);
+}
+
+/// Issue 14, item 6: deserialized states with NaN/inf, an Error/Fatal state
+/// code (7 left an unusable instance) or a huge GUID length are refused.
+#[test]
+fn corrupted_serialized_states_are_refused() {
+    let log = Log::default();
+    let i = new(&log, "s", Lag::GUID, None).unwrap();
+    init(&i);
+    let mut s: FmuState = std::ptr::null_mut();
+    unsafe { assert_eq!(fmi2GetFMUstate(i.c, &mut s), Status::Ok) };
+    let mut size = 0usize;
+    unsafe { assert_eq!(fmi2SerializedFMUstateSize(i.c, s, &mut size), Status::Ok) };
+    let mut buf = vec![0 as Byte; size];
+    unsafe {
+        assert_eq!(
+            fmi2SerializeFMUstate(i.c, s, buf.as_mut_ptr(), size),
+            Status::Ok
+        );
+        assert_eq!(fmi2FreeFMUstate(i.c, &mut s), Status::Ok);
+    }
+    let bytes: Vec<u8> = buf.iter().map(|&b| b as u8).collect();
+    let code_at = 16 + Lag::GUID.len();
+    let mut cases: Vec<(Vec<u8>, &str)> = Vec::new();
+    for code in [6u64, 7, 8, u64::MAX] {
+        let mut b = bytes.clone();
+        b[code_at..code_at + 8].copy_from_slice(&code.to_le_bytes());
+        cases.push((b, "bad state code"));
+    }
+    for x in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        // the time, then the last 8 bytes (a model value)
+        let mut b = bytes.clone();
+        b[code_at + 8..code_at + 16].copy_from_slice(&x.to_le_bytes());
+        cases.push((b, "non-finite"));
+        let mut b = bytes.clone();
+        let n = b.len();
+        b[n - 8..].copy_from_slice(&x.to_le_bytes());
+        cases.push((b, "non-finite"));
+    }
+    let mut b = bytes.clone();
+    b[8..16].copy_from_slice(&u64::MAX.to_le_bytes());
+    cases.push((b, "different FMU"));
+    for (b, needle) in cases {
+        let mut s2: FmuState = std::ptr::null_mut();
+        let st =
+            unsafe { fmi2DeSerializeFMUstate(i.c, b.as_ptr() as *const Byte, b.len(), &mut s2) };
+        assert_eq!(st, Status::Error, "{needle}");
+        assert!(s2.is_null());
+        assert!(last(&log).3.contains(needle), "{}", last(&log).3);
+    }
+    // the intact buffer still deserializes
+    let mut s3: FmuState = std::ptr::null_mut();
+    let j = new(&log, "t", Lag::GUID, None).unwrap();
+    unsafe {
+        assert_eq!(
+            fmi2DeSerializeFMUstate(j.c, buf.as_ptr(), size, &mut s3),
+            Status::Ok
+        );
+        assert_eq!(fmi2FreeFMUstate(j.c, &mut s3), Status::Ok);
+    }
+}

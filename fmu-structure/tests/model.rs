@@ -382,7 +382,11 @@ fn do_step_work_is_bounded() {
     m.exit_initialization_mode(&log).unwrap();
     let t0 = std::time::Instant::now();
     let e = m.do_step(0.0, 1e6, &log).unwrap_err();
-    assert!(e.message.contains("communication step 1e6 s"), "{}", e.message);
+    assert!(
+        e.message.contains("communication step 1e6 s"),
+        "{}",
+        e.message
+    );
     assert!(e.message.contains("cap of 1000000"), "{}", e.message);
     let mut m = instantiate(Some(dir.path().to_path_buf()));
     m.set_real(vr::FREQUENCY_ERROR, 1e9).unwrap();
@@ -390,4 +394,23 @@ fn do_step_work_is_bounded() {
     let e = m.do_step(0.0, 1e-4, &log).unwrap_err();
     assert!(e.message.contains("sub-steps"), "{}", e.message);
     assert!(t0.elapsed().as_secs_f64() < 1.0);
+}
+
+/// Issue 14: `frequency_error = DBL_MAX` or an input `F = DBL_MAX` returned
+/// NaN/inf with fmi2OK; now initialization or the step is an error.
+#[test]
+fn extreme_parameters_and_inputs_are_errors_not_nan() {
+    let dir = tempfile::tempdir().unwrap();
+    linear_table(dir.path());
+    let log = Logger::silent();
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.set_real(vr::FREQUENCY_ERROR, f64::MAX).unwrap();
+    assert!(m.exit_initialization_mode(&log).is_err());
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.exit_initialization_mode(&log).unwrap();
+    m.set_real(vr::F, f64::MAX).unwrap();
+    assert!(m.do_step(0.0, 1e-5, &log).is_err());
+    for v in [vr::X, vr::V, vr::X_TIP, vr::A, vr::OMEGA] {
+        assert!(m.get_real(v).is_finite(), "vr {v}");
+    }
 }

@@ -7,7 +7,13 @@ use crate::scenario::{ForceSource, Method, Scenario};
 use anyhow::{Context, Result};
 use std::path::Path;
 
-/// Read a scenario file or take the embedded default.
+/// Largest scenario file read [bytes] (a real one is a few kB): `host run
+/// /dev/zero` or a huge file fails at once instead of reading without bound.
+pub const MAX_SCENARIO_BYTES: u64 = 1 << 20;
+
+/// Read a scenario file (a regular file of at most [`MAX_SCENARIO_BYTES`]: a
+/// named pipe or device is refused without blocking) or take the embedded
+/// default.
 pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
     match path {
         None => Ok((
@@ -15,7 +21,7 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
             "embedded default (sweep.toml)".into(),
         )),
         Some(p) => {
-            let text = std::fs::read_to_string(p)
+            let text = cosim::file::read_regular_to_string(p, MAX_SCENARIO_BYTES)
                 .with_context(|| format!("cannot read scenario file {}", p.display()))?;
             let mut sc = Scenario::parse(&text)
                 .map_err(|e| anyhow::anyhow!("scenario {}: {e}", p.display()))?;

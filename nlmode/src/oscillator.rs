@@ -128,7 +128,7 @@ pub enum OscillatorError {
     BadStep(f64),
     #[error("input force coefficient {name} = {value}: must be finite")]
     BadInput { name: &'static str, value: f64 },
-    #[error("frequency error eps = {0}: the factor 1 + eps must be finite and positive")]
+    #[error("frequency error eps = {0}: the factor 1 + eps must be finite and positive, and (1 + eps) omega(a) finite")]
     BadFrequencyError(f64),
     #[error("oscillator state {field} = {value}: must be finite")]
     BadState { field: &'static str, value: f64 },
@@ -265,6 +265,10 @@ impl ModalOscillator {
         }
         // PCHIP stays within the data range on every interval, so the node maximum bounds omega(a).
         let omega_max = factor * table.omega_rad_s.iter().cloned().fold(0.0, f64::max);
+        if !omega_max.is_finite() {
+            // e.g. eps = DBL_MAX: the scaled frequencies overflow
+            return Err(OscillatorError::BadFrequencyError(frequency_error));
+        }
         let (_, a_max) = interp.amplitude_range();
         Ok(Self {
             interp: Arc::new(interp),
