@@ -8,7 +8,9 @@ use fmi2_export::{
 };
 use nalgebra::{Vector2, Vector3};
 pub use nlmode::attachment::MAX_PHASE_PER_SUBSTEP;
-use nlmode::attachment::{sweep_substeps, ArmatureDamping, ShakerParams, ShakerStepper, Stinger};
+use nlmode::attachment::{
+    sweep_substeps, ArmatureDamping, ShakerParams, ShakerStepper, Stinger, MAX_SWEEP_SUBSTEPS,
+};
 use nlmode::benchmark as bm;
 use nlmode::excitation::{LinearSweep, SweepEnd, SweepError};
 
@@ -295,18 +297,22 @@ impl Shaker {
 
     /// Number of sub-steps for a step `[t, t+h]` (the internal sweep is
     /// followed in phase increments of at most [`MAX_PHASE_PER_SUBSTEP`]).
-    fn substeps(&self, t: f64, h: f64) -> usize {
+    fn substeps(&self, t: f64, h: f64) -> Result<usize, ModelError> {
         if self.use_external_voltage {
-            1
+            Ok(1)
         } else {
-            sweep_substeps(&self.source, t - self.t0, h)
+            sweep_substeps(&self.source, t - self.t0, h).map_err(|needed| {
+                ModelError::error(format!(
+                    "communication step h = {h} s at t = {t} s would need {needed:e} sub-steps of the internal sweep (at most {MAX_SWEEP_SUBSTEPS}); use a shorter step"
+                ))
+            })
         }
     }
 
     /// Advance the states from `t` to `t + h` exactly for inputs linear in
     /// time inside each sub-step.
     pub fn advance(&mut self, t: f64, h: f64) -> Result<(), ModelError> {
-        let n = self.substeps(t, h);
+        let n = self.substeps(t, h)?;
         let mut stepper = self.stepper.take().ok_or_else(|| {
             ModelError::error("parameters not fixed (initialization not completed)")
         })?;

@@ -169,3 +169,22 @@ fn input_derivative_of_x_replaces_the_velocity() {
         2.6e7 * b.get_real(VR_V_A)
     );
 }
+
+/// A communication step far too long for the internal sweep (1e6 s at 285
+/// rad/s would need 5.7e9 sub-steps) is refused at once with the numbers,
+/// instead of running without bound; the state stays usable.
+#[test]
+fn a_huge_step_is_refused_not_run() {
+    let mut m = shaker();
+    let log = Logger::silent();
+    m.setup_experiment(0.0, None).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    let t0 = std::time::Instant::now();
+    let e = m.do_step(0.0, 1e6, &log).unwrap_err();
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+    let msg = e.to_string();
+    assert!(msg.contains("1000000 s") && msg.contains("sub-steps"), "{msg}");
+    // a normal step still works afterwards
+    m.do_step(0.0, 1e-5, &log).unwrap();
+    assert!(m.get_real(VR_F).is_finite());
+}

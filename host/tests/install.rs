@@ -111,7 +111,10 @@ fn installed_host_without_the_libraries_runs_the_other_methods() {
     let s = summary(&out);
     let why = s["failed_methods"]["cosim"].as_str().unwrap_or_default();
     assert!(why.contains("libstructure.so"), "{s}");
-    assert!(why.contains(&host.parent().unwrap().display().to_string()), "{why}");
+    assert!(
+        why.contains(&host.parent().unwrap().display().to_string()),
+        "{why}"
+    );
     assert!(s["methods"]["linear-frf"]["peak_tip_amplitude_m"]
         .as_f64()
         .is_some());
@@ -119,10 +122,17 @@ fn installed_host_without_the_libraries_runs_the_other_methods() {
     assert!(!out.join("cosim_envelope.csv").exists());
 
     // `host package` fails with the same advice; --fmu-dir / NLMODE_FMU_DIR point elsewhere
-    let o = run_clean(&host, &work, &["package", "--fmu-dir", "nowhere", "-o", "f"]);
+    let o = run_clean(
+        &host,
+        &work,
+        &["package", "--fmu-dir", "nowhere", "-o", "f"],
+    );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("nowhere") && err.contains("cargo build --release"), "{err}");
+    assert!(
+        err.contains("nowhere") && err.contains("cargo build --release"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -54,7 +54,7 @@ use num_complex::Complex64;
 mod shaker;
 pub use shaker::{
     sweep_substeps, ArmatureDamping, LtiSystem, ShakerParams, ShakerStepper, Stinger,
-    MAX_PHASE_PER_SUBSTEP,
+    MAX_PHASE_PER_SUBSTEP, MAX_SWEEP_SUBSTEPS,
 };
 
 /// A generic linear attachment of `eq:component2`.

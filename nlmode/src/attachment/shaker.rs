@@ -387,15 +387,30 @@ impl LinearAttachment {
 /// (2e-4 at 0.05 rad) and adds no phase lag.
 pub const MAX_PHASE_PER_SUBSTEP: f64 = 0.05;
 
+/// Most sub-steps one call of [`sweep_substeps`] may ask for (a communication
+/// step of 1 s at 5e4 rad/s needs 1e6): bounds the work of one step.
+pub const MAX_SWEEP_SUBSTEPS: usize = 1_000_000;
+
 /// Number of equal sub-steps of `[tau, tau + h]` (sweep time [s]) that keep
 /// the phase increment of `sweep` below [`MAX_PHASE_PER_SUBSTEP`]
-/// (`1` for a zero amplitude).
-pub fn sweep_substeps(sweep: &LinearSweep, tau_s: f64, h_s: f64) -> usize {
+/// (`1` for a zero amplitude); `Err(needed)` when that exceeds
+/// [`MAX_SWEEP_SUBSTEPS`] or is not finite (the step is too long for the
+/// sweep's frequency).
+pub fn sweep_substeps(
+    sweep: &LinearSweep,
+    tau_s: f64,
+    h_s: f64,
+) -> std::result::Result<usize, f64> {
     if sweep.amplitude == 0.0 {
-        return 1;
+        return Ok(1);
     }
     let w = sweep.omega_rad_s(tau_s).max(sweep.omega_rad_s(tau_s + h_s));
-    ((w * h_s / MAX_PHASE_PER_SUBSTEP).ceil() as usize).max(1)
+    let n = (w * h_s / MAX_PHASE_PER_SUBSTEP).ceil().max(1.0);
+    if n.is_finite() && n <= MAX_SWEEP_SUBSTEPS as f64 {
+        Ok(n as usize)
+    } else {
+        Err(n)
+    }
 }
 
 /// One exact discretization of [`ShakerStepper`] in fixed-size matrices.
