@@ -183,7 +183,10 @@ fn a_huge_step_is_refused_not_run() {
     let e = m.do_step(0.0, 1e6, &log).unwrap_err();
     assert!(t0.elapsed().as_secs_f64() < 1.0);
     let msg = e.to_string();
-    assert!(msg.contains("1000000 s") && msg.contains("sub-steps"), "{msg}");
+    assert!(
+        msg.contains("1000000 s") && msg.contains("sub-steps"),
+        "{msg}"
+    );
     // a normal step still works afterwards
     m.do_step(0.0, 1e-5, &log).unwrap();
     assert!(m.get_real(VR_F).is_finite());

@@ -8,8 +8,7 @@ use crate::run::load_scenario;
 use anyhow::{Context, Result};
 use nlmode::nma::epmc::ModalBasis;
 use nlmode::nma::{
-    nonlinear_modal_analysis_with_basis, AmplitudeRange, BackboneOptions, FoldKind, NmaOptions,
-    NmaResult, RefineOptions, TablePolicy,
+    nonlinear_modal_analysis_with_basis, BackboneOptions, FoldKind, NmaOptions, NmaResult,
 };
 use std::path::Path;
 use std::sync::Arc;
@@ -168,50 +167,19 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
     );
     let h = sc.nma.harmonics;
     let points: Vec<String> = setup.model.points.iter().map(|p| p.name.clone()).collect();
-    // the modal table: damped primary branch, refined
-    let t0 = Instant::now();
+    // the modal table: damped primary branch, refined (as `host run` makes it)
+    let table_sc = crate::scenario::Scenario {
+        nma: crate::scenario::NmaSpec {
+            table: None,
+            ..sc.nma.clone()
+        },
+        ..sc.clone()
+    };
+    let (nma, _) = methods::nma_table(&setup, &table_sc, false)?;
+    println!("modal table: {}", nma.note);
+    let table = nma.table;
     let basis_d =
         Arc::new(ModalBasis::new(&setup.model, false).map_err(|e| anyhow::anyhow!("nma: {e}"))?);
-    let topts = NmaOptions {
-        harmonics: h,
-        amplitude: AmplitudeRange::Point {
-            name: setup.response_point.clone(),
-            start_m: 1e-7,
-            end_m: sc.nma.max_tip_amplitude_m,
-        },
-        conservative: false,
-        points: points.clone(),
-        store_coordinates: true,
-        ..Default::default()
-    };
-    let tres = analyse(&setup.model, basis_d.clone(), &topts, "table")?;
-    let table = tres
-        .refined_table(
-            &setup.model,
-            basis_d.clone(),
-            &topts,
-            TablePolicy::PrimaryBranch,
-            &RefineOptions::default(),
-        )
-        .map_err(|e| anyhow::anyhow!("nma: {e}"))?;
-    let wall = t0.elapsed().as_secs_f64();
-    let acc = table.accuracy.clone().expect("refined");
-    println!(
-        "modal table: H = {h}, {} points refined from {} branch points ({} HB checks), a = {:.3e} .. {:.3e}, {:.1} ms; PCHIP within omega {:.1e}, D {:.1e}, shapes {:.1e} (relative){}",
-        table.amplitude.len(),
-        tres.branch.len(),
-        acc.checks,
-        table.amplitude[0],
-        table.amplitude.last().copied().unwrap_or(f64::NAN),
-        1e3 * wall,
-        acc.omega_rel,
-        acc.damping_rel,
-        acc.shape_rel,
-        if acc.capped { " (point cap reached)" } else { "" }
-    );
-    if let Some(a) = table.truncated_at_fold {
-        println!("  primary branch truncated at the first fold of a = {a:.4e}");
-    }
     let table_path = out.join("modal_table.json");
     table.write(&table_path)?;
     // backbones through the loops

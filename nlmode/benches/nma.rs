@@ -31,7 +31,11 @@
 //! iterations, 95 rejected steps, 0.36 ms/point; target 350 ms). Refined damped
 //! H = 13 table (default `log10 a` = -6 .. -1 continuation, 135 points, then
 //! 193 table points from 503 midpoint HB solves): 284 ms (target 50 ms, not
-//! met: the midpoint solves dominate, about 0.5 ms each).
+//! met: the midpoint solves dominate, about 0.5 ms each). With the table
+//! ended 1 % before the first fold (`RefineOptions::fold_margin`, no solves
+//! wasted on the vertical tangent; same machine, 4 jobs sharing it): 141 table
+//! points from 331 midpoint solves, 109 ms (90 .. 133 ms; one cold run 82 ms,
+//! 0.58 ms per table point), still above the 50 ms target.
 //!
 //! The cost per point grows about linearly with the number of DOFs (x3 DOFs:
 //! x3.9, x3.3 DOFs: x7, the largest case leaving the caches); the one-off

@@ -1200,3 +1200,144 @@ fn refined_table_meets_its_stated_accuracy_against_fresh_hb_solves() {
         );
     }
 }
+
+/// The damped paper-beam table as `host` makes it: tip amplitudes 1e-7 ..
+/// 0.02 m (beyond the first fold), every named point, refined with the
+/// default [`RefineOptions`].
+fn host_like_refined_table(harmonics: usize) -> (NmaResult, ModalTable) {
+    let ps = paper_beam();
+    let basis = Arc::new(ModalBasis::new(&ps.model, false).unwrap());
+    let opts = NmaOptions {
+        harmonics,
+        amplitude: AmplitudeRange::Point {
+            name: "tip".into(),
+            start_m: 1e-7,
+            end_m: 0.02,
+        },
+        conservative: false,
+        points: ps.model.points.iter().map(|p| p.name.clone()).collect(),
+        store_coordinates: true,
+        ..Default::default()
+    };
+    let r = nonlinear_modal_analysis_with_basis(&ps.model, basis.clone(), &opts).unwrap();
+    let t = r
+        .refined_table(
+            &ps.model,
+            basis,
+            &opts,
+            TablePolicy::PrimaryBranch,
+            &RefineOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    (r, t)
+}
+
+#[test]
+fn refined_table_ends_a_stated_margin_before_the_fold_and_meets_its_accuracy() {
+    let (r, t) = host_like_refined_table(13);
+    let acc = t.accuracy.clone().unwrap();
+    let a_f = t
+        .truncated_at_fold
+        .expect("the tip range passes the first fold");
+    let margin = RefineOptions::default().fold_margin;
+    println!(
+        "fold {a_f:e}, table {} points from {}, last a = {:e}, {acc:?}",
+        t.amplitude.len(),
+        r.branch.len(),
+        t.amplitude.last().unwrap()
+    );
+    assert_eq!(acc.fold_margin, Some(margin));
+    let last = *t.amplitude.last().unwrap();
+    assert!(
+        (last / ((1.0 - margin) * a_f) - 1.0).abs() < 1e-12,
+        "{last} vs {a_f}"
+    );
+    assert!(t.description.contains("times the first fold"));
+    // at the fold itself the targets are out of reach; a margin before it they are met
+    assert!(!acc.capped, "{acc:?}");
+    assert!(
+        acc.omega_rel <= 1e-5 && acc.damping_rel <= 1e-4 && acc.shape_rel <= 1e-4,
+        "{acc:?}"
+    );
+    // a margin outside [0, 1) is a typed error
+    let ps = paper_beam();
+    let basis = Arc::new(ModalBasis::new(&ps.model, false).unwrap());
+    let opts = NmaOptions {
+        points: r.point_names.clone(),
+        store_coordinates: true,
+        ..Default::default()
+    };
+    let bad = RefineOptions {
+        fold_margin: 1.5,
+        ..Default::default()
+    };
+    let e = r
+        .refined_table(&ps.model, basis, &opts, TablePolicy::PrimaryBranch, &bad)
+        .unwrap_err();
+    assert!(matches!(e, NmaError::InvalidFoldMargin { .. }), "{e}");
+}
+
+/// Largest (omega, D, shape) differences of the table `t` from `t13` at 50
+/// log-spaced amplitudes from the first table amplitude to `a_max`; shape
+/// harmonics missing in `t` count fully.
+fn table_difference(t: &ModalTable, t13: &ModalTable, a_max: f64) -> (f64, f64, f64) {
+    let (i, i13) = (t.interpolator().unwrap(), t13.interpolator().unwrap());
+    let a0 = t13.amplitude[0].max(t.amplitude[0]);
+    let mut w = (0.0f64, 0.0f64, 0.0f64);
+    let zero = nlmode::Complex64::new(0.0, 0.0);
+    for k in 0..50 {
+        let a = a0 * (a_max / a0).powf(k as f64 / 49.0);
+        let (p, q) = (i13.eval(a).unwrap(), i.eval(a).unwrap());
+        w.0 = w.0.max((q.omega_rad_s / p.omega_rad_s - 1.0).abs());
+        w.1 = w.1.max((q.damping_ratio / p.damping_ratio - 1.0).abs());
+        for pt in 0..t13.points.len() {
+            let mut x = vec![zero; t13.harmonics + 1];
+            let mut y = vec![zero; t13.harmonics + 1];
+            i13.shape_all(pt, a, &mut x).unwrap();
+            let j = t
+                .points
+                .iter()
+                .position(|s| s.name == t13.points[pt].name)
+                .unwrap();
+            i.shape_all(j, a, &mut y[..t.harmonics + 1]).unwrap();
+            let scale = x.iter().map(|c| c.norm()).fold(0.0, f64::max);
+            for (x, y) in x.iter().zip(&y) {
+                w.2 = w.2.max((x - y).norm() / scale);
+            }
+        }
+    }
+    w
+}
+
+#[test]
+fn sweep_table_harmonics_agree_with_h13_within_the_refined_accuracy() {
+    let (_, t13) = host_like_refined_table(13);
+    let a_max = SWEEP_TABLE_MAX_AMPLITUDE;
+    assert!(a_max < *t13.amplitude.last().unwrap());
+    let acc = RefineOptions::default();
+    let h = SWEEP_TABLE_HARMONICS;
+    let (_, t) = host_like_refined_table(h);
+    let d = table_difference(&t, &t13, a_max);
+    println!(
+        "H = {h} vs H = 13 up to a = {a_max:e}: omega {:.2e}, D {:.2e}, shapes {:.2e}",
+        d.0, d.1, d.2
+    );
+    assert!(
+        d.0 <= acc.omega_rel && d.1 <= acc.rel && d.2 <= acc.rel,
+        "{d:?}"
+    );
+    // the smallest such H: the next lower odd order (cubic stiffness: odd harmonics) misses
+    let (_, t) = host_like_refined_table(h - 2);
+    let d = table_difference(&t, &t13, a_max);
+    println!(
+        "H = {} vs H = 13 up to a = {a_max:e}: omega {:.2e}, D {:.2e}, shapes {:.2e}",
+        h - 2,
+        d.0,
+        d.1,
+        d.2
+    );
+    assert!(
+        d.0 > acc.omega_rel || d.1 > acc.rel || d.2 > acc.rel,
+        "{d:?}"
+    );
+}

@@ -105,6 +105,10 @@ pub struct TableAccuracy {
     pub checks: usize,
     /// `true` if the point cap stopped the refinement before all targets were met.
     pub capped: bool,
+    /// Set if the table ends before the first fold `a_f` of a truncated
+    /// primary branch: its last amplitude is `(1 - fold_margin) a_f` [-].
+    #[serde(default)]
+    pub fold_margin: Option<f64>,
 }
 
 pub mod continuation;
