@@ -101,49 +101,14 @@ fn release_fmus(dir: &Path, table: &nlmode::nma::ModalTable) -> (PathBuf, PathBu
     cosim::repo::package_repo_fmus(&libs, dir, Some(&tp)).unwrap()
 }
 
-/// Linear interpolation of (x, y) at `x0` (x increasing).
-fn interp(x: &[f64], y: &[f64], x0: f64) -> Option<f64> {
-    let k = x.partition_point(|&v| v <= x0);
-    if k == 0 || k >= x.len() {
-        return None;
-    }
-    let w = (x0 - x[k - 1]) / (x[k] - x[k - 1]);
-    Some(y[k - 1] + w * (y[k] - y[k - 1]))
-}
-
 /// (peak tip error, jump-down frequency error, RMS tip difference / peak, RMS force difference / max force)
 fn compare(o: &CosimOutput, r_om: &[f64], r_f: &[f64], r_tip: &[f64]) -> (f64, f64, f64, f64) {
-    let e = &o.envelope;
-    let peak = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
-    let jump = |om: &[f64], tip: &[f64]| {
-        let i = (0..tip.len())
-            .max_by(|&a, &b| tip[a].total_cmp(&tip[b]))
-            .unwrap();
-        let w = (om.len() / 400).max(1);
-        let mut best = (0.0, om[i]);
-        for k in i..om.len().saturating_sub(w) {
-            let s = (tip[k + w] - tip[k]) / (om[k + w] - om[k]);
-            if s < best.0 {
-                best = (s, 0.5 * (om[k] + om[k + w]));
-            }
-        }
-        best.1
-    };
-    let (pr, pc) = (peak(r_tip), peak(&e.tip_amplitude_m));
-    let (mut st, mut sf, mut n) = (0.0, 0.0, 0);
-    for (k, &w) in e.omega_rad_s.iter().enumerate() {
-        if let (Some(t), Some(f)) = (interp(r_om, r_tip, w), interp(r_om, r_f, w)) {
-            st += (e.tip_amplitude_m[k] - t).powi(2);
-            sf += (e.force_amplitude_n[k] - f).powi(2);
-            n += 1;
-        }
-    }
-    let n = n.max(1) as f64;
+    let c = o.envelope.compare_with(r_om, r_f, r_tip);
     (
-        pc / pr - 1.0,
-        jump(&e.omega_rad_s, &e.tip_amplitude_m) / jump(r_om, r_tip) - 1.0,
-        (st / n).sqrt() / pr,
-        (sf / n).sqrt() / peak(r_f),
+        c.peak_tip_rel,
+        c.jump_down_rel,
+        c.rms_tip_rel,
+        c.rms_force_rel,
     )
 }
 

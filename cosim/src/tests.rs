@@ -719,51 +719,23 @@ mod fmus {
         assert!((o.time_s.last().unwrap() - 0.01235).abs() < 1e-12);
     }
 
-    /// Envelope comparison: (peak tip relative error, jump-down relative
-    /// error, RMS tip difference / peak, RMS force difference / max force),
-    /// the other envelope interpolated linearly at the co-simulation's frequencies.
+    /// Envelope comparison (peak tip, jump-down, RMS tip / peak, RMS force / max
+    /// force, all relative) with at least 300 overlapping samples.
     fn compare(e: &Envelope, om: &[f64], f: &[f64], tip: &[f64]) -> (f64, f64, f64, f64) {
-        let interp = |y: &[f64], x0: f64| {
-            let k = om.partition_point(|&v| v <= x0);
-            (k > 0 && k < om.len())
-                .then(|| y[k - 1] + (x0 - om[k - 1]) / (om[k] - om[k - 1]) * (y[k] - y[k - 1]))
-        };
-        let peak = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
-        let jump = |om: &[f64], tip: &[f64]| {
-            let i = (0..tip.len())
-                .max_by(|&a, &b| tip[a].total_cmp(&tip[b]))
-                .unwrap();
-            let w = (om.len() / 400).max(1);
-            let mut best = (0.0, om[i]);
-            for k in i..om.len().saturating_sub(w) {
-                let s = (tip[k + w] - tip[k]) / (om[k + w] - om[k]);
-                if s < best.0 {
-                    best = (s, 0.5 * (om[k] + om[k + w]));
-                }
-            }
-            best.1
-        };
-        let (mut st, mut sf, mut n) = (0.0, 0.0, 0);
-        for (k, &w) in e.omega_rad_s.iter().enumerate() {
-            if let (Some(t), Some(ff)) = (interp(tip, w), interp(f, w)) {
-                st += (e.tip_amplitude_m[k] - t).powi(2);
-                sf += (e.force_amplitude_n[k] - ff).powi(2);
-                n += 1;
-            }
-        }
-        assert!(n > 300, "{n} overlapping envelope points");
+        let c = e.compare_with(om, f, tip);
+        assert!(c.overlap > 300, "{} overlapping envelope points", c.overlap);
         eprintln!(
-            "{n} overlapping envelope points, other envelope {:.1}..{:.1} rad/s ({} points)",
+            "{} overlapping envelope points, other envelope {:.1}..{:.1} rad/s ({} points)",
+            c.overlap,
             om[0],
             om[om.len() - 1],
             om.len()
         );
-        let n = n as f64;
         (
-            peak(&e.tip_amplitude_m) / peak(tip) - 1.0,
-            jump(&e.omega_rad_s, &e.tip_amplitude_m) / jump(om, tip) - 1.0,
-            (st / n).sqrt() / peak(tip),
-            (sf / n).sqrt() / peak(f),
+            c.peak_tip_rel,
+            c.jump_down_rel,
+            c.rms_tip_rel,
+            c.rms_force_rel,
         )
     }
 

@@ -61,7 +61,81 @@ pub enum EnvelopeError {
     },
 }
 
+/// How one envelope differs from another (the other's samples interpolated
+/// linearly at this envelope's frequencies, where they overlap), relative to
+/// the other's peaks: the numbers the co-simulation checks and benches quote.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnvelopeComparison {
+    /// `max |q_tip| / max |q_tip,other| - 1`.
+    pub peak_tip_rel: f64,
+    /// Jump-down frequency ratio minus one ([`steepest_drop_omega_rad_s`]).
+    pub jump_down_rel: f64,
+    /// RMS of the tip difference over the other's peak tip amplitude.
+    pub rms_tip_rel: f64,
+    /// RMS of the force difference over the other's largest force amplitude.
+    pub rms_force_rel: f64,
+    /// Number of samples where both envelopes are defined.
+    pub overlap: usize,
+}
+
+/// Frequency of the steepest drop of `tip` after its peak (the jump-down of a
+/// hardening resonance), slopes taken over 1/400 of the samples.
+pub fn steepest_drop_omega_rad_s(omega_rad_s: &[f64], tip: &[f64]) -> f64 {
+    let Some(i) = (0..tip.len()).max_by(|&a, &b| tip[a].total_cmp(&tip[b])) else {
+        return f64::NAN;
+    };
+    let w = (omega_rad_s.len() / 400).max(1);
+    let mut best = (0.0, omega_rad_s[i]);
+    for k in i..omega_rad_s.len().saturating_sub(w) {
+        let s = (tip[k + w] - tip[k]) / (omega_rad_s[k + w] - omega_rad_s[k]);
+        if s < best.0 {
+            best = (s, 0.5 * (omega_rad_s[k] + omega_rad_s[k + w]));
+        }
+    }
+    best.1
+}
+
+/// Linear interpolation of `(x, y)` at `x0` (`x` increasing); `None` outside.
+fn interpolate(x: &[f64], y: &[f64], x0: f64) -> Option<f64> {
+    let k = x.partition_point(|&v| v <= x0);
+    (k > 0 && k < x.len())
+        .then(|| y[k - 1] + (x0 - x[k - 1]) / (x[k] - x[k - 1]) * (y[k] - y[k - 1]))
+}
+
 impl Envelope {
+    /// This envelope against another one given by its columns (frequency
+    /// increasing), see [`EnvelopeComparison`].
+    pub fn compare_with(
+        &self,
+        omega_rad_s: &[f64],
+        force_amplitude_n: &[f64],
+        tip_amplitude_m: &[f64],
+    ) -> EnvelopeComparison {
+        let peak = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
+        let (mut st, mut sf, mut n) = (0.0, 0.0, 0);
+        for (k, &w) in self.omega_rad_s.iter().enumerate() {
+            if let (Some(t), Some(f)) = (
+                interpolate(omega_rad_s, tip_amplitude_m, w),
+                interpolate(omega_rad_s, force_amplitude_n, w),
+            ) {
+                st += (self.tip_amplitude_m[k] - t).powi(2);
+                sf += (self.force_amplitude_n[k] - f).powi(2);
+                n += 1;
+            }
+        }
+        let m = n.max(1) as f64;
+        let tip_other = peak(tip_amplitude_m);
+        EnvelopeComparison {
+            peak_tip_rel: peak(&self.tip_amplitude_m) / tip_other - 1.0,
+            jump_down_rel: steepest_drop_omega_rad_s(&self.omega_rad_s, &self.tip_amplitude_m)
+                / steepest_drop_omega_rad_s(omega_rad_s, tip_amplitude_m)
+                - 1.0,
+            rms_tip_rel: (st / m).sqrt() / tip_other,
+            rms_force_rel: (sf / m).sqrt() / peak(force_amplitude_n),
+            overlap: n,
+        }
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.omega_rad_s.len()
