@@ -829,6 +829,26 @@ fn check_harmonics(harmonics: usize, samples: Option<usize>) -> Result<usize, Nm
     Ok(samples)
 }
 
+/// Indices of the named points (every point of the model when `names` is empty).
+fn point_indices(model: &StructuralModel, names: &[String]) -> Result<Vec<usize>, NmaError> {
+    if names.is_empty() {
+        Ok((0..model.points.len()).collect())
+    } else {
+        names.iter().map(|p| find_point(model, p)).collect()
+    }
+}
+
+/// Modal direction vectors `Phi^T d_p` of the points `ids`.
+fn modal_directions(
+    model: &StructuralModel,
+    basis: &ModalBasis,
+    ids: &[usize],
+) -> Vec<DVector<f64>> {
+    ids.iter()
+        .map(|&p| basis.phi.transpose() * &model.points[p].direction)
+        .collect()
+}
+
 fn find_point(model: &StructuralModel, name: &str) -> Result<usize, NmaError> {
     model
         .points
@@ -894,21 +914,11 @@ pub fn nonlinear_modal_analysis_with_basis(
             n_modes: n,
         });
     }
-    let point_ids: Vec<usize> = if opts.points.is_empty() {
-        (0..model.points.len()).collect()
-    } else {
-        opts.points
-            .iter()
-            .map(|p| find_point(model, p))
-            .collect::<Result<_, _>>()?
-    };
+    let point_ids = point_indices(model, &opts.points)?;
     let j = opts.mode_index;
     let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, j)
         .with_normalisation(opts.normalisation);
-    let point_modal: Vec<DVector<f64>> = point_ids
-        .iter()
-        .map(|&p| basis.phi.transpose() * &model.points[p].direction)
-        .collect();
+    let point_modal = modal_directions(model, &basis, &point_ids);
 
     // amplitude range in log10 a
     let (lg_start, lg_end, stop_point) = match &opts.amplitude {
@@ -1201,19 +1211,9 @@ pub fn solve_at_amplitude(
             reason: "the guess carries no generalized-coordinate shapes",
         });
     }
-    let point_ids: Vec<usize> = if opts.points.is_empty() {
-        (0..model.points.len()).collect()
-    } else {
-        opts.points
-            .iter()
-            .map(|p| find_point(model, p))
-            .collect::<Result<_, _>>()?
-    };
+    let point_ids = point_indices(model, &opts.points)?;
     let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, opts.mode_index);
-    let point_modal: Vec<DVector<f64>> = point_ids
-        .iter()
-        .map(|&p| basis.phi.transpose() * &model.points[p].direction)
-        .collect();
+    let point_modal = modal_directions(model, &basis, &point_ids);
     // modal coordinates eta_n = Phi^T M q_n of the guess (q_n = c_n - i s_n)
     let pm = basis.phi.transpose() * &model.mass;
     let m = res.n_coeffs();
@@ -1461,14 +1461,7 @@ pub fn forced_response(
             end: opts.omega_end,
         });
     }
-    let point_ids: Vec<usize> = if opts.points.is_empty() {
-        (0..model.points.len()).collect()
-    } else {
-        opts.points
-            .iter()
-            .map(|p| find_point(model, p))
-            .collect::<Result<_, _>>()?
-    };
+    let point_ids = point_indices(model, &opts.points)?;
     let basis = Arc::new(ModalBasis::new(model, false)?);
     let res = ForcedResidual::new(
         basis,
