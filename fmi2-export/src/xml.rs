@@ -57,29 +57,24 @@ pub fn check_model_description(
                 v.name, x.value_reference, v.vr
             ));
         }
-        if x.ty != v.ty {
-            errs.push(format!(
-                "{}: type {} in XML, {:?} in code",
-                v.name,
-                x.ty.name(),
-                v.ty
-            ));
-        }
-        if x.causality != v.causality {
-            errs.push(format!(
-                "{}: causality {} in XML, {:?} in code",
-                v.name,
+        for (what, differs, xml, code) in [
+            ("type", x.ty != v.ty, x.ty.name(), format!("{:?}", v.ty)),
+            (
+                "causality",
+                x.causality != v.causality,
                 x.causality.name(),
-                v.causality
-            ));
-        }
-        if x.variability != v.variability {
-            errs.push(format!(
-                "{}: variability {} in XML, {:?} in code",
-                v.name,
+                format!("{:?}", v.causality),
+            ),
+            (
+                "variability",
+                x.variability != v.variability,
                 x.variability.name(),
-                v.variability
-            ));
+                format!("{:?}", v.variability),
+            ),
+        ] {
+            if differs {
+                errs.push(format!("{}: {what} {xml} in XML, {code} in code", v.name));
+            }
         }
         match (&v.start, &x.start) {
             (None, None) => {}
