@@ -343,16 +343,21 @@ pub(crate) fn integrate<S: State, E>(
             reject_streak = true;
             continue;
         }
-        weighted_sum(e.as_mut_slice(), &E, &k);
-        for ei in e.as_mut_slice() {
-            *ei *= h;
-        }
         let scale = match tol.scale {
             ErrorScale::Local => y.as_slice(),
             ErrorScale::RunningMax => w.as_slice(),
         };
-        let err = norm(e.as_slice(), scale, y1.as_slice());
-        if !err.is_finite() || y1.as_slice().iter().any(|v| !v.is_finite()) {
+        // the error estimate h sum_j E_j k_j, its weighted RMS norm and the
+        // finiteness of the new state in one pass (the same sums as `norm`)
+        let (mut acc, mut finite) = (0.0, true);
+        for (i, (sc_i, y1_i)) in scale.iter().zip(y1.as_slice()).enumerate() {
+            let e_i = weighted(&E, &k, i) * h;
+            let sc = atol[i] + tol.rtol * sc_i.abs().max(y1_i.abs());
+            acc += (e_i / sc).powi(2);
+            finite &= y1_i.is_finite();
+        }
+        let err = (acc / n as f64).sqrt();
+        if !err.is_finite() || !finite {
             stats.rejected_steps += 1;
             if h <= tol.h_min {
                 return (stats, Some(Stop::NotFinite { t }));
