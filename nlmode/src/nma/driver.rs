@@ -654,6 +654,7 @@ impl NmaResult {
             points: self.point_names.clone(),
             ..opts.clone()
         };
+        let solver = AmplitudeSolver::new(model, basis.clone(), &fixed)?;
         // end a truncated primary branch a stated margin before the fold
         let mut range_end = None;
         if let (Some(a_f), TablePolicy::PrimaryBranch) = (truncated, policy) {
@@ -667,10 +668,9 @@ impl NmaResult {
                 if keep >= 1 {
                     // Newton from the nearest branch point above (else below)
                     let guess = pts.get(keep).unwrap_or(&pts[keep - 1]).clone();
-                    let sol = solve_at_amplitude(model, basis.clone(), &fixed, a_end, &guess)
-                        .or_else(|_| {
-                            solve_at_amplitude(model, basis.clone(), &fixed, a_end, &pts[keep - 1])
-                        })
+                    let sol = solver
+                        .solve(a_end, &guess)
+                        .or_else(|_| solver.solve(a_end, &pts[keep - 1]))
                         .map_err(|e| refine_failed(e, a_end))?;
                     pts.truncate(keep);
                     pts.push(sol);
@@ -703,9 +703,18 @@ impl NmaResult {
                 }
                 let (p, q) = (&pts[i], &pts[i + 1]);
                 let am = 0.5 * (p.amplitude + q.amplitude);
+                // frequency and damping from the table being checked (close
+                // to the solution: fewer Newton steps), shapes blended
+                let (omega_rad_s, damping_ratio) = match interp.eval(am) {
+                    Ok(t) => (t.omega_rad_s, t.damping_ratio),
+                    Err(_) => (
+                        0.5 * (p.omega_rad_s + q.omega_rad_s),
+                        0.5 * (p.damping_ratio + q.damping_ratio),
+                    ),
+                };
                 let guess = BranchPoint {
-                    omega_rad_s: 0.5 * (p.omega_rad_s + q.omega_rad_s),
-                    damping_ratio: 0.5 * (p.damping_ratio + q.damping_ratio),
+                    omega_rad_s,
+                    damping_ratio,
                     coordinates: p
                         .coordinates
                         .iter()
@@ -716,9 +725,10 @@ impl NmaResult {
                 };
                 // Newton from the blended neighbours, else from either one
                 // (near the fold ending the primary branch `omega(a)` is steep)
-                let sol = solve_at_amplitude(model, basis.clone(), &fixed, am, &guess)
-                    .or_else(|_| solve_at_amplitude(model, basis.clone(), &fixed, am, q))
-                    .or_else(|_| solve_at_amplitude(model, basis.clone(), &fixed, am, p))
+                let sol = solver
+                    .solve(am, &guess)
+                    .or_else(|_| solver.solve(am, q))
+                    .or_else(|_| solver.solve(am, p))
                     .map_err(|e| refine_failed(e, am))?;
                 checks += 1;
                 let err =
@@ -1202,71 +1212,110 @@ pub fn solve_at_amplitude(
     amplitude: f64,
     guess: &BranchPoint,
 ) -> Result<BranchPoint, NmaError> {
-    let samples = check_harmonics(opts.harmonics, opts.samples)?;
-    let n = model.mass.nrows();
-    if guess.coordinates.len() != n {
-        return Err(NmaError::InvalidAmplitudeRange {
-            start: amplitude,
-            end: amplitude,
-            reason: "the guess carries no generalized-coordinate shapes",
-        });
+    AmplitudeSolver::new(model, basis, opts)?.solve(amplitude, guess)
+}
+
+/// [`solve_at_amplitude`] set up once for many amplitudes (the residual with
+/// its AFT, the points' modal directions, `Phi^T M`): the refinement of a
+/// table solves at every interval's midpoint.
+struct AmplitudeSolver<'a> {
+    model: &'a StructuralModel,
+    opts: &'a NmaOptions,
+    samples: usize,
+    point_ids: Vec<usize>,
+    res: EpmcResidual,
+    point_modal: Vec<DVector<f64>>,
+    pm: nalgebra::DMatrix<f64>,
+    continuation: ContinuationOptions,
+}
+
+impl<'a> AmplitudeSolver<'a> {
+    fn new(
+        model: &'a StructuralModel,
+        basis: Arc<ModalBasis>,
+        opts: &'a NmaOptions,
+    ) -> Result<Self, NmaError> {
+        let samples = check_harmonics(opts.harmonics, opts.samples)?;
+        let point_ids = point_indices(model, &opts.points)?;
+        let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, opts.mode_index);
+        let point_modal = modal_directions(model, &basis, &point_ids);
+        // modal coordinates eta_n = Phi^T M q_n of a guess (q_n = c_n - i s_n)
+        let pm = basis.phi.transpose() * &model.mass;
+        let continuation = ContinuationOptions {
+            max_contraction: None,
+            ..opts.continuation.clone()
+        };
+        Ok(Self {
+            model,
+            opts,
+            samples,
+            point_ids,
+            res,
+            point_modal,
+            pm,
+            continuation,
+        })
     }
-    let point_ids = point_indices(model, &opts.points)?;
-    let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, opts.mode_index);
-    let point_modal = modal_directions(model, &basis, &point_ids);
-    // modal coordinates eta_n = Phi^T M q_n of the guess (q_n = c_n - i s_n)
-    let pm = basis.phi.transpose() * &model.mass;
-    let m = res.n_coeffs();
-    let mut x0 = DVector::zeros(m + 3);
-    for nn in 0..=opts.harmonics {
-        let re = DVector::from_fn(n, |i, _| guess.coordinates[i][nn].re);
-        let im = DVector::from_fn(n, |i, _| guess.coordinates[i][nn].im);
-        let (c, s) = (&pm * re, &pm * im);
-        for k in 0..n {
-            x0[super::hb::cos_index(nn) * n + k] = c[k];
-            if nn > 0 {
-                x0[super::hb::sin_index(nn) * n + k] = -s[k];
+
+    fn solve(&self, amplitude: f64, guess: &BranchPoint) -> Result<BranchPoint, NmaError> {
+        let (model, opts, res) = (self.model, self.opts, &self.res);
+        let n = model.mass.nrows();
+        if guess.coordinates.len() != n {
+            return Err(NmaError::InvalidAmplitudeRange {
+                start: amplitude,
+                end: amplitude,
+                reason: "the guess carries no generalized-coordinate shapes",
+            });
+        }
+        let m = res.n_coeffs();
+        let mut x0 = DVector::zeros(m + 3);
+        for nn in 0..=opts.harmonics {
+            let re = DVector::from_fn(n, |i, _| guess.coordinates[i][nn].re);
+            let im = DVector::from_fn(n, |i, _| guess.coordinates[i][nn].im);
+            let (c, s) = (&self.pm * re, &self.pm * im);
+            for k in 0..n {
+                x0[super::hb::cos_index(nn) * n + k] = c[k];
+                if nn > 0 {
+                    x0[super::hb::sin_index(nn) * n + k] = -s[k];
+                }
             }
         }
-    }
-    x0[m] = guess.omega_rad_s;
-    x0[m + 1] = guess.damping_ratio;
-    x0[m + 2] = amplitude.log10();
-    let opts_fixed = ContinuationOptions {
-        max_contraction: None,
-        ..opts.continuation.clone()
-    };
-    match super::continuation::solve_fixed_parameter(&res, x0, &opts_fixed) {
-        Ok((x, _, it)) => Ok(branch_point(
-            &res,
-            &x,
-            &point_modal,
-            opts.store_coordinates,
-            it,
-        )),
-        Err((residual_norm, iterations)) => Err(NmaError::StartNotConverged {
-            amplitude,
-            residual_norm,
-            iterations,
-            partial: Box::new(NmaResult {
-                harmonics: opts.harmonics,
-                samples,
-                mode_index: opts.mode_index,
-                conservative: opts.conservative,
-                linear_omega_rad_s: basis.omega(opts.mode_index),
-                linear_damping_ratio: basis.damping_ratio(opts.mode_index),
-                point_names: point_ids
-                    .iter()
-                    .map(|&p| model.points[p].name.clone())
-                    .collect(),
-                branch: vec![],
-                folds: vec![],
-                newton_iterations: iterations,
-                rejected_steps: 0,
-                stop: None,
-                warnings: vec![],
+        x0[m] = guess.omega_rad_s;
+        x0[m + 1] = guess.damping_ratio;
+        x0[m + 2] = amplitude.log10();
+        match super::continuation::solve_fixed_parameter(res, x0, &self.continuation) {
+            Ok((x, _, it)) => Ok(branch_point(
+                res,
+                &x,
+                &self.point_modal,
+                opts.store_coordinates,
+                it,
+            )),
+            Err((residual_norm, iterations)) => Err(NmaError::StartNotConverged {
+                amplitude,
+                residual_norm,
+                iterations,
+                partial: Box::new(NmaResult {
+                    harmonics: opts.harmonics,
+                    samples: self.samples,
+                    mode_index: opts.mode_index,
+                    conservative: opts.conservative,
+                    linear_omega_rad_s: res.basis().omega(opts.mode_index),
+                    linear_damping_ratio: res.basis().damping_ratio(opts.mode_index),
+                    point_names: self
+                        .point_ids
+                        .iter()
+                        .map(|&p| model.points[p].name.clone())
+                        .collect(),
+                    branch: vec![],
+                    folds: vec![],
+                    newton_iterations: iterations,
+                    rejected_steps: 0,
+                    stop: None,
+                    warnings: vec![],
+                }),
             }),
-        }),
+        }
     }
 }
 
