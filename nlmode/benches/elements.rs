@@ -1,0 +1,39 @@
+//! The AFT evaluation of the nonlinear elements (issue 11, performance):
+//! `aft_h7/jenkins` is one [`Aft::eval`] of the hysteretic Jenkins element
+//! (`ElasticDryFriction`) at `H = 7`, `N = 4H + 1 = 29` samples, in gross slip
+//! with higher harmonics present (target < 20 us per evaluation);
+//! `aft_h7/cubic` is the memoryless cubic spring at the same size, for scale.
+//!
+//! Run: `cargo bench -p nlmode --bench elements`.
+//!
+//! Measured (release, shared 2-core machine with other jobs, 2026-12-01):
+//! see the test docs of `host/tests/elements.rs` and the report of this bench.
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::DVector;
+use nlmode::nma::hb::{cos_index, default_samples, sin_index, Aft};
+use nlmode::structure::{CubicSpring, ElasticDryFriction};
+use std::hint::black_box;
+
+fn aft_h7(c: &mut Criterion) {
+    let h = 7;
+    let aft = Aft::new(h, default_samples(h));
+    let mut u = DVector::zeros(2 * h + 1);
+    u[0] = 1e-5;
+    u[cos_index(1)] = 4e-4;
+    u[sin_index(1)] = -1e-4;
+    u[cos_index(3)] = 3e-5;
+    u[sin_index(5)] = 1e-5;
+    let jenkins = ElasticDryFriction::new(1e4, 0.5).unwrap();
+    let cubic = CubicSpring::new(6e9).unwrap();
+    let mut g = c.benchmark_group("aft_h7");
+    g.bench_function("jenkins", |b| {
+        b.iter(|| aft.eval(black_box(&jenkins), black_box(&u), black_box(356.0)))
+    });
+    g.bench_function("cubic", |b| {
+        b.iter(|| aft.eval(black_box(&cubic), black_box(&u), black_box(356.0)))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, aft_h7);
+criterion_main!(benches);
