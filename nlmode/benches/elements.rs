@@ -2,7 +2,9 @@
 //! `aft_h7/jenkins` is one [`Aft::eval`] of the hysteretic Jenkins element
 //! (`ElasticDryFriction`) at `H = 7`, `N = 4H + 1 = 29` samples, in gross slip
 //! with higher harmonics present (target < 20 us per evaluation);
-//! `aft_h7/cubic` is the memoryless cubic spring at the same size, for scale.
+//! `aft_h7/cubic` is the memoryless cubic spring at the same size, for scale;
+//! `aft_h7/jenkins_256` the Jenkins element at the NMA's default for hysteretic
+//! models, 256 samples.
 //!
 //! Run: `cargo bench -p nlmode --bench elements`.
 //!
@@ -31,6 +33,10 @@ fn aft_h7(c: &mut Criterion) {
     });
     g.bench_function("cubic", |b| {
         b.iter(|| aft.eval(black_box(&cubic), black_box(&u), black_box(356.0)))
+    });
+    let aft256 = Aft::new(h, 256);
+    g.bench_function("jenkins_256", |b| {
+        b.iter(|| aft256.eval(black_box(&jenkins), black_box(&u), black_box(356.0)))
     });
     g.finish();
 }

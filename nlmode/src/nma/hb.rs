@@ -81,6 +81,8 @@ pub struct Aft {
     inv: DMatrix<f64>,
     /// `N x (2H+1)`: `du/dtau(tau_t) = dinv[t, :] U`.
     dinv: DMatrix<f64>,
+    /// `inv^T`, `(2H+1) x N`: the rows of `inv` contiguous (hysteretic march).
+    inv_t: DMatrix<f64>,
     /// `(2H+1) x N`: `U = fwd f(tau_t)` (least-squares / exact projection).
     fwd: DMatrix<f64>,
 }
@@ -130,6 +132,7 @@ impl Aft {
         Self {
             harmonics,
             samples,
+            inv_t: inv.transpose(),
             inv,
             dinv,
             fwd,
@@ -201,31 +204,47 @@ impl Aft {
         let n = self.samples;
         let nh = self.n_coeffs();
         let ut = &self.inv * u;
+        let rows = self.inv_t.as_slice();
         let mut f = DVector::zeros(n);
-        let mut dft = DMatrix::zeros(n, nh);
+        // column t: d f_t / dU (the transposed sample Jacobian)
+        let mut dft_t = DMatrix::zeros(nh, n);
         let (mut s, ds0) = law.relaxed_state(u[0]);
         // d s / dU, a row of length 2H+1 (the mean U[0] only, at the start)
         let mut ds = vec![0.0; nh];
         ds[0] = ds0;
-        for _ in 0..Self::MAX_HYSTERESIS_PERIODS {
+        // the first period only moves the state; later ones record the forces
+        // until the state at the end of a period equals that at its start
+        for period in 0..Self::MAX_HYSTERESIS_PERIODS {
             let s_start = s;
+            let record = period > 0;
             for t in 0..n {
                 let st = law.step(s, ut[t]);
-                f[t] = st.force;
-                for (h, dsh) in ds.iter_mut().enumerate() {
-                    let e = self.inv[(t, h)];
-                    dft[(t, h)] = st.dforce_du * e + st.dforce_ds * *dsh;
-                    *dsh = st.dstate_du * e + st.dstate_ds * *dsh;
+                let e = &rows[t * nh..(t + 1) * nh];
+                if record {
+                    f[t] = st.force;
+                    let col = &mut dft_t.as_mut_slice()[t * nh..(t + 1) * nh];
+                    for h in 0..nh {
+                        col[h] = st.dforce_du * e[h] + st.dforce_ds * ds[h];
+                    }
+                }
+                if st.dstate_ds == 0.0 {
+                    for h in 0..nh {
+                        ds[h] = st.dstate_du * e[h];
+                    }
+                } else if !(st.dstate_ds == 1.0 && st.dstate_du == 0.0) {
+                    for h in 0..nh {
+                        ds[h] = st.dstate_du * e[h] + st.dstate_ds * ds[h];
+                    }
                 }
                 s = st.state;
             }
-            if s == s_start {
+            if record && s == s_start {
                 break;
             }
         }
         AftOutput {
             force: &self.fwd * &f,
-            jac_u: &self.fwd * dft,
+            jac_u: &self.fwd * dft_t.transpose(),
             jac_omega: DVector::zeros(nh),
         }
     }

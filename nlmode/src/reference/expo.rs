@@ -247,7 +247,7 @@ pub(crate) fn integrate(
     grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     ctl: &StepControl,
-    on_sample: &mut dyn FnMut(usize, &DVector<f64>, &[f64]),
+    on_sample: &mut super::SampleWithStates,
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
     let (dt, n) = (grid.interval_s, grid.count);

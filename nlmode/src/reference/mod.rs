@@ -351,6 +351,10 @@ pub struct SweepResult {
     pub stats: IntegrationStats,
 }
 
+/// The integrators' sample callback `(i, z, element_states)`: the hysteretic
+/// elements' states at the sample are needed for their forces.
+pub(crate) type SampleWithStates<'a> = dyn FnMut(usize, &DVector<f64>, &[f64]) + 'a;
+
 /// Uniform sample times `t_i = i interval_s`, `i = 0..=count`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SampleGrid {
@@ -393,7 +397,7 @@ fn integrate_with_states(
     grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     options: &ReferenceOptions,
-    on_sample: &mut dyn FnMut(usize, &DVector<f64>, &[f64]),
+    on_sample: &mut SampleWithStates,
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
     let ctl = options.validate()?;
