@@ -368,6 +368,60 @@ fn jenkins_joint_on_the_beam_by_reference_and_nlmode() {
     );
 }
 
+#[test]
+fn matrices_elements_between_points_and_cb_masters() {
+    let dir = tmpdir("mtx");
+    // four masses in a chain, grounded at the first
+    let m3 = "%%MatrixMarket matrix coordinate real symmetric\n4 4 4\n1 1 1.0\n2 2 1.0\n3 3 1.0\n4 4 1.0\n";
+    let k3 = "%%MatrixMarket matrix coordinate real symmetric\n4 4 7\n1 1 2e4\n2 1 -1e4\n2 2 2e4\n3 2 -1e4\n3 3 2e4\n4 3 -1e4\n4 4 1e4\n";
+    std::fs::write(dir.join("M.mtx"), m3).unwrap();
+    std::fs::write(dir.join("K.mtx"), k3).unwrap();
+    let sc = |reduction: &str, extra: &str| {
+        format!(
+            "[structure]\nkind = \"matrices\"\nmass_mtx = \"M.mtx\"\nstiffness_mtx = \"K.mtx\"\n\
+             rayleigh = [0.0, 1e-4]\nreduction = \"{reduction}\"\ncb_modes = 1\n{extra}\
+             [[structure.point]]\nname = \"a\"\ndof = 0\n[[structure.point]]\nname = \"b\"\ndof = 1\n\
+             [[structure.point]]\nname = \"c\"\ndof = 2\n\
+             [[nonlinearity]]\ntype = \"elastic-dry-friction\"\npoints = [\"c\", \"b\"]\n\
+             tangential_stiffness_n_per_m = 1e3\nslip_force_n = 0.1\n\
+             [[exciter]]\npoint = \"a\"\n[output]\nresponse_point = \"c\"\n"
+        )
+    };
+    let parse = |text: &str| {
+        let mut s = Scenario::parse(text).unwrap();
+        s.resolve_paths(&dir);
+        s
+    };
+    let full = Setup::new(&parse(&sc("none", ""))).unwrap();
+    assert_eq!(full.model.nonlinear.len(), 1);
+    assert_eq!(
+        full.model.nonlinear[0].direction.as_slice(),
+        &[0.0, -1.0, 1.0, 0.0]
+    );
+    // Craig-Bampton: the default masters are a (exciter), c and b (element)
+    let cb = Setup::new(&parse(&sc("craig-bampton", ""))).unwrap();
+    assert_eq!(cb.model.ndof(), 4);
+    let p = |n: &str| cb.model.point(n).unwrap().direction.clone();
+    assert_eq!(cb.model.nonlinear[0].direction, p("c") - p("b"));
+    // user masters must contain the element points
+    let e = Setup::new(&parse(&sc(
+        "craig-bampton",
+        "cb_masters = [\"a\", \"c\"]\n",
+    )))
+    .err()
+    .unwrap();
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains("structure.cb_masters") && msg.contains("'b'"),
+        "{msg}"
+    );
+    // an unknown point names the key
+    let bad = sc("none", "").replace("[\"c\", \"b\"]", "[\"c\", \"x\"]");
+    let e = Scenario::parse(&bad).unwrap_err();
+    assert_eq!(e.key, "nonlinearity[0].points[1]");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 fn host() -> Command {
     Command::new(env!("CARGO_BIN_EXE_host"))
 }

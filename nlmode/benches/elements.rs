@@ -8,8 +8,17 @@
 //!
 //! Run: `cargo bench -p nlmode --bench elements`.
 //!
-//! Measured (release, shared 2-core machine with other jobs, 2026-12-01):
-//! see the test docs of `host/tests/elements.rs` and the report of this bench.
+//! Measured (release, shared 2-core machine with four other builds running,
+//! 2026-12-01):
+//!
+//! | case | time per evaluation |
+//! |---|---|
+//! | `aft_h7/jenkins` (N = 29) | 17.7 us (16.4 .. 19.2) |
+//! | `aft_h7/cubic` (N = 29) | 17.5 us (15.1 .. 20.0) |
+//! | `aft_h7/jenkins_256` (N = 256) | 198 us |
+//!
+//! The march costs about as much as the memoryless path: both are dominated
+//! by the projection `dF/dU = fwd (df/dU)`, `(2H+1) x N x (2H+1)`.
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DVector;
 use nlmode::nma::hb::{cos_index, default_samples, sin_index, Aft};
