@@ -116,7 +116,72 @@ pub fn build_structure(
             st.boundary, opts.points
         )
     })?;
-    Ok((ps.model, ps.omega0_rad_s, ps.beam.model.ndof()))
+    if sc.nonlinearity.is_empty() {
+        return Ok((ps.model, ps.omega0_rad_s, ps.beam.model.ndof()));
+    }
+    // [[nonlinearity]] on the full beam; the Craig-Bampton masters are the tip
+    // and every element point
+    let mut full = ps.beam.model.clone();
+    add_nonlinearities(sc, &mut full)?;
+    let model = match st.reduction {
+        Reduction::CraigBampton => {
+            let dof = |p: &str| -> Result<usize> {
+                Ok(full
+                    .point(p)
+                    .map_err(|e| anyhow::anyhow!("{e}"))?
+                    .direction
+                    .iamax())
+            };
+            let mut masters = vec![dof(TIP)?];
+            for nl in &sc.nonlinearity {
+                for p in nl.point_names() {
+                    let d = dof(&p)?;
+                    if !masters.contains(&d) {
+                        masters.push(d);
+                    }
+                }
+            }
+            nlmode::structure::craig_bampton(&full, &masters, st.cb_modes)
+                .context("structure: Craig-Bampton reduction with the nonlinearity points")?
+                .reduced
+        }
+        Reduction::None => full,
+    };
+    Ok((model, ps.omega0_rad_s, ps.beam.model.ndof()))
+}
+
+/// Adds the scenario's `[[nonlinearity]]` elements to `model`, with directions
+/// from the model's own named points (`e` grounded, `e_a - e_b` relative; on a
+/// Craig-Bampton model whose masters include the points this equals projecting
+/// the full model's element). Errors name the key (`nonlinearity[0].point`).
+pub fn add_nonlinearities(sc: &Scenario, model: &mut StructuralModel) -> Result<()> {
+    for (i, nl) in sc.nonlinearity.iter().enumerate() {
+        let law = nl.law(i)?;
+        let names = nl.point_names();
+        let mut dirs = Vec::new();
+        for (j, p) in names.iter().enumerate() {
+            let key = match nl.point {
+                Some(_) => format!("nonlinearity[{i}].point"),
+                None => format!("nonlinearity[{i}].points[{j}]"),
+            };
+            let available: Vec<&str> = model.points.iter().map(|q| q.name.as_str()).collect();
+            let e = model.point(p).map_err(|_| {
+                anyhow::anyhow!(
+                    "{key}: unknown point '{p}'; the structure's points are {available:?}"
+                )
+            })?;
+            dirs.push(e.direction.clone());
+        }
+        let w = match dirs.as_slice() {
+            [a] => a.clone(),
+            [a, b] => a - b,
+            _ => anyhow::bail!("nonlinearity[{i}].points: expected one or two points"),
+        };
+        model
+            .add_nonlinear_shared(&nl.element_name(i), w, law)
+            .map_err(|e| anyhow::anyhow!("nonlinearity[{i}].name: {e}"))?;
+    }
+    Ok(())
 }
 
 /// The matrices structure of the scenario (paths already resolved), built by
@@ -183,11 +248,17 @@ pub fn build_matrices_structure(
         Some(m) => m.clone(),
         None => {
             let mut m: Vec<String> = Vec::new();
+            let elements: Vec<String> = sc
+                .nonlinearity
+                .iter()
+                .flat_map(|nl| nl.point_names())
+                .collect();
             let used = st
                 .nonlinear_point
                 .iter()
                 .filter(|_| st.k3_n_per_m3 != 0.0)
-                .chain(sc.exciter.iter().filter_map(|e| e.point.as_ref()));
+                .chain(sc.exciter.iter().filter_map(|e| e.point.as_ref()))
+                .chain(elements.iter());
             for p in used {
                 if m.iter().all(|q| dof(q) != dof(p)) {
                     m.push(p.clone());
@@ -211,7 +282,21 @@ pub fn build_matrices_structure(
         },
         allow_rigid_body_modes: st.allow_rigid_body_modes,
     };
-    matrix_structure(&opts).map_err(key)
+    if let (Some(m), Reduction::CraigBampton) = (&st.cb_masters, st.reduction) {
+        for (i, nl) in sc.nonlinearity.iter().enumerate() {
+            for p in nl.point_names() {
+                if m.iter().all(|q| dof(q) != dof(&p)) {
+                    anyhow::bail!(
+                        "structure.cb_masters: must include the DOF of point '{p}' of nonlinearity[{i}] (masters {m:?})"
+                    );
+                }
+            }
+        }
+    }
+    let mut ms = matrix_structure(&opts).map_err(key)?;
+    add_nonlinearities(sc, &mut ms.full)?;
+    add_nonlinearities(sc, &mut ms.model)?;
+    Ok(ms)
 }
 
 impl Setup {

@@ -365,10 +365,13 @@ pub fn continuation<R: Residual>(
             let attempt =
                 newton(res, xp, &row, target, opts).map_err(|(norm, it)| (norm, it, false));
             // reject a corrector that jumped to a distant branch (a converged
-            // point much farther away than the step length)
+            // point much farther away than the step length), unless the step
+            // is already at dsmin: a corner of the branch (the stick-slip
+            // transition of a friction element, where D(a) has a kink) puts
+            // the corrector's point farther than 2 ds at any step length
             let attempt = attempt.and_then(|(xn, jn, it)| {
                 let dist = (xn.component_div(scale) - &xs).norm();
-                if dist > 2.0 * ds {
+                if dist > 2.0 * ds && ds / 2.0 >= dsmin {
                     Err((0.0, it, true))
                 } else {
                     Ok((xn, jn, it))

@@ -158,7 +158,8 @@ pub enum AmplitudeRange {
 pub struct NmaOptions {
     /// Harmonic truncation order `H` (`eq:fourier`); the paper uses 13.
     pub harmonics: usize,
-    /// AFT time samples per period; default `4H+1` (exact for cubic laws).
+    /// AFT time samples per period; default `4H+1` (exact for cubic laws), at
+    /// least [`HYSTERETIC_DEFAULT_SAMPLES`] for a model with a hysteretic element.
     pub samples: Option<usize>,
     /// Which linear mode to continue, 0-based in ascending frequency (0 = the
     /// paper's "mode 1").
@@ -807,6 +808,25 @@ impl NmaResult {
 }
 
 /// A failed Newton solve of the refinement at amplitude `a` as
+/// Default AFT samples of a model with a hysteretic element (Jenkins): a sample
+/// switching between stick and slip is a corner of the nonlinear-mode branch,
+/// and with `4H+1` samples these corners are so large that Newton cycles across
+/// them near the maximum of `D(a)`; 256 samples pass them (and put the sampled
+/// loop's describing function within ~1e-5 of the exact one).
+pub const HYSTERETIC_DEFAULT_SAMPLES: usize = 256;
+
+/// The continuation options for `model`: as given, but for a model with a
+/// hysteretic element `dsmin` defaults to `1e-4 ds` (the stick-slip transition
+/// is a corner of the branch, passed at `dsmin`, and `D(a)` turns sharply at its
+/// maximum).
+fn continuation_for(model: &StructuralModel, c: &ContinuationOptions) -> ContinuationOptions {
+    let mut c = c.clone();
+    if has_hysteresis(model) && c.dsmin.is_none() {
+        c.dsmin = Some(1e-4 * c.ds);
+    }
+    c
+}
+
 /// [`NmaError::RefinementSolveFailed`].
 fn refine_failed(e: NmaError, amplitude: f64) -> NmaError {
     match e {
@@ -823,12 +843,27 @@ fn refine_failed(e: NmaError, amplitude: f64) -> NmaError {
     }
 }
 
-fn check_harmonics(harmonics: usize, samples: Option<usize>) -> Result<usize, NmaError> {
+/// Whether any nonlinear element of `model` is hysteretic.
+fn has_hysteresis(model: &StructuralModel) -> bool {
+    model.nonlinear.iter().any(|e| e.law.hysteresis().is_some())
+}
+
+/// The AFT samples: `samples`, by default `4H+1`, and at least
+/// [`HYSTERETIC_DEFAULT_SAMPLES`] for a model with a hysteretic element.
+fn check_harmonics(
+    model: &StructuralModel,
+    harmonics: usize,
+    samples: Option<usize>,
+) -> Result<usize, NmaError> {
     if harmonics == 0 {
         return Err(NmaError::NoHarmonics { harmonics });
     }
     let minimum = default_samples(harmonics);
-    let samples = samples.unwrap_or(minimum);
+    let samples = samples.unwrap_or(if has_hysteresis(model) {
+        minimum.max(HYSTERETIC_DEFAULT_SAMPLES)
+    } else {
+        minimum
+    });
     if samples < minimum {
         return Err(NmaError::TooFewSamples {
             samples,
@@ -885,7 +920,7 @@ pub fn nonlinear_modal_analysis(
     model: &StructuralModel,
     opts: &NmaOptions,
 ) -> Result<NmaResult, NmaError> {
-    check_harmonics(opts.harmonics, opts.samples)?;
+    check_harmonics(model, opts.harmonics, opts.samples)?;
     let n = model.mass.nrows();
     if opts.mode_index >= n {
         return Err(NmaError::ModeIndexOutOfRange {
@@ -906,7 +941,7 @@ pub fn nonlinear_modal_analysis_with_basis(
     basis: Arc<ModalBasis>,
     opts: &NmaOptions,
 ) -> Result<NmaResult, NmaError> {
-    let samples = check_harmonics(opts.harmonics, opts.samples)?;
+    let samples = check_harmonics(model, opts.harmonics, opts.samples)?;
     let n = model.mass.nrows();
     assert_eq!(basis.n_modes(), n, "modal basis of another model");
     assert_eq!(
@@ -1051,7 +1086,7 @@ pub fn nonlinear_modal_analysis_with_basis(
         res.linear_guess(lg_start),
         lg_end,
         &scale,
-        &opts.continuation,
+        &continuation_for(model, &opts.continuation),
         on_point,
     );
     let summary = match &outcome {
@@ -1235,7 +1270,7 @@ impl<'a> AmplitudeSolver<'a> {
         basis: Arc<ModalBasis>,
         opts: &'a NmaOptions,
     ) -> Result<Self, NmaError> {
-        let samples = check_harmonics(opts.harmonics, opts.samples)?;
+        let samples = check_harmonics(model, opts.harmonics, opts.samples)?;
         let point_ids = point_indices(model, &opts.points)?;
         let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, opts.mode_index);
         let point_modal = modal_directions(model, &basis, &point_ids);
@@ -1495,7 +1530,7 @@ pub fn forced_response(
     model: &StructuralModel,
     opts: &ForcedResponseOptions,
 ) -> Result<ForcedResponse, NmaError> {
-    let samples = check_harmonics(opts.harmonics, opts.samples)?;
+    let samples = check_harmonics(model, opts.harmonics, opts.samples)?;
     let n = model.mass.nrows();
     if opts.force.len() != n {
         return Err(NmaError::ForceLength {
@@ -1544,7 +1579,7 @@ pub fn forced_response(
         res.linear_guess(opts.omega_start),
         opts.omega_end,
         &scale,
-        &opts.continuation,
+        &continuation_for(model, &opts.continuation),
         |s| {
             out.points.push(ForcedResponsePoint {
                 omega_rad_s: s.x[m],

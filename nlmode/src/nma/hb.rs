@@ -19,7 +19,19 @@
 //! Jacobian `dF/dU = E diag(df/du) E^-1 + omega E diag(df/dv) D E^-1` needs the
 //! full matrices anyway, and for the few nonlinear DOFs of a local nonlinearity
 //! the matrix products are as cheap as FFTs at these sizes (`N` ~ 50).
-use crate::structure::NonlinearLaw;
+//!
+//! **Hysteretic laws** ([`crate::structure::Hysteresis`], e.g. the Jenkins
+//! element) have no force `f(u, v)`: the AFT marches the internal state over the
+//! sampled period, starting from the relaxed state at the mean displacement
+//! `U[0]` (a stuck slider carrying no mean force), and repeats the period until
+//! the state at its end equals the state at its start; the last period's force
+//! samples are projected. For a play-type element (Jenkins) the second period is
+//! periodic: the first one visits the sampled maximum and minimum. The Jacobian
+//! is the exact derivative of these force samples with respect to `U`, by the
+//! chain rule through the march (`d s_t/dU` is carried along): in stick
+//! `df_t/dU = k_t (E_t - E_slip)` with `E_slip` the row of the last slip sample
+//! (or of the mean), in slip `0`.
+use crate::structure::{Hysteresis, NonlinearLaw};
 use nalgebra::{DMatrix, DVector};
 use std::f64::consts::PI;
 
@@ -69,6 +81,8 @@ pub struct Aft {
     inv: DMatrix<f64>,
     /// `N x (2H+1)`: `du/dtau(tau_t) = dinv[t, :] U`.
     dinv: DMatrix<f64>,
+    /// `inv^T`, `(2H+1) x N`: the rows of `inv` contiguous (hysteretic march).
+    inv_t: DMatrix<f64>,
     /// `(2H+1) x N`: `U = fwd f(tau_t)` (least-squares / exact projection).
     fwd: DMatrix<f64>,
 }
@@ -118,6 +132,7 @@ impl Aft {
         Self {
             harmonics,
             samples,
+            inv_t: inv.transpose(),
             inv,
             dinv,
             fwd,
@@ -146,6 +161,9 @@ impl Aft {
     /// oscillation frequency `omega` [rad/s]: force harmonics and analytic
     /// Jacobians `dF/dU`, `dF/domega`.
     pub fn eval(&self, law: &dyn NonlinearLaw, u: &DVector<f64>, omega: f64) -> AftOutput {
+        if let Some(h) = law.hysteresis() {
+            return self.eval_hysteretic(h, u);
+        }
         let n = self.samples;
         let nh = self.n_coeffs();
         let ut = &self.inv * u;
@@ -174,6 +192,60 @@ impl Aft {
             force,
             jac_u,
             jac_omega,
+        }
+    }
+    /// Most periods marched by [`Aft::eval`] for a hysteretic law (two suffice
+    /// for a play-type element; the cap only bounds exotic laws).
+    pub const MAX_HYSTERESIS_PERIODS: usize = 4;
+
+    /// The AFT of a hysteretic law (see the module docs); rate independent, so
+    /// `dF/domega = 0`.
+    fn eval_hysteretic(&self, law: &dyn Hysteresis, u: &DVector<f64>) -> AftOutput {
+        let n = self.samples;
+        let nh = self.n_coeffs();
+        let ut = &self.inv * u;
+        let rows = self.inv_t.as_slice();
+        let mut f = DVector::zeros(n);
+        // column t: d f_t / dU (the transposed sample Jacobian)
+        let mut dft_t = DMatrix::zeros(nh, n);
+        let (mut s, ds0) = law.relaxed_state(u[0]);
+        // d s / dU, a row of length 2H+1 (the mean U[0] only, at the start)
+        let mut ds = vec![0.0; nh];
+        ds[0] = ds0;
+        // the first period only moves the state; later ones record the forces
+        // until the state at the end of a period equals that at its start
+        for period in 0..Self::MAX_HYSTERESIS_PERIODS {
+            let s_start = s;
+            let record = period > 0;
+            for t in 0..n {
+                let st = law.step(s, ut[t]);
+                let e = &rows[t * nh..(t + 1) * nh];
+                if record {
+                    f[t] = st.force;
+                    let col = &mut dft_t.as_mut_slice()[t * nh..(t + 1) * nh];
+                    for h in 0..nh {
+                        col[h] = st.dforce_du * e[h] + st.dforce_ds * ds[h];
+                    }
+                }
+                if st.dstate_ds == 0.0 {
+                    for h in 0..nh {
+                        ds[h] = st.dstate_du * e[h];
+                    }
+                } else if !(st.dstate_ds == 1.0 && st.dstate_du == 0.0) {
+                    for h in 0..nh {
+                        ds[h] = st.dstate_du * e[h] + st.dstate_ds * ds[h];
+                    }
+                }
+                s = st.state;
+            }
+            if record && s == s_start {
+                break;
+            }
+        }
+        AftOutput {
+            force: &self.fwd * &f,
+            jac_u: &self.fwd * dft_t.transpose(),
+            jac_omega: DVector::zeros(nh),
         }
     }
 }
@@ -244,5 +316,148 @@ mod tests {
         let fd = (aft.eval(&Poly, &u, omega + h).force - aft.eval(&Poly, &u, omega - h).force)
             / (2.0 * h);
         assert!((fd - &out.jac_omega).norm() < 1e-8);
+    }
+
+    /// First harmonic of the Jenkins loop for `u = x cos(theta)`, `x > F_s/k_t`
+    /// (derived in `host/tests/elements.rs`): with `cos(theta*) = 1 - 2 F_s/(k_t x)`,
+    /// `F_c = k_t x (theta* - sin(2 theta*)/2) / pi`, `F_s = -4 F_s (1 - F_s/(k_t x)) / pi`.
+    fn jenkins_first_harmonic(kt: f64, fs: f64, x: f64) -> (f64, f64) {
+        let th = (1.0 - 2.0 * fs / (kt * x)).acos();
+        (
+            kt * x * (th - (2.0 * th).sin() / 2.0) / PI,
+            -4.0 * fs * (1.0 - fs / (kt * x)) / PI,
+        )
+    }
+
+    #[test]
+    fn jenkins_aft_matches_the_sampled_loop_and_the_describing_function() {
+        use crate::structure::ElasticDryFriction;
+        let (kt, fs, x) = (2e5, 3.0, 4e-5);
+        let law = ElasticDryFriction::new(kt, fs).unwrap();
+        let th = (1.0 - 2.0 * fs / (kt * x)).acos();
+        // the loop in closed form (turning points on samples: N even): f(theta) on
+        // the descending branch, odd half-wave
+        let loop_force = |theta: f64| -> f64 {
+            let t = theta.rem_euclid(2.0 * PI);
+            let (t, sg) = if t < PI { (t, 1.0) } else { (t - PI, -1.0) };
+            sg * if t <= th {
+                fs - kt * x * (1.0 - t.cos())
+            } else {
+                -fs
+            }
+        };
+        for (h, n) in [(1, 6), (7, 30), (7, 64), (3, 1000)] {
+            let aft = Aft::new(h, n);
+            let mut u = DVector::zeros(2 * h + 1);
+            u[cos_index(1)] = x;
+            let out = aft.eval(&law, &u, 300.0);
+            let samples = DVector::from_fn(n, |t, _| loop_force(2.0 * PI * t as f64 / n as f64));
+            let expect = &aft.fwd * samples;
+            assert!((&out.force - &expect).amax() < 1e-12 * fs, "H={h} N={n}");
+            assert_eq!(out.jac_omega.amax(), 0.0);
+        }
+        // the describing function: O(N^-2) sampling error from the slip-onset kink
+        let (fc, fsn) = jenkins_first_harmonic(kt, fs, x);
+        let aft = Aft::new(1, 1 << 16);
+        let mut u = DVector::zeros(3);
+        u[cos_index(1)] = x;
+        let out = aft.eval(&law, &u, 1.0);
+        assert!(
+            (out.force[cos_index(1)] - fc).abs() < 1e-9 * kt * x,
+            "{out:?} {fc}"
+        );
+        assert!((out.force[sin_index(1)] - fsn).abs() < 1e-9 * kt * x);
+        assert!(out.force[0].abs() < 1e-12 * fs);
+        // stick: linear with k_t on the oscillating part, no mean force
+        let mut u = DVector::zeros(3);
+        u[0] = 1e-3;
+        u[cos_index(1)] = 0.4 * fs / kt;
+        let out = Aft::new(1, 64).eval(&law, &u, 1.0);
+        assert!((out.force[cos_index(1)] - 0.4 * fs).abs() < 1e-12 * fs);
+        assert!(out.force[0].abs() < 1e-12 * fs && out.force[sin_index(1)].abs() < 1e-12 * fs);
+    }
+
+    #[test]
+    fn jenkins_aft_jacobian_is_the_exact_derivative() {
+        use crate::structure::ElasticDryFriction;
+        let law = ElasticDryFriction::new(1e5, 2.0).unwrap();
+        let aft = Aft::new(3, 31);
+        let u = DVector::from_vec(vec![1e-5, 6e-5, -1e-5, 0.0, 1.5e-5, 4e-6, -3e-6]);
+        let out = aft.eval(&law, &u, 10.0);
+        // piecewise linear in U: central differences are exact away from switches
+        let h = 1e-11;
+        for j in 0..7 {
+            let mut up = u.clone();
+            up[j] += h;
+            let mut um = u.clone();
+            um[j] -= h;
+            let fd =
+                (aft.eval(&law, &up, 10.0).force - aft.eval(&law, &um, 10.0).force) / (2.0 * h);
+            let err = (fd - out.jac_u.column(j)).amax();
+            assert!(err < 1e-5 * 1e5, "column {j}: {err}");
+        }
+        assert!(out.jac_u.amax() > 1e3);
+    }
+
+    #[test]
+    fn polynomial_and_quadratic_damper_aft_match_closed_forms() {
+        use crate::structure::{PolynomialSpring, QuadraticDamper};
+        // (x cos)^2 = x^2/2 (1 + cos 2), (x cos)^3 = x^3 (3 cos + cos 3)/4
+        let (c2, c3, x) = (3e5, 2e9, 1e-3);
+        let law = PolynomialSpring::new(&[(2, c2), (3, c3)]).unwrap();
+        let aft = Aft::new(3, default_samples(3));
+        let mut u = DVector::zeros(7);
+        u[cos_index(1)] = x;
+        let out = aft.eval(&law, &u, 1.0);
+        let scale = c3 * x.powi(3);
+        assert!((out.force[0] - c2 * x * x / 2.0).abs() < 1e-10 * scale);
+        assert!((out.force[cos_index(1)] - 0.75 * c3 * x.powi(3)).abs() < 1e-10 * scale);
+        assert!((out.force[cos_index(2)] - c2 * x * x / 2.0).abs() < 1e-10 * scale);
+        assert!((out.force[cos_index(3)] - 0.25 * c3 * x.powi(3)).abs() < 1e-10 * scale);
+        // v = -omega x sin: v|v| has first sine harmonic -(8/(3 pi)) (omega x)^2;
+        // v|v| is C^1 with its kinks on samples, so the AFT error is O(N^-4)
+        let (c, om) = (5.0, 300.0);
+        let law = QuadraticDamper::new(c).unwrap();
+        let aft = Aft::new(3, 4096);
+        let out = aft.eval(&law, &u, om);
+        let s1 = -8.0 / (3.0 * PI) * c * (om * x).powi(2);
+        assert!(
+            (out.force[sin_index(1)] - s1).abs() < 1e-10 * s1.abs(),
+            "{}",
+            out.force[sin_index(1)] - s1
+        );
+        // sin|sin| = -(8/pi) sum_{n odd} sin(n theta) / (n (n^2 - 4))
+        let s3 = 8.0 / (15.0 * PI) * c * (om * x).powi(2);
+        assert!(
+            (out.force[sin_index(3)] - s3).abs() < 1e-10 * s1.abs(),
+            "{}",
+            out.force[sin_index(3)] - s3
+        );
+    }
+
+    #[test]
+    fn unilateral_spring_aft_converges_to_the_closed_form() {
+        use crate::structure::UnilateralSpring;
+        // contact for cos > g/x: F_0 = k (x sin tc - g tc)/pi,
+        // F_1c = k (x (tc + sin tc cos tc) - 2 g sin tc)/pi, tc = acos(g/x)
+        let (k, g, x) = (1e6, 3e-4, 1e-3);
+        let law = UnilateralSpring::new(k, g).unwrap();
+        let tc = (g / x).acos();
+        let f0 = k * (x * tc.sin() - g * tc) / PI;
+        let f1 = k * (x * (tc + tc.sin() * tc.cos()) - 2.0 * g * tc.sin()) / PI;
+        let aft = Aft::new(1, 1 << 18);
+        let mut u = DVector::zeros(3);
+        u[cos_index(1)] = x;
+        let out = aft.eval(&law, &u, 1.0);
+        assert!(
+            (out.force[0] - f0).abs() < 1e-10 * k * x,
+            "{}",
+            out.force[0] - f0
+        );
+        assert!(
+            (out.force[cos_index(1)] - f1).abs() < 1e-10 * k * x,
+            "{}",
+            out.force[cos_index(1)] - f1
+        );
     }
 }

@@ -18,23 +18,27 @@ use super::{IntegrationStats, ReferenceError, SampleGrid, StepControl};
 use crate::dopri::{self, Controller, ErrorScale, Stop, Tolerances};
 use nalgebra::DVector;
 
-/// Integrate from `z0` at `t = 0` over the sample grid, calling `on_sample(i, z)`
-/// at `t = i dt`.
+/// Integrate from `z0` at `t = 0` over the sample grid, calling
+/// `on_sample(i, z, element_states)` at `t = i dt`.
 pub(crate) fn integrate(
     sys: &FirstOrderSystem,
     z0: &DVector<f64>,
     grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     ctl: &StepControl,
-    on_sample: &mut dyn FnMut(usize, &DVector<f64>),
+    on_sample: &mut super::SampleWithStates,
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
     let (dt, n) = (grid.interval_s, grid.count);
     let nz = sys.nz();
     let t_end = n as f64 * dt;
     let mut f = vec![0.0; sys.m()];
+    // hysteretic element states: frozen over a step (the stages evaluate the
+    // elements from the state at the step start), advanced once it is accepted
+    let states = std::cell::RefCell::new(sys.initial_element_states(z0));
+    let hysteretic = sys.has_hysteresis();
     let rhs = |t: f64, z: &DVector<f64>, dz: &mut DVector<f64>| -> Result<(), ReferenceError> {
-        sys.rhs(input(t), z, &mut f, dz);
+        sys.rhs(input(t), z, &states.borrow(), &mut f, dz);
         Ok(())
     };
     let tol = Tolerances {
@@ -51,15 +55,18 @@ pub(crate) fn integrate(
     let mut sample_z = DVector::zeros(nz);
     let mut next_sample = 1usize;
     let mut next_progress = 0.0;
-    on_sample(0, z0);
+    on_sample(0, z0, &states.borrow());
     let (stats, stop) = dopri::integrate(rhs, 0.0, z0.clone(), t_end, &tol, |d, z| {
         // samples inside (t, t + h] from the continuous extension
         let t_new = d.t0 + d.h;
         while next_sample <= n && (next_sample as f64 * dt) <= t_new * (1.0 + 1e-14) {
             let ts = (next_sample as f64 * dt).clamp(d.t0, t_new);
             d.eval_into(ts, &mut sample_z);
-            on_sample(next_sample, &sample_z);
+            on_sample(next_sample, &sample_z, &states.borrow());
             next_sample += 1;
+        }
+        if hysteretic {
+            sys.advance_element_states(z, &mut states.borrow_mut());
         }
         ctl.check_state(z, zmax.as_mut_slice(), t_new)?;
         let frac = t_new / t_end;

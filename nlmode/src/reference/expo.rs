@@ -232,7 +232,13 @@ fn build_level(sys: &FirstOrderSystem, d: &DVector<f64>, h: f64, s: usize) -> Le
 }
 
 /// Integrate `z' = A z + b u(t) + G f(z)` from `z0` at `t = 0` over the sample
-/// grid, calling `on_sample(i, z)` at `t = i dt`.
+/// grid, calling `on_sample(i, z, element_states)` at `t = i dt`.
+///
+/// Hysteretic elements: within a step their state marches through the
+/// collocation nodes in order from the state at the step start (the Newton
+/// Jacobian keeps the local `df/du` of each node and drops the `O(h^2)` coupling
+/// through the earlier nodes' states); an accepted step stores the state at its
+/// end.
 // `!(enorm <= 1)` also rejects NaN; `%` kept for the workspace's rust-version 1.80
 #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::manual_is_multiple_of)]
 pub(crate) fn integrate(
@@ -241,7 +247,7 @@ pub(crate) fn integrate(
     grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     ctl: &StepControl,
-    on_sample: &mut dyn FnMut(usize, &DVector<f64>),
+    on_sample: &mut super::SampleWithStates,
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
     let (dt, n) = (grid.interval_s, grid.count);
@@ -276,7 +282,10 @@ pub(crate) fn integrate(
     // previous accepted step: (start time, node spacing) and node forces
     let mut prev: Option<(f64, f64)> = None;
     let mut prev_f = vec![0.0; s * m];
-    on_sample(0, &z);
+    let hysteretic = sys.has_hysteresis();
+    let mut states = sys.initial_element_states(&z);
+    let mut node_states = states.clone();
+    on_sample(0, &z, &states);
     let mut next_progress = 0.0;
     while pos < end {
         if stats.steps + stats.rejected >= ctl.max_steps {
@@ -298,7 +307,7 @@ pub(crate) fn integrate(
         for l in 0..s {
             r[l * mf] = input(t + l as f64 * tau);
         }
-        sys.forces(&z, &mut f0);
+        sys.forces(&z, &states, &mut f0);
         stats.law_evals += m;
         // initial guess of the node forces: the previous step's interpolation
         // polynomial, extrapolated (constant force on the first step)
@@ -340,10 +349,13 @@ pub(crate) fn integrate(
                 let mut fscale: f64 = f64::MIN_POSITIVE;
                 pall.copy_from(&base);
                 pall.gemv_tr(1.0, &lv.pq_t, &r, 1.0);
+                node_states.copy_from_slice(&states);
                 for j in 1..s {
                     let pj = (j - 1) * np;
                     for e in 0..m {
-                        let (fe, dfu, dfv) = sys.laws[e].eval(pall[pj + e], pall[pj + m + e]);
+                        let (fe, dfu, dfv, se) =
+                            sys.element(e, node_states[e], pall[pj + e], pall[pj + m + e]);
+                        node_states[e] = se;
                         stats.law_evals += 1;
                         let row = (j - 1) * m + e;
                         let cur = r[j * mf + 1 + e];
@@ -402,6 +414,17 @@ pub(crate) fn integrate(
             last_rejected = true;
             continue;
         }
+        if hysteretic {
+            // the states through the converged nodes of this step
+            pall.copy_from(&base);
+            pall.gemv_tr(1.0, &lv.pq_t, &r, 1.0);
+            for j in 1..s {
+                let pj = (j - 1) * np;
+                for (e, se) in states.iter_mut().enumerate() {
+                    *se = sys.element(e, *se, pall[pj + e], pall[pj + m + e]).3;
+                }
+            }
+        }
         std::mem::swap(&mut z, &mut znew);
         prev = Some((t, tau));
         for l in 0..s {
@@ -414,7 +437,7 @@ pub(crate) fn integrate(
         let t_new = pos as f64 * tick;
         ctl.check_state(&z, zmax.as_mut_slice(), t_new)?;
         if pos % one == 0 {
-            on_sample((pos / one) as usize, &z);
+            on_sample((pos / one) as usize, &z, &states);
             let frac = pos as f64 / end as f64;
             if frac >= next_progress {
                 progress(frac);

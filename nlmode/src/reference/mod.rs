@@ -351,6 +351,10 @@ pub struct SweepResult {
     pub stats: IntegrationStats,
 }
 
+/// The integrators' sample callback `(i, z, element_states)`: the hysteretic
+/// elements' states at the sample are needed for their forces.
+pub(crate) type SampleWithStates<'a> = dyn FnMut(usize, &DVector<f64>, &[f64]) + 'a;
+
 /// Uniform sample times `t_i = i interval_s`, `i = 0..=count`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SampleGrid {
@@ -373,8 +377,30 @@ pub fn integrate(
     on_sample: &mut dyn FnMut(usize, &DVector<f64>),
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
-    let ctl = options.validate()?;
     assert_eq!(z0.len(), system.first_order.nz(), "initial state length");
+    integrate_with_states(
+        system,
+        z0,
+        grid,
+        input,
+        options,
+        &mut |i, z, _states| on_sample(i, z),
+        progress,
+    )
+}
+
+/// [`integrate`] with the hysteretic elements' states handed to
+/// `on_sample(i, z, element_states)` (the forces at a sample need them).
+fn integrate_with_states(
+    system: &AssembledSystem,
+    z0: &DVector<f64>,
+    grid: SampleGrid,
+    input: &dyn Fn(f64) -> f64,
+    options: &ReferenceOptions,
+    on_sample: &mut SampleWithStates,
+    progress: &mut dyn FnMut(f64),
+) -> Result<IntegrationStats, ReferenceError> {
+    let ctl = options.validate()?;
     let integrate = match options.method {
         Integrator::Exponential => expo::integrate,
         Integrator::DormandPrince => dopri::integrate,
@@ -422,9 +448,9 @@ pub fn simulate_sweep_with_progress(
     let mut f = vec![0.0; m];
     let z0 = DVector::zeros(system.first_order.nz());
     let stats = {
-        let mut on_sample = |i: usize, z: &DVector<f64>| {
+        let mut on_sample = |i: usize, z: &DVector<f64>, states: &[f64]| {
             let u = sweep.value(i as f64 * dt);
-            system.first_order.forces(z, &mut f);
+            system.first_order.forces(z, states, &mut f);
             system.observe(z, u, &f, &mut obs);
             record[i * nobs..(i + 1) * nobs].copy_from_slice(obs.as_slice());
         };
@@ -433,7 +459,7 @@ pub fn simulate_sweep_with_progress(
             interval_s: dt,
             count: n,
         };
-        integrate(
+        integrate_with_states(
             &system,
             &z0,
             grid,

@@ -7,8 +7,9 @@
 //! * [`beam`]: Euler-Bernoulli beam finite elements (cubic Hermite shape functions,
 //!   consistent mass), 2 DOF per node, common boundary conditions.
 //! * [`CubicSpring`]: `f = k3 u^3`, the paper's nonlinearity (Section 5). Further laws
-//!   are one [`NonlinearLaw`] type each; [`laws`] has a unilateral spring and
-//!   regularised Coulomb friction.
+//!   are one [`NonlinearLaw`] type each; [`laws`] has polynomial springs, a
+//!   unilateral spring, regularised Coulomb friction, a quadratic damper and the
+//!   hysteretic Jenkins element (with a [`Hysteresis`]).
 //! * [`damping`]: stiffness-proportional (calibrated on a mode), Rayleigh and modal damping.
 //! * [`modal`]: linear modal analysis, `K phi = omega^2 M phi`.
 //! * [`mod@craig_bampton`]: Craig-Bampton reduction with chosen master DOFs and fixed-interface modes.
@@ -23,11 +24,48 @@ use std::sync::Arc;
 ///
 /// A new nonlinearity (unilateral spring, regularised friction, ...) is one
 /// type implementing this trait.
+///
+/// A law with memory (hysteresis, e.g. the Jenkins element
+/// [`laws::ElasticDryFriction`]) also returns its [`Hysteresis`] from
+/// [`NonlinearLaw::hysteresis`]: the consumers (the AFT of [`crate::nma::hb`], the
+/// reference integrators) then march its internal state instead of calling
+/// [`NonlinearLaw::eval`], which for such a law is the virgin response from the
+/// relaxed state at `u = 0` (the first-loading curve).
 pub trait NonlinearLaw: std::fmt::Debug + Send + Sync {
     /// Short name used in logs and files.
     fn name(&self) -> &str;
     /// Force [N] and its partial derivatives `(f, df/du, df/dv)`.
     fn eval(&self, u: f64, v: f64) -> (f64, f64, f64);
+    /// The internal-state description of a hysteretic law; `None` (the default)
+    /// for a memoryless law `f(u, v)`.
+    fn hysteresis(&self) -> Option<&dyn Hysteresis> {
+        None
+    }
+}
+
+/// A rate-independent hysteretic law with one scalar internal state `s` (for the
+/// Jenkins element the slider position [m]): the force after moving to the
+/// displacement `u` from state `s` is `f(s, u)`, and the state becomes `s'(s, u)`.
+/// The partial derivatives make the chain rule through a whole time march exact
+/// (the AFT Jacobian of [`crate::nma::hb::Aft::eval`]).
+pub trait Hysteresis: std::fmt::Debug + Send + Sync {
+    /// The relaxed state at displacement `u` (zero force, e.g. a stuck slider at
+    /// `u`) and its derivative `ds/du`.
+    fn relaxed_state(&self, u: f64) -> (f64, f64);
+    /// Move from state `s` to displacement `u`.
+    fn step(&self, s: f64, u: f64) -> HystereticStep;
+}
+
+/// Result of [`Hysteresis::step`]: force [N], new state and their partial
+/// derivatives with respect to the displacement `u` and the previous state `s`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HystereticStep {
+    pub force: f64,
+    pub dforce_du: f64,
+    pub dforce_ds: f64,
+    pub state: f64,
+    pub dstate_du: f64,
+    pub dstate_ds: f64,
 }
 
 /// A nonlinear element of the structure: a law and the direction it acts along.
@@ -77,7 +115,9 @@ pub use damping::{
     modal_damping, rayleigh_damping, stiffness_proportional_damping,
     stiffness_proportional_damping_from_modes,
 };
-pub use laws::{RegularizedFriction, UnilateralSpring};
+pub use laws::{
+    ElasticDryFriction, PolynomialSpring, QuadraticDamper, RegularizedFriction, UnilateralSpring,
+};
 pub use matrices::{
     matrix_structure, read_matrix_market, MatricesError, MatrixDamping, MatrixRole,
     MatrixStructure, MatrixStructureOptions,
