@@ -8,6 +8,8 @@
 //!   demodulation over the running excitation period, PI frequency update
 //!   towards 90 degrees lag of the drive-point displacement behind the force),
 //!   stepped through voltage levels; modal damping from the power balance.
+//! - [`force`]: force control, a stepped sine whose voltage holds the
+//!   fundamental of the force at the structure at a set value.
 //! - [`plant`]: the plant driven by the full-order reference assembly
 //!   (`eq:finalassembly1`-`eq:finalassembly2`), for the paper beam with its
 //!   shaker or a single-DOF Duffing oscillator with the paper's shaker.
@@ -27,14 +29,20 @@
 //!
 //! exact for harmonics `h < N/2` of a periodic signal (the rectangle rule is
 //! exact on trigonometric polynomials over a full period).
+pub mod force;
 pub mod plant;
 pub mod pll;
 
+pub use force::{
+    force_controlled_stepped_sine, ForceControlOptions, ForceControlResult, ForceStep,
+};
 pub use plant::{DuffingOscillator, ReferencePlant};
 pub use pll::{
     phase_resonance, PhaseLockedLoop, PhaseMeasurement, PllLevel, PllOptions, PllResult,
 };
 
+#[cfg(test)]
+mod force_tests;
 #[cfg(test)]
 mod pll_tests;
 
