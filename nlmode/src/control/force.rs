@@ -83,7 +83,7 @@ impl ForceControlOptions {
                 return bad(name, v.to_string(), "a number in (0, 1)");
             }
         }
-        if !(self.max_voltage_v > 0.0) {
+        if self.max_voltage_v.is_nan() || self.max_voltage_v <= 0.0 {
             return bad(
                 "max_voltage_v",
                 self.max_voltage_v.to_string(),
