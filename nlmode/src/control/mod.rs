@@ -60,6 +60,8 @@ pub enum ControlError {
     },
     #[error("the plant has no attachment with an interface point (no force to measure)")]
     NoAttachment,
+    #[error("assembly of the plant: {0}")]
+    Assembly(#[source] ReferenceError),
     #[error("time integration of the plant failed at t = {time_s} s: {source}")]
     Integration {
         time_s: f64,

@@ -44,13 +44,8 @@ impl ReferencePlant {
         attachments: &[LinearAttachment],
         options: &ReferenceOptions,
     ) -> Result<Self, ControlError> {
-        let system =
-            AssembledSystem::new(model, attachments, &options.tip_point).map_err(|source| {
-                ControlError::Integration {
-                    time_s: 0.0,
-                    source,
-                }
-            })?;
+        let system = AssembledSystem::new(model, attachments, &options.tip_point)
+            .map_err(ControlError::Assembly)?;
         let obs = system
             .observations
             .iter()

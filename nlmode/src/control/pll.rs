@@ -34,7 +34,7 @@
 //! almost static, `e_{n+1} = e_n - (k_i e_n + k_p (e_n - e_{n-1})) / D`, and
 //! stable only for `k_i + 2 k_p < 2 D`. The defaults `k_i = k_p = 0.001`
 //! therefore hold for modal damping ratios down to about 0.15 %; they reduce the
-//! phase error by a factor `1 - k_i / D` per period in the strongly coupled case
+//! phase error by a factor of about `1 - k_i / D` per period in the strongly coupled case
 //! (0.75 for the paper beam, `D = 0.4 %`) and, under an imposed force, close a
 //! loop of natural frequency `Omega sqrt(k_i / (2 pi))` (a loop period of about
 //! 80 excitation periods). Lightly damped structures need smaller gains.

@@ -99,3 +99,24 @@ fn unstable_gains_leave_levels_unsettled_but_recorded() {
     let e = phase_resonance(&mut plant, 356.0, &[0.0], 1.0, &PllOptions::default()).unwrap_err();
     assert!(e.to_string().contains("voltage_levels_v"), "{e}");
 }
+
+/// A plant without an exciter, or with an unknown tip point, is refused at
+/// assembly with the reason.
+#[test]
+fn plant_errors_name_the_cause() {
+    let d = duffing();
+    let model = d.model().unwrap();
+    let e = super::ReferencePlant::new(&model, &[], &ReferenceOptions::default()).unwrap_err();
+    assert_eq!(e, super::ControlError::NoAttachment);
+    let att =
+        crate::attachment::LinearAttachment::shaker("s", &ShakerParams::paper(), "tip").unwrap();
+    let opts = ReferenceOptions {
+        tip_point: "nowhere".into(),
+        ..Default::default()
+    };
+    let e = super::ReferencePlant::new(&model, &[att], &opts).unwrap_err();
+    assert!(
+        e.to_string().contains("assembly") && e.to_string().contains("nowhere"),
+        "{e}"
+    );
+}
