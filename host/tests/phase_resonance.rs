@@ -186,6 +186,8 @@ fn bad_phase_resonance_keys_name_the_key() {
         let e = Scenario::parse(text).unwrap_err();
         assert_eq!(e.key, key, "{text}: {e}");
     }
+    let e = Scenario::parse("[phase_resonance.pll]\nkd = 1.0\n").unwrap_err();
+    assert_eq!(e.key, "phase_resonance.pll.kd", "{e}");
     let sc = Scenario::parse("[run]\nmethods = [\"phase-resonance\"]\n").unwrap();
     assert_eq!(sc.phase_resonance.voltage_levels_v.len(), 12);
     let ex = std::fs::read_to_string(concat!(
