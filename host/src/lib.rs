@@ -8,6 +8,7 @@
 //! frequency responses; `host package` packages the FMUs; `host cosim` runs a
 //! generic co-simulation file.
 #![forbid(unsafe_code)]
+pub mod controlled;
 pub mod cosim_cmd;
 pub mod methods;
 pub mod model;

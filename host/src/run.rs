@@ -246,6 +246,14 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                     .0,
                 );
             }
+            Method::PhaseResonance => {
+                done.push(crate::controlled::phase_resonance(
+                    &setup,
+                    &sc,
+                    table(),
+                    out,
+                )?);
+            }
             Method::Cosim => {
                 let Some(f) = fmus.as_ref().or(given_fmus.as_ref()) else {
                     continue; // FMUs not packaged: recorded in `failed`

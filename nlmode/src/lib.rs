@@ -17,6 +17,7 @@
 
 pub mod attachment;
 pub mod benchmark;
+pub mod control;
 mod dopri;
 pub mod envelope;
 pub mod excitation;

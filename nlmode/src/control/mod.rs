@@ -1,0 +1,185 @@
+//! Controlled virtual vibration tests (issue 16): the controller drives a
+//! [`Plant`] (the structure with its shaker) one excitation period at a time and
+//! reads what a test rig measures, the force at the structure (the stinger force
+//! of `eq:fc1`'s attachment, as a force sensor on the structure sees it) and the
+//! drive-point and tip displacements.
+//!
+//! - [`pll`]: the phase-locked loop for phase resonance (phase detector by
+//!   demodulation over the running excitation period, PI frequency update
+//!   towards 90 degrees lag of the drive-point displacement behind the force),
+//!   stepped through voltage levels; modal damping from the power balance.
+//! - [`force`]: force control, a stepped sine whose voltage holds the
+//!   fundamental of the force at the structure at a set value.
+//! - [`plant`]: the plant driven by the full-order reference assembly
+//!   (`eq:finalassembly1`-`eq:finalassembly2`), for the paper beam with its
+//!   shaker or a single-DOF Duffing oscillator with the paper's shaker.
+//!
+//! # Demodulation
+//!
+//! Every period of the excitation `u = u_hat cos(Omega t)` starts at phase 0
+//! (the plant advances exactly one period `T = 2 pi / Omega` at a time, so the
+//! phase stays continuous when `Omega` changes between periods) and is sampled
+//! at `N` uniform phases `theta_i = 2 pi i / N`, `i = 0..N-1`. The complex
+//! harmonics of a signal `x` over that period are
+//!
+//! ```text
+//! X_0 = 1/N sum_i x_i,   X_h = 2/N sum_i x_i e^{-i h theta_i}   (h >= 1),
+//! x(theta) = X_0 + sum_h Re(X_h e^{i h theta}),
+//! ```
+//!
+//! exact for harmonics `h < N/2` of a periodic signal (the rectangle rule is
+//! exact on trigonometric polynomials over a full period).
+pub mod force;
+pub mod plant;
+pub mod pll;
+
+pub use force::{
+    force_controlled_stepped_sine, ForceControlOptions, ForceControlResult, ForceStep,
+};
+pub use plant::{DuffingOscillator, ReferencePlant};
+pub use pll::{
+    phase_resonance, PhaseLockedLoop, PhaseMeasurement, PllLevel, PllOptions, PllResult,
+};
+
+#[cfg(test)]
+mod force_tests;
+#[cfg(test)]
+mod pll_tests;
+
+use crate::reference::ReferenceError;
+use num_complex::Complex64;
+
+/// Errors of the controlled tests; each carries the offending value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ControlError {
+    #[error("option {name} = {value}: expected {expected}")]
+    BadOption {
+        name: &'static str,
+        value: String,
+        expected: &'static str,
+    },
+    #[error("the plant has no attachment with an interface point (no force to measure)")]
+    NoAttachment,
+    #[error("assembly of the plant: {0}")]
+    Assembly(#[source] ReferenceError),
+    #[error(
+        "the plant's structure has a hysteretic element ({law}): the controlled tests restart the \
+         time integration every period and do not carry its slider state yet"
+    )]
+    Hysteretic { law: String },
+    #[error("time integration of the plant failed at t = {time_s} s: {source}")]
+    Integration {
+        time_s: f64,
+        #[source]
+        source: ReferenceError,
+    },
+    #[error("structure model: {0}")]
+    Structure(#[from] crate::structure::StructureError),
+    #[error("attachment: {0}")]
+    Attachment(#[from] crate::attachment::AttachmentError),
+}
+
+/// Samples of one excitation period at the phases `2 pi i / N`, `i = 0..N-1`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PeriodSamples {
+    /// Excitation frequency of the period \[rad/s\].
+    pub omega_rad_s: f64,
+    /// Voltage amplitude of the period \[V\].
+    pub voltage_v: f64,
+    /// Force of the exciter on the structure at the drive point \[N\], positive
+    /// along the drive point's positive displacement.
+    pub force_n: Vec<f64>,
+    /// Drive-point displacement \[m\].
+    pub drive_m: Vec<f64>,
+    /// Tip (response point) displacement \[m\].
+    pub tip_m: Vec<f64>,
+    /// Current through the shaker coil \[A\] (empty if the plant has none).
+    pub current_a: Vec<f64>,
+}
+
+/// The plant a controller drives: set the excitation, advance one period,
+/// read the measured samples.
+pub trait Plant {
+    /// Voltage amplitude \[V\] and frequency \[rad/s\] of the next period(s).
+    fn set_excitation(&mut self, voltage_v: f64, omega_rad_s: f64);
+    /// Advances one excitation period `T = 2 pi / Omega` (the phase continues
+    /// from 0) and returns its samples.
+    fn advance_period(&mut self) -> Result<&PeriodSamples, ControlError>;
+    /// Time simulated so far \[s\].
+    fn time_s(&self) -> f64;
+}
+
+/// Complex harmonics `X_0..=X_harmonics` of one period of uniform samples (see
+/// the module docs). Hand-written: a few bins of a short period, where the
+/// direct sum is exact and cheaper than an FFT plan.
+pub fn period_harmonics(samples: &[f64], harmonics: usize) -> Vec<Complex64> {
+    let n = samples.len();
+    assert!(n > 0, "at least one sample per period");
+    (0..=harmonics)
+        .map(|h| {
+            let scale = if h == 0 { 1.0 } else { 2.0 } / n as f64;
+            let sum: Complex64 = samples
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| {
+                    let th = 2.0 * std::f64::consts::PI * (h * i) as f64 / n as f64;
+                    x * Complex64::from_polar(1.0, -th)
+                })
+                .sum();
+            sum * scale
+        })
+        .collect()
+}
+
+/// Mean power `P = 1/2 sum_h Re(F_h conj(V_h))`, `V_h = i h Omega X_h`, that a
+/// force with harmonics `force` puts into a point moving with displacement
+/// harmonics `disp` (both from [`period_harmonics`]) \[W\].
+pub fn mean_power_w(force: &[Complex64], disp: &[Complex64], omega_rad_s: f64) -> f64 {
+    force
+        .iter()
+        .zip(disp)
+        .enumerate()
+        .skip(1)
+        .map(|(h, (f, x))| {
+            let v = Complex64::new(0.0, h as f64 * omega_rad_s) * x;
+            0.5 * (f * v.conj()).re
+        })
+        .sum()
+}
+
+/// Wraps an angle to `(-pi, pi]`.
+pub(crate) fn wrap_angle(a: f64) -> f64 {
+    use std::f64::consts::PI;
+    let w = (a + PI).rem_euclid(2.0 * PI) - PI;
+    if w <= -PI {
+        w + 2.0 * PI
+    } else {
+        w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn harmonics_of_a_period_are_exact() {
+        let n = 40;
+        let x: Vec<f64> = (0..n)
+            .map(|i| {
+                let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+                0.1 + 2.0 * (th + 0.3).cos() + 0.5 * (3.0 * th - 1.0).cos()
+            })
+            .collect();
+        let h = period_harmonics(&x, 5);
+        assert!((h[0].re - 0.1).abs() < 1e-14);
+        assert!((h[1] - Complex64::from_polar(2.0, 0.3)).norm() < 1e-13);
+        assert!(h[2].norm() < 1e-13);
+        assert!((h[3] - Complex64::from_polar(0.5, -1.0)).norm() < 1e-13);
+        // power of F = cos, x = sin/Omega (velocity in phase with the force): P = 1/2
+        let f = [Complex64::new(0.0, 0.0), Complex64::new(1.0, 0.0)];
+        let xd = [Complex64::new(0.0, 0.0), Complex64::new(0.0, -1.0 / 7.0)];
+        assert!((mean_power_w(&f, &xd, 7.0) - 0.5).abs() < 1e-15);
+        assert!((wrap_angle(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
+    }
+}
