@@ -3,8 +3,8 @@
 //! [`nlmode::excitation::LinearSweep`], the physics and its exact stepping
 //! are [`nlmode::attachment::ShakerStepper`].
 use fmi2_export::{
-    Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader,
-    StateWriter, VarType as T, Variability as V, Variable,
+    Causality as C, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError, Start,
+    StateReader, StateWriter, VarType as T, Variability as V, Variable,
 };
 use nalgebra::{Vector2, Vector3};
 pub use nlmode::attachment::MAX_PHASE_PER_SUBSTEP;
@@ -41,6 +41,30 @@ pub const VR_Q_A: u32 = 32;
 pub const VR_V_A: u32 = 33;
 pub const VR_U: u32 = 34;
 pub const VR_OMEGA: u32 = 35;
+/// Derivatives of the continuous states `[I, q_a, v_a]` (Model Exchange).
+pub const VR_DER_I: u32 = 40;
+pub const VR_DER_Q_A: u32 = 41;
+pub const VR_DER_V_A: u32 = 42;
+
+/// The Model Exchange states `[I, q_a, v_a]` and their derivatives, with
+/// nominal values of the paper's sweep (about 1 A, 0.1 mm, 0.1 m/s).
+pub const CONTINUOUS_STATES: &[ContinuousState] = &[
+    ContinuousState {
+        state_vr: VR_I,
+        derivative_vr: VR_DER_I,
+        nominal: 1.0,
+    },
+    ContinuousState {
+        state_vr: VR_Q_A,
+        derivative_vr: VR_DER_Q_A,
+        nominal: 1e-4,
+    },
+    ContinuousState {
+        state_vr: VR_V_A,
+        derivative_vr: VR_DER_V_A,
+        nominal: 0.1,
+    },
+];
 
 /// Default sweep: from 0.8 to 1.8 omega0 of the paper's beam (omega0 = 356.2
 /// rad/s) at 2 % per pseudo period (`r omega0^2 / (2 pi)` = 404 rad/s^2).
@@ -180,6 +204,16 @@ pub const VARIABLES: &[Variable] = &[
     real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s"),
     real("u", VR_U, C::Output, V::Continuous, None, "V"),
     real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s"),
+    real("der(I)", VR_DER_I, C::Local, V::Continuous, None, "A/s"),
+    real("der(q_a)", VR_DER_Q_A, C::Local, V::Continuous, None, "m/s"),
+    real(
+        "der(v_a)",
+        VR_DER_V_A,
+        C::Local,
+        V::Continuous,
+        None,
+        "m/s2",
+    ),
 ];
 
 /// A held input: value set at time `t_set`, first and second derivatives
@@ -361,6 +395,7 @@ impl CoSimModel for Shaker {
     const MODEL_IDENTIFIER: &'static str = "shaker";
     const GUID: &'static str = GUID;
     const VARIABLES: &'static [Variable] = VARIABLES;
+    const CONTINUOUS_STATES: &'static [ContinuousState] = CONTINUOUS_STATES;
 
     fn instantiate(_ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
         Ok(Self::new())
@@ -409,6 +444,11 @@ impl CoSimModel for Shaker {
                     self.source.omega_rad_s(self.t - self.t0)
                 }
             }
+            // a failure (parameters out of range before initialization) is NaN,
+            // which the layer reports as an error
+            VR_DER_I => self.rates().map_or(f64::NAN, |r| r[0]),
+            VR_DER_Q_A => self.rates().map_or(f64::NAN, |r| r[1]),
+            VR_DER_V_A => self.rates().map_or(f64::NAN, |r| r[2]),
             _ => f64::NAN, // unreachable: the layer only passes Real vrs of VARIABLES
         }
     }
@@ -476,6 +516,29 @@ impl CoSimModel for Shaker {
 
     fn do_step(&mut self, t: f64, h: f64, _log: &Logger) -> Result<(), ModelError> {
         self.advance(t, h)
+    }
+
+    /// Model Exchange: the inputs are the values at the current time (no
+    /// extrapolation inside a step, so the held inputs are re-based to `t`);
+    /// the internal sweep voltage is a function of time, without events.
+    fn set_time(&mut self, t: f64) -> Result<(), ModelError> {
+        self.t = t;
+        for h in [&mut self.x, &mut self.v, &mut self.u_ext] {
+            h.t_set = t;
+        }
+        Ok(())
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        self.s = Vector3::new(x[0], x[1], x[2]);
+        Ok(())
+    }
+
+    /// `[I', q_a', v_a'] = A s + B [u(t), x]` ([`ShakerStepper::rates`]).
+    fn derivatives(&self, dx: &mut [f64]) -> Result<(), ModelError> {
+        let r = self.rates()?;
+        dx.copy_from_slice(r.as_slice());
+        Ok(())
     }
 
     /// Order 1 only: `der(x)` replaces `v` in the extrapolation of `x`,
