@@ -216,6 +216,32 @@ pub const VARIABLES: &[Variable] = &[
     ),
 ];
 
+/// Physical range of each Real parameter, checked at
+/// `fmi2ExitInitializationMode` (value reference, name, min, max, unit).
+/// Generous for laboratory exciters (the B&K V4808: L = 1.4e-4 H, R = 3 Ohm,
+/// G = 15.5 N/A, m_a = 0.043 kg, k_a = 2.07e4 N/m, k_s = 2.6e7 N/m), and
+/// narrow enough that every entry of the state matrix `A` stays below about
+/// 1e18 1/s, so the matrix exponential's scaling and squaring is bounded
+/// (see [`MAX_EXPONENT_NORM`]).
+pub const PARAMETER_RANGES: &[(u32, &str, f64, f64, &str)] = &[
+    (VR_L, "L", 1e-9, 10.0, "H"),
+    (VR_R, "R", 1e-6, 1e6, "Ohm"),
+    (VR_G, "G", 1e-6, 1e6, "N/A"),
+    (VR_M_A, "m_a", 1e-6, 1e3, "kg"),
+    (VR_K_A, "k_a", 1e-6, 1e12, "N/m"),
+    (VR_D_A_RATIO, "D_a", 0.0, 1e3, "1"),
+    (VR_K_S, "k_s", 1e-6, 1e12, "N/m"),
+    (VR_U_HAT, "u_hat", -1e6, 1e6, "V"),
+    (VR_OMEGA_START, "Omega_start", 0.0, 1e7, "rad/s"),
+    (VR_OMEGA_END, "Omega_end", 0.0, 1e7, "rad/s"),
+    (VR_OMEGA_RATE, "Omega_rate", 0.0, 1e10, "rad/s2"),
+];
+
+/// Largest `||A||_1 h` of one exact sub-step: nalgebra's exponential squares
+/// `log2(||A h|| / 4.25)` times (about 48 here) after its Pade step, and an
+/// unbounded norm (parameters near 1e40 or 1e80) made it loop without end.
+pub const MAX_EXPONENT_NORM: f64 = 1e15;
+
 /// A held input: value set at time `t_set`, first and second derivatives
 /// used to extrapolate it inside the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -254,6 +280,8 @@ pub struct Shaker {
     u_ext: Held,
     /// The physics once parameters are fixed.
     stepper: Option<ShakerStepper>,
+    /// `||A||_1` of the state matrix [1/s] (set with `stepper`).
+    a_norm_per_s: f64,
 }
 
 impl Shaker {
@@ -275,6 +303,7 @@ impl Shaker {
             v: Held::new(0.0),
             u_ext: Held::new(0.0),
             stepper: None,
+            a_norm_per_s: 0.0,
         }
     }
 
@@ -294,6 +323,14 @@ impl Shaker {
 
     /// Validate the parameters and build the state space (`exit_initialization_mode`).
     pub fn fix_parameters(&mut self) -> Result<(), ModelError> {
+        for &(vr, name, lo, hi, unit) in PARAMETER_RANGES {
+            let v = self.get_real(vr);
+            if !(lo..=hi).contains(&v) {
+                return Err(ModelError::error(format!(
+                    "{name} = {v:e} {unit} is outside its physical range [{lo:e}, {hi:e}] {unit}"
+                )));
+            }
+        }
         self.source.check_source().map_err(|e| match e {
             SweepError::NegativeSourceFrequency { which, value } => {
                 let name = match which {
@@ -307,6 +344,11 @@ impl Shaker {
             }
             other => other.into(),
         })?;
+        let ss = self.params.state_space()?;
+        self.a_norm_per_s =
+            ss.a.column_iter()
+                .map(|c| c.iter().map(|x| x.abs()).sum::<f64>())
+                .fold(0.0, f64::max);
         self.stepper = Some(ShakerStepper::new(&self.params)?);
         Ok(())
     }
@@ -347,6 +389,15 @@ impl Shaker {
     /// time inside each sub-step.
     pub fn advance(&mut self, t: f64, h: f64) -> Result<(), ModelError> {
         let n = self.substeps(t, h)?;
+        let hs = h / n as f64;
+        if self.a_norm_per_s * hs > MAX_EXPONENT_NORM {
+            return Err(ModelError::error(format!(
+                "sub-step {hs:e} s times ||A||_1 = {:e} 1/s exceeds {MAX_EXPONENT_NORM:e} (the exact \
+                 discretization's matrix exponential): use a step below {:e} s",
+                self.a_norm_per_s,
+                MAX_EXPONENT_NORM / self.a_norm_per_s
+            )));
+        }
         let mut stepper = self.stepper.take().ok_or_else(|| {
             ModelError::error("parameters not fixed (initialization not completed)")
         })?;

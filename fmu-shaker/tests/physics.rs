@@ -191,3 +191,73 @@ fn a_huge_step_is_refused_not_run() {
     m.do_step(0.0, 1e-5, &log).unwrap();
     assert!(m.get_real(VR_F).is_finite());
 }
+
+/// Issue 14: the shaker hung in the matrix exponential for accepted absurd
+/// parameters (R 1e40, k_a 1e80, D_a 1e60, k_s 1e100, Omega_start 1e12).
+/// Now each is refused at initialization with its physical range, at once.
+#[test]
+fn absurd_parameters_are_refused_with_their_range() {
+    let log = Logger::silent();
+    for (vr, value, needle) in [
+        (
+            VR_R,
+            1e40,
+            "R = 1e40 Ohm is outside its physical range [1e-6, 1e6] Ohm",
+        ),
+        (VR_R, 1e60, "R = 1e60 Ohm"),
+        (
+            VR_K_A,
+            1e80,
+            "k_a = 1e80 N/m is outside its physical range [1e-6, 1e12] N/m",
+        ),
+        (
+            VR_D_A_RATIO,
+            1e60,
+            "D_a = 1e60 1 is outside its physical range [0e0, 1e3] 1",
+        ),
+        (
+            VR_K_S,
+            1e100,
+            "k_s = 1e100 N/m is outside its physical range [1e-6, 1e12] N/m",
+        ),
+        (
+            VR_OMEGA_START,
+            1e12,
+            "Omega_start = 1e12 rad/s is outside its physical range [0e0, 1e7] rad/s",
+        ),
+        (VR_U_HAT, f64::MAX, "u_hat = 1.7976931348623157e308 V"),
+    ] {
+        let mut m = shaker();
+        m.set_real(vr, value).unwrap();
+        m.setup_experiment(0.0, None).unwrap();
+        let t0 = std::time::Instant::now();
+        let e = m.exit_initialization_mode(&log).unwrap_err();
+        assert!(t0.elapsed().as_secs_f64() < 0.1);
+        assert!(
+            e.message.contains(needle),
+            "{needle:?} not in {:?}",
+            e.message
+        );
+    }
+}
+
+/// The extremes of the accepted ranges still terminate: the stiffest stinger
+/// on the lightest armature (||A|| ~ 1e18 1/s) with an external voltage (one
+/// sub-step per step) is refused for a long step by the exponential's norm
+/// bound, and steps at a short one.
+#[test]
+fn the_matrix_exponential_norm_is_bounded_per_step() {
+    let log = Logger::silent();
+    let mut m = shaker();
+    m.set_real(VR_K_S, 1e12).unwrap();
+    m.set_real(VR_M_A, 1e-6).unwrap();
+    m.set_real(VR_D_A_RATIO, 1e3).unwrap();
+    m.set_boolean(VR_USE_EXTERNAL, true).unwrap();
+    m.setup_experiment(0.0, None).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    let t0 = std::time::Instant::now();
+    let e = m.do_step(0.0, 1.0, &log).unwrap_err();
+    assert!(e.message.contains("exceeds 1e15"), "{}", e.message);
+    m.do_step(0.0, 1e-6, &log).unwrap();
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+}
