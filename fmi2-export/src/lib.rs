@@ -1,9 +1,9 @@
-//! # fmi2-export — the FMI 2.0 Co-Simulation export layer, written once
+//! # fmi2-export — the FMI 2.0 Co-Simulation and Model Exchange export layer, written once
 //!
 //! Both FMUs of this workspace (`fmu-shaker`, `fmu-structure`) are thin
 //! models on top of this crate. It holds the export side's `unsafe` code and
-//! FFI (the importer's is in `fmi2-import`): every FMI 2.0 Co-Simulation
-//! function with the standard's state machine, argument checks, logging and
+//! FFI (the importer's is in `fmi2-import`): every FMI 2.0 Co-Simulation and
+//! (event-free) Model Exchange function with the standard's state machines, argument checks, logging and
 //! `catch_unwind` ([`ffi`]), the check that a modelDescription.xml matches the
 //! code ([`xml`], on the one schema of [`fmi2::schema`]) and the `.fmu`
 //! packager ([`package`]). The C ABI types ([`types`]) and resource-URI
@@ -23,6 +23,11 @@
 //!    * optionally `setup_experiment`, `exit_initialization_mode` (validate
 //!      parameters here), `set_real_input_derivative`,
 //!      `get_real_output_derivative`, `partial_derivative`.
+//!    * optionally Model Exchange: `CONTINUOUS_STATES` (state and derivative
+//!      value references, nominals), `set_time`, `set_continuous_states`,
+//!      `derivatives` (the model is then instantiable as `fmi2ModelExchange`,
+//!      without events; declare `<ModelExchange>` and `<Derivatives>` in the XML
+//!      and test them with [`xml::check_model_exchange`]),
 //!    * the layer has already checked value references, settability, finite
 //!      inputs, pointers, the call sequence and `h > 0` before it calls you;
 //!      return [`ModelError`] for failures (any `std::error::Error` converts).
@@ -63,7 +68,7 @@ pub use model::{
 };
 pub use types::Status;
 
-/// Export every FMI 2.0 Co-Simulation function of a shared library for the
+/// Export every FMI 2.0 Co-Simulation and Model Exchange function of a shared library for the
 /// model type `$model` (implementing [`CoSimModel`]). Invoke exactly once, in
 /// the cdylib crate's root.
 #[macro_export]

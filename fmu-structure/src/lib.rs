@@ -1,4 +1,4 @@
-//! The structure FMU (FMI 2.0 Co-Simulation): the time-domain nonlinear-mode
+//! The structure FMU (FMI 2.0 Co-Simulation and Model Exchange): the time-domain nonlinear-mode
 //! oscillator of DESIGN.md section 4 ([`nlmode::oscillator`]) driven by the
 //! force of an attachment at one point of the modal table.
 //!
