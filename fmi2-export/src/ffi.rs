@@ -107,6 +107,9 @@ pub struct Instance<M> {
     model: M,
     /// Keeps the strings returned by `fmi2GetString` alive until the next call.
     string_buf: Vec<CString>,
+    /// Value references of the Real outputs (built once at instantiation,
+    /// read by the per-step finiteness check).
+    outputs: Box<[u32]>,
 }
 
 /// An `fmi2FMUstate`: the layer's part of the state plus a copy of the model.
@@ -435,6 +438,7 @@ pub unsafe fn instantiate<M: CoSimModel>(
             last_successful_time: 0.0,
             model,
             string_buf: Vec::new(),
+            outputs: real_outputs::<M>().map(|v| v.vr).collect(),
         })
     }));
     match result {
@@ -538,7 +542,7 @@ pub unsafe fn enter_initialization_mode<M: CoSimModel>(c: Component) -> Status {
 pub unsafe fn exit_initialization_mode<M: CoSimModel>(c: Component) -> Status {
     run::<M>(c, "fmi2ExitInitializationMode", INIT, |inst| {
         inst.model.exit_initialization_mode(&inst.logger)?;
-        outputs_finite(&inst.model, inst.time)?;
+        outputs_finite(&inst.model, &inst.outputs, inst.time)?;
         inst.state = if inst.model_exchange {
             State::EventMode
         } else {
@@ -619,19 +623,34 @@ fn finite(vr: ValueReference, x: f64) -> Result<f64, ModelError> {
     }
 }
 
+/// Value references of the Real outputs (listed once per model type: the
+/// per-step check reads exactly these, no scan of the variable table).
+fn real_outputs<M: CoSimModel>() -> impl Iterator<Item = &'static Variable> {
+    M::VARIABLES
+        .iter()
+        .filter(|v| v.ty == VarType::Real && v.causality == Causality::Output)
+}
+
 /// After a step or initialization: every Real output finite, or an error
 /// naming the first that is not (so the step itself fails, not a later get).
-fn outputs_finite<M: CoSimModel>(m: &M, t: f64) -> Result<(), ModelError> {
-    for v in M::VARIABLES {
-        if v.ty == VarType::Real && v.causality == Causality::Output {
-            let x = m.get_real(v.vr);
-            if !x.is_finite() {
-                return Err(ModelError::error(format!(
-                    "output {} = {x} at t = {t} s is not finite; the model left its valid range \
-                     (check parameters and inputs)",
-                    v.name
-                )));
-            }
+/// One branch-free pass over the outputs (`outputs`: the
+/// instance's list); the variable table is searched only on failure.
+fn outputs_finite<M: CoSimModel>(m: &M, outputs: &[u32], t: f64) -> Result<(), ModelError> {
+    let mut all_finite = true;
+    for &vr in outputs {
+        all_finite &= m.get_real(vr).is_finite();
+    }
+    if all_finite {
+        return Ok(());
+    }
+    for v in real_outputs::<M>() {
+        let x = m.get_real(v.vr);
+        if !x.is_finite() {
+            return Err(ModelError::error(format!(
+                "output {} = {x} at t = {t} s is not finite; the model left its valid range \
+                 (check parameters and inputs)",
+                v.name
+            )));
         }
     }
     Ok(())
@@ -1010,7 +1029,7 @@ pub unsafe fn do_step<M: CoSimModel>(
         match inst
             .model
             .do_step(t, h, &inst.logger)
-            .and_then(|()| outputs_finite(&inst.model, t + h))
+            .and_then(|()| outputs_finite(&inst.model, &inst.outputs, t + h))
         {
             Ok(()) => {
                 inst.time = t + h;

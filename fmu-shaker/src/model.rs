@@ -323,14 +323,6 @@ impl Shaker {
 
     /// Validate the parameters and build the state space (`exit_initialization_mode`).
     pub fn fix_parameters(&mut self) -> Result<(), ModelError> {
-        for &(vr, name, lo, hi, unit) in PARAMETER_RANGES {
-            let v = self.get_real(vr);
-            if !(lo..=hi).contains(&v) {
-                return Err(ModelError::error(format!(
-                    "{name} = {v:e} {unit} is outside its physical range [{lo:e}, {hi:e}] {unit}"
-                )));
-            }
-        }
         self.source.check_source().map_err(|e| match e {
             SweepError::NegativeSourceFrequency { which, value } => {
                 let name = match which {
@@ -345,6 +337,16 @@ impl Shaker {
             other => other.into(),
         })?;
         let ss = self.params.state_space()?;
+        // after the physics' own validation (sign, finiteness), before any
+        // matrix exponential is formed
+        for &(vr, name, lo, hi, unit) in PARAMETER_RANGES {
+            let v = self.get_real(vr);
+            if !(lo..=hi).contains(&v) {
+                return Err(ModelError::error(format!(
+                    "{name} = {v:e} {unit} is outside its physical range [{lo:e}, {hi:e}] {unit}"
+                )));
+            }
+        }
         self.a_norm_per_s =
             ss.a.column_iter()
                 .map(|c| c.iter().map(|x| x.abs()).sum::<f64>())
