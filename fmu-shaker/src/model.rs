@@ -6,7 +6,7 @@ use fmi2_export::{
     Causality as C, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError, Start,
     StateReader, StateWriter, VarType as T, Variability as V, Variable,
 };
-use nalgebra::{Vector2, Vector3};
+use nalgebra::{Matrix3, Matrix3x2, Vector2, Vector3};
 pub use nlmode::attachment::MAX_PHASE_PER_SUBSTEP;
 use nlmode::attachment::{
     sweep_substeps, ArmatureDamping, ShakerParams, ShakerStepper, Stinger, MAX_SWEEP_SUBSTEPS,
@@ -282,6 +282,9 @@ pub struct Shaker {
     stepper: Option<ShakerStepper>,
     /// `||A||_1` of the state matrix [1/s] (set with `stepper`).
     a_norm_per_s: f64,
+    /// `A`, `B` of `s' = A s + B [u, x]` (set with `stepper`; the Model
+    /// Exchange Jacobian of `fmi2GetDirectionalDerivative`).
+    ab: Option<(Matrix3<f64>, Matrix3x2<f64>)>,
 }
 
 impl Shaker {
@@ -304,6 +307,7 @@ impl Shaker {
             u_ext: Held::new(0.0),
             stepper: None,
             a_norm_per_s: 0.0,
+            ab: None,
         }
     }
 
@@ -351,6 +355,10 @@ impl Shaker {
             ss.a.column_iter()
                 .map(|c| c.iter().map(|x| x.abs()).sum::<f64>())
                 .fold(0.0, f64::max);
+        self.ab = Some((
+            Matrix3::from_fn(|i, j| ss.a[(i, j)]),
+            Matrix3x2::from_fn(|i, j| ss.b[(i, j)]),
+        ));
         self.stepper = Some(ShakerStepper::new(&self.params)?);
         Ok(())
     }
@@ -649,8 +657,43 @@ impl CoSimModel for Shaker {
         })
     }
 
-    /// Direct feedthrough only: `dF/dx = -k_s`, `du/du_ext = 1` (external voltage).
+    /// Outputs: direct feedthrough `dF/dx = -k_s`, `du/du_ext = 1` (external
+    /// voltage). Model Exchange: the state derivatives' Jacobian, `A` with
+    /// respect to the states `I, q_a, v_a`, the columns of `B` with respect to
+    /// `u_ext` (external voltage) and `x`; and `dF/dq_a = k_s`, `ds_i/ds_j = delta_ij`.
     fn partial_derivative(&self, unknown: u32, known: u32) -> Result<f64, ModelError> {
+        let states = [VR_I, VR_Q_A, VR_V_A];
+        let ders = [VR_DER_I, VR_DER_Q_A, VR_DER_V_A];
+        if let Some(i) = ders.iter().position(|&d| d == unknown) {
+            let (a, b) = self.ab.as_ref().ok_or_else(|| {
+                ModelError::error("the Jacobian is available after fmi2ExitInitializationMode")
+            })?;
+            return Ok(match known {
+                VR_X => b[(i, 1)],
+                VR_U_EXT if self.use_external_voltage => b[(i, 0)],
+                VR_U_EXT | VR_V => 0.0,
+                k => match states.iter().position(|&s| s == k) {
+                    Some(j) => a[(i, j)],
+                    None => {
+                        return Err(ModelError::error(format!(
+                            "directional derivatives of the state derivatives are provided with respect to the states I, q_a, v_a and the inputs x, v, u_ext, not value reference {known}"
+                        )))
+                    }
+                },
+            });
+        }
+        if let Some(j) = states.iter().position(|&s| s == known) {
+            return Ok(match unknown {
+                VR_F if j == 1 => self.k_s(),
+                u if u == known => 1.0,
+                VR_F | VR_I | VR_Q_A | VR_V_A | VR_U | VR_OMEGA => 0.0,
+                _ => {
+                    return Err(ModelError::error(format!(
+                        "directional derivatives are provided for outputs and state derivatives only, not value reference {unknown}"
+                    )))
+                }
+            });
+        }
         if ![VR_X, VR_V, VR_U_EXT].contains(&known) {
             return Err(ModelError::error(format!(
                 "directional derivatives are provided with respect to the inputs x, v, u_ext only, not value reference {known}"
@@ -730,6 +773,7 @@ impl CoSimModel for Shaker {
         }
         if !fixed {
             self.stepper = None;
+            self.ab = None;
         } else if self.stepper.is_none() || old != self.params {
             self.fix_parameters()?;
         }

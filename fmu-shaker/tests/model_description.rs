@@ -13,6 +13,8 @@ fn model_exchange_part_matches_the_code() {
     assert!(errs.is_empty(), "{errs:#?}");
     let me = md.model_exchange.as_ref().expect("<ModelExchange>");
     assert_eq!(me.model_identifier, "shaker");
+    // the Jacobian of the derivatives (A, B) is provided
+    assert!(me.provides_directional_derivative);
     let names: Vec<&str> = md
         .derivatives
         .iter()

@@ -261,3 +261,61 @@ fn the_matrix_exponential_norm_is_bounded_per_step() {
     m.do_step(0.0, 1e-6, &log).unwrap();
     assert!(t0.elapsed().as_secs_f64() < 1.0);
 }
+
+/// Model Exchange Jacobian (`fmi2GetDirectionalDerivative`): the partials of
+/// the state derivatives equal their difference quotients (the system is
+/// linear, so central differences are exact up to round-off).
+#[test]
+fn state_derivative_jacobian_matches_difference_quotients() {
+    let log = Logger::silent();
+    for external in [false, true] {
+        let mut m = shaker();
+        m.set_boolean(VR_USE_EXTERNAL, external).unwrap();
+        m.setup_experiment(0.0, None).unwrap();
+        m.exit_initialization_mode(&log).unwrap();
+        m.set_time(0.01).unwrap();
+        let s0 = [0.3, 2e-5, 0.04];
+        m.set_continuous_states(&s0).unwrap();
+        m.set_real(VR_X, 1e-5).unwrap();
+        m.set_real(VR_U_EXT, 2.0).unwrap();
+        let rates = |m: &Shaker| {
+            let mut d = [0.0; 3];
+            m.derivatives(&mut d).unwrap();
+            d
+        };
+        let knowns: [(u32, f64); 5] = [
+            (VR_I, 1e-3),
+            (VR_Q_A, 1e-8),
+            (VR_V_A, 1e-4),
+            (VR_X, 1e-8),
+            (VR_U_EXT, 1e-3),
+        ];
+        for (k, eps) in knowns {
+            let (mut p, mut q) = (m.clone(), m.clone());
+            let set = |m: &mut Shaker, d: f64| match k {
+                VR_I | VR_Q_A | VR_V_A => {
+                    let mut s = s0;
+                    s[[VR_I, VR_Q_A, VR_V_A].iter().position(|&v| v == k).unwrap()] += d;
+                    m.set_continuous_states(&s).unwrap();
+                }
+                _ => {
+                    let v = m.get_real(k);
+                    m.set_real(k, v + d).unwrap();
+                }
+            };
+            set(&mut p, eps);
+            set(&mut q, -eps);
+            let (rp, rq) = (rates(&p), rates(&q));
+            for (i, der) in [VR_DER_I, VR_DER_Q_A, VR_DER_V_A].into_iter().enumerate() {
+                let fd = (rp[i] - rq[i]) / (2.0 * eps);
+                let j = m.partial_derivative(der, k).unwrap();
+                assert!(
+                    (j - fd).abs() <= 1e-6 * fd.abs().max(1.0),
+                    "d der {i} / d vr {k} (external {external}): {j} vs {fd}"
+                );
+            }
+        }
+        assert_eq!(m.partial_derivative(VR_F, VR_Q_A).unwrap(), 2.6e7);
+        assert_eq!(m.partial_derivative(VR_I, VR_I).unwrap(), 1.0);
+    }
+}
