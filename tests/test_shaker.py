@@ -249,7 +249,9 @@ def test_every_fmi2_symbol_is_exported(unzipped):
     assert lib.fmi2GetVersion() == b"2.0" and lib.fmi2GetTypesPlatform() == b"default"
 
 
-def test_model_exchange_calls_are_refused(new_instance):
+def test_model_exchange_calls_are_refused_on_a_co_simulation_instance(new_instance):
+    """The FMU provides Model Exchange (tests/test_me.py), but only to an
+    instance made with fmuType fmi2ModelExchange."""
     inst = new_instance("shaker", "me-call")
     inst.init()
     import ctypes
@@ -258,7 +260,7 @@ def test_model_exchange_calls_are_refused(new_instance):
     set_time.argtypes = [ctypes.c_void_p, ctypes.c_double]
     set_time.restype = ctypes.c_int
     assert set_time(inst.fmu.component, 0.0) == 3
-    assert "fmi2SetTime: this FMU implements Co-Simulation only" in inst.messages[-1][2]
+    assert "fmi2SetTime: the instance was instantiated as fmi2CoSimulation" in inst.messages[-1][2]
 
 
 def test_instances_step_concurrently_from_two_threads(new_instance):

@@ -1,4 +1,4 @@
-//! The FMI 2.0 Co-Simulation functions, generic over the model. The
+//! The FMI 2.0 Co-Simulation and Model Exchange functions, generic over the model. The
 //! [`crate::export_fmu!`] macro exports one `extern "C"` symbol per function
 //! that forwards here. Every function
 //! * checks its pointers and lengths before touching them,
@@ -25,7 +25,9 @@ use crate::model::{
 };
 use crate::types::*;
 
-/// The states of the FMI 2.0 Co-Simulation state machine (standard, section 4.2.4).
+/// The states of the FMI 2.0 state machines: Co-Simulation (standard,
+/// section 4.2.4) and Model Exchange (section 3.2.3, `EventMode` and
+/// `ContinuousTimeMode`; the other states are shared).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
 pub enum State {
@@ -37,6 +39,8 @@ pub enum State {
     Terminated = 5,
     Error = 6,
     Fatal = 7,
+    EventMode = 8,
+    ContinuousTimeMode = 9,
 }
 
 impl State {
@@ -54,6 +58,8 @@ impl State {
             Terminated,
             Error,
             Fatal,
+            EventMode,
+            ContinuousTimeMode,
         ]
         .get(v as usize)
         .copied()
@@ -67,15 +73,30 @@ const STEP_FAILED: u16 = 1 << 3;
 const STEP_CANCELED: u16 = 1 << 4;
 const TERMINATED: u16 = 1 << 5;
 const ERROR: u16 = 1 << 6;
-const ALIVE: u16 =
-    INSTANTIATED | INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
-const GETTABLE: u16 = INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
-const SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE;
+const EVENT: u16 = 1 << 8;
+const CONTINUOUS: u16 = 1 << 9;
+const ALIVE: u16 = INSTANTIATED
+    | INIT
+    | STEP_COMPLETE
+    | STEP_FAILED
+    | STEP_CANCELED
+    | TERMINATED
+    | ERROR
+    | EVENT
+    | CONTINUOUS;
+const GETTABLE: u16 =
+    INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR | EVENT | CONTINUOUS;
+/// `fmi2SetReal` and friends (which variables, [`Variable::settable`]).
+const SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE | EVENT | CONTINUOUS;
+/// `fmi2SetRealInputDerivatives` (Co-Simulation only).
+const CS_SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE;
 const STEPPED: u16 = STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED;
 
 /// One FMU instance: the state machine, the importer's callbacks and the model.
 pub struct Instance<M> {
     state: State,
+    /// Instantiated as `fmi2ModelExchange` (else Co-Simulation).
+    model_exchange: bool,
     logger: Logger,
     instance_name: String,
     resource_dir: Option<PathBuf>,
@@ -86,6 +107,9 @@ pub struct Instance<M> {
     model: M,
     /// Keeps the strings returned by `fmi2GetString` alive until the next call.
     string_buf: Vec<CString>,
+    /// Value references of the Real outputs (built once at instantiation,
+    /// read by the per-step finiteness check).
+    outputs: Box<[u32]>,
 }
 
 /// An `fmi2FMUstate`: the layer's part of the state plus a copy of the model.
@@ -157,6 +181,27 @@ unsafe fn run<M: CoSimModel>(
     }
 }
 
+/// [`run`] for a Model Exchange function: on a Co-Simulation instance it is
+/// refused (logged, fmi2Error) whatever the state.
+unsafe fn run_me<M: CoSimModel>(
+    c: Component,
+    func: &str,
+    allowed: u16,
+    f: impl FnOnce(&mut Instance<M>) -> Result<Status, ModelError>,
+) -> Status {
+    // SAFETY: as in `run` (a non-null component is an `Instance<M>`)
+    if !c.is_null() && !(*(c as *mut Instance<M>)).model_exchange {
+        return run::<M>(c, func, ALIVE, |_| {
+            Err(ModelError::error(if M::CONTINUOUS_STATES.is_empty() {
+                "this FMU implements Co-Simulation only (no Model Exchange functions)"
+            } else {
+                "the instance was instantiated as fmi2CoSimulation; Model Exchange functions need fmuType fmi2ModelExchange"
+            }))
+        });
+    }
+    run::<M>(c, func, allowed, f)
+}
+
 /// Slice from a C array; `None` for a null pointer with `n > 0`.
 unsafe fn slice<'a, T>(p: *const T, n: usize) -> Option<&'a [T]> {
     if n == 0 {
@@ -195,7 +240,11 @@ fn find<M: CoSimModel>(vr: u32, ty: VarType) -> Result<&'static Variable, ModelE
 
 impl<M: CoSimModel> Instance<M> {
     fn check_settable(&self, v: &Variable) -> Result<(), ModelError> {
-        if v.settable(self.state == State::StepComplete) {
+        let initialized = matches!(
+            self.state,
+            State::StepComplete | State::EventMode | State::ContinuousTimeMode
+        );
+        if v.settable(initialized) {
             Ok(())
         } else {
             Err(ModelError::error(format!(
@@ -258,6 +307,21 @@ impl<M: CoSimModel> Instance<M> {
                     "serialized FMU state: bad state code {st} (a saved state is never in Error or Fatal)"
                 ))
             })?;
+        let me_state = matches!(state, State::EventMode | State::ContinuousTimeMode);
+        let cs_state = matches!(
+            state,
+            State::StepComplete | State::StepFailed | State::StepCanceled
+        );
+        if (me_state && !self.model_exchange) || (cs_state && self.model_exchange) {
+            return Err(ModelError::error(format!(
+                "serialized FMU state: bad state code {st} ({state:?} does not occur in a {} instance)",
+                if self.model_exchange {
+                    "Model Exchange"
+                } else {
+                    "Co-Simulation"
+                }
+            )));
+        }
         let time = r.f64()?;
         let start_time = r.f64()?;
         let has_stop = r.bool()?;
@@ -321,11 +385,21 @@ pub unsafe fn instantiate<M: CoSimModel>(
             Some(n) if !n.is_empty() => n.to_string(),
             _ => return Err("fmi2Instantiate: instanceName must be a non-empty string".into()),
         };
-        if fmu_type != FMI2_CO_SIMULATION {
-            return Err(format!(
-                "fmi2Instantiate: fmuType must be fmi2CoSimulation ({FMI2_CO_SIMULATION}), got {fmu_type}"
-            ));
-        }
+        let model_exchange = match fmu_type {
+            FMI2_CO_SIMULATION => false,
+            FMI2_MODEL_EXCHANGE if !M::CONTINUOUS_STATES.is_empty() => true,
+            FMI2_MODEL_EXCHANGE => {
+                return Err(
+                    "fmi2Instantiate: this FMU implements Co-Simulation only (fmuType fmi2ModelExchange refused)"
+                        .into(),
+                )
+            }
+            _ => {
+                return Err(format!(
+                    "fmi2Instantiate: fmuType must be fmi2ModelExchange ({FMI2_MODEL_EXCHANGE}) or fmi2CoSimulation ({FMI2_CO_SIMULATION}), got {fmu_type}"
+                ))
+            }
+        };
         match opt_str(guid) {
             Some(g) if g == M::GUID => {}
             g => {
@@ -354,6 +428,7 @@ pub unsafe fn instantiate<M: CoSimModel>(
         let model = M::instantiate(&ctx).map_err(|e| format!("fmi2Instantiate: {}", e.message))?;
         Ok(Instance {
             state: State::Instantiated,
+            model_exchange,
             logger: Logger::new(cb.logger, cb.component_environment, &name, logging_on != 0),
             instance_name: name,
             resource_dir,
@@ -363,6 +438,7 @@ pub unsafe fn instantiate<M: CoSimModel>(
             last_successful_time: 0.0,
             model,
             string_buf: Vec::new(),
+            outputs: real_outputs::<M>().map(|v| v.vr).collect(),
         })
     }));
     match result {
@@ -466,8 +542,12 @@ pub unsafe fn enter_initialization_mode<M: CoSimModel>(c: Component) -> Status {
 pub unsafe fn exit_initialization_mode<M: CoSimModel>(c: Component) -> Status {
     run::<M>(c, "fmi2ExitInitializationMode", INIT, |inst| {
         inst.model.exit_initialization_mode(&inst.logger)?;
-        outputs_finite(&inst.model, inst.time)?;
-        inst.state = State::StepComplete;
+        outputs_finite(&inst.model, &inst.outputs, inst.time)?;
+        inst.state = if inst.model_exchange {
+            State::EventMode
+        } else {
+            State::StepComplete
+        };
         Ok(Status::Ok)
     })
 }
@@ -477,7 +557,7 @@ pub unsafe fn terminate<M: CoSimModel>(c: Component) -> Status {
     run::<M>(
         c,
         "fmi2Terminate",
-        STEP_COMPLETE | STEP_FAILED | STEP_CANCELED,
+        STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | EVENT | CONTINUOUS,
         |inst| {
             inst.state = State::Terminated;
             Ok(Status::Ok)
@@ -543,19 +623,34 @@ fn finite(vr: ValueReference, x: f64) -> Result<f64, ModelError> {
     }
 }
 
+/// Value references of the Real outputs (listed once per model type: the
+/// per-step check reads exactly these, no scan of the variable table).
+fn real_outputs<M: CoSimModel>() -> impl Iterator<Item = &'static Variable> {
+    M::VARIABLES
+        .iter()
+        .filter(|v| v.ty == VarType::Real && v.causality == Causality::Output)
+}
+
 /// After a step or initialization: every Real output finite, or an error
 /// naming the first that is not (so the step itself fails, not a later get).
-fn outputs_finite<M: CoSimModel>(m: &M, t: f64) -> Result<(), ModelError> {
-    for v in M::VARIABLES {
-        if v.ty == VarType::Real && v.causality == Causality::Output {
-            let x = m.get_real(v.vr);
-            if !x.is_finite() {
-                return Err(ModelError::error(format!(
-                    "output {} = {x} at t = {t} s is not finite; the model left its valid range \
-                     (check parameters and inputs)",
-                    v.name
-                )));
-            }
+/// One branch-free pass over the outputs (`outputs`: the
+/// instance's list); the variable table is searched only on failure.
+fn outputs_finite<M: CoSimModel>(m: &M, outputs: &[u32], t: f64) -> Result<(), ModelError> {
+    let mut all_finite = true;
+    for &vr in outputs {
+        all_finite &= m.get_real(vr).is_finite();
+    }
+    if all_finite {
+        return Ok(());
+    }
+    for v in real_outputs::<M>() {
+        let x = m.get_real(v.vr);
+        if !x.is_finite() {
+            return Err(ModelError::error(format!(
+                "output {} = {x} at t = {t} s is not finite; the model left its valid range \
+                 (check parameters and inputs)",
+                v.name
+            )));
         }
     }
     Ok(())
@@ -848,7 +943,7 @@ pub unsafe fn set_real_input_derivatives<M: CoSimModel>(
     order: *const Integer,
     value: *const Real,
 ) -> Status {
-    run::<M>(c, "fmi2SetRealInputDerivatives", SETTABLE, |inst| {
+    run::<M>(c, "fmi2SetRealInputDerivatives", CS_SETTABLE, |inst| {
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let ord = slice(order, n).ok_or_else(|| null_arg("order"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
@@ -934,7 +1029,7 @@ pub unsafe fn do_step<M: CoSimModel>(
         match inst
             .model
             .do_step(t, h, &inst.logger)
-            .and_then(|()| outputs_finite(&inst.model, t + h))
+            .and_then(|()| outputs_finite(&inst.model, &inst.outputs, t + h))
         {
             Ok(()) => {
                 inst.time = t + h;
@@ -1044,14 +1139,150 @@ pub unsafe fn get_string_status<M: CoSimModel>(
     })
 }
 
-/// The Model Exchange functions (`fmi2EnterEventMode`, `fmi2SetTime`, ...):
-/// exported because some masters resolve every FMI 2.0 symbol, answered with
-/// `fmi2Error` and a log message since these FMUs are Co-Simulation only.
-pub unsafe fn model_exchange_only<M: CoSimModel>(c: Component, func: &str) -> Status {
-    run::<M>(c, func, ALIVE, |_| {
-        Err(ModelError::error(
-            "this FMU implements Co-Simulation only (no Model Exchange functions)",
-        ))
+/// `n` must be the number of continuous states.
+fn check_n_states<M: CoSimModel>(n: usize, what: &str) -> Result<(), ModelError> {
+    let nx = M::CONTINUOUS_STATES.len();
+    if n == nx {
+        Ok(())
+    } else {
+        Err(ModelError::error(format!(
+            "{what} = {n}, but the model has {nx} continuous states"
+        )))
+    }
+}
+
+/// `fmi2SetTime` (Model Exchange; Event and Continuous-Time Mode).
+pub unsafe fn set_time<M: CoSimModel>(c: Component, t: Real) -> Status {
+    run_me::<M>(c, "fmi2SetTime", EVENT | CONTINUOUS, |inst| {
+        if !t.is_finite() {
+            return Err(ModelError::error(format!("time must be finite, got {t}")));
+        }
+        inst.model.set_time(t)?;
+        inst.time = t;
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2SetContinuousStates` (Continuous-Time Mode): finite values only.
+pub unsafe fn set_continuous_states<M: CoSimModel>(
+    c: Component,
+    x: *const Real,
+    n: usize,
+) -> Status {
+    run_me::<M>(c, "fmi2SetContinuousStates", CONTINUOUS, |inst| {
+        check_n_states::<M>(n, "nx")?;
+        let x = slice(x, n).ok_or_else(|| null_arg("x"))?;
+        for (s, &v) in M::CONTINUOUS_STATES.iter().zip(x) {
+            if !v.is_finite() {
+                return Err(ModelError::error(format!(
+                    "continuous state (value reference {}) must be finite, got {v}",
+                    s.state_vr
+                )));
+            }
+        }
+        inst.model.set_continuous_states(x)?;
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2GetContinuousStates`.
+pub unsafe fn get_continuous_states<M: CoSimModel>(c: Component, x: *mut Real, n: usize) -> Status {
+    run_me::<M>(c, "fmi2GetContinuousStates", GETTABLE, |inst| {
+        check_n_states::<M>(n, "nx")?;
+        let out = slice_mut(x, n).ok_or_else(|| null_arg("x"))?;
+        for (o, s) in out.iter_mut().zip(M::CONTINUOUS_STATES) {
+            *o = finite(s.state_vr, inst.model.get_real(s.state_vr))?;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2GetDerivatives`: never fmi2OK with a non-finite derivative.
+pub unsafe fn get_derivatives<M: CoSimModel>(c: Component, dx: *mut Real, n: usize) -> Status {
+    run_me::<M>(c, "fmi2GetDerivatives", GETTABLE, |inst| {
+        check_n_states::<M>(n, "nx")?;
+        let out = slice_mut(dx, n).ok_or_else(|| null_arg("derivatives"))?;
+        inst.model.derivatives(out)?;
+        for (&d, s) in out.iter().zip(M::CONTINUOUS_STATES) {
+            finite(s.derivative_vr, d)?;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2GetEventIndicators`: the models are event-free (0 indicators).
+pub unsafe fn get_event_indicators<M: CoSimModel>(c: Component, _z: *mut Real, n: usize) -> Status {
+    run_me::<M>(c, "fmi2GetEventIndicators", GETTABLE, |_| {
+        if n != 0 {
+            return Err(ModelError::error(format!(
+                "ni = {n}, but the model has 0 event indicators"
+            )));
+        }
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2GetNominalsOfContinuousStates` (any state after instantiation).
+pub unsafe fn get_nominals_of_continuous_states<M: CoSimModel>(
+    c: Component,
+    x: *mut Real,
+    n: usize,
+) -> Status {
+    run_me::<M>(c, "fmi2GetNominalsOfContinuousStates", ALIVE, |_| {
+        check_n_states::<M>(n, "nx")?;
+        let out = slice_mut(x, n).ok_or_else(|| null_arg("x_nominal"))?;
+        for (o, s) in out.iter_mut().zip(M::CONTINUOUS_STATES) {
+            *o = s.nominal;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2EnterEventMode` (from Event or Continuous-Time Mode; the models have no events,
+/// so Event Mode only passes the master's event iteration).
+pub unsafe fn enter_event_mode<M: CoSimModel>(c: Component) -> Status {
+    run_me::<M>(c, "fmi2EnterEventMode", EVENT | CONTINUOUS, |inst| {
+        inst.state = State::EventMode;
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2NewDiscreteStates`: no discrete states, no time events, nothing changed.
+pub unsafe fn new_discrete_states<M: CoSimModel>(c: Component, info: *mut EventInfo) -> Status {
+    run_me::<M>(c, "fmi2NewDiscreteStates", EVENT, |_| {
+        if info.is_null() {
+            return Err(null_arg("fmi2EventInfo"));
+        }
+        *info = EventInfo::default();
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2EnterContinuousTimeMode`.
+pub unsafe fn enter_continuous_time_mode<M: CoSimModel>(c: Component) -> Status {
+    run_me::<M>(c, "fmi2EnterContinuousTimeMode", EVENT, |inst| {
+        inst.state = State::ContinuousTimeMode;
+        Ok(Status::Ok)
+    })
+}
+
+/// `fmi2CompletedIntegratorStep`: never asks for an event or for termination.
+pub unsafe fn completed_integrator_step<M: CoSimModel>(
+    c: Component,
+    _no_set_fmu_state_prior: Boolean,
+    enter_event_mode: *mut Boolean,
+    terminate_simulation: *mut Boolean,
+) -> Status {
+    run_me::<M>(c, "fmi2CompletedIntegratorStep", CONTINUOUS, |_| {
+        if enter_event_mode.is_null() {
+            return Err(null_arg("enterEventMode"));
+        }
+        if terminate_simulation.is_null() {
+            return Err(null_arg("terminateSimulation"));
+        }
+        *enter_event_mode = FMI2_FALSE;
+        *terminate_simulation = FMI2_FALSE;
+        Ok(Status::Ok)
     })
 }
 

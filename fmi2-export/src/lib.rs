@@ -1,9 +1,9 @@
-//! # fmi2-export — the FMI 2.0 Co-Simulation export layer, written once
+//! # fmi2-export — the FMI 2.0 Co-Simulation and Model Exchange export layer, written once
 //!
 //! Both FMUs of this workspace (`fmu-shaker`, `fmu-structure`) are thin
 //! models on top of this crate. It holds the export side's `unsafe` code and
-//! FFI (the importer's is in `fmi2-import`): every FMI 2.0 Co-Simulation
-//! function with the standard's state machine, argument checks, logging and
+//! FFI (the importer's is in `fmi2-import`): every FMI 2.0 Co-Simulation and
+//! (event-free) Model Exchange function with the standard's state machines, argument checks, logging and
 //! `catch_unwind` ([`ffi`]), the check that a modelDescription.xml matches the
 //! code ([`xml`], on the one schema of [`fmi2::schema`]) and the `.fmu`
 //! packager ([`package`]). The C ABI types ([`types`]) and resource-URI
@@ -23,6 +23,11 @@
 //!    * optionally `setup_experiment`, `exit_initialization_mode` (validate
 //!      parameters here), `set_real_input_derivative`,
 //!      `get_real_output_derivative`, `partial_derivative`.
+//!    * optionally Model Exchange: `CONTINUOUS_STATES` (state and derivative
+//!      value references, nominals), `set_time`, `set_continuous_states`,
+//!      `derivatives` (the model is then instantiable as `fmi2ModelExchange`,
+//!      without events; declare `<ModelExchange>` and `<Derivatives>` in the XML
+//!      and test them with [`xml::check_model_exchange`]),
 //!    * the layer has already checked value references, settability, finite
 //!      inputs, pointers, the call sequence and `h > 0` before it calls you;
 //!      return [`ModelError`] for failures (any `std::error::Error` converts).
@@ -58,12 +63,12 @@ pub mod xml;
 pub use fmi2::{types, uri};
 
 pub use model::{
-    Causality, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader, StateWriter,
-    VarType, Variability, Variable, LOG_CATEGORIES,
+    Causality, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError, Start,
+    StateReader, StateWriter, VarType, Variability, Variable, LOG_CATEGORIES,
 };
 pub use types::Status;
 
-/// Export every FMI 2.0 Co-Simulation function of a shared library for the
+/// Export every FMI 2.0 Co-Simulation and Model Exchange function of a shared library for the
 /// model type `$model` (implementing [`CoSimModel`]). Invoke exactly once, in
 /// the cdylib crate's root.
 #[macro_export]
@@ -327,71 +332,71 @@ macro_rules! export_fmu {
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2EnterEventMode(c: Component) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2EnterEventMode")
+                $crate::ffi::enter_event_mode::<M>(c)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2NewDiscreteStates(
                 c: Component,
-                _info: *mut ::std::os::raw::c_void,
+                info: *mut $crate::types::EventInfo,
             ) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2NewDiscreteStates")
+                $crate::ffi::new_discrete_states::<M>(c, info)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: Component) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2EnterContinuousTimeMode")
+                $crate::ffi::enter_continuous_time_mode::<M>(c)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
                 c: Component,
-                _no_set: Boolean,
-                _enter: *mut Boolean,
-                _term: *mut Boolean,
+                no_set: Boolean,
+                enter: *mut Boolean,
+                term: *mut Boolean,
             ) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2CompletedIntegratorStep")
+                $crate::ffi::completed_integrator_step::<M>(c, no_set, enter, term)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi2SetTime(c: Component, _t: Real) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2SetTime")
+            pub unsafe extern "C" fn fmi2SetTime(c: Component, t: Real) -> Status {
+                $crate::ffi::set_time::<M>(c, t)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2SetContinuousStates(
                 c: Component,
-                _x: *const Real,
-                _n: usize,
+                x: *const Real,
+                n: usize,
             ) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2SetContinuousStates")
+                $crate::ffi::set_continuous_states::<M>(c, x, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetDerivatives(
                 c: Component,
-                _dx: *mut Real,
-                _n: usize,
+                dx: *mut Real,
+                n: usize,
             ) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetDerivatives")
+                $crate::ffi::get_derivatives::<M>(c, dx, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetEventIndicators(
                 c: Component,
-                _z: *mut Real,
-                _n: usize,
+                z: *mut Real,
+                n: usize,
             ) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetEventIndicators")
+                $crate::ffi::get_event_indicators::<M>(c, z, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetContinuousStates(
                 c: Component,
-                _x: *mut Real,
-                _n: usize,
+                x: *mut Real,
+                n: usize,
             ) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetContinuousStates")
+                $crate::ffi::get_continuous_states::<M>(c, x, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
                 c: Component,
-                _x: *mut Real,
-                _n: usize,
+                x: *mut Real,
+                n: usize,
             ) -> Status {
-                $crate::ffi::model_exchange_only::<M>(c, "fmi2GetNominalsOfContinuousStates")
+                $crate::ffi::get_nominals_of_continuous_states::<M>(c, x, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetStringStatus(

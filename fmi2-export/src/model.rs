@@ -44,6 +44,17 @@ impl Variable {
     }
 }
 
+/// One continuous state of a Model Exchange model: the variable that holds it,
+/// the variable that holds its time derivative (`<Real derivative="...">` in
+/// the XML, listed in `<ModelStructure><Derivatives>`) and its nominal value
+/// (`fmi2GetNominalsOfContinuousStates`, the integrator's error scale).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContinuousState {
+    pub state_vr: u32,
+    pub derivative_vr: u32,
+    pub nominal: f64,
+}
+
 /// A failure of the model, reported to the importer through the logger with
 /// the status it carries (`fmi2Discard` or `fmi2Error`).
 #[derive(Debug, Clone, PartialEq)]
@@ -402,6 +413,32 @@ pub trait CoSimModel: Clone + Sized + 'static {
         Err(ModelError::error(format!(
             "directional derivatives are not supported (d{unknown}/d{known})"
         )))
+    }
+
+    /// Model Exchange (optional): the continuous states, in the order of
+    /// `<Derivatives>`. A model that declares any is instantiable as
+    /// `fmi2ModelExchange` (event-free: no event indicators, no discrete
+    /// states) and implements [`Self::set_time`], [`Self::set_continuous_states`]
+    /// and [`Self::derivatives`]; the states are read with `get_real` of
+    /// `state_vr`, and `get_real(derivative_vr)` must equal [`Self::derivatives`].
+    const CONTINUOUS_STATES: &'static [ContinuousState] = &[];
+
+    /// `fmi2SetTime` (Model Exchange): the model's time [s].
+    fn set_time(&mut self, t: f64) -> Result<(), ModelError> {
+        let _ = t;
+        Err(ModelError::error("Model Exchange is not supported"))
+    }
+    /// `fmi2SetContinuousStates` (Model Exchange): `x` has one finite value per
+    /// entry of [`Self::CONTINUOUS_STATES`].
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        let _ = x;
+        Err(ModelError::error("Model Exchange is not supported"))
+    }
+    /// `fmi2GetDerivatives` (Model Exchange): the time derivatives of the
+    /// continuous states at the current time, states and inputs.
+    fn derivatives(&self, dx: &mut [f64]) -> Result<(), ModelError> {
+        let _ = dx;
+        Err(ModelError::error("Model Exchange is not supported"))
     }
 
     /// Append the complete dynamic state (states, inputs, parameters, time).

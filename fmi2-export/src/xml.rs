@@ -39,6 +39,15 @@ pub fn check_model_description(
             "modelIdentifier {id:?} in XML, {model_identifier:?} in code"
         ));
     }
+    if let Some(me) = &md.model_exchange {
+        // one binary provides both interfaces
+        if me.model_identifier != model_identifier {
+            errs.push(format!(
+                "<ModelExchange> modelIdentifier {:?} in XML, {model_identifier:?} in code",
+                me.model_identifier
+            ));
+        }
+    }
     if md.variables.len() != variables.len() {
         errs.push(format!(
             "{} variables in XML, {} in code",
@@ -110,6 +119,70 @@ pub fn check_model_description(
     }
 }
 
+/// Check the Model Exchange part of the XML against the model's
+/// [`CoSimModel::CONTINUOUS_STATES`]: `<ModelExchange>` present iff the model
+/// has continuous states, `numberOfEventIndicators = 0` (event-free), each
+/// derivative variable's `derivative` attribute naming its state, and
+/// `<Derivatives>` listing the derivatives in the table's order. (Their
+/// `dependencies` are checked by [`check_dependencies`].)
+pub fn check_model_exchange<M: CoSimModel>(md: &ModelDescription) -> Vec<String> {
+    let mut errs = Vec::new();
+    let states = M::CONTINUOUS_STATES;
+    match (&md.model_exchange, states.is_empty()) {
+        (Some(_), true) => {
+            errs.push("<ModelExchange> in XML, but the model has no continuous states".into())
+        }
+        (None, false) => errs.push(format!(
+            "the model has {} continuous states but the XML has no <ModelExchange>",
+            states.len()
+        )),
+        _ => {}
+    }
+    if md.number_of_event_indicators != 0 {
+        errs.push(format!(
+            "numberOfEventIndicators = {} in XML, the model is event-free (0)",
+            md.number_of_event_indicators
+        ));
+    }
+    let index_of = |vr: u32| {
+        md.variables
+            .iter()
+            .find(|v| v.value_reference == vr && v.ty == fmi2::schema::VarType::Real)
+            .map(|v| v.index)
+    };
+    if md.derivatives.len() != states.len() {
+        errs.push(format!(
+            "<Derivatives> lists {} unknowns, the model has {} continuous states",
+            md.derivatives.len(),
+            states.len()
+        ));
+    }
+    for (k, s) in states.iter().enumerate() {
+        let (Some(si), Some(di)) = (index_of(s.state_vr), index_of(s.derivative_vr)) else {
+            errs.push(format!(
+                "continuous state {k}: Real value reference {} or {} missing in XML",
+                s.state_vr, s.derivative_vr
+            ));
+            continue;
+        };
+        let d = &md.variables[di - 1];
+        if d.derivative != Some(si) {
+            errs.push(format!(
+                "{}: derivative={:?} in XML, the code makes it the derivative of index {si}",
+                d.name, d.derivative
+            ));
+        }
+        if md.derivatives.get(k).map(|u| u.index) != Some(di) {
+            errs.push(format!(
+                "<Derivatives> entry {} should be index {di} ({})",
+                k + 1,
+                d.name
+            ));
+        }
+    }
+    errs
+}
+
 /// Check that a freshly instantiated model reports the XML/table start values
 /// of its Real variables (masters that never set start values rely on it).
 pub fn check_start_values<M: CoSimModel>(model: &M) -> Vec<String> {
@@ -162,6 +235,9 @@ fn perturb<M: CoSimModel>(m: &mut M, v: &fmi2::schema::ScalarVariable) -> Option
 ///
 /// * `<Outputs>`: an output lists input `j` iff setting `j` (without a step)
 ///   changes the output's `fmi2GetReal` (direct feedthrough);
+/// * `<Derivatives>` (Model Exchange): a state derivative lists every input
+///   and continuous state whose perturbation changes it (from all states at
+///   their nominal values; extra, structural entries are accepted);
 /// * `<InitialUnknowns>`: an unknown lists input or parameter `j` iff setting
 ///   `j` before `fmi2ExitInitializationMode` changes its value after it; every
 ///   initial unknown must carry a `dependencies` attribute (absent means
@@ -229,6 +305,84 @@ pub fn check_dependencies<M: CoSimModel>(
                     inp.index,
                     if changes { "present" } else { "absent" },
                     if listed.contains(&inp.index) { "listed" } else { "not listed" }
+                ));
+            }
+        }
+    }
+    // <Derivatives>: from the initialized model with every continuous state at
+    // its nominal value, a derivative must list each input and state whose
+    // perturbation changes it (listing more is allowed: the dependencies are
+    // structural, e.g. `omega(a)` makes a rate depend on a state even where a
+    // linear table hides it); get_real of each derivative variable must equal
+    // `derivatives`
+    let states: Vec<usize> = M::CONTINUOUS_STATES
+        .iter()
+        .filter_map(|s| {
+            md.variables
+                .iter()
+                .find(|v| v.value_reference == s.state_vr && v.ty == fmi2::schema::VarType::Real)
+                .map(|v| v.index)
+        })
+        .collect();
+    let nominal: Vec<f64> = M::CONTINUOUS_STATES.iter().map(|s| s.nominal).collect();
+    let mut me_bases = Vec::new();
+    if !md.derivatives.is_empty() {
+        for k in 0..configurations {
+            let Some(mut m) = initialize(instantiate(k), &mut errs) else {
+                return errs;
+            };
+            if let Err(e) = m.set_continuous_states(&nominal) {
+                errs.push(format!("set_continuous_states({nominal:?}) failed: {e}"));
+                return errs;
+            }
+            let mut dx = vec![0.0; nominal.len()];
+            match m.derivatives(&mut dx) {
+                Ok(()) => {
+                    for (s, d) in M::CONTINUOUS_STATES.iter().zip(&dx) {
+                        let g = m.get_real(s.derivative_vr);
+                        if g != *d {
+                            errs.push(format!(
+                                "get_real({}) = {g} but derivatives() gives {d}",
+                                s.derivative_vr
+                            ));
+                        }
+                    }
+                }
+                Err(e) => errs.push(format!("derivatives failed: {e}")),
+            }
+            me_bases.push(m);
+        }
+    }
+    for u in &md.derivatives {
+        let listed = u.dependencies.clone().unwrap_or_default();
+        let mut present: Vec<(usize, String)> = Vec::new();
+        for base in &me_bases {
+            for inp in &inputs {
+                let mut m = base.clone();
+                if perturb(&mut m, inp).is_some() && read(base, u.index) != read(&m, u.index) {
+                    present.push((inp.index, inp.name.clone()));
+                }
+            }
+            for (j, &si) in states.iter().enumerate() {
+                let mut x = nominal.clone();
+                x[j] *= 1.0 + 1e-3;
+                let mut m = base.clone();
+                if let Err(e) = m.set_continuous_states(&x) {
+                    errs.push(format!("set_continuous_states failed: {e}"));
+                    return errs;
+                }
+                if read(base, u.index) != read(&m, u.index) {
+                    present.push((si, md.variables[si - 1].name.clone()));
+                }
+            }
+        }
+        present.sort();
+        present.dedup();
+        for (i, name) in present {
+            if !listed.contains(&i) {
+                errs.push(format!(
+                    "<Derivatives> index {}: depends on {name} (index {i}) in the code, not listed in the XML",
+                    u.index
                 ));
             }
         }

@@ -105,3 +105,15 @@ pub struct CallbackFunctions {
     pub step_finished: Option<StepFinished>,
     pub component_environment: ComponentEnvironment,
 }
+
+/// `fmi2EventInfo` (Model Exchange, filled by `fmi2NewDiscreteStates`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EventInfo {
+    pub new_discrete_states_needed: Boolean,
+    pub terminate_simulation: Boolean,
+    pub nominals_of_continuous_states_changed: Boolean,
+    pub values_of_continuous_states_changed: Boolean,
+    pub next_event_time_defined: Boolean,
+    pub next_event_time: Real,
+}

@@ -1,4 +1,4 @@
-//! # shaker — the electrodynamic exciter of the paper's Section 4 as an FMI 2.0 CS FMU
+//! # shaker — the electrodynamic exciter of the paper's Section 4 as an FMI 2.0 CS and ME FMU
 //!
 //! States `s = [I, q_a, v_a]`, inputs: structure drive-point displacement `x`
 //! and velocity `v`, external voltage `u_ext`; the applied voltage `u` comes

@@ -3,10 +3,10 @@
 //! [`nlmode::excitation::LinearSweep`], the physics and its exact stepping
 //! are [`nlmode::attachment::ShakerStepper`].
 use fmi2_export::{
-    Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader,
-    StateWriter, VarType as T, Variability as V, Variable,
+    Causality as C, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError, Start,
+    StateReader, StateWriter, VarType as T, Variability as V, Variable,
 };
-use nalgebra::{Vector2, Vector3};
+use nalgebra::{Matrix3, Matrix3x2, Vector2, Vector3};
 pub use nlmode::attachment::MAX_PHASE_PER_SUBSTEP;
 use nlmode::attachment::{
     sweep_substeps, ArmatureDamping, ShakerParams, ShakerStepper, Stinger, MAX_SWEEP_SUBSTEPS,
@@ -41,6 +41,30 @@ pub const VR_Q_A: u32 = 32;
 pub const VR_V_A: u32 = 33;
 pub const VR_U: u32 = 34;
 pub const VR_OMEGA: u32 = 35;
+/// Derivatives of the continuous states `[I, q_a, v_a]` (Model Exchange).
+pub const VR_DER_I: u32 = 40;
+pub const VR_DER_Q_A: u32 = 41;
+pub const VR_DER_V_A: u32 = 42;
+
+/// The Model Exchange states `[I, q_a, v_a]` and their derivatives, with
+/// nominal values of the paper's sweep (about 1 A, 0.1 mm, 0.1 m/s).
+pub const CONTINUOUS_STATES: &[ContinuousState] = &[
+    ContinuousState {
+        state_vr: VR_I,
+        derivative_vr: VR_DER_I,
+        nominal: 1.0,
+    },
+    ContinuousState {
+        state_vr: VR_Q_A,
+        derivative_vr: VR_DER_Q_A,
+        nominal: 1e-4,
+    },
+    ContinuousState {
+        state_vr: VR_V_A,
+        derivative_vr: VR_DER_V_A,
+        nominal: 0.1,
+    },
+];
 
 /// Default sweep: from 0.8 to 1.8 omega0 of the paper's beam (omega0 = 356.2
 /// rad/s) at 2 % per pseudo period (`r omega0^2 / (2 pi)` = 404 rad/s^2).
@@ -180,7 +204,43 @@ pub const VARIABLES: &[Variable] = &[
     real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s"),
     real("u", VR_U, C::Output, V::Continuous, None, "V"),
     real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s"),
+    real("der(I)", VR_DER_I, C::Local, V::Continuous, None, "A/s"),
+    real("der(q_a)", VR_DER_Q_A, C::Local, V::Continuous, None, "m/s"),
+    real(
+        "der(v_a)",
+        VR_DER_V_A,
+        C::Local,
+        V::Continuous,
+        None,
+        "m/s2",
+    ),
 ];
+
+/// Physical range of each Real parameter, checked at
+/// `fmi2ExitInitializationMode` (value reference, name, min, max, unit).
+/// Generous for laboratory exciters (the B&K V4808: L = 1.4e-4 H, R = 3 Ohm,
+/// G = 15.5 N/A, m_a = 0.043 kg, k_a = 2.07e4 N/m, k_s = 2.6e7 N/m), and
+/// narrow enough that every entry of the state matrix `A` stays below about
+/// 1e18 1/s, so the matrix exponential's scaling and squaring is bounded
+/// (see [`MAX_EXPONENT_NORM`]).
+pub const PARAMETER_RANGES: &[(u32, &str, f64, f64, &str)] = &[
+    (VR_L, "L", 1e-9, 10.0, "H"),
+    (VR_R, "R", 1e-6, 1e6, "Ohm"),
+    (VR_G, "G", 1e-6, 1e6, "N/A"),
+    (VR_M_A, "m_a", 1e-6, 1e3, "kg"),
+    (VR_K_A, "k_a", 1e-6, 1e12, "N/m"),
+    (VR_D_A_RATIO, "D_a", 0.0, 1e3, "1"),
+    (VR_K_S, "k_s", 1e-6, 1e12, "N/m"),
+    (VR_U_HAT, "u_hat", -1e6, 1e6, "V"),
+    (VR_OMEGA_START, "Omega_start", 0.0, 1e7, "rad/s"),
+    (VR_OMEGA_END, "Omega_end", 0.0, 1e7, "rad/s"),
+    (VR_OMEGA_RATE, "Omega_rate", 0.0, 1e10, "rad/s2"),
+];
+
+/// Largest `||A||_1 h` of one exact sub-step: nalgebra's exponential squares
+/// `log2(||A h|| / 4.25)` times (about 48 here) after its Pade step, and an
+/// unbounded norm (parameters near 1e40 or 1e80) made it loop without end.
+pub const MAX_EXPONENT_NORM: f64 = 1e15;
 
 /// A held input: value set at time `t_set`, first and second derivatives
 /// used to extrapolate it inside the step.
@@ -220,6 +280,11 @@ pub struct Shaker {
     u_ext: Held,
     /// The physics once parameters are fixed.
     stepper: Option<ShakerStepper>,
+    /// `||A||_1` of the state matrix [1/s] (set with `stepper`).
+    a_norm_per_s: f64,
+    /// `A`, `B` of `s' = A s + B [u, x]` (set with `stepper`; the Model
+    /// Exchange Jacobian of `fmi2GetDirectionalDerivative`).
+    ab: Option<(Matrix3<f64>, Matrix3x2<f64>)>,
 }
 
 impl Shaker {
@@ -241,6 +306,8 @@ impl Shaker {
             v: Held::new(0.0),
             u_ext: Held::new(0.0),
             stepper: None,
+            a_norm_per_s: 0.0,
+            ab: None,
         }
     }
 
@@ -273,6 +340,25 @@ impl Shaker {
             }
             other => other.into(),
         })?;
+        let ss = self.params.state_space()?;
+        // after the physics' own validation (sign, finiteness), before any
+        // matrix exponential is formed
+        for &(vr, name, lo, hi, unit) in PARAMETER_RANGES {
+            let v = self.get_real(vr);
+            if !(lo..=hi).contains(&v) {
+                return Err(ModelError::error(format!(
+                    "{name} = {v:e} {unit} is outside its physical range [{lo:e}, {hi:e}] {unit}"
+                )));
+            }
+        }
+        self.a_norm_per_s =
+            ss.a.column_iter()
+                .map(|c| c.iter().map(|x| x.abs()).sum::<f64>())
+                .fold(0.0, f64::max);
+        self.ab = Some((
+            Matrix3::from_fn(|i, j| ss.a[(i, j)]),
+            Matrix3x2::from_fn(|i, j| ss.b[(i, j)]),
+        ));
         self.stepper = Some(ShakerStepper::new(&self.params)?);
         Ok(())
     }
@@ -313,6 +399,15 @@ impl Shaker {
     /// time inside each sub-step.
     pub fn advance(&mut self, t: f64, h: f64) -> Result<(), ModelError> {
         let n = self.substeps(t, h)?;
+        let hs = h / n as f64;
+        if self.a_norm_per_s * hs > MAX_EXPONENT_NORM {
+            return Err(ModelError::error(format!(
+                "sub-step {hs:e} s times ||A||_1 = {:e} 1/s exceeds {MAX_EXPONENT_NORM:e} (the exact \
+                 discretization's matrix exponential): use a step below {:e} s",
+                self.a_norm_per_s,
+                MAX_EXPONENT_NORM / self.a_norm_per_s
+            )));
+        }
         let mut stepper = self.stepper.take().ok_or_else(|| {
             ModelError::error("parameters not fixed (initialization not completed)")
         })?;
@@ -361,6 +456,7 @@ impl CoSimModel for Shaker {
     const MODEL_IDENTIFIER: &'static str = "shaker";
     const GUID: &'static str = GUID;
     const VARIABLES: &'static [Variable] = VARIABLES;
+    const CONTINUOUS_STATES: &'static [ContinuousState] = CONTINUOUS_STATES;
 
     fn instantiate(_ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
         Ok(Self::new())
@@ -409,6 +505,11 @@ impl CoSimModel for Shaker {
                     self.source.omega_rad_s(self.t - self.t0)
                 }
             }
+            // a failure (parameters out of range before initialization) is NaN,
+            // which the layer reports as an error
+            VR_DER_I => self.rates().map_or(f64::NAN, |r| r[0]),
+            VR_DER_Q_A => self.rates().map_or(f64::NAN, |r| r[1]),
+            VR_DER_V_A => self.rates().map_or(f64::NAN, |r| r[2]),
             _ => f64::NAN, // unreachable: the layer only passes Real vrs of VARIABLES
         }
     }
@@ -478,6 +579,29 @@ impl CoSimModel for Shaker {
         self.advance(t, h)
     }
 
+    /// Model Exchange: the inputs are the values at the current time (no
+    /// extrapolation inside a step, so the held inputs are re-based to `t`);
+    /// the internal sweep voltage is a function of time, without events.
+    fn set_time(&mut self, t: f64) -> Result<(), ModelError> {
+        self.t = t;
+        for h in [&mut self.x, &mut self.v, &mut self.u_ext] {
+            h.t_set = t;
+        }
+        Ok(())
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        self.s = Vector3::new(x[0], x[1], x[2]);
+        Ok(())
+    }
+
+    /// `[I', q_a', v_a'] = A s + B [u(t), x]` ([`ShakerStepper::rates`]).
+    fn derivatives(&self, dx: &mut [f64]) -> Result<(), ModelError> {
+        let r = self.rates()?;
+        dx.copy_from_slice(r.as_slice());
+        Ok(())
+    }
+
     /// Order 1 only: `der(x)` replaces `v` in the extrapolation of `x`,
     /// `der(u_ext)` makes the external voltage ramp; `der(v)` is accepted and
     /// has no effect (the displacement is extrapolated linearly).
@@ -533,8 +657,43 @@ impl CoSimModel for Shaker {
         })
     }
 
-    /// Direct feedthrough only: `dF/dx = -k_s`, `du/du_ext = 1` (external voltage).
+    /// Outputs: direct feedthrough `dF/dx = -k_s`, `du/du_ext = 1` (external
+    /// voltage). Model Exchange: the state derivatives' Jacobian, `A` with
+    /// respect to the states `I, q_a, v_a`, the columns of `B` with respect to
+    /// `u_ext` (external voltage) and `x`; and `dF/dq_a = k_s`, `ds_i/ds_j = delta_ij`.
     fn partial_derivative(&self, unknown: u32, known: u32) -> Result<f64, ModelError> {
+        let states = [VR_I, VR_Q_A, VR_V_A];
+        let ders = [VR_DER_I, VR_DER_Q_A, VR_DER_V_A];
+        if let Some(i) = ders.iter().position(|&d| d == unknown) {
+            let (a, b) = self.ab.as_ref().ok_or_else(|| {
+                ModelError::error("the Jacobian is available after fmi2ExitInitializationMode")
+            })?;
+            return Ok(match known {
+                VR_X => b[(i, 1)],
+                VR_U_EXT if self.use_external_voltage => b[(i, 0)],
+                VR_U_EXT | VR_V => 0.0,
+                k => match states.iter().position(|&s| s == k) {
+                    Some(j) => a[(i, j)],
+                    None => {
+                        return Err(ModelError::error(format!(
+                            "directional derivatives of the state derivatives are provided with respect to the states I, q_a, v_a and the inputs x, v, u_ext, not value reference {known}"
+                        )))
+                    }
+                },
+            });
+        }
+        if let Some(j) = states.iter().position(|&s| s == known) {
+            return Ok(match unknown {
+                VR_F if j == 1 => self.k_s(),
+                u if u == known => 1.0,
+                VR_F | VR_I | VR_Q_A | VR_V_A | VR_U | VR_OMEGA => 0.0,
+                _ => {
+                    return Err(ModelError::error(format!(
+                        "directional derivatives are provided for outputs and state derivatives only, not value reference {unknown}"
+                    )))
+                }
+            });
+        }
         if ![VR_X, VR_V, VR_U_EXT].contains(&known) {
             return Err(ModelError::error(format!(
                 "directional derivatives are provided with respect to the inputs x, v, u_ext only, not value reference {known}"
@@ -614,6 +773,7 @@ impl CoSimModel for Shaker {
         }
         if !fixed {
             self.stepper = None;
+            self.ab = None;
         } else if self.stepper.is_none() || old != self.params {
             self.fix_parameters()?;
         }

@@ -7,6 +7,23 @@ use shaker::model::*;
 const XML: &str = include_str!("../../modelDescription/shaker/modelDescription.xml");
 
 #[test]
+fn model_exchange_part_matches_the_code() {
+    let md = fmi2_export::xml::ModelDescription::parse(XML).unwrap();
+    let errs = fmi2_export::xml::check_model_exchange::<Shaker>(&md);
+    assert!(errs.is_empty(), "{errs:#?}");
+    let me = md.model_exchange.as_ref().expect("<ModelExchange>");
+    assert_eq!(me.model_identifier, "shaker");
+    // the Jacobian of the derivatives (A, B) is provided
+    assert!(me.provides_directional_derivative);
+    let names: Vec<&str> = md
+        .derivatives
+        .iter()
+        .map(|u| md.variables[u.index - 1].name.as_str())
+        .collect();
+    assert_eq!(names, ["der(I)", "der(q_a)", "der(v_a)"]);
+}
+
+#[test]
 fn xml_matches_the_code() {
     let md = fmi2_export::xml::check_model_description(
         XML,
@@ -35,11 +52,16 @@ fn xml_matches_the_code() {
     for n in ["I", "q_a", "v_a", "Omega"] {
         assert_eq!(deps(n), Some(vec![]), "{n}");
     }
-    // initial unknowns: the calculated parameter and every output, ascending
+    // initial unknowns: the calculated parameter, every output and (Model
+    // Exchange) every state derivative, ascending
     let mut expect: Vec<usize> = md
         .variables
         .iter()
-        .filter(|v| v.causality == "output" || v.causality == "calculatedParameter")
+        .filter(|v| {
+            v.causality == "output"
+                || v.causality == "calculatedParameter"
+                || v.derivative.is_some()
+        })
         .map(|v| v.index)
         .collect();
     expect.sort();

@@ -191,3 +191,131 @@ fn a_huge_step_is_refused_not_run() {
     m.do_step(0.0, 1e-5, &log).unwrap();
     assert!(m.get_real(VR_F).is_finite());
 }
+
+/// Issue 14: the shaker hung in the matrix exponential for accepted absurd
+/// parameters (R 1e40, k_a 1e80, D_a 1e60, k_s 1e100, Omega_start 1e12).
+/// Now each is refused at initialization with its physical range, at once.
+#[test]
+fn absurd_parameters_are_refused_with_their_range() {
+    let log = Logger::silent();
+    for (vr, value, needle) in [
+        (
+            VR_R,
+            1e40,
+            "R = 1e40 Ohm is outside its physical range [1e-6, 1e6] Ohm",
+        ),
+        (VR_R, 1e60, "R = 1e60 Ohm"),
+        (
+            VR_K_A,
+            1e80,
+            "k_a = 1e80 N/m is outside its physical range [1e-6, 1e12] N/m",
+        ),
+        (
+            VR_D_A_RATIO,
+            1e60,
+            "D_a = 1e60 1 is outside its physical range [0e0, 1e3] 1",
+        ),
+        (
+            VR_K_S,
+            1e100,
+            "k_s = 1e100 N/m is outside its physical range [1e-6, 1e12] N/m",
+        ),
+        (
+            VR_OMEGA_START,
+            1e12,
+            "Omega_start = 1e12 rad/s is outside its physical range [0e0, 1e7] rad/s",
+        ),
+        (VR_U_HAT, f64::MAX, "u_hat = 1.7976931348623157e308 V"),
+    ] {
+        let mut m = shaker();
+        m.set_real(vr, value).unwrap();
+        m.setup_experiment(0.0, None).unwrap();
+        let t0 = std::time::Instant::now();
+        let e = m.exit_initialization_mode(&log).unwrap_err();
+        assert!(t0.elapsed().as_secs_f64() < 0.1);
+        assert!(
+            e.message.contains(needle),
+            "{needle:?} not in {:?}",
+            e.message
+        );
+    }
+}
+
+/// The extremes of the accepted ranges still terminate: the stiffest stinger
+/// on the lightest armature (||A|| ~ 1e18 1/s) with an external voltage (one
+/// sub-step per step) is refused for a long step by the exponential's norm
+/// bound, and steps at a short one.
+#[test]
+fn the_matrix_exponential_norm_is_bounded_per_step() {
+    let log = Logger::silent();
+    let mut m = shaker();
+    m.set_real(VR_K_S, 1e12).unwrap();
+    m.set_real(VR_M_A, 1e-6).unwrap();
+    m.set_real(VR_D_A_RATIO, 1e3).unwrap();
+    m.set_boolean(VR_USE_EXTERNAL, true).unwrap();
+    m.setup_experiment(0.0, None).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    let t0 = std::time::Instant::now();
+    let e = m.do_step(0.0, 1.0, &log).unwrap_err();
+    assert!(e.message.contains("exceeds 1e15"), "{}", e.message);
+    m.do_step(0.0, 1e-6, &log).unwrap();
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+}
+
+/// Model Exchange Jacobian (`fmi2GetDirectionalDerivative`): the partials of
+/// the state derivatives equal their difference quotients (the system is
+/// linear, so central differences are exact up to round-off).
+#[test]
+fn state_derivative_jacobian_matches_difference_quotients() {
+    let log = Logger::silent();
+    for external in [false, true] {
+        let mut m = shaker();
+        m.set_boolean(VR_USE_EXTERNAL, external).unwrap();
+        m.setup_experiment(0.0, None).unwrap();
+        m.exit_initialization_mode(&log).unwrap();
+        m.set_time(0.01).unwrap();
+        let s0 = [0.3, 2e-5, 0.04];
+        m.set_continuous_states(&s0).unwrap();
+        m.set_real(VR_X, 1e-5).unwrap();
+        m.set_real(VR_U_EXT, 2.0).unwrap();
+        let rates = |m: &Shaker| {
+            let mut d = [0.0; 3];
+            m.derivatives(&mut d).unwrap();
+            d
+        };
+        let knowns: [(u32, f64); 5] = [
+            (VR_I, 1e-3),
+            (VR_Q_A, 1e-8),
+            (VR_V_A, 1e-4),
+            (VR_X, 1e-8),
+            (VR_U_EXT, 1e-3),
+        ];
+        for (k, eps) in knowns {
+            let (mut p, mut q) = (m.clone(), m.clone());
+            let set = |m: &mut Shaker, d: f64| match k {
+                VR_I | VR_Q_A | VR_V_A => {
+                    let mut s = s0;
+                    s[[VR_I, VR_Q_A, VR_V_A].iter().position(|&v| v == k).unwrap()] += d;
+                    m.set_continuous_states(&s).unwrap();
+                }
+                _ => {
+                    let v = m.get_real(k);
+                    m.set_real(k, v + d).unwrap();
+                }
+            };
+            set(&mut p, eps);
+            set(&mut q, -eps);
+            let (rp, rq) = (rates(&p), rates(&q));
+            for (i, der) in [VR_DER_I, VR_DER_Q_A, VR_DER_V_A].into_iter().enumerate() {
+                let fd = (rp[i] - rq[i]) / (2.0 * eps);
+                let j = m.partial_derivative(der, k).unwrap();
+                assert!(
+                    (j - fd).abs() <= 1e-6 * fd.abs().max(1.0),
+                    "d der {i} / d vr {k} (external {external}): {j} vs {fd}"
+                );
+            }
+        }
+        assert_eq!(m.partial_derivative(VR_F, VR_Q_A).unwrap(), 2.6e7);
+        assert_eq!(m.partial_derivative(VR_I, VR_I).unwrap(), 1.0);
+    }
+}

@@ -1,4 +1,4 @@
-//! The structure FMU (FMI 2.0 Co-Simulation): the time-domain nonlinear-mode
+//! The structure FMU (FMI 2.0 Co-Simulation and Model Exchange): the time-domain nonlinear-mode
 //! oscillator of DESIGN.md section 4 ([`nlmode::oscillator`]) driven by the
 //! force of an attachment at one point of the modal table.
 //!
@@ -21,8 +21,8 @@ use std::cell::Cell;
 use std::path::PathBuf;
 
 use fmi2_export::{
-    Causality, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader, StateWriter,
-    VarType, Variability, Variable,
+    Causality, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError, Start,
+    StateReader, StateWriter, VarType, Variability, Variable,
 };
 use nlmode::nma::ModalTable;
 use nlmode::oscillator::{InputPolynomial, ModalOscillator, OscillatorState, PointResponse};
@@ -36,6 +36,11 @@ pub mod vr {
     pub const A: u32 = 4;
     pub const OMEGA: u32 = 5;
     pub const FREQUENCY_ERROR: u32 = 6;
+    /// Model Exchange: the states `eta`, `u = eta'/omega(a)` and their derivatives.
+    pub const ETA: u32 = 7;
+    pub const U: u32 = 8;
+    pub const DER_ETA: u32 = 9;
+    pub const DER_U: u32 = 10;
     /// String parameters.
     pub const DRIVE_POINT: u32 = 0;
     pub const MODAL_TABLE: u32 = 1;
@@ -199,6 +204,11 @@ impl Structure {
         Ok(r)
     }
 
+    /// `(eta', u')` at the current state under the input `F` (its value now).
+    fn state_rate(&self) -> Result<(f64, f64), ModelError> {
+        Ok(self.oscillator()?.state_rate(self.force.c0)?)
+    }
+
     fn oscillator(&self) -> Result<&ModalOscillator, ModelError> {
         self.osc.as_ref().ok_or_else(|| {
             ModelError::error("the modal table is loaded at fmi2ExitInitializationMode")
@@ -266,6 +276,38 @@ impl CoSimModel for Structure {
             Some(Start::Real(0.0)),
             "",
         ),
+        real(
+            "eta",
+            vr::ETA,
+            Causality::Local,
+            Variability::Continuous,
+            None,
+            "sqrt(kg).m",
+        ),
+        real(
+            "u",
+            vr::U,
+            Causality::Local,
+            Variability::Continuous,
+            None,
+            "sqrt(kg).m",
+        ),
+        real(
+            "der(eta)",
+            vr::DER_ETA,
+            Causality::Local,
+            Variability::Continuous,
+            None,
+            "sqrt(kg).m/s",
+        ),
+        real(
+            "der(u)",
+            vr::DER_U,
+            Causality::Local,
+            Variability::Continuous,
+            None,
+            "sqrt(kg).m/s",
+        ),
         Variable {
             name: "drive_point",
             vr: vr::DRIVE_POINT,
@@ -292,6 +334,21 @@ impl CoSimModel for Structure {
             variability: Variability::Fixed,
             start: Some(Start::String("")),
             unit: "",
+        },
+    ];
+
+    /// The normal-form state `(eta, u)` of [`nlmode::oscillator`] (nominal:
+    /// the paper's modal amplitudes, up to about 4.5e-3 sqrt(kg) m).
+    const CONTINUOUS_STATES: &'static [ContinuousState] = &[
+        ContinuousState {
+            state_vr: vr::ETA,
+            derivative_vr: vr::DER_ETA,
+            nominal: 1e-3,
+        },
+        ContinuousState {
+            state_vr: vr::U,
+            derivative_vr: vr::DER_U,
+            nominal: 1e-3,
         },
     ];
 
@@ -350,6 +407,12 @@ impl CoSimModel for Structure {
             vr::A => self.out.a,
             vr::OMEGA => self.out.omega,
             vr::FREQUENCY_ERROR => self.frequency_error,
+            vr::ETA => self.osc.as_ref().map_or(0.0, |o| o.state().eta),
+            vr::U => self.osc.as_ref().map_or(0.0, |o| o.state().u),
+            // before initialization (no table) or out of the table's range: NaN,
+            // which the layer reports as an error
+            vr::DER_ETA => self.state_rate().map_or(f64::NAN, |r| r.0),
+            vr::DER_U => self.state_rate().map_or(f64::NAN, |r| r.1),
             _ => unreachable!("the layer checks value references"),
         }
     }
@@ -428,6 +491,42 @@ impl CoSimModel for Structure {
         let p = self.force;
         self.force = InputPolynomial::constant(p.c0 + h * (p.c1 + 0.5 * h * p.c2));
         self.update_outputs()
+    }
+
+    /// Model Exchange: the oscillator is autonomous; the time only stamps
+    /// its error messages.
+    fn set_time(&mut self, t: f64) -> Result<(), ModelError> {
+        let osc = self
+            .osc
+            .as_mut()
+            .ok_or_else(|| ModelError::error("not initialized"))?;
+        let s = osc.state();
+        osc.set_state(OscillatorState { time_s: t, ..s })?;
+        Ok(())
+    }
+
+    /// Model Exchange: `[eta, u]`; an amplitude above the table's range is an error.
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        let osc = self
+            .osc
+            .as_mut()
+            .ok_or_else(|| ModelError::error("not initialized"))?;
+        let s = osc.state();
+        osc.set_state(OscillatorState {
+            time_s: s.time_s,
+            eta: x[0],
+            u: x[1],
+        })?;
+        self.update_outputs()
+    }
+
+    /// Model Exchange: `[eta', u']` of the normal form under the input `F`
+    /// ([`ModalOscillator::state_rate`]).
+    fn derivatives(&self, dx: &mut [f64]) -> Result<(), ModelError> {
+        let (de, du) = self.state_rate()?;
+        dx[0] = de;
+        dx[1] = du;
+        Ok(())
     }
 
     fn set_real_input_derivative(

@@ -38,6 +38,56 @@ fn instantiate(resource_dir: Option<std::path::PathBuf>) -> Structure {
 }
 
 #[test]
+fn model_exchange_part_matches_the_code() {
+    let md = fmi2_export::xml::ModelDescription::parse(XML).unwrap();
+    let errs = fmi2_export::xml::check_model_exchange::<Structure>(&md);
+    assert!(errs.is_empty(), "{errs:#?}");
+    let names: Vec<&str> = md
+        .derivatives
+        .iter()
+        .map(|u| md.variables[u.index - 1].name.as_str())
+        .collect();
+    assert_eq!(names, ["der(eta)", "der(u)"]);
+}
+
+/// Model Exchange: the derivatives are the normal form of `eq:NM`; a linear
+/// table gives `eta' = omega u`, `u' = -omega eta - 2 D omega u + |phi_ex| F/omega`.
+#[test]
+fn model_exchange_derivatives_are_the_normal_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = linear_table(dir.path());
+    let log = Logger::silent();
+    let mut m = instantiate(None);
+    m.set_string(vr::MODAL_TABLE, table.to_str().unwrap())
+        .unwrap();
+    m.setup_experiment(0.0, None).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    m.set_time(0.25).unwrap();
+    m.set_continuous_states(&[1e-3, -2e-3]).unwrap();
+    m.set_real(vr::F, 0.5).unwrap();
+    let mut dx = [0.0; 2];
+    m.derivatives(&mut dx).unwrap();
+    let (w, d, phi) = (356.2, 0.004, 1.04);
+    assert!((dx[0] - w * -2e-3).abs() < 1e-12, "{dx:?}");
+    let du = -w * 1e-3 - 2.0 * d * w * -2e-3 + phi * 0.5 / w;
+    assert!(
+        (dx[1] - du).abs() < 1e-12 * du.abs().max(1.0),
+        "{dx:?} vs {du}"
+    );
+    assert_eq!(m.get_real(vr::ETA), 1e-3);
+    assert_eq!(m.get_real(vr::U), -2e-3);
+    assert_eq!(m.get_real(vr::DER_U), dx[1]);
+    // the outputs follow the set state: x = phi_ex eta at the drive point
+    assert!(
+        (m.get_real(vr::X) + 1.04 * 1e-3).abs() < 1e-12
+            || (m.get_real(vr::X) - 1.04 * 1e-3).abs() < 1e-12
+    );
+    // a state above the table's range is refused with the numbers
+    let e = m.set_continuous_states(&[2.0, 0.0]).unwrap_err();
+    assert!(e.message.contains("above the modal table's range"), "{e}");
+}
+
+#[test]
 fn xml_and_code_agree() {
     let md = fmi2_export::xml::check_model_description(
         XML,
@@ -353,16 +403,22 @@ fn cached_output_derivatives_follow_the_input_the_step_and_the_state() {
 
 /// `<ModelStructure>` agrees with the code's actual dependencies: no output
 /// feeds through from `F`; initially only `omega` depends on a known
-/// (`frequency_error`; the table path is a String, listed but not perturbed).
+/// (`frequency_error`; the table path is a String, listed but not perturbed),
+/// and the Model Exchange derivative `der(u)` on `F` and `frequency_error`.
 #[test]
 fn model_structure_dependencies_match_the_code() {
     let md = fmi2_export::xml::ModelDescription::parse(XML).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let table = linear_table(dir.path());
-    let errs = fmi2_export::xml::check_dependencies(&md, 1, |_| {
+    // configuration 1: F = 1 N at the start (der(u) = |phi_ex| F/omega then
+    // shows its dependence on frequency_error)
+    let errs = fmi2_export::xml::check_dependencies(&md, 2, |k| {
         let mut m = instantiate(None);
         m.set_string(vr::MODAL_TABLE, table.to_str().unwrap())
             .unwrap();
+        if k == 1 {
+            m.set_real(vr::F, 1.0).unwrap();
+        }
         m
     });
     assert!(errs.is_empty(), "{errs:#?}");
