@@ -250,6 +250,13 @@ pub fn set_path(root: &mut toml::Value, key: &str, value: toml::Value) -> Result
                     t.insert(part.to_string(), value);
                     return Ok(());
                 }
+                let next_is_index = parts[depth + 1].parse::<usize>().is_ok();
+                if next_is_index && !t.contains_key(*part) {
+                    return Err(format!(
+                        "{key}: the base scenario has no `{here}` entries to index: write them \
+                         out in it (e.g. the [[exciter]] tables)"
+                    ));
+                }
                 t.entry(part.to_string())
                     .or_insert_with(|| toml::Value::Table(Default::default()))
             }
@@ -325,11 +332,13 @@ struct Prepared {
     table: OnceLock<Result<nlmode::nma::ModalTable, String>>,
 }
 
-/// The per-structure cache: one entry per [`structure_key`], built once
-/// (other threads wanting the same structure wait for it).
+/// The per-structure cache: one entry per [`structure_key`], built once by
+/// the first sample that needs it while the others wanting the same
+/// structure wait. A failed build is not kept: it may be the sample's own
+/// fault (e.g. its exciter), so the next sample tries again.
 #[derive(Default)]
 struct Cache {
-    map: Mutex<HashMap<String, Arc<OnceLock<Result<Arc<Prepared>, String>>>>>,
+    map: Mutex<HashMap<String, Arc<Mutex<Option<Arc<Prepared>>>>>>,
 }
 
 impl Cache {
@@ -338,21 +347,25 @@ impl Cache {
             let mut m = self.map.lock().unwrap_or_else(|e| e.into_inner());
             m.entry(structure_key(sc)).or_default().clone()
         };
-        cell.get_or_init(|| {
-            Setup::new(sc)
-                .map(|setup| {
-                    Arc::new(Prepared {
-                        setup,
-                        table: OnceLock::new(),
-                    })
-                })
-                .map_err(|e| format!("{e:#}"))
-        })
-        .clone()
+        let mut slot = cell.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = slot.as_ref() {
+            return Ok(p.clone());
+        }
+        let setup = Setup::new(sc).map_err(|e| format!("{e:#}"))?;
+        let p = Arc::new(Prepared {
+            setup,
+            table: OnceLock::new(),
+        });
+        *slot = Some(p.clone());
+        Ok(p)
     }
 
+    /// Structures built.
     fn distinct(&self) -> usize {
-        self.map.lock().map(|m| m.len()).unwrap_or(0)
+        let m = self.map.lock().unwrap_or_else(|e| e.into_inner());
+        m.values()
+            .filter(|c| c.lock().map(|s| s.is_some()).unwrap_or(false))
+            .count()
     }
 }
 
@@ -551,6 +564,8 @@ mod tests {
         assert_eq!(v["exciter"][0]["location"].as_float(), Some(0.5));
         let e = set_path(&mut v, "exciter.3.location", toml::Value::Float(0.5)).unwrap_err();
         assert!(e.contains("exciter.3") && e.contains("out of range"), "{e}");
+        let e = set_path(&mut v, "cosim.point.0", toml::Value::Float(0.5)).unwrap_err();
+        assert!(e.contains("cosim.point") && e.contains("no"), "{e}");
         let e = set_path(&mut v, "title.x", toml::Value::Float(0.5)).unwrap_err();
         assert!(e.contains("title.x"), "{e}");
     }
