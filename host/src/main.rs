@@ -126,14 +126,17 @@ fn main() -> ExitCode {
             };
             study::study(&spec, &out, &opts).map(|o| {
                 println!(
-                    "study: {} samples ({} computed, {} failed, {} distinct structures) on {} threads in {:.3} s: {:.0} samples/s",
+                    "study: {} samples ({} computed, {} failed, {} distinct structures) on {} threads: \
+                     structures and NMA {:.3} s, samples {:.3} s ({:.0} samples/s), total {:.3} s",
                     o.samples,
                     o.computed,
                     o.failed,
                     o.distinct_structures,
                     o.threads,
-                    o.wall_time_s,
-                    o.samples_per_s
+                    o.structures_s,
+                    o.samples_s,
+                    o.samples_per_s,
+                    o.wall_time_s
                 );
                 println!("wrote {} files in {}", o.files.len(), out.display());
                 ExitCode::SUCCESS

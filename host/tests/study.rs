@@ -179,7 +179,7 @@ fn random_study(dir: &Path, samples: usize) {
 #[test]
 fn seeded_random_study_is_reproducible_and_resumes_after_a_kill() {
     let dir = tmpdir("random");
-    let n = 6000;
+    let n = 3000;
     random_study(&dir, n);
     let full = dir.join("full");
     ok(&study(&dir, &full, &[]));

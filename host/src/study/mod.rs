@@ -332,6 +332,20 @@ struct Prepared {
     table: OnceLock<Result<nlmode::nma::ModalTable, String>>,
 }
 
+impl Prepared {
+    /// The modal table of this structure (`sc`: a scenario having it), computed once.
+    fn table(&self, sc: &Scenario) -> Result<&nlmode::nma::ModalTable, String> {
+        self.table
+            .get_or_init(|| {
+                methods::nma_table(&self.setup, sc, false)
+                    .map(|(n, _)| n.table)
+                    .map_err(|e| format!("{e:#}"))
+            })
+            .as_ref()
+            .map_err(|e| e.clone())
+    }
+}
+
 /// The per-structure cache: one entry per [`structure_key`], built once by
 /// the first sample that needs it while the others wanting the same
 /// structure wait. A failed build is not kept: it may be the sample's own
@@ -404,15 +418,7 @@ fn run_sample(cache: &Cache, sample: usize, sc: &Scenario, method: Method) -> Ro
                 ))
             }
             _ => {
-                let table = prepared
-                    .table
-                    .get_or_init(|| {
-                        methods::nma_table(&prepared.setup, sc, false)
-                            .map(|(n, _)| n.table)
-                            .map_err(|e| format!("{e:#}"))
-                    })
-                    .as_ref()
-                    .map_err(|e| e.clone())?;
+                let table = prepared.table(sc)?;
                 let f = &sc.imposed_force;
                 let error = nlmode::reduced::FrequencyError {
                     eps: f.frequency_error,
@@ -453,8 +459,13 @@ pub struct Outcome {
     pub failed: usize,
     pub distinct_structures: usize,
     pub threads: usize,
+    /// Whole study [s].
     pub wall_time_s: f64,
-    /// Samples computed per second of wall time (results written).
+    /// Building the distinct structures and their modal tables [s].
+    pub structures_s: f64,
+    /// Running the samples, results written [s].
+    pub samples_s: f64,
+    /// Samples computed per second of `samples_s`.
     pub samples_per_s: f64,
     pub files: Vec<PathBuf>,
 }
@@ -500,11 +511,35 @@ pub fn run_study(st: &Study, out: &Path, opts: &Options) -> Result<Outcome> {
             st.reference_samples.clone(),
         ));
     }
+    let mut structures_s = 0.0;
+    let mut samples_s = 0.0;
     for (table, method, samples) in jobs {
         let todo: Vec<usize> = samples
             .into_iter()
             .filter(|i| !files.done(table, *i))
             .collect();
+        // the distinct structures (and modal tables) first, in parallel; a
+        // failure is left to the samples to record
+        let t1 = std::time::Instant::now();
+        let mut firsts: Vec<usize> = Vec::new();
+        let mut seen = std::collections::HashSet::new();
+        for &i in &todo {
+            if seen.insert(structure_key(&st.scenarios[i])) {
+                firsts.push(i);
+            }
+        }
+        pool.install(|| {
+            firsts.par_iter().for_each(|&i| {
+                let sc = &st.scenarios[i];
+                if let Ok(p) = cache.get(sc) {
+                    if method.needs_mode() {
+                        let _ = p.table(sc);
+                    }
+                }
+            })
+        });
+        structures_s += t1.elapsed().as_secs_f64();
+        let t2 = std::time::Instant::now();
         let bar = progress_bar(todo.len(), table.label(method), opts.progress);
         let writer = files.writer(table);
         let failed: Result<()> = pool.install(|| {
@@ -517,10 +552,19 @@ pub fn run_study(st: &Study, out: &Path, opts: &Options) -> Result<Outcome> {
         });
         bar.finish_and_clear();
         failed?;
+        samples_s += t2.elapsed().as_secs_f64();
         computed += todo.len();
     }
     let wall = t0.elapsed().as_secs_f64();
-    let summary = files.finish(st, threads, wall, computed, cache.distinct())?;
+    let stats = output::RunStats {
+        threads,
+        wall_time_s: wall,
+        structures_s,
+        samples_s,
+        computed,
+        distinct_structures: cache.distinct(),
+    };
+    let summary = files.finish(st, &stats)?;
     Ok(Outcome {
         samples: st.len(),
         computed,
@@ -528,11 +572,9 @@ pub fn run_study(st: &Study, out: &Path, opts: &Options) -> Result<Outcome> {
         distinct_structures: cache.distinct(),
         threads,
         wall_time_s: wall,
-        samples_per_s: if wall > 0.0 {
-            computed as f64 / wall
-        } else {
-            0.0
-        },
+        structures_s,
+        samples_s,
+        samples_per_s: stats.samples_per_s(),
         files: summary.files,
     })
 }

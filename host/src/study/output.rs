@@ -118,6 +118,32 @@ impl RowWriter {
     }
 }
 
+/// How a study ran (`study_summary.json`'s `run`).
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct RunStats {
+    pub threads: usize,
+    /// Whole study before sorting the tables and plotting [s].
+    pub wall_time_s: f64,
+    /// Building the distinct structures and their modal tables [s].
+    pub structures_s: f64,
+    /// Running the samples, rows written [s].
+    pub samples_s: f64,
+    /// Samples computed by this invocation (not those kept by `--resume`).
+    pub computed: usize,
+    pub distinct_structures: usize,
+}
+
+impl RunStats {
+    /// Samples per second of the sample phase.
+    pub fn samples_per_s(&self) -> f64 {
+        if self.samples_s > 0.0 {
+            self.computed as f64 / self.samples_s
+        } else {
+            0.0
+        }
+    }
+}
+
 /// The open files of a running study.
 pub struct StudyFiles {
     dir: PathBuf,
@@ -132,11 +158,13 @@ pub struct Finished {
 
 /// The rows already in a results CSV that belong to this study: complete
 /// records with the study's header and a sample index in range, each sample
-/// once; reading stops at the first damaged record (a row cut by a kill).
+/// once; reading stops at the first damaged record, and a last line without
+/// its line end (a row cut by a kill) is dropped.
 fn read_done(path: &Path, st: &Study) -> Result<Vec<csv::StringRecord>> {
-    let mut rd = csv::ReaderBuilder::new()
-        .from_path(path)
-        .with_context(|| format!("cannot read {}", path.display()))?;
+    let text = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    // a row is complete with its line end: a kill may leave a cut one after the last
+    let end = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let mut rd = csv::ReaderBuilder::new().from_reader(&text[..end]);
     let want = header(st);
     let got: Vec<String> = rd
         .headers()
@@ -263,14 +291,7 @@ impl StudyFiles {
     }
 
     /// Sort the tables by sample, write the Parquet files, the summary and the plots.
-    pub fn finish(
-        self,
-        st: &Study,
-        threads: usize,
-        wall_time_s: f64,
-        computed: usize,
-        distinct_structures: usize,
-    ) -> Result<Finished> {
+    pub fn finish(self, st: &Study, run: &RunStats) -> Result<Finished> {
         let h = header(st);
         let mut files = Vec::new();
         let mut main_rows = Vec::new();
@@ -290,15 +311,7 @@ impl StudyFiles {
         }
         let parsed: Vec<Parsed> = main_rows.iter().map(|r| Parsed::of(st, r)).collect();
         let failed = parsed.iter().filter(|p| p.status != "ok").count();
-        let summary = summary_json(
-            st,
-            &parsed,
-            threads,
-            wall_time_s,
-            computed,
-            distinct_structures,
-            failed,
-        );
+        let summary = summary_json(st, &parsed, run, failed);
         let sp = self.dir.join(SUMMARY);
         std::fs::write(&sp, serde_json::to_string_pretty(&summary)?)
             .with_context(|| format!("cannot write {}", sp.display()))?;
@@ -497,15 +510,7 @@ fn figure_name(k: usize) -> &'static str {
     FIGURE_COLUMNS[NUMBER_FIGURES[k]]
 }
 
-fn summary_json(
-    st: &Study,
-    rows: &[Parsed],
-    threads: usize,
-    wall_time_s: f64,
-    computed: usize,
-    distinct_structures: usize,
-    failed: usize,
-) -> serde_json::Value {
+fn summary_json(st: &Study, rows: &[Parsed], run: &RunStats, failed: usize) -> serde_json::Value {
     let ok: Vec<&Parsed> = rows.iter().filter(|r| r.status == "ok").collect();
     let mut parameters = BTreeMap::new();
     for (j, k) in st.keys.iter().enumerate() {
@@ -544,13 +549,8 @@ fn summary_json(
         "parameters": parameters,
         "figures": figures,
         "correlation": correlation,
-        "run": {
-            "threads": threads,
-            "computed_samples": computed,
-            "wall_time_s": wall_time_s,
-            "samples_per_s": if wall_time_s > 0.0 { computed as f64 / wall_time_s } else { 0.0 },
-            "distinct_structures": distinct_structures,
-        },
+        "run": run,
+        "samples_per_s": run.samples_per_s(),
     })
 }
 
