@@ -330,6 +330,8 @@ struct Prepared {
     setup: Setup,
     /// The modal table, computed on first use.
     table: OnceLock<Result<nlmode::nma::ModalTable, String>>,
+    /// The reduced model of the table without attachments (its interpolant), built once.
+    base_model: OnceLock<Result<nlmode::reduced::ReducedModel, String>>,
 }
 
 impl Prepared {
@@ -340,6 +342,20 @@ impl Prepared {
                 methods::nma_table(&self.setup, sc, false)
                     .map(|(n, _)| n.table)
                     .map_err(|e| format!("{e:#}"))
+            })
+            .as_ref()
+            .map_err(|e| e.clone())
+    }
+
+    /// The single-mode model of the table at the response and first exciter
+    /// points, without attachments ([`methods::reduced_model`] adds them).
+    fn base_model(&self, sc: &Scenario) -> Result<&nlmode::reduced::ReducedModel, String> {
+        let table = self.table(sc)?;
+        self.base_model
+            .get_or_init(|| {
+                let s = &self.setup;
+                nlmode::reduced::ReducedModel::new(table, &s.response_point, &s.exciter_points[0])
+                    .map_err(|e| e.to_string())
             })
             .as_ref()
             .map_err(|e| e.clone())
@@ -369,6 +385,7 @@ impl Cache {
         let p = Arc::new(Prepared {
             setup,
             table: OnceLock::new(),
+            base_model: OnceLock::new(),
         });
         *slot = Some(p.clone());
         Ok(p)
@@ -418,7 +435,7 @@ fn run_sample(cache: &Cache, sample: usize, sc: &Scenario, method: Method) -> Ro
                 ))
             }
             _ => {
-                let table = prepared.table(sc)?;
+                let base = prepared.base_model(sc)?.clone();
                 let f = &sc.imposed_force;
                 let error = nlmode::reduced::FrequencyError {
                     eps: f.frequency_error,
@@ -429,7 +446,7 @@ fn run_sample(cache: &Cache, sample: usize, sc: &Scenario, method: Method) -> Ro
                 let detuned = method == Method::Nlmode
                     && f.apply_to_nlmode
                     && (error.eps != 0.0 || error.offset_rad_s != 0.0);
-                let mut model = methods::reduced_model(&setup, table, detuned.then_some(error))
+                let mut model = methods::with_attachments(base, &setup, detuned.then_some(error))
                     .map_err(|e| format!("{e:#}"))?;
                 if method == Method::LinearSlowflow {
                     model = model.linear().map_err(|e| format!("{e}"))?;
@@ -533,7 +550,7 @@ pub fn run_study(st: &Study, out: &Path, opts: &Options) -> Result<Outcome> {
                 let sc = &st.scenarios[i];
                 if let Ok(p) = cache.get(sc) {
                     if method.needs_mode() {
-                        let _ = p.table(sc);
+                        let _ = p.base_model(sc);
                     }
                 }
             })
