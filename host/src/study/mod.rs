@@ -13,8 +13,13 @@
 //! reduction) and its modal table are built once per distinct structure and
 //! shared by all threads: the cache is keyed by the serialized `[structure]`
 //! and `[nma]` sections, the exciter locations and the response point,
-//! which is everything they depend on ([`structure_key`]). The figures of
-//! merit come from the sweep as it is folded ([`fom`]), no envelope is kept.
+//! which is everything they depend on ([`structure_key`]); so is the
+//! table's interpolant (the reduced model without attachments), cloned per
+//! sample. The figures of merit are folded from the slow flow's output
+//! samples ([`fom`]: the same samples and definitions as `summary.json`, so
+//! the numbers are bit-identical to `host run`'s); `nlmode` returns a sweep's
+//! samples in one batch, which is dropped once folded: no envelope is kept
+//! or written, each worker holds one sweep's samples at a time.
 //! Rows are appended to `DIR/results.csv` (flushed) as samples finish, so an
 //! interrupted study loses nothing; `--resume` skips the samples already
 //! there. At the end the rows are sorted by sample (the files do not depend
@@ -648,6 +653,22 @@ mod tests {
         let t = "design = \"lhs\"\nsamples = 3\nreference_subset = 4\n[[parameter]]\nkey = \"excitation.voltage_v\"\ndistribution = \"uniform\"\nlow = 1.0\nhigh = 2.0\n";
         let e = Study::from_text(t, base).err().unwrap().to_string();
         assert!(e.contains("reference_subset"), "{e}");
+    }
+
+    #[test]
+    fn every_example_study_loads() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let p = entry.unwrap().path();
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            if name.starts_with("study_") && name.ends_with(".toml") {
+                let st = Study::load(&p).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
+                assert!(!st.is_empty());
+                n += 1;
+            }
+        }
+        assert!(n >= 1, "no example study");
     }
 
     #[test]
