@@ -6,7 +6,7 @@
 //! scenario lists and writes the output contract (DESIGN.md section 7);
 //! `host nma` computes the nonlinear mode; `host frf` the steady-state
 //! frequency responses; `host package` packages the FMUs; `host cosim` runs a
-//! generic co-simulation file.
+//! generic co-simulation file; `host study` runs a parameter study.
 #![forbid(unsafe_code)]
 pub mod controlled;
 pub mod cosim_cmd;
@@ -18,3 +18,4 @@ pub mod plot;
 pub mod results;
 pub mod run;
 pub mod scenario;
+pub mod study;

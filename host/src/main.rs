@@ -6,7 +6,7 @@
 //! requested method could not run (e.g. `cosim` without the FMU libraries;
 //! `summary.json` lists it under `failed_methods`).
 use clap::{Parser, Subcommand};
-use host::{cosim_cmd, nma_cmd, package, run};
+use host::{cosim_cmd, nma_cmd, package, run, study};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -70,6 +70,21 @@ enum Command {
         #[arg(short, long, default_value = "out")]
         out: PathBuf,
     },
+    /// Parameter study: a design over any scenario keys, figures of merit per
+    /// sample (results.csv, results.parquet, study_summary.json, plots/).
+    Study {
+        /// Study file (TOML): base scenario, parameters, design, method.
+        study: PathBuf,
+        /// Output directory.
+        #[arg(short, long, default_value = "out/study")]
+        out: PathBuf,
+        /// Keep the finished samples of the same study in DIR and run the others.
+        #[arg(long)]
+        resume: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
 }
 
 /// `host run` wrote what it could, but a requested method could not run.
@@ -97,6 +112,35 @@ fn main() -> ExitCode {
         }
         Command::Frf { scenario, out } => {
             nma_cmd::frf(scenario.as_deref(), &out).map(|()| ExitCode::SUCCESS)
+        }
+        Command::Study {
+            study: spec,
+            out,
+            resume,
+            threads,
+        } => {
+            let opts = study::Options {
+                resume,
+                threads,
+                progress: true,
+            };
+            study::study(&spec, &out, &opts).map(|o| {
+                println!(
+                    "study: {} samples ({} computed, {} failed, {} distinct structures) on {} threads: \
+                     structures and NMA {:.3} s, samples {:.3} s ({:.0} samples/s), total {:.3} s",
+                    o.samples,
+                    o.computed,
+                    o.failed,
+                    o.distinct_structures,
+                    o.threads,
+                    o.structures_s,
+                    o.samples_s,
+                    o.samples_per_s,
+                    o.wall_time_s
+                );
+                println!("wrote {} files in {}", o.files.len(), out.display());
+                ExitCode::SUCCESS
+            })
         }
         Command::Cosim { spec, out } => cosim_cmd::cosim(&spec, &out).map(|()| ExitCode::SUCCESS),
         Command::Package { out, fmu_dir } => {

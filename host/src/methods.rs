@@ -240,8 +240,21 @@ pub fn reduced_model(
     table: &nlmode::nma::ModalTable,
     error: Option<nlmode::reduced::FrequencyError>,
 ) -> Result<nlmode::reduced::ReducedModel> {
-    let mut m =
+    let m =
         nlmode::reduced::ReducedModel::new(table, &setup.response_point, &setup.exciter_points[0])?;
+    with_attachments(m, setup, error)
+}
+
+/// `base`, the model of the modal table at the setup's response and first
+/// exciter points without attachments ([`nlmode::reduced::ReducedModel::new`]),
+/// with the scenario's shakers and the frequency error: [`reduced_model`]
+/// with the table's interpolant built once (a study's samples share it).
+pub fn with_attachments(
+    base: nlmode::reduced::ReducedModel,
+    setup: &Setup,
+    error: Option<nlmode::reduced::FrequencyError>,
+) -> Result<nlmode::reduced::ReducedModel> {
+    let mut m = base;
     for att in &setup.attachments {
         m = m.with_linear_attachment(att, &[Complex64::new(1.0, 0.0)])?;
     }

@@ -337,6 +337,37 @@ impl Setup {
                 )
             }
         };
+        Self::assemble(sc, model, omega0, full_ndof, mode_index, &pts, d0)
+    }
+
+    /// This setup's structure (model, `omega0`, points, followed mode) with
+    /// the exciters, response point and excitation of `sc`: for a scenario that
+    /// differs from the one this setup was built from only outside
+    /// `[structure]` and the exciter locations (a study's samples share one
+    /// structure and its modal table this way).
+    pub fn with_scenario(&self, sc: &Scenario) -> Result<Self> {
+        Self::assemble(
+            sc,
+            self.model.clone(),
+            self.omega0_rad_s,
+            self.full_ndof,
+            self.mode_index,
+            &self.exciter_points,
+            self.d0,
+        )
+    }
+
+    /// The exciters (`pts[i]`: the structure point of exciter `i`), the
+    /// response point and the sweep of `sc` on a built structure.
+    fn assemble(
+        sc: &Scenario,
+        model: StructuralModel,
+        omega0: f64,
+        full_ndof: usize,
+        mode_index: usize,
+        pts: &[String],
+        d0: f64,
+    ) -> Result<Self> {
         let response_point = sc.response_point();
         model
             .point(&response_point)

@@ -1,0 +1,182 @@
+//! Figures of merit of one sweep, folded sample by sample.
+//!
+//! The definitions are those of `summary.json` ([`MethodResult::new`]): the
+//! peak is the first largest finite tip amplitude and the excitation
+//! frequency there; the force extremes are over the finite force amplitudes;
+//! the jump-down ([`crate::results::jump_down`]) is the steepest drop of the
+//! tip envelope over `w = max(n / 400, 1)` samples at or after the last
+//! largest finite tip amplitude, at the midpoint of that window, none for
+//! fewer than 8 samples. [`Figures::fold`] evaluates the same expressions in
+//! the same order on the same samples, keeping only the last `w + 1` of them
+//! (a ring), so the study's numbers are bit-identical to `host run`'s without
+//! an envelope being stored: when a new maximum arrives the steepest-drop
+//! search restarts there, which is exactly the batch search from the final
+//! maximum.
+//!
+//! [`MethodResult::new`]: crate::results::MethodResult::new
+use serde::Serialize;
+
+/// The figures of merit of one sweep (the `results.csv` columns).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Figures {
+    pub peak_tip_amplitude_m: Option<f64>,
+    pub peak_omega_rad_s: Option<f64>,
+    pub jump_down_omega_rad_s: Option<f64>,
+    pub min_force_amplitude_n: Option<f64>,
+    pub max_force_amplitude_n: Option<f64>,
+}
+
+impl Figures {
+    /// `1 - min/max` of the force envelope (the force drop over the sweep).
+    pub fn force_drop(&self) -> Option<f64> {
+        match (self.min_force_amplitude_n, self.max_force_amplitude_n) {
+            (Some(a), Some(b)) if b > 0.0 => Some(1.0 - a / b),
+            _ => None,
+        }
+    }
+
+    /// Fold `n` samples `(omega [rad/s], tip amplitude [m], force amplitude
+    /// [N])` in sweep order; `is_sweep`: a transient sweep (it has a jump-down).
+    pub fn fold(
+        samples: impl IntoIterator<Item = (f64, f64, f64)>,
+        n: usize,
+        is_sweep: bool,
+    ) -> Self {
+        let w = (n / 400).max(1);
+        // ring of the last w + 1 samples (omega, tip)
+        let mut ring = vec![(0.0f64, 0.0f64); w + 1];
+        let mut peak = (f64::NAN, f64::NAN);
+        let (mut fmin, mut fmax) = (f64::INFINITY, f64::NEG_INFINITY);
+        // last largest finite tip amplitude (index, value) and the steepest drop after it
+        let mut top: Option<(usize, f64)> = None;
+        let mut best: Option<(f64, f64)> = None;
+        let mut count = 0usize;
+        for (j, (x, y, f)) in samples.into_iter().enumerate() {
+            count += 1;
+            if y.is_finite() && !(y <= peak.0) {
+                peak = (y, x);
+            }
+            if f.is_finite() {
+                fmin = fmin.min(f);
+                fmax = fmax.max(f);
+            }
+            ring[j % (w + 1)] = (x, y);
+            if y.is_finite() && top.map_or(true, |(_, v)| y.total_cmp(&v).is_ge()) {
+                top = Some((j, y));
+                best = None;
+            }
+            // the window (i, i + w) = (j - w, j), for i at or after the maximum
+            if let Some((ipk, _)) = top {
+                if j >= w && j - w >= ipk {
+                    let (xi, yi) = ring[(j - w) % (w + 1)];
+                    let dx = x - xi;
+                    if dx != 0.0 {
+                        let slope = (y - yi) / dx.abs();
+                        if best.map_or(true, |(s, _)| slope < s) {
+                            best = Some((slope, 0.5 * (xi + x)));
+                        }
+                    }
+                }
+            }
+        }
+        debug_assert_eq!(count, n, "Figures::fold: n must be the sample count");
+        let finite = |v: f64| v.is_finite().then_some(v);
+        Self {
+            peak_tip_amplitude_m: finite(peak.0),
+            peak_omega_rad_s: finite(peak.1),
+            jump_down_omega_rad_s: if is_sweep && n >= 8 {
+                best.map(|(_, x)| x)
+            } else {
+                None
+            },
+            min_force_amplitude_n: finite(fmin),
+            max_force_amplitude_n: finite(fmax),
+        }
+    }
+
+    /// The figures of a slow-flow sweep (its output samples in order).
+    pub fn of_slow_flow(res: &nlmode::reduced::SlowFlowResult) -> Self {
+        let s = &res.samples;
+        Self::fold(
+            s.iter()
+                .map(|x| (x.omega_rad_s, x.tip_amplitude_m, x.force_amplitude_n)),
+            s.len(),
+            true,
+        )
+    }
+
+    /// The figures of an envelope (e.g. the reference's windowed one).
+    pub fn of_envelope(e: &crate::results::Envelope, is_sweep: bool) -> Self {
+        let n = e.omega_rad_s.len();
+        Self::fold(
+            (0..n).map(|i| {
+                (
+                    e.omega_rad_s[i],
+                    e.tip_amplitude_m[i],
+                    e.force_amplitude_n[i],
+                )
+            }),
+            n,
+            is_sweep,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::results::{Envelope, MethodResult};
+
+    /// The fold equals the summary of `host run` on envelopes with ties,
+    /// NaN, a peak at the end, short and long lengths.
+    #[test]
+    fn fold_equals_the_summary_definitions() {
+        let mut cases: Vec<Vec<(f64, f64, f64)>> = Vec::new();
+        for n in [1usize, 5, 8, 9, 399, 400, 801, 2001, 2345] {
+            let mut v: Vec<(f64, f64, f64)> = (0..n)
+                .map(|i| {
+                    let x = 300.0 + 0.1 * i as f64;
+                    let y = (1.0 + (i as f64 * 0.37).sin())
+                        * (-(i as f64 - n as f64 * 0.6).powi(2) / (n as f64 + 1.0)).exp();
+                    (x, y, 2.0 + (i as f64 * 0.11).cos())
+                })
+                .collect();
+            cases.push(v.clone());
+            if n > 10 {
+                v[3].1 = f64::NAN;
+                v[n / 2].1 = 5.0;
+                v[n / 2 + 3].1 = 5.0; // a tie: first for the peak, last for the jump
+                v[n - 2].2 = f64::INFINITY;
+                v[n - 1].1 = f64::NAN; // a non-finite sample inside the last window
+                cases.push(v.clone());
+                let mut rising = v.clone();
+                rising[n - 1].1 = 9.0;
+                cases.push(rising);
+            }
+        }
+        cases.push(vec![(1.0, f64::NAN, f64::NAN); 20]);
+        for (k, c) in cases.iter().enumerate() {
+            let env = Envelope {
+                omega_rad_s: c.iter().map(|s| s.0).collect(),
+                tip_amplitude_m: c.iter().map(|s| s.1).collect(),
+                force_amplitude_n: c.iter().map(|s| s.2).collect(),
+                ..Default::default()
+            };
+            for is_sweep in [true, false] {
+                let want = MethodResult::new("x", 0.0, env.clone(), is_sweep).summary;
+                let got = Figures::of_envelope(&env, is_sweep);
+                let same =
+                    |a: Option<f64>, b: Option<f64>| a.map(f64::to_bits) == b.map(f64::to_bits);
+                assert!(
+                    same(got.peak_tip_amplitude_m, want.peak_tip_amplitude_m)
+                        && same(got.peak_omega_rad_s, want.peak_omega_rad_s)
+                        && same(got.jump_down_omega_rad_s, want.jump_down_omega_rad_s)
+                        && same(got.min_force_amplitude_n, want.min_force_amplitude_n)
+                        && same(got.max_force_amplitude_n, want.max_force_amplitude_n),
+                    "case {k} (n = {}, sweep {is_sweep}): {got:?} vs {want:?}",
+                    c.len()
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,686 @@
+//! `host study STUDY.toml -o DIR`: a parameter study over any scenario keys.
+//!
+//! A study names a base scenario, parameters by their dotted scenario keys,
+//! a design ([`design`]), a method and a validation subset run by
+//! `reference`. Each sample's scenario is the base scenario's TOML value tree
+//! with the parameters set at their paths, read by the same parser and
+//! checks as a scenario file ([`Scenario::parse`]): every key keeps its own
+//! validation, and every sample is checked before the study starts (an
+//! unknown key or a value out of a key's range is an error naming the key
+//! and the sample, nothing written).
+//!
+//! Samples run on a rayon pool. The structure (FE model, Craig-Bampton
+//! reduction) and its modal table are built once per distinct structure and
+//! shared by all threads: the cache is keyed by the serialized `[structure]`
+//! and `[nma]` sections, the exciter locations and the response point,
+//! which is everything they depend on ([`structure_key`]); so is the
+//! table's interpolant (the reduced model without attachments), cloned per
+//! sample. The figures of merit are folded from the slow flow's output
+//! samples ([`fom`]: the same samples and definitions as `summary.json`, so
+//! the numbers are bit-identical to `host run`'s); `nlmode` returns a sweep's
+//! samples in one batch, which is dropped once folded: no envelope is kept
+//! or written, each worker holds one sweep's samples at a time.
+//! Rows are appended to `DIR/results.csv` (flushed) as samples finish, so an
+//! interrupted study loses nothing; `--resume` skips the samples already
+//! there. At the end the rows are sorted by sample (the files do not depend
+//! on the thread count), `results.parquet` is rebuilt from the sorted CSV,
+//! and `study_summary.json` and the plots are written ([`output`]).
+pub mod design;
+pub mod fom;
+pub mod output;
+
+use crate::methods;
+use crate::model::Setup;
+use crate::scenario::{Method, Scenario, DEFAULT_SCENARIO};
+use anyhow::{Context, Result};
+use design::{DesignKind, ParameterSpec};
+use fom::Figures;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// A bad study file or a sample it produces (`host study` exits 2, nothing written).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StudyError {
+    /// A top-level key of STUDY.toml.
+    #[error("study: {key}: {message}")]
+    Study { key: String, message: String },
+    /// A `[[parameter]]` (its scenario key).
+    #[error("study: parameter {key}: {message}")]
+    Parameter { key: String, message: String },
+    /// A sample whose scenario is invalid.
+    #[error("study: sample {sample} ({values}): {message}")]
+    Sample {
+        sample: usize,
+        /// `key = value, ...` of the sample.
+        values: String,
+        message: String,
+    },
+}
+
+/// STUDY.toml as written.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudySpec {
+    /// Base scenario file, relative to the study file; the embedded default if omitted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scenario: Option<String>,
+    /// `nlmode` (default), `linear-slowflow` or `reference`.
+    #[serde(default = "default_method")]
+    pub method: String,
+    pub design: DesignKind,
+    /// Random and lhs designs: the number of samples (grids: the product of the values' lengths).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples: Option<usize>,
+    #[serde(default)]
+    pub seed: u64,
+    /// Samples also run by `reference` (evenly spread over the design).
+    #[serde(default)]
+    pub reference_subset: usize,
+    #[serde(default)]
+    pub parameter: Vec<ParameterSpec>,
+}
+
+fn default_method() -> String {
+    Method::Nlmode.name().into()
+}
+
+/// Methods a study runs per sample.
+const STUDY_METHODS: [Method; 3] = [Method::Nlmode, Method::LinearSlowflow, Method::Reference];
+
+/// A study ready to run: every sample's scenario parsed and checked.
+pub struct Study {
+    pub spec: StudySpec,
+    pub method: Method,
+    /// Parameter keys in order (the columns after `sample`).
+    pub keys: Vec<String>,
+    /// `values[sample][parameter]`.
+    pub values: Vec<Vec<toml::Value>>,
+    pub scenarios: Vec<Scenario>,
+    /// Samples also run by `reference`, increasing.
+    pub reference_samples: Vec<usize>,
+    /// The text identifying this study (`study_fingerprint.json`).
+    pub fingerprint: String,
+}
+
+impl Study {
+    /// Read STUDY.toml and check it and every sample.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = cosim::file::read_regular_to_string(path, crate::run::MAX_SCENARIO_BYTES)
+            .with_context(|| format!("cannot read study file {}", path.display()))?;
+        let base_dir = path.parent().unwrap_or(Path::new(""));
+        Ok(Self::from_text(&text, base_dir)?)
+    }
+
+    /// A study from its TOML text; `base_dir`: where a relative `scenario` is.
+    pub fn from_text(text: &str, base_dir: &Path) -> Result<Self> {
+        let spec: StudySpec = serde_path_to_error::deserialize(toml::Deserializer::new(text))
+            .map_err(|e| {
+                let path = e.path().to_string();
+                StudyError::Study {
+                    key: if path == "." { "study".into() } else { path },
+                    message: e.into_inner().message().trim().to_string(),
+                }
+            })?;
+        let method = STUDY_METHODS
+            .iter()
+            .copied()
+            .find(|m| m.name() == spec.method)
+            .ok_or_else(|| StudyError::Study {
+                key: "method".into(),
+                message: format!(
+                    "\"{}\" is not a study method (nlmode | linear-slowflow | reference)",
+                    spec.method
+                ),
+            })?;
+        if spec.parameter.is_empty() {
+            return Err(StudyError::Study {
+                key: "parameter".into(),
+                message: "a study needs at least one [[parameter]]".into(),
+            }
+            .into());
+        }
+        let mut keys: Vec<String> = Vec::new();
+        for p in &spec.parameter {
+            if keys.contains(&p.key) {
+                return Err(StudyError::Parameter {
+                    key: p.key.clone(),
+                    message: "given twice".into(),
+                }
+                .into());
+            }
+            keys.push(p.key.clone());
+        }
+        let (base_text, scenario_dir) = match &spec.scenario {
+            None => (DEFAULT_SCENARIO.to_string(), None),
+            Some(rel) => {
+                let p = base_dir.join(rel);
+                let t = cosim::file::read_regular_to_string(&p, crate::run::MAX_SCENARIO_BYTES)
+                    .with_context(|| format!("study: scenario: cannot read {}", p.display()))?;
+                (t, Some(p.parent().unwrap_or(Path::new("")).to_path_buf()))
+            }
+        };
+        // the base scenario itself must be valid
+        Scenario::parse(&base_text).map_err(|e| StudyError::Study {
+            key: "scenario".into(),
+            message: e.to_string(),
+        })?;
+        let base: toml::Value = toml::from_str(&base_text).map_err(|e| StudyError::Study {
+            key: "scenario".into(),
+            message: e.message().to_string(),
+        })?;
+        let values = design::samples(spec.design, &spec.parameter, spec.samples, spec.seed)?;
+        let n = values.len();
+        if spec.reference_subset > n {
+            return Err(StudyError::Study {
+                key: "reference_subset".into(),
+                message: format!(
+                    "{} samples asked of a study of {n} samples",
+                    spec.reference_subset
+                ),
+            }
+            .into());
+        }
+        let reference_samples: Vec<usize> = (0..spec.reference_subset)
+            .map(|k| k * n / spec.reference_subset)
+            .collect();
+        // every sample through the scenario parser, before anything runs
+        let scenarios = {
+            use rayon::prelude::*;
+            values
+                .par_iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    sample_scenario(&base, &keys, v, scenario_dir.as_deref()).map_err(|message| {
+                        StudyError::Sample {
+                            sample: i,
+                            values: describe(&keys, v),
+                            message,
+                        }
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?
+        };
+        let fingerprint = serde_json::to_string_pretty(&serde_json::json!({
+            "format": "nlmode-study",
+            "version": 1,
+            "study": &spec,
+            "scenario": base_text,
+        }))?;
+        Ok(Self {
+            spec,
+            method,
+            keys,
+            values,
+            scenarios,
+            reference_samples,
+            fingerprint,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.values.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+}
+
+/// `key = value, ...`.
+fn describe(keys: &[String], v: &[toml::Value]) -> String {
+    keys.iter()
+        .zip(v)
+        .map(|(k, x)| format!("{k} = {x}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Set `value` at the dotted `key` of a TOML tree: tables are entered (a
+/// missing table or key is created: the scenario parser then accepts or
+/// rejects it by name), arrays by index (`exciter.0`), which must exist.
+pub fn set_path(root: &mut toml::Value, key: &str, value: toml::Value) -> Result<(), String> {
+    let parts: Vec<&str> = key.split('.').collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err(format!("{key}: not a dotted key (empty part)"));
+    }
+    let mut node = root;
+    for (depth, part) in parts.iter().enumerate() {
+        let last = depth + 1 == parts.len();
+        let here = parts[..=depth].join(".");
+        node = match node {
+            toml::Value::Table(t) => {
+                if last {
+                    t.insert(part.to_string(), value);
+                    return Ok(());
+                }
+                let next_is_index = parts[depth + 1].parse::<usize>().is_ok();
+                if next_is_index && !t.contains_key(*part) {
+                    return Err(format!(
+                        "{key}: the base scenario has no `{here}` entries to index: write them \
+                         out in it (e.g. the [[exciter]] tables)"
+                    ));
+                }
+                t.entry(part.to_string())
+                    .or_insert_with(|| toml::Value::Table(Default::default()))
+            }
+            toml::Value::Array(a) => {
+                let i: usize = part.parse().map_err(|_| {
+                    format!(
+                        "{here}: `{part}` must be an index into the array {}",
+                        parts[..depth].join(".")
+                    )
+                })?;
+                let len = a.len();
+                let slot = a.get_mut(i).ok_or_else(|| {
+                    format!(
+                        "{here}: index {i} out of range (the scenario has {len} entries of {})",
+                        parts[..depth].join(".")
+                    )
+                })?;
+                if last {
+                    *slot = value;
+                    return Ok(());
+                }
+                slot
+            }
+            _ => {
+                return Err(format!(
+                    "{here}: {} is a value, not a table or an array",
+                    parts[..depth].join(".")
+                ))
+            }
+        };
+    }
+    unreachable!("the loop returns at the last part")
+}
+
+/// The scenario of one sample: parameters set in the base tree, read by [`Scenario::parse`].
+fn sample_scenario(
+    base: &toml::Value,
+    keys: &[String],
+    values: &[toml::Value],
+    scenario_dir: Option<&Path>,
+) -> Result<Scenario, String> {
+    let mut tree = base.clone();
+    for (k, v) in keys.iter().zip(values) {
+        set_path(&mut tree, k, v.clone())?;
+    }
+    let text = toml::to_string(&tree).map_err(|e| e.to_string())?;
+    let mut sc = Scenario::parse(&text).map_err(|e| {
+        // the parser's line refers to the generated text, not a file: drop it
+        crate::scenario::ScenarioError { line: None, ..e }.to_string()
+    })?;
+    if let Some(d) = scenario_dir {
+        sc.resolve_paths(d);
+    }
+    Ok(sc)
+}
+
+/// What the structure and its modal table depend on: `[structure]`, `[nma]`,
+/// the exciter locations and the response point, serialized.
+pub fn structure_key(sc: &Scenario) -> String {
+    let locations: Vec<_> = sc
+        .exciter
+        .iter()
+        .map(|e| (&e.location, &e.location_m, &e.point))
+        .collect();
+    serde_json::to_string(&(&sc.structure, &sc.nma, locations, sc.response_point()))
+        .unwrap_or_default()
+}
+
+/// A structure shared by the samples that have it.
+struct Prepared {
+    setup: Setup,
+    /// The modal table, computed on first use.
+    table: OnceLock<Result<nlmode::nma::ModalTable, String>>,
+    /// The reduced model of the table without attachments (its interpolant), built once.
+    base_model: OnceLock<Result<nlmode::reduced::ReducedModel, String>>,
+}
+
+impl Prepared {
+    /// The modal table of this structure (`sc`: a scenario having it), computed once.
+    fn table(&self, sc: &Scenario) -> Result<&nlmode::nma::ModalTable, String> {
+        self.table
+            .get_or_init(|| {
+                methods::nma_table(&self.setup, sc, false)
+                    .map(|(n, _)| n.table)
+                    .map_err(|e| format!("{e:#}"))
+            })
+            .as_ref()
+            .map_err(|e| e.clone())
+    }
+
+    /// The single-mode model of the table at the response and first exciter
+    /// points, without attachments ([`methods::reduced_model`] adds them).
+    fn base_model(&self, sc: &Scenario) -> Result<&nlmode::reduced::ReducedModel, String> {
+        let table = self.table(sc)?;
+        self.base_model
+            .get_or_init(|| {
+                let s = &self.setup;
+                nlmode::reduced::ReducedModel::new(table, &s.response_point, &s.exciter_points[0])
+                    .map_err(|e| e.to_string())
+            })
+            .as_ref()
+            .map_err(|e| e.clone())
+    }
+}
+
+/// The per-structure cache: one entry per [`structure_key`], built once by
+/// the first sample that needs it while the others wanting the same
+/// structure wait. A failed build is not kept: it may be the sample's own
+/// fault (e.g. its exciter), so the next sample tries again.
+#[derive(Default)]
+struct Cache {
+    map: Mutex<HashMap<String, Arc<Mutex<Option<Arc<Prepared>>>>>>,
+}
+
+impl Cache {
+    fn get(&self, sc: &Scenario) -> Result<Arc<Prepared>, String> {
+        let cell = {
+            let mut m = self.map.lock().unwrap_or_else(|e| e.into_inner());
+            m.entry(structure_key(sc)).or_default().clone()
+        };
+        let mut slot = cell.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = slot.as_ref() {
+            return Ok(p.clone());
+        }
+        let setup = Setup::new(sc).map_err(|e| format!("{e:#}"))?;
+        let p = Arc::new(Prepared {
+            setup,
+            table: OnceLock::new(),
+            base_model: OnceLock::new(),
+        });
+        *slot = Some(p.clone());
+        Ok(p)
+    }
+
+    /// Structures built.
+    fn distinct(&self) -> usize {
+        let m = self.map.lock().unwrap_or_else(|e| e.into_inner());
+        m.values()
+            .filter(|c| c.lock().map(|s| s.is_some()).unwrap_or(false))
+            .count()
+    }
+}
+
+/// One finished sample: a row of `results.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    pub sample: usize,
+    pub figures: Figures,
+    pub left_table: bool,
+    /// `ok` or the error.
+    pub status: String,
+}
+
+/// Run `method` on one sample's scenario.
+fn run_sample(cache: &Cache, sample: usize, sc: &Scenario, method: Method) -> Row {
+    let row = |figures, left_table, status: String| Row {
+        sample,
+        figures,
+        left_table,
+        status,
+    };
+    let result = (|| -> Result<Row, String> {
+        let prepared = cache.get(sc)?;
+        let setup = prepared
+            .setup
+            .with_scenario(sc)
+            .map_err(|e| format!("{e:#}"))?;
+        match method {
+            Method::Reference => {
+                let r =
+                    methods::reference(&setup, sc, &mut |_| {}).map_err(|e| format!("{e:#}"))?;
+                Ok(row(
+                    Figures::of_envelope(&r.envelope, true),
+                    false,
+                    "ok".into(),
+                ))
+            }
+            _ => {
+                let base = prepared.base_model(sc)?.clone();
+                let f = &sc.imposed_force;
+                let error = nlmode::reduced::FrequencyError {
+                    eps: f.frequency_error,
+                    offset_rad_s: f.frequency_offset_rad_s
+                        + f.frequency_offset_omega0 * setup.omega0_rad_s,
+                };
+                // as `host run`: `nlmode-freq-error` when the scenario detunes nlmode
+                let detuned = method == Method::Nlmode
+                    && f.apply_to_nlmode
+                    && (error.eps != 0.0 || error.offset_rad_s != 0.0);
+                let mut model = methods::with_attachments(base, &setup, detuned.then_some(error))
+                    .map_err(|e| format!("{e:#}"))?;
+                if method == Method::LinearSlowflow {
+                    model = model.linear().map_err(|e| format!("{e}"))?;
+                }
+                let res = model
+                    .simulate_sweep(&setup.sweep, &sc.slowflow.options(method))
+                    .map_err(|e| format!("{method}: {e}"))?;
+                use nlmode::reduced::SweepStatus;
+                let (left, status) = match res.status {
+                    SweepStatus::Completed => (false, "ok".to_string()),
+                    SweepStatus::LeftTableRange { .. } => (true, "ok".to_string()),
+                    other => (false, format!("sweep stopped early: {other:?}")),
+                };
+                Ok(row(Figures::of_slow_flow(&res), left, status))
+            }
+        }
+    })();
+    result.unwrap_or_else(|e| row(Figures::default(), false, e.replace(['\n', '\r'], " ")))
+}
+
+/// What a study did.
+#[derive(Debug, Clone, Serialize)]
+pub struct Outcome {
+    pub samples: usize,
+    /// Samples computed by this invocation (the others were in the folder: `--resume`).
+    pub computed: usize,
+    pub failed: usize,
+    pub distinct_structures: usize,
+    pub threads: usize,
+    /// Whole study [s].
+    pub wall_time_s: f64,
+    /// Building the distinct structures and their modal tables [s].
+    pub structures_s: f64,
+    /// Running the samples, results written [s].
+    pub samples_s: f64,
+    /// Samples computed per second of `samples_s`.
+    pub samples_per_s: f64,
+    pub files: Vec<PathBuf>,
+}
+
+/// Options of [`study`].
+#[derive(Debug, Clone, Default)]
+pub struct Options {
+    pub resume: bool,
+    /// Worker threads (default: all cores).
+    pub threads: Option<usize>,
+    /// Show the progress bar (on a terminal).
+    pub progress: bool,
+}
+
+/// `host study STUDY.toml -o DIR`.
+pub fn study(path: &Path, out: &Path, opts: &Options) -> Result<Outcome> {
+    let st = Study::load(path)?;
+    run_study(&st, out, opts)
+}
+
+/// Run a loaded study into `out`.
+pub fn run_study(st: &Study, out: &Path, opts: &Options) -> Result<Outcome> {
+    use rayon::prelude::*;
+    let t0 = std::time::Instant::now();
+    if opts.threads == Some(0) {
+        anyhow::bail!("--threads must be at least 1");
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads.unwrap_or(0))
+        .build()
+        .context("cannot start the worker threads")?;
+    let threads = pool.current_num_threads();
+    let files = output::StudyFiles::open(out, st, opts.resume)?;
+    let cache = Cache::default();
+    let mut computed = 0;
+    // main method, then the reference subset
+    let mut jobs: Vec<(output::Table, Method, Vec<usize>)> =
+        vec![(output::Table::Main, st.method, (0..st.len()).collect())];
+    if !st.reference_samples.is_empty() {
+        jobs.push((
+            output::Table::Reference,
+            Method::Reference,
+            st.reference_samples.clone(),
+        ));
+    }
+    let mut structures_s = 0.0;
+    let mut samples_s = 0.0;
+    for (table, method, samples) in jobs {
+        let todo: Vec<usize> = samples
+            .into_iter()
+            .filter(|i| !files.done(table, *i))
+            .collect();
+        // the distinct structures (and modal tables) first, in parallel; a
+        // failure is left to the samples to record
+        let t1 = std::time::Instant::now();
+        let mut firsts: Vec<usize> = Vec::new();
+        let mut seen = std::collections::HashSet::new();
+        for &i in &todo {
+            if seen.insert(structure_key(&st.scenarios[i])) {
+                firsts.push(i);
+            }
+        }
+        pool.install(|| {
+            firsts.par_iter().for_each(|&i| {
+                let sc = &st.scenarios[i];
+                if let Ok(p) = cache.get(sc) {
+                    if method.needs_mode() {
+                        let _ = p.base_model(sc);
+                    }
+                }
+            })
+        });
+        structures_s += t1.elapsed().as_secs_f64();
+        let t2 = std::time::Instant::now();
+        let bar = progress_bar(todo.len(), table.label(method), opts.progress);
+        let writer = files.writer(table);
+        let failed: Result<()> = pool.install(|| {
+            todo.par_iter().try_for_each(|&i| {
+                let r = run_sample(&cache, i, &st.scenarios[i], method);
+                writer.append(st, &r)?;
+                bar.inc(1);
+                Ok(())
+            })
+        });
+        bar.finish_and_clear();
+        failed?;
+        samples_s += t2.elapsed().as_secs_f64();
+        computed += todo.len();
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    let stats = output::RunStats {
+        threads,
+        wall_time_s: wall,
+        structures_s,
+        samples_s,
+        computed,
+        distinct_structures: cache.distinct(),
+    };
+    let summary = files.finish(st, &stats)?;
+    Ok(Outcome {
+        samples: st.len(),
+        computed,
+        failed: summary.failed,
+        distinct_structures: cache.distinct(),
+        threads,
+        wall_time_s: wall,
+        structures_s,
+        samples_s,
+        samples_per_s: stats.samples_per_s(),
+        files: summary.files,
+    })
+}
+
+fn progress_bar(n: usize, label: String, show: bool) -> indicatif::ProgressBar {
+    if !show {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(n as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{msg:>10} [{bar:40}] {pos}/{len} {per_sec} ETA {eta}",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(label);
+    bar
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_path_enters_tables_and_arrays() {
+        let mut v: toml::Value = toml::from_str(DEFAULT_SCENARIO).unwrap();
+        set_path(&mut v, "excitation.voltage_v", toml::Value::Float(3.0)).unwrap();
+        set_path(&mut v, "exciter.0.location", toml::Value::Float(0.5)).unwrap();
+        assert_eq!(v["excitation"]["voltage_v"].as_float(), Some(3.0));
+        assert_eq!(v["exciter"][0]["location"].as_float(), Some(0.5));
+        let e = set_path(&mut v, "exciter.3.location", toml::Value::Float(0.5)).unwrap_err();
+        assert!(e.contains("exciter.3") && e.contains("out of range"), "{e}");
+        let e = set_path(&mut v, "cosim.point.0", toml::Value::Float(0.5)).unwrap_err();
+        assert!(e.contains("cosim.point") && e.contains("no"), "{e}");
+        let e = set_path(&mut v, "title.x", toml::Value::Float(0.5)).unwrap_err();
+        assert!(e.contains("title.x"), "{e}");
+    }
+
+    #[test]
+    fn unknown_key_and_bad_value_name_the_key_and_sample() {
+        let base = Path::new(".");
+        let t =
+            "design = \"grid\"\n[[parameter]]\nkey = \"excitation.voltage_vv\"\nvalues = [1.0]\n";
+        let e = Study::from_text(t, base).err().unwrap().to_string();
+        assert!(
+            e.contains("excitation.voltage_vv") && e.contains("sample 0"),
+            "{e}"
+        );
+        let t = "design = \"grid\"\n[[parameter]]\nkey = \"excitation.voltage_v\"\nvalues = [1.0, -2.0]\n";
+        let e = Study::from_text(t, base).err().unwrap().to_string();
+        assert!(
+            e.contains("excitation.voltage_v") && e.contains("sample 1"),
+            "{e}"
+        );
+        let t = "design = \"lhs\"\nsamples = 3\nreference_subset = 4\n[[parameter]]\nkey = \"excitation.voltage_v\"\ndistribution = \"uniform\"\nlow = 1.0\nhigh = 2.0\n";
+        let e = Study::from_text(t, base).err().unwrap().to_string();
+        assert!(e.contains("reference_subset"), "{e}");
+    }
+
+    #[test]
+    fn every_example_study_loads() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let p = entry.unwrap().path();
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            if name.starts_with("study_") && name.ends_with(".toml") {
+                let st = Study::load(&p).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
+                assert!(!st.is_empty());
+                n += 1;
+            }
+        }
+        assert!(n >= 1, "no example study");
+    }
+
+    #[test]
+    fn the_structure_key_ignores_the_excitation() {
+        let a = Scenario::default_scenario();
+        let mut b = a.clone();
+        b.excitation.voltage_v = 3.0;
+        b.exciter[0].armature_mass_kg = 0.05;
+        assert_eq!(structure_key(&a), structure_key(&b));
+        if let crate::scenario::StructureSpec::Beam(s) = &mut b.structure {
+            s.k3_n_per_m3 = 1e9;
+        }
+        assert_ne!(structure_key(&a), structure_key(&b));
+    }
+}
