@@ -737,9 +737,15 @@ impl Setup {
             Some((a, b)) => (a.min(w_m), b.max(w_m)),
             None => (w_m, w_m),
         };
-        let free_omegas: Vec<f64> = (0..free.n_modes())
-            .filter(|&k| k != j)
-            .map(|k| free.omega_rad_s[k])
+        // the free modes with their modal damping ratios phi^T C phi / (2 omega)
+        // (mass-normalised shapes), so that both sides get the same window
+        let free_modes: Vec<(f64, f64)> = (0..free.n_modes())
+            .filter(|&k| k != j && free.omega_rad_s[k] > 0.0)
+            .map(|k| {
+                let phi_k = free.shapes.column(k);
+                let wk = free.omega_rad_s[k];
+                (wk, phi_k.dot(&(&self.model.damping * phi_k)) / (2.0 * wk))
+            })
             .collect();
         for n in 1..=harmonics {
             let nf = n as f64;
@@ -754,7 +760,10 @@ impl Setup {
                 .filter(|s| inside(s.norm(), -s.re / s.norm()))
                 .copied()
                 .collect();
-            let nfree_in = free_omegas.iter().filter(|&&wf| inside(wf, 0.0)).count();
+            let nfree_in = free_modes
+                .iter()
+                .filter(|&&(wf, df)| df < INTERNAL_RESONANCE_MAX_DAMPING && inside(wf, df))
+                .count();
             if assembled.len() > nfree_in {
                 let list: Vec<String> = assembled
                     .iter()
