@@ -335,7 +335,34 @@ pub fn slow_flow(
         .simulate_sweep(&setup.sweep, options)
         .with_context(|| format!("{name}"))?;
     let wall = t0.elapsed().as_secs_f64();
-    Ok((slowflow_result(name, wall, &res), res))
+    let mut r = slowflow_result(name, wall, &res);
+    // harvested power of every piezo shunt from the quasi-steady attachment
+    // states at the fundamental u_G = A phi_1(a) (eq:ansatz; harmonics neglected)
+    let tab = model.table();
+    for &(a_idx, resistance) in &setup.harvesters {
+        let att = &setup.attachments[a_idx];
+        let pts = att
+            .interface_points
+            .iter()
+            .map(|p| tab.point_index(p))
+            .collect::<Result<Vec<_>, _>>()
+            .with_context(|| format!("{name}: harvested power of '{}'", att.name))?;
+        let power = res
+            .samples
+            .iter()
+            .map(|x| {
+                let u_g = pts
+                    .iter()
+                    .map(|&j| Ok(x.amplitude * tab.shape(j, 1, x.a)?))
+                    .collect::<Result<Vec<Complex64>>>()?;
+                let v = att.states(x.omega_rad_s, &DVector::from_vec(u_g), &DVector::zeros(0))?[1];
+                Ok(v.norm_sqr() / (2.0 * resistance))
+            })
+            .collect::<Result<Vec<f64>>>()
+            .with_context(|| format!("{name}: harvested power of '{}'", att.name))?;
+        r.add_harvested_power(&att.name, power);
+    }
+    Ok((r, res))
 }
 
 /// `linear-steady`: the paper's single-mode linear steady state.

@@ -331,3 +331,35 @@ fn one_exciter_input_factor_is_exactly_one() {
     let w = s.validity_warnings(sc.nma.harmonics, None);
     assert!(w.is_empty(), "{w:?}");
 }
+
+/// `examples/piezo_shunt.toml` at 0.1 V (linear regime) and a slow sweep
+/// (0.2 % per pseudo period): the single-mode `nlmode` slow flow's largest
+/// harvested power is the assembled linear FRF's within 2 %.
+#[test]
+fn piezo_example_nlmode_power_matches_linear_frf() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let path = root.join("examples/piezo_shunt.toml");
+    let (mut sc, _) = host::run::load_scenario(Some(&path)).unwrap();
+    sc.excitation.voltage_v = 0.1;
+    sc.excitation.rate_per_pseudo_period = 0.002;
+    let setup = Setup::new(&sc).unwrap();
+    let frf = methods::linear_frf(&setup, 801).unwrap();
+    let (nma, _) = methods::nma_table(&setup, &sc, false).unwrap();
+    let model = methods::reduced_model(&setup, &nma.table, None).unwrap();
+    let (flow, _) = methods::slow_flow(
+        "nlmode",
+        &setup,
+        &model,
+        &sc.slowflow.options(host::scenario::Method::Nlmode),
+    )
+    .unwrap();
+    let p_frf = frf.summary.max_harvested_power_w["piezo"];
+    let p_nm = flow.summary.max_harvested_power_w["piezo"];
+    assert!(
+        (p_nm - p_frf).abs() <= 0.02 * p_frf,
+        "nlmode {p_nm:e} W vs linear-frf {p_frf:e} W"
+    );
+    // the resonance lies inside the band
+    let w = frf.summary.peak_omega_rad_s.unwrap();
+    assert!(w < 0.99 * setup.sweep.omega_end_rad_s, "{w}");
+}
