@@ -1694,4 +1694,41 @@ mod tests {
         }
         assert!(n >= 9, "only {n} example scenarios");
     }
+
+    #[test]
+    fn attachment_tables_parse_and_name_their_keys() {
+        let s = Scenario::parse(
+            "[[attachment]]\ntype = \"tuned-mass-damper\"\nlocation = \"l\"\nmass_kg = 0.01\n\
+             stiffness_n_per_m = 1e3\ndamping_ratio = 0.1\n\
+             [[attachment]]\ntype = \"lti\"\npoints = [\"tip\"]\na_k = [[[1.0]], \"A1.mtx\"]\nb2 = [[1.0]]\n\
+             [[exciter]]\nlocation = \"2l/3\"\nvoltage_v = 4.0\nphase_rad = 0.5\n",
+        )
+        .unwrap();
+        assert_eq!(s.attachment.len(), 2);
+        assert_eq!(s.attachment[0].kind, AttachmentType::TunedMassDamper);
+        assert_eq!(s.attachment[0].name_or(0), "attachment0");
+        assert_eq!(
+            s.attachment[1].a_k.as_ref().unwrap()[1],
+            MatrixSpec::File("A1.mtx".into())
+        );
+        assert_eq!(s.exciter[0].voltage_v, Some(4.0));
+        assert_eq!(s.exciter[0].phase_rad, 0.5);
+        for (text, key) in [
+            ("[[attachment]]\ntype = \"mass\"\npoint = \"a\"\nmass_kg = 1.0\n", "attachment[0].point"),
+            ("[[attachment]]\ntype = \"mass\"\nlocation = \"l\"\n", "attachment[0].mass_kg"),
+            (
+                "[[attachment]]\ntype = \"tuned-mass-damper\"\nlocation = \"l\"\nmass_kg = 1.0\nstiffness_n_per_m = -1.0\ndamping_ratio = 0.1\n",
+                "attachment[0].stiffness_n_per_m",
+            ),
+            ("[[attachment]]\ntype = \"piezo\"\n", "attachment[0]"),
+            ("[[exciter]]\nlocation = \"l\"\nphase_rad = nan\n", "exciter[0].phase_rad"),
+            (
+                "[[attachment]]\ntype = \"mass\"\nname = \"shaker\"\nlocation = \"l\"\nmass_kg = 1.0\n",
+                "attachment[0].name",
+            ),
+        ] {
+            let e = Scenario::parse(text).unwrap_err();
+            assert!(e.key.starts_with(key), "{text}: {e}");
+        }
+    }
 }
