@@ -23,8 +23,7 @@ pub fn frf_omegas(setup: &Setup, n: usize) -> Vec<f64> {
 pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
     let t0 = Instant::now();
     let omegas = frf_omegas(setup, n);
-    let u = DVector::from_element(1, Complex64::new(setup.sweep.amplitude, 0.0));
-    let inputs = vec![u; setup.attachments.len()];
+    let inputs = setup.input_amplitudes();
     let pts = frf::assembled_frf(&setup.model, &setup.attachments, &inputs, &omegas)
         .context("linear-frf")?;
     let tip = setup
@@ -49,14 +48,56 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
     };
     let wall = t0.elapsed().as_secs_f64();
     let mut r = MethodResult::new(Method::LinearFrf.name(), wall, env, false);
+    // several exciters: each one's force (attachments in order, one constraint each)
+    if setup.shakers.len() > 1 {
+        for (i, name) in setup.exciter_names.iter().enumerate() {
+            r.extra_columns.push((
+                format!("{name}_force_amplitude_N"),
+                pts.iter().map(|p| p.force_n[i].norm()).collect(),
+            ));
+        }
+    }
+    // harvested power of every piezo shunt: mean v^2/R = |v_hat|^2 / (2 R)
+    for &(a, resistance) in &setup.harvesters {
+        let att = &setup.attachments[a];
+        let idx: Vec<usize> = att
+            .interface_points
+            .iter()
+            .map(|n| setup.model.points.iter().position(|p| &p.name == n))
+            .collect::<Option<_>>()
+            .context("piezo point")?;
+        let power = pts
+            .iter()
+            .map(|p| {
+                let u_g = DVector::from_iterator(idx.len(), idx.iter().map(|&j| p.points[j]));
+                let x = att.states(p.omega_rad_s, &u_g, &inputs[a])?;
+                Ok(x[1].norm_sqr() / (2.0 * resistance))
+            })
+            .collect::<Result<Vec<f64>>>()
+            .context("linear-frf: harvested power")?;
+        r.add_harvested_power(&att.name, power);
+    }
     let shaker = &setup.shakers[0];
-    let drop = frf::linear_force_drop(
-        &setup.model,
-        shaker,
-        &setup.exciter_points[0],
-        setup.omega0_rad_s,
-    )
-    .context("linear-frf: force drop")?;
+    let drop = if setup.attachments.len() == 1 {
+        frf::linear_force_drop(
+            &setup.model,
+            shaker,
+            &setup.exciter_points[0],
+            setup.omega0_rad_s,
+        )
+        .context("linear-frf: force drop")?
+    } else {
+        // the first exciter with every attachment on: 1 - |F| / |F0|, F0 = G |u_hat| / R
+        let at = frf::assembled_frf(
+            &setup.model,
+            &setup.attachments,
+            &inputs,
+            &[setup.omega0_rad_s],
+        )
+        .context("linear-frf: force drop")?;
+        let f0 = shaker.force_constant_n_per_a * inputs[0][0].norm() / shaker.resistance_ohm;
+        1.0 - at[0].force_n[0].norm() / f0
+    };
     let (m_mod, mu) = setup.modal_masses[0];
     let closed = 1.0
         - frf::force_drop_closed_form(
@@ -255,8 +296,8 @@ pub fn with_attachments(
     error: Option<nlmode::reduced::FrequencyError>,
 ) -> Result<nlmode::reduced::ReducedModel> {
     let mut m = base;
-    for att in &setup.attachments {
-        m = m.with_linear_attachment(att, &[Complex64::new(1.0, 0.0)])?;
+    for (att, u) in setup.attachments.iter().zip(&setup.inputs) {
+        m = m.with_linear_attachment(att, u)?;
     }
     if let Some(e) = error {
         m = m.with_frequency_error(e)?;
@@ -307,7 +348,34 @@ pub fn slow_flow(
         .simulate_sweep(&setup.sweep, options)
         .with_context(|| format!("{name}"))?;
     let wall = t0.elapsed().as_secs_f64();
-    Ok((slowflow_result(name, wall, &res), res))
+    let mut r = slowflow_result(name, wall, &res);
+    // harvested power of every piezo shunt from the quasi-steady attachment
+    // states at the fundamental u_G = A phi_1(a) (eq:ansatz; harmonics neglected)
+    let tab = model.table();
+    for &(a_idx, resistance) in &setup.harvesters {
+        let att = &setup.attachments[a_idx];
+        let pts = att
+            .interface_points
+            .iter()
+            .map(|p| tab.point_index(p))
+            .collect::<Result<Vec<_>, _>>()
+            .with_context(|| format!("{name}: harvested power of '{}'", att.name))?;
+        let power = res
+            .samples
+            .iter()
+            .map(|x| {
+                let u_g = pts
+                    .iter()
+                    .map(|&j| Ok(x.amplitude * tab.shape(j, 1, x.a)?))
+                    .collect::<Result<Vec<Complex64>>>()?;
+                let v = att.states(x.omega_rad_s, &DVector::from_vec(u_g), &DVector::zeros(0))?[1];
+                Ok(v.norm_sqr() / (2.0 * resistance))
+            })
+            .collect::<Result<Vec<f64>>>()
+            .with_context(|| format!("{name}: harvested power of '{}'", att.name))?;
+        r.add_harvested_power(&att.name, power);
+    }
+    Ok((r, res))
 }
 
 /// `linear-steady`: the paper's single-mode linear steady state.
@@ -346,15 +414,11 @@ pub fn reference(
         tip_point: setup.response_point.clone(),
         ..Default::default()
     };
+    let attachments = setup.reference_attachments()?;
     let t0 = Instant::now();
-    let res = simulate_sweep_with_progress(
-        &setup.model,
-        &setup.attachments,
-        &setup.sweep,
-        &opts,
-        progress,
-    )
-    .context("reference")?;
+    let res =
+        simulate_sweep_with_progress(&setup.model, &attachments, &setup.sweep, &opts, progress)
+            .context("reference")?;
     let wall = t0.elapsed().as_secs_f64();
     let env = Envelope::from(res.envelope.clone());
     let mut r = MethodResult::new(Method::Reference.name(), wall, env, true);
@@ -390,6 +454,7 @@ pub fn cosim(
     progress: &mut dyn FnMut(f64),
 ) -> Result<MethodResult> {
     use cosim::{run_cosim, Algorithm, CosimParams};
+    setup.check_cosim()?;
     let structure = sc
         .cosim
         .structure_fmu

@@ -3,7 +3,8 @@
 //! by `nlmode::structure::matrices`), the shakers as generic linear
 //! attachments, the sweep. Thin mapping onto `nlmode`.
 use crate::scenario::{
-    ExciterSpec, MatricesStructureSpec, Reduction, Scenario, StingerKind, StructureSpec,
+    AttachmentSpec, AttachmentType, ExciterSpec, MatricesStructureSpec, MatrixSpec, Reduction,
+    Scenario, StingerKind, StructureSpec,
 };
 use anyhow::{Context, Result};
 use nlmode::attachment::{ArmatureDamping, LinearAttachment, ShakerParams, Stinger};
@@ -11,6 +12,7 @@ use nlmode::excitation::LinearSweep;
 use nlmode::structure::{
     modal_analysis, paper_structure, BeamSpec, PaperStructureOptions, StructuralModel,
 };
+use nlmode::Complex64;
 
 /// Name of the tip point of a beam.
 pub const TIP: &str = nlmode::structure::paper::TIP;
@@ -24,7 +26,19 @@ pub struct Setup {
     /// Degrees of freedom of the full FE model.
     pub full_ndof: usize,
     pub shakers: Vec<ShakerParams>,
+    /// Every linear attachment: the exciters' shakers first (one per
+    /// `[[exciter]]`, in order), then the `[[attachment]]`s.
     pub attachments: Vec<LinearAttachment>,
+    /// Complex input amplitudes of each attachment per unit of the sweep
+    /// amplitude (`u_hat = sweep amplitude * inputs[a]`): for exciter `i`
+    /// `voltage_v / [excitation] voltage_v * e^{i phase_rad}` (exactly 1 by
+    /// default), for an `lti` attachment 1, none for the passive ones.
+    pub inputs: Vec<Vec<Complex64>>,
+    /// The piezo shunts: (index into `attachments`, shunt resistance [Ohm]); the
+    /// electrode voltage is attachment state 1 ([`LinearAttachment::piezo_shunt`]).
+    pub harvesters: Vec<(usize, f64)>,
+    /// Name of each exciter (`exciter[i].name`).
+    pub exciter_names: Vec<String>,
     /// Structure point of each exciter.
     pub exciter_points: Vec<String>,
     /// The point whose displacement is `tip_amplitude_m` (`[output] response_point`).
@@ -258,7 +272,12 @@ pub fn build_matrices_structure(
                 .iter()
                 .filter(|_| st.k3_n_per_m3 != 0.0)
                 .chain(sc.exciter.iter().filter_map(|e| e.point.as_ref()))
-                .chain(elements.iter());
+                .chain(elements.iter())
+                .chain(
+                    sc.attachment
+                        .iter()
+                        .flat_map(|a| a.point.iter().chain(a.points.iter().flatten())),
+                );
             for p in used {
                 if m.iter().all(|q| dof(q) != dof(p)) {
                     m.push(p.clone());
@@ -299,7 +318,228 @@ pub fn build_matrices_structure(
     Ok(ms)
 }
 
+/// `Z22` of `eq:fc1` is singular at an undamped fixed-interface pole `s = i
+/// Omega` (no damping in the attachment with its interface held): refused when
+/// that `Omega` lies in the sweep band, naming the key.
+fn undamped_pole_in_band(
+    att: &LinearAttachment,
+    key: &str,
+    sc: &Scenario,
+    omega0: f64,
+) -> Result<()> {
+    let e = &sc.excitation;
+    let (a, b) = (
+        e.eta_start.min(e.eta_end) * omega0,
+        e.eta_start.max(e.eta_end) * omega0,
+    );
+    // a fixed attachment with a static mode has no pole computation here; the
+    // validity checks report that, the band is then checked per frequency by eq:fc1
+    let Ok(poles) = att.fixed_interface_poles() else {
+        return Ok(());
+    };
+    for p in poles {
+        let w = p.im.abs();
+        if p.re.abs() <= 1e-9 * p.norm() && w >= a && w <= b {
+            anyhow::bail!(
+                "{key}: Z_22 is singular at Omega = {w:.4} rad/s inside the sweep band [{a:.2}, {b:.2}] rad/s (undamped fixed-interface resonance of '{}'; eq:fc1 needs Z_22 regular): add damping or move it out of the band",
+                att.name
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A matrix of an `lti` attachment: inline rows or a Matrix Market file.
+fn lti_matrix(m: &MatrixSpec, key: &str) -> Result<nalgebra::DMatrix<f64>> {
+    use nlmode::structure::{read_matrix_market, MatrixRole};
+    match m {
+        MatrixSpec::Rows(rows) => {
+            let nr = rows.len();
+            let nc = rows.first().map(|r| r.len()).unwrap_or(0);
+            anyhow::ensure!(nr > 0 && nc > 0, "{key}: empty matrix");
+            if let Some(i) = rows.iter().position(|r| r.len() != nc) {
+                anyhow::bail!(
+                    "{key}: row {i} has {} entries, row 0 has {nc}",
+                    rows[i].len()
+                );
+            }
+            Ok(nalgebra::DMatrix::from_fn(nr, nc, |i, j| rows[i][j]))
+        }
+        // read as a general (possibly non-symmetric) matrix; the role only labels messages
+        MatrixSpec::File(p) => {
+            read_matrix_market(MatrixRole::Stiffness, p).map_err(|e| anyhow::anyhow!("{key}: {e}"))
+        }
+    }
+}
+
+/// The `nlmode` attachment of `[[attachment]]` `i` at structure point `point`
+/// (beam: the point name of its location). Errors name the key.
+pub fn build_attachment(spec: &AttachmentSpec, i: usize, point: &str) -> Result<LinearAttachment> {
+    let name = spec.name_or(i);
+    let key = |f: &str| format!("attachment[{i}].{f}");
+    let get = |v: Option<f64>| v.unwrap_or(f64::NAN);
+    let att = match spec.kind {
+        AttachmentType::TunedMassDamper => {
+            let (m, k) = (get(spec.mass_kg), get(spec.stiffness_n_per_m));
+            let c = match (spec.damping_n_s_per_m, spec.damping_ratio) {
+                (Some(c), _) => c,
+                (None, Some(z)) => 2.0 * z * (k * m).sqrt(),
+                (None, None) => 0.0,
+            };
+            LinearAttachment::tuned_mass_damper(&name, point, m, k, c)
+        }
+        AttachmentType::Mass => LinearAttachment::rigid_mass(&name, point, get(spec.mass_kg)),
+        AttachmentType::PiezoShunt => LinearAttachment::piezo_shunt(
+            &name,
+            point,
+            get(spec.capacitance_f),
+            get(spec.resistance_ohm),
+            get(spec.coupling_n_per_v),
+            spec.stiffness_n_per_m.unwrap_or(0.0),
+        ),
+        AttachmentType::Lti => {
+            let coefficients = spec
+                .a_k
+                .iter()
+                .flatten()
+                .enumerate()
+                .map(|(k, m)| lti_matrix(m, &key(&format!("a_k[{k}]"))))
+                .collect::<Result<Vec<_>>>()?;
+            let b2 = lti_matrix(spec.b2.as_ref().context("b2")?, &key("b2"))?;
+            let n = coefficients[0].nrows();
+            let input_map = match &spec.input {
+                Some(b) => {
+                    anyhow::ensure!(
+                        b.len() == n,
+                        "{}: {} entries, the attachment has {n} states (rows of a_k[0])",
+                        key("input"),
+                        b.len()
+                    );
+                    nalgebra::DMatrix::from_column_slice(n, 1, b)
+                }
+                None => nalgebra::DMatrix::zeros(n, 0),
+            };
+            let state_names = match &spec.state_names {
+                Some(s) => s.clone(),
+                None => (0..n).map(|j| format!("x{j}")).collect(),
+            };
+            let att = LinearAttachment {
+                name: name.clone(),
+                coefficients,
+                b2,
+                interface_points: spec.points.clone().unwrap_or_default(),
+                input_names: (0..input_map.ncols()).map(|_| "u".to_string()).collect(),
+                input_map,
+                state_names,
+            };
+            // dimensions and rank of B2, named by the keys
+            att.localization().map(|_| att)
+        }
+    };
+    att.map_err(|e| {
+        use nlmode::attachment::AttachmentError as E;
+        let k = match &e {
+            E::NonPositive { name, .. } | E::Negative { name, .. } => key(name),
+            E::DimensionMismatch { what, .. } if what.starts_with("A_") => key("a_k"),
+            E::DimensionMismatch { what, .. } if what == "interface_points" => key("points"),
+            E::DimensionMismatch { what, .. } if what == "state_names" => key("state_names"),
+            E::DimensionMismatch { .. }
+            | E::TooManyConstraints { .. }
+            | E::RankDeficientB2 { .. } => key("b2"),
+            E::NotFinite { .. } => key("a_k"),
+            _ => format!("attachment[{i}]"),
+        };
+        anyhow::anyhow!("{k}: {e}")
+    })
+}
+
 impl Setup {
+    /// The attachments as the time-domain reference integrates them: every
+    /// input receives the one sweep signal `u(t) = u_hat cos Phi`, so each
+    /// attachment's input map is scaled by its (real) input factor. A phase
+    /// other than 0 or pi would need the quadrature signal `sin Phi`, which the
+    /// reference does not carry: refused, naming the exciter.
+    pub fn reference_attachments(&self) -> Result<Vec<LinearAttachment>> {
+        self.attachments
+            .iter()
+            .zip(&self.inputs)
+            .enumerate()
+            .map(|(a, (att, u))| {
+                let mut att = att.clone();
+                for (j, f) in u.iter().enumerate() {
+                    if f.im.abs() > 1e-12 * f.norm() {
+                        anyhow::bail!(
+                            "exciter[{a}].phase_rad: the reference integrates one sweep signal u(t) = u_hat cos Phi; phases other than 0 and pi are not supported by `reference` (use the frequency-domain methods)"
+                        );
+                    }
+                    if f.re != 1.0 {
+                        let mut col = att.input_map.column_mut(j);
+                        col *= f.re;
+                    }
+                }
+                Ok(att)
+            })
+            .collect()
+    }
+
+    /// The complex input amplitudes `u_hat` of every attachment at the sweep's
+    /// amplitude (`inputs[a]` times it).
+    pub fn input_amplitudes(&self) -> Vec<nalgebra::DVector<Complex64>> {
+        self.inputs
+            .iter()
+            .map(|u| {
+                nalgebra::DVector::from_iterator(
+                    u.len(),
+                    u.iter().map(|f| f * self.sweep.amplitude),
+                )
+            })
+            .collect()
+    }
+
+    /// `imposed-force` replaces the one exciter by the force it applied (taken
+    /// at its point from `nlmode`, `reference` or a CSV file) and keeps the other
+    /// attachments as impedances. Refused for several exciters (one prescribed
+    /// force point per model) and for an attachment at the exciter's point
+    /// (the `nlmode` force there would already contain it).
+    pub fn check_imposed_force(&self) -> Result<()> {
+        if self.shakers.len() != 1 {
+            anyhow::bail!(
+                "imposed-force: the model takes one prescribed force, at the exciter's point; this scenario has {} exciters (remove `imposed-force` from run.methods)",
+                self.shakers.len()
+            );
+        }
+        let drive = &self.exciter_points[0];
+        if let Some(a) = self.attachments[1..]
+            .iter()
+            .find(|a| a.interface_points.contains(drive))
+        {
+            anyhow::bail!(
+                "imposed-force: attachment '{}' sits at the exciter's point '{drive}', where the prescribed force is measured with every attachment there: move it, or remove `imposed-force` from run.methods",
+                a.name
+            );
+        }
+        Ok(())
+    }
+
+    /// `cosim` co-simulates exactly one structure FMU and one shaker FMU: refused
+    /// (with the reason) for several exciters or any `[[attachment]]`.
+    pub fn check_cosim(&self) -> Result<()> {
+        let extra = self.attachments.len() - self.shakers.len();
+        if self.shakers.len() != 1 || extra != 0 {
+            anyhow::bail!(
+                "cosim: the co-simulation couples one structure FMU to exactly one shaker FMU; this scenario has {} exciters and {extra} [[attachment]] tables (remove `cosim` from run.methods, or keep one exciter and no attachment)",
+                self.shakers.len()
+            );
+        }
+        let u = self.inputs[0][0];
+        if u != Complex64::new(1.0, 0.0) {
+            anyhow::bail!(
+                "cosim: the shaker FMU is driven by the sweep voltage itself; exciter[0].voltage_v and phase_rad must be left at their defaults (input factor {u})"
+            );
+        }
+        Ok(())
+    }
+
     pub fn new(sc: &Scenario) -> Result<Self> {
         let (model, omega0, full_ndof, mode_index, pts, d0) = match &sc.structure {
             StructureSpec::Beam(beam) => {
@@ -309,13 +549,21 @@ impl Setup {
                     let x = sc.exciter_location_m(i)?;
                     pts.push((point_name(x, l), x));
                 }
+                let mut extra = Vec::new();
+                for (i, a) in sc.attachment.iter().enumerate() {
+                    if a.kind != AttachmentType::Lti {
+                        let x = sc.attachment_location_m(i)?;
+                        extra.push((point_name(x, l), x));
+                    }
+                }
                 // The standard points of the paper, so that one modal table serves both locations.
                 for (n, x) in [("l3", l / 3.0), ("2l3", 2.0 * l / 3.0)] {
                     if pts.iter().all(|(p, _)| p != n) && beam.n_nodes % 3 == 1 {
                         pts.push((n.into(), x));
                     }
                 }
-                let (model, omega0, full_ndof) = build_structure(sc, &pts)?;
+                let all: Vec<(String, f64)> = pts.iter().chain(&extra).cloned().collect();
+                let (model, omega0, full_ndof) = build_structure(sc, &all)?;
                 let names: Vec<String> = pts.into_iter().map(|(n, _)| n).collect();
                 (model, omega0, full_ndof, 0, names, beam.damping_ratio)
             }
@@ -386,6 +634,45 @@ impl Setup {
             shakers.push(p);
             exciter_points.push(point);
         }
+        let v0 = sc.excitation.voltage_v;
+        let mut inputs: Vec<Vec<Complex64>> = sc
+            .exciter
+            .iter()
+            .map(|ex| {
+                let ratio = match ex.voltage_v {
+                    Some(v) if v != v0 => {
+                        anyhow::ensure!(
+                            v0 > 0.0,
+                            "exciter voltages: [excitation] voltage_v = 0 cannot carry exciter voltages (the sweep amplitude scales them)"
+                        );
+                        v / v0
+                    }
+                    _ => 1.0,
+                };
+                // exactly `ratio` (1 by default) without a phase
+                Ok(vec![if ex.phase_rad == 0.0 {
+                    Complex64::new(ratio, 0.0)
+                } else {
+                    Complex64::from_polar(ratio, ex.phase_rad)
+                }])
+            })
+            .collect::<Result<_>>()?;
+        let mut harvesters = Vec::new();
+        for (i, spec) in sc.attachment.iter().enumerate() {
+            let point = match &sc.structure {
+                StructureSpec::Beam(b) if spec.kind != AttachmentType::Lti => {
+                    point_name(sc.attachment_location_m(i)?, b.length_m)
+                }
+                _ => spec.point.clone().unwrap_or_default(),
+            };
+            let att = build_attachment(spec, i, &point)?;
+            undamped_pole_in_band(&att, &format!("attachment[{i}]"), sc, omega0)?;
+            if spec.kind == AttachmentType::PiezoShunt {
+                harvesters.push((attachments.len(), spec.resistance_ohm.unwrap_or(f64::NAN)));
+            }
+            inputs.push(vec![Complex64::new(1.0, 0.0); att.ninput()]);
+            attachments.push(att);
+        }
         let e = &sc.excitation;
         let sweep = LinearSweep::per_pseudo_period(
             omega0,
@@ -410,6 +697,9 @@ impl Setup {
             full_ndof,
             shakers,
             attachments,
+            inputs,
+            harvesters,
+            exciter_names: sc.exciter.iter().map(|e| e.name.clone()).collect(),
             exciter_points,
             response_point,
             mode_index,
@@ -417,6 +707,193 @@ impl Setup {
             d0,
             modal_masses,
         })
+    }
+}
+
+/// Separation factor of the quasi-steady check: every fixed-interface pole of
+/// an attachment must lie at least this many modulation rates `1 / T_mod` away
+/// from the band of excitation frequencies the sweep covers. The slow flow
+/// evaluates `Z_G` at the instantaneous `Omega`; the envelope's modulation
+/// spreads the excitation over about `Omega +- 1/T_mod`, over which `Z_G`
+/// changes little only if its poles are well outside: with 5, a pole's
+/// resonance term `1/(s - i Omega)` varies by at most 20 % over that spread.
+pub const QUASI_STEADY_FACTOR: f64 = 5.0;
+/// Largest damping ratio of an assembled mode counted in the internal-resonance
+/// check: above it the mode's resonant amplification `1/(2D)` is below 2.5 and
+/// it cannot take up energy through a harmonic.
+pub const INTERNAL_RESONANCE_MAX_DAMPING: f64 = 0.2;
+/// Relative floor of the internal-resonance window around `n omega_m`
+/// (beside the half-power bandwidth of the other mode), see
+/// [`Setup::validity_warnings`].
+pub const INTERNAL_RESONANCE_WINDOW: f64 = 0.02;
+/// MAC of the free and the attached mode below which the mode counts as
+/// distorted: `1 - MAC` is the mass-weighted fraction of the attached shape
+/// outside the free mode, which the projection `Z_A = phi^H Z_q phi` of
+/// `eq:NM` neglects; at 0.9 that is 10 %, the order of the paper's mass ratios'
+/// effect on the mode itself.
+pub const MAC_THRESHOLD: f64 = 0.9;
+
+impl Setup {
+    /// The paper's validity checks of `eq:NM` with attachments (issue 11, item 4),
+    /// as warning lines (empty when all hold):
+    ///
+    /// 1. **Quasi-steady attachments.** Each attachment's fixed-interface poles
+    ///    `s` ([`LinearAttachment::fixed_interface_poles`]) against the sweep's
+    ///    modulation time `T_mod = 2 D0 omega0 / |dOmega/dt|` (the time to cross
+    ///    the mode's half-power band): warning if the distance of a pole from
+    ///    the swept band, `min over Omega in the sweep of |s - i Omega|`, is below
+    ///    `QUASI_STEADY_FACTOR / T_mod`.
+    /// 2. **Internal resonance.** The assembly's linear natural frequencies
+    ///    `omega_j = |s_j|` (oscillatory poles, damping ratio < 1) against
+    ///    `n omega_m`, `n = 1..=harmonics` (`n = 1`: a close mode), counting
+    ///    modes with damping ratio below [`INTERNAL_RESONANCE_MAX_DAMPING`], `omega_m` the
+    ///    attached followed mode: window `n [omega_lo, omega_hi] +- max(2 D_j
+    ///    omega_j, INTERNAL_RESONANCE_WINDOW n omega_m)`, `[omega_lo, omega_hi]`
+    ///    the mode's frequency range (its linear value, widened by the modal
+    ///    table's range when given). Warning when the assembly has more natural
+    ///    frequencies in a window than the free structure (the attachment moved
+    ///    one there, or added one).
+    /// 3. **Mode-shape distortion.** Mass-weighted MAC of the free mode and the
+    ///    structure part of the attached mode below [`MAC_THRESHOLD`].
+    pub fn validity_warnings(
+        &self,
+        harmonics: usize,
+        table_omega: Option<(f64, f64)>,
+    ) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.attachments.is_empty() {
+            return w;
+        }
+        // 1. quasi-steady
+        let rate = self.sweep.signed_rate_rad_s2().abs();
+        let t_mod = 2.0 * self.d0 * self.omega0_rad_s / rate;
+        let (w_lo, w_hi) = (
+            self.sweep.omega_start_rad_s.min(self.sweep.omega_end_rad_s),
+            self.sweep.omega_start_rad_s.max(self.sweep.omega_end_rad_s),
+        );
+        let limit = QUASI_STEADY_FACTOR / t_mod;
+        for att in &self.attachments {
+            match att.fixed_interface_poles() {
+                Ok(poles) => {
+                    // distance of s from the segment i [w_lo, w_hi] of the imaginary axis
+                    let dist = |s: &Complex64| {
+                        let im = s.im.abs().clamp(w_lo, w_hi);
+                        Complex64::new(s.re, s.im.abs() - im).norm()
+                    };
+                    if let Some(p) = poles
+                        .iter()
+                        .min_by(|a, b| dist(a).total_cmp(&dist(b)))
+                        .filter(|p| dist(p) < limit)
+                    {
+                        w.push(format!(
+                            "attachment '{}': fixed-interface pole {:.4e}{:+.4e}i rad/s lies {:.3e} rad/s from the swept band [{w_lo:.1}, {w_hi:.1}] rad/s, less than {QUASI_STEADY_FACTOR} / T_mod = {limit:.3e} rad/s (T_mod = 2 D0 omega0 / |dOmega/dt| = {t_mod:.3e} s): the quasi-steady attachment assumption of eq:NM is doubtful (sweep slower, or damp the attachment)",
+                            att.name, p.re, p.im, dist(p)
+                        ));
+                    }
+                }
+                Err(e) => w.push(format!(
+                    "attachment '{}': fixed-interface poles not computed: {e}",
+                    att.name
+                )),
+            }
+        }
+        // 2./3. linear modes of the assembly
+        let sys = match nlmode::reference::AssembledSystem::new(
+            &self.model,
+            &self.attachments,
+            &self.response_point,
+        ) {
+            Ok(s) => s,
+            Err(e) => {
+                w.push(format!("assembly's linear modes not computed: {e}"));
+                return w;
+            }
+        };
+        let j = self.mode_index;
+        let nfree = self.model.ndof().min(60);
+        let free = match modal_analysis(&self.model, nfree.max(j + 1)) {
+            Ok(m) => m,
+            Err(e) => {
+                w.push(format!("free modes not computed: {e}"));
+                return w;
+            }
+        };
+        let phi = free.shapes.column(j).map(|v| Complex64::new(v, 0.0));
+        let m = self.model.mass.map(|v| Complex64::new(v, 0.0));
+        let mac = |q: &nalgebra::DVector<Complex64>| {
+            let mq = &m * q;
+            let num = phi.dotc(&mq).norm_sqr();
+            num / (phi.dotc(&(&m * &phi)).re * q.dotc(&mq).re)
+        };
+        // oscillatory poles (upper half plane), damping ratio < 1
+        let poles: Vec<Complex64> = sys
+            .linear_poles()
+            .into_iter()
+            .filter(|s| s.im > 0.0)
+            .collect();
+        let w0 = self.omega0_rad_s;
+        let followed = poles
+            .iter()
+            .filter(|s| s.norm() > 0.5 * w0 && s.norm() < 1.5 * w0)
+            .filter_map(|&s| sys.structure_mode_shape(s).map(|q| (s, mac(&q))))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((s_m, mac_m)) = followed else {
+            w.push(format!(
+                "no oscillatory mode of the assembly within [0.5, 1.5] omega0 = [{:.1}, {:.1}] rad/s: the attachments change the followed mode beyond the single-mode theory",
+                0.5 * w0,
+                1.5 * w0
+            ));
+            return w;
+        };
+        let w_m = s_m.norm();
+        if mac_m < MAC_THRESHOLD {
+            w.push(format!(
+                "the attachments distort the mode: MAC(free mode, attached mode at {w_m:.2} rad/s) = {mac_m:.4} < {MAC_THRESHOLD} (eq:NM projects the attachments on the free mode)"
+            ));
+        }
+        let (lo, hi) = match table_omega {
+            Some((a, b)) => (a.min(w_m), b.max(w_m)),
+            None => (w_m, w_m),
+        };
+        // the free modes with their modal damping ratios phi^T C phi / (2 omega)
+        // (mass-normalised shapes), so that both sides get the same window
+        let free_modes: Vec<(f64, f64)> = (0..free.n_modes())
+            .filter(|&k| k != j && free.omega_rad_s[k] > 0.0)
+            .map(|k| {
+                let phi_k = free.shapes.column(k);
+                let wk = free.omega_rad_s[k];
+                (wk, phi_k.dot(&(&self.model.damping * phi_k)) / (2.0 * wk))
+            })
+            .collect();
+        for n in 1..=harmonics {
+            let nf = n as f64;
+            let inside = |wj: f64, dj: f64| {
+                let b = (2.0 * dj * wj).max(INTERNAL_RESONANCE_WINDOW * nf * w_m);
+                wj >= nf * lo - b && wj <= nf * hi + b
+            };
+            let assembled: Vec<Complex64> = poles
+                .iter()
+                .filter(|s| (**s - s_m).norm() > 1e-9 * w_m)
+                .filter(|s| -s.re / s.norm() < INTERNAL_RESONANCE_MAX_DAMPING)
+                .filter(|s| inside(s.norm(), -s.re / s.norm()))
+                .copied()
+                .collect();
+            let nfree_in = free_modes
+                .iter()
+                .filter(|&&(wf, df)| df < INTERNAL_RESONANCE_MAX_DAMPING && inside(wf, df))
+                .count();
+            if assembled.len() > nfree_in {
+                let list: Vec<String> = assembled
+                    .iter()
+                    .map(|s| format!("{:.2} rad/s (D = {:.3})", s.norm(), -s.re / s.norm()))
+                    .collect();
+                w.push(format!(
+                    "internal resonance 1:{n}: the assembly has natural frequencies {} within n [{lo:.2}, {hi:.2}] rad/s (+- max(2 D omega, {INTERNAL_RESONANCE_WINDOW} n omega_m)) of {n} x the followed mode ({w_m:.2} rad/s), the free structure {nfree_in}: eq:NM assumes no other mode interacts",
+                    list.join(", ")
+                ));
+            }
+        }
+        w
     }
 }
 

@@ -77,6 +77,13 @@ pub struct MethodSummary {
     pub wall_time_s: f64,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
+    /// Piezo shunts: the largest mean harvested power `mean(R i^2)` over the
+    /// envelope [W], by attachment name.
+    #[serde(
+        rename = "max_harvested_power_W",
+        skip_serializing_if = "BTreeMap::is_empty"
+    )]
+    pub max_harvested_power_w: BTreeMap<String, f64>,
 }
 
 /// `summary.json` (DESIGN.md section 7); fields in the alphabetical order of the keys.
@@ -95,6 +102,12 @@ pub struct Summary {
     pub speedup_nlmode_over_reference: Option<f64>,
     pub sweep: SweepSummary,
     pub title: String,
+    /// Validity checks of the single-mode theory with attachments (quasi-steady
+    /// attachment dynamics, internal resonance, mode-shape distortion;
+    /// [`crate::model::Setup::validity_warnings`]). The methods' own warnings stay
+    /// under `methods.<name>.warnings`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// An exciter's entry of [`Summary`].
@@ -126,6 +139,11 @@ pub struct MethodResult {
     /// Its `summary.json` entry: the envelope's numbers are filled in by
     /// [`MethodResult::new`], the method adds its own (force_drop, steps, warnings, ...).
     pub summary: MethodSummary,
+    /// Further envelope columns (same length as the envelope), appended to
+    /// `<method>_envelope.csv`: each exciter's force with several exciters
+    /// (`<name>_force_amplitude_N`), each piezo shunt's harvested power
+    /// (`<name>_harvested_power_W`).
+    pub extra_columns: Vec<(String, Vec<f64>)>,
 }
 
 impl MethodResult {
@@ -165,7 +183,23 @@ impl MethodResult {
             envelope,
             time_series: None,
             summary,
+            extra_columns: Vec::new(),
         }
+    }
+
+    /// Adds a piezo shunt's harvested power per envelope sample [W]: the column
+    /// `<name>_harvested_power_W` and its maximum in the summary.
+    pub fn add_harvested_power(&mut self, name: &str, power_w: Vec<f64>) {
+        let max = power_w
+            .iter()
+            .cloned()
+            .filter(|v| v.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max);
+        if max.is_finite() {
+            self.summary.max_harvested_power_w.insert(name.into(), max);
+        }
+        self.extra_columns
+            .push((format!("{name}_harvested_power_W"), power_w));
     }
 
     /// Wall time of the method [s].
@@ -218,6 +252,26 @@ pub fn write_envelope(dir: &Path, r: &MethodResult) -> Result<()> {
     let mut w = csv::Writer::from_path(&path)
         .with_context(|| format!("cannot create {}", path.display()))?;
     let write = |w: &mut csv::Writer<std::fs::File>| -> Result<(), csv::Error> {
+        if !r.extra_columns.is_empty() {
+            // the contract's columns, then the extra ones
+            let mut head: Vec<String> = envelope_header(&r.envelope)
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            head.extend(r.extra_columns.iter().map(|(n, _)| n.clone()));
+            w.write_record(&head)?;
+            for (i, row) in r.envelope.rows().enumerate() {
+                let mut rec: Vec<String> = row_values(&row).iter().map(|v| v.to_string()).collect();
+                rec.extend(
+                    r.extra_columns
+                        .iter()
+                        .map(|(_, c)| c.get(i).copied().unwrap_or(f64::NAN).to_string()),
+                );
+                w.write_record(&rec)?;
+            }
+            w.flush()?;
+            return Ok(());
+        }
         if r.envelope.is_empty() {
             // serde writes the header with the first row; an empty envelope still gets one
             w.write_record(envelope_header(&r.envelope))?;
@@ -229,6 +283,22 @@ pub fn write_envelope(dir: &Path, r: &MethodResult) -> Result<()> {
         Ok(())
     };
     write(&mut w).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The values of one row in the order of [`envelope_header`].
+fn row_values(row: &EnvelopeRow) -> Vec<f64> {
+    let mut v = vec![row.omega_rad_s, row.force_amplitude_n, row.tip_amplitude_m];
+    v.extend(
+        [
+            row.force_phase_rad,
+            row.drive_amplitude_m,
+            row.modal_amplitude,
+            row.modal_frequency_rad_s,
+        ]
+        .into_iter()
+        .flatten(),
+    );
+    v
 }
 
 /// The CSV header of an envelope without rows.

@@ -68,6 +68,22 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
             m,
             100.0 * mu
         );
+        let u = setup.inputs[i][0];
+        if u != nlmode::Complex64::new(1.0, 0.0) {
+            println!(
+                "  voltage {:.3} V, phase {:.4} rad",
+                u.norm() * setup.sweep.amplitude,
+                u.arg()
+            );
+        }
+    }
+    for att in &setup.attachments[setup.shakers.len()..] {
+        println!(
+            "attachment '{}' at {:?}: {} states",
+            att.name,
+            att.interface_points,
+            att.ndim()
+        );
     }
     let s = &setup.sweep;
     println!(
@@ -80,6 +96,12 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
     );
     let mut done: Vec<MethodResult> = Vec::new();
     let wants = |m: Method| sc.run.methods.contains(&m);
+    if wants(Method::Cosim) {
+        setup.check_cosim()?;
+    }
+    if wants(Method::ImposedForce) {
+        setup.check_imposed_force()?;
+    }
     // cosim of a matrices structure needs its modal table for the structure FMU
     let own_table = sc.structure.matrices().is_some() && wants(Method::Cosim);
     let needs_mode = own_table || sc.run.methods.iter().any(|m| m.needs_mode());
@@ -88,6 +110,17 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
         let (n, _) = methods::nma_table(&setup, &sc, false)?;
         println!("{}", n.note);
         nma = Some(n);
+    }
+    let table_omega = nma.as_ref().map(|n| {
+        let w = &n.table.omega_rad_s;
+        (
+            w.iter().cloned().fold(f64::INFINITY, f64::min),
+            w.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+        )
+    });
+    let validity = setup.validity_warnings(sc.nma.harmonics, table_omega);
+    for w in &validity {
+        println!("warning: {w}");
     }
     let error = nlmode::reduced::FrequencyError {
         eps: sc.imposed_force.frequency_error,
@@ -136,8 +169,11 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
         match m {
             Method::LinearFrf => {
                 done.push(methods::linear_frf(&setup, sc.run.frf_points)?);
-                // eq:fhfhNull beside the assembled FRF (the paper's force-drop figure)
-                done.push(methods::closed_form(&setup, sc.run.frf_points)?);
+                // eq:fhfhNull beside the assembled FRF (the paper's force-drop figure):
+                // its single-shaker closed form only fits one exciter alone
+                if setup.attachments.len() == 1 {
+                    done.push(methods::closed_form(&setup, sc.run.frf_points)?);
+                }
             }
             Method::Reference => {
                 let mut bar = Progress::new("reference");
@@ -229,13 +265,17 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                         })?
                     }
                 };
-                let model = nlmode::reduced::ReducedModel::imposed_force(
+                let mut model = nlmode::reduced::ReducedModel::imposed_force(
                     table(),
                     &setup.response_point,
                     &setup.exciter_points[0],
                     envelope,
-                )?
-                .with_frequency_error(error)?;
+                )?;
+                // the passive attachments stay as impedances
+                for (att, u) in setup.attachments.iter().zip(&setup.inputs).skip(1) {
+                    model = model.with_linear_attachment(att, u)?;
+                }
+                let model = model.with_frequency_error(error)?;
                 done.push(
                     methods::slow_flow(
                         Method::ImposedForce.name(),
@@ -270,7 +310,8 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
             println!("warning: {w}");
         }
     }
-    let summary = summary(&sc, &setup, &done, &failed);
+    let mut summary = summary(&sc, &setup, &done, &failed);
+    summary.warnings = validity;
     write_outputs(&sc, &setup, out, &done, &summary)?;
     print_summary(&setup, &done, &summary);
     Ok(failed)
@@ -307,6 +348,7 @@ fn summary(sc: &Scenario, setup: &Setup, done: &[MethodResult], failed: &FailedM
             .collect(),
         speedup_nlmode_over_reference: speedup(done),
         failed_methods: failed.iter().cloned().collect(),
+        warnings: Vec::new(),
     }
 }
 

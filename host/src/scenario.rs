@@ -102,6 +102,9 @@ pub struct Scenario {
     pub nonlinearity: Vec<NonlinearitySpec>,
     #[serde(default = "default_exciters")]
     pub exciter: Vec<ExciterSpec>,
+    /// `[[attachment]]`: linear attachments besides the exciters.
+    #[serde(default)]
+    pub attachment: Vec<AttachmentSpec>,
     #[serde(default)]
     pub excitation: ExcitationSpec,
     #[serde(default)]
@@ -131,6 +134,7 @@ impl Default for Scenario {
             structure: StructureSpec::default(),
             nonlinearity: Vec::new(),
             exciter: default_exciters(),
+            attachment: Vec::new(),
             excitation: ExcitationSpec::default(),
             nma: NmaSpec::default(),
             run: RunSpec::default(),
@@ -456,6 +460,10 @@ pub struct ExciterSpec {
     pub armature_damping_n_s_per_m: Option<f64>,
     pub stinger: StingerKind,
     pub stinger_stiffness_n_per_m: f64,
+    /// Voltage amplitude of this exciter [V]; default: `[excitation] voltage_v`.
+    pub voltage_v: Option<f64>,
+    /// Phase of this exciter's voltage against the sweep's `cos Phi` [rad].
+    pub phase_rad: f64,
 }
 
 impl Default for ExciterSpec {
@@ -475,6 +483,8 @@ impl Default for ExciterSpec {
             armature_damping_n_s_per_m: None,
             stinger: StingerKind::Elastic,
             stinger_stiffness_n_per_m: b::STINGER_KS_N_PER_M,
+            voltage_v: None,
+            phase_rad: 0.0,
         }
     }
 }
@@ -1020,6 +1030,20 @@ impl Scenario {
                 &k("stinger_stiffness_n_per_m"),
                 ex.stinger_stiffness_n_per_m,
             )?;
+            if let Some(v) = ex.voltage_v {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(bad(
+                        &k("voltage_v"),
+                        format!("expected a finite voltage >= 0, got {v}"),
+                    ));
+                }
+            }
+            if !ex.phase_rad.is_finite() {
+                return Err(bad(
+                    &k("phase_rad"),
+                    format!("expected a finite phase, got {}", ex.phase_rad),
+                ));
+            }
             if self.exciter[..i].iter().any(|o| o.name == ex.name) {
                 return Err(bad(
                     &k("name"),
@@ -1123,12 +1147,16 @@ impl Scenario {
             ));
         }
         positive("cosim.macro_step_s", self.cosim.macro_step_s)?;
+        self.validate_attachments()?;
         Ok(())
     }
 
     /// Makes the relative paths of `[structure]` (the Matrix Market files)
     /// relative to `base`, the folder of the scenario file.
     pub fn resolve_paths(&mut self, base: &std::path::Path) {
+        for a in &mut self.attachment {
+            a.resolve_paths(base);
+        }
         if let StructureSpec::Matrices(m) = &mut self.structure {
             for p in [&mut m.mass_mtx, &mut m.stiffness_mtx]
                 .into_iter()
@@ -1533,6 +1561,35 @@ impl PhaseResonanceModel {
     }
 }
 
+// ---------------------------------------------------------------------------
+// `[[attachment]]`: linear attachments besides the exciters (issue 11, item 3).
+
+/// The kind of an `[[attachment]]` (`type = "..."`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AttachmentType {
+    /// Mass on a spring and a dashpot to one point.
+    TunedMassDamper,
+    /// Rigid added mass at one point.
+    Mass,
+    /// Piezoelectric stack to ground at one point, shunted by a resistor.
+    PiezoShunt,
+    /// Any `sum_k A_k d^k x/dt^k = b u(t) + c2` with interface rows `B2`.
+    Lti,
+}
+
+impl AttachmentType {
+    /// The spelling in scenarios.
+    pub fn name(self) -> &'static str {
+        match self {
+            AttachmentType::TunedMassDamper => "tuned-mass-damper",
+            AttachmentType::Mass => "mass",
+            AttachmentType::PiezoShunt => "piezo-shunt",
+            AttachmentType::Lti => "lti",
+        }
+    }
+}
+
 /// The default voltage levels \[V\]: the paper beam at 2l/3 from the linear
 /// range (0.5 V: |q_tip,1| = 0.14 mm, omega = 1.001 omega0) along the backbone
 /// to 40 V (|q_tip,1| = 5.0 mm, omega = 1.93 omega0), below the loop of the
@@ -1607,6 +1664,305 @@ impl PhaseResonanceSpec {
             ),
             other => bad("phase_resonance.pll", other.to_string()),
         })
+    }
+}
+
+/// A matrix of an `lti` attachment: inline rows or a Matrix Market file
+/// (relative to the scenario file).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(untagged)]
+pub enum MatrixSpec {
+    Rows(Vec<Vec<f64>>),
+    File(PathBuf),
+}
+
+/// One `[[attachment]]` table. Every key of every type is read into this one
+/// flat table, then [`Scenario::validate`] rejects a key the type does not
+/// have (by name) and requires the ones it needs.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttachmentSpec {
+    #[serde(rename = "type")]
+    pub kind: AttachmentType,
+    /// Name in outputs and messages; default `attachment<i>`.
+    pub name: Option<String>,
+    /// Matrices: the `[[structure.point]]` it attaches to (all types but `lti`).
+    pub point: Option<String>,
+    /// `lti`: one structure point per row of `b2`.
+    pub points: Option<Vec<String>>,
+    /// Beam: fraction of the length (like `exciter.location`).
+    pub location: Option<LengthFraction>,
+    /// Beam: position [m].
+    pub location_m: Option<f64>,
+    /// `tuned-mass-damper`, `mass` [kg].
+    pub mass_kg: Option<f64>,
+    /// `tuned-mass-damper` spring; `piezo-shunt` short-circuit stack stiffness [N/m].
+    pub stiffness_n_per_m: Option<f64>,
+    /// `tuned-mass-damper` dashpot [N s/m].
+    pub damping_n_s_per_m: Option<f64>,
+    /// `tuned-mass-damper`: `c = 2 zeta sqrt(k m)` instead of `damping_n_s_per_m`.
+    pub damping_ratio: Option<f64>,
+    /// `piezo-shunt`: blocked capacitance `C_p` [F].
+    pub capacitance_f: Option<f64>,
+    /// `piezo-shunt`: shunt resistance `R` [Ohm].
+    pub resistance_ohm: Option<f64>,
+    /// `piezo-shunt`: electromechanical coupling `theta` [N/V] (= C/m).
+    pub coupling_n_per_v: Option<f64>,
+    /// `lti`: `A_0, A_1, ...` (`ndim x ndim` each).
+    pub a_k: Option<Vec<MatrixSpec>>,
+    /// `lti`: interface rows `B2` (`ncon x ndim`).
+    pub b2: Option<MatrixSpec>,
+    /// `lti`: input vector `b` (`ndim`), driven by the sweep's voltage `u(t)`;
+    /// default: no input.
+    pub input: Option<Vec<f64>>,
+    /// `lti`: names of the states (default `x0, x1, ...`).
+    pub state_names: Option<Vec<String>>,
+}
+
+impl AttachmentSpec {
+    /// The name used in outputs (`attachment<i>` when not given).
+    pub fn name_or(&self, i: usize) -> String {
+        self.name
+            .clone()
+            .unwrap_or_else(|| format!("attachment{i}"))
+    }
+
+    fn resolve_paths(&mut self, base: &std::path::Path) {
+        let fix = |m: &mut MatrixSpec| {
+            if let MatrixSpec::File(p) = m {
+                if p.is_relative() {
+                    *p = base.join(&*p);
+                }
+            }
+        };
+        for m in self.a_k.iter_mut().flatten() {
+            fix(m);
+        }
+        if let Some(m) = self.b2.as_mut() {
+            fix(m);
+        }
+    }
+
+    /// The keys of this table that are set, by name.
+    fn set_keys(&self) -> Vec<&'static str> {
+        let mut k = Vec::new();
+        macro_rules! set {
+            ($($f:ident),*) => {$(if self.$f.is_some() { k.push(stringify!($f)); })*};
+        }
+        set!(
+            point,
+            points,
+            location,
+            location_m,
+            mass_kg,
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+            damping_ratio,
+            capacitance_f,
+            resistance_ohm,
+            coupling_n_per_v,
+            a_k,
+            b2,
+            input,
+            state_names
+        );
+        k
+    }
+}
+
+impl Scenario {
+    /// `[[attachment]]`: the keys of each type, positive parameters, a location
+    /// that fits the structure kind, unique names (also against the exciters).
+    fn validate_attachments(&self) -> Result<(), ScenarioError> {
+        let beam = self.structure.beam().is_some();
+        for (i, a) in self.attachment.iter().enumerate() {
+            let k = |f: &str| format!("attachment[{i}].{f}");
+            let (location_keys, params): (&[&str], &[&str]) = match a.kind {
+                AttachmentType::TunedMassDamper => (
+                    &["point", "location", "location_m"],
+                    &[
+                        "mass_kg",
+                        "stiffness_n_per_m",
+                        "damping_n_s_per_m",
+                        "damping_ratio",
+                    ],
+                ),
+                AttachmentType::Mass => (&["point", "location", "location_m"], &["mass_kg"]),
+                AttachmentType::PiezoShunt => (
+                    &["point", "location", "location_m"],
+                    &[
+                        "capacitance_f",
+                        "resistance_ohm",
+                        "coupling_n_per_v",
+                        "stiffness_n_per_m",
+                    ],
+                ),
+                AttachmentType::Lti => (&["points"], &["a_k", "b2", "input", "state_names"]),
+            };
+            for key in a.set_keys() {
+                if !location_keys.contains(&key) && !params.contains(&key) {
+                    return Err(bad(
+                        &k(key),
+                        format!(
+                            "not a key of type \"{}\" (its keys: {:?})",
+                            a.kind.name(),
+                            location_keys.iter().chain(params).collect::<Vec<_>>()
+                        ),
+                    ));
+                }
+            }
+            let need = |key: &str, v: Option<f64>| -> Result<f64, ScenarioError> {
+                let v = v.ok_or_else(|| {
+                    bad(
+                        &k(key),
+                        format!("missing: type \"{}\" needs it", a.kind.name()),
+                    )
+                })?;
+                positive(&k(key), v)?;
+                Ok(v)
+            };
+            match a.kind {
+                AttachmentType::TunedMassDamper => {
+                    need("mass_kg", a.mass_kg)?;
+                    need("stiffness_n_per_m", a.stiffness_n_per_m)?;
+                    match (a.damping_n_s_per_m, a.damping_ratio) {
+                        (Some(_), Some(_)) => {
+                            return Err(bad(
+                                &k("damping_ratio"),
+                                "give either damping_n_s_per_m or damping_ratio, not both",
+                            ))
+                        }
+                        (Some(d), None) | (None, Some(d)) if !(d.is_finite() && d >= 0.0) => {
+                            let key = if a.damping_ratio.is_some() {
+                                "damping_ratio"
+                            } else {
+                                "damping_n_s_per_m"
+                            };
+                            return Err(bad(
+                                &k(key),
+                                format!("expected a finite number >= 0, got {d}"),
+                            ));
+                        }
+                        (None, None) => {
+                            return Err(bad(
+                                &k("damping_n_s_per_m"),
+                                "missing: give damping_n_s_per_m or damping_ratio (0 for none)",
+                            ))
+                        }
+                        _ => {}
+                    }
+                }
+                AttachmentType::Mass => {
+                    need("mass_kg", a.mass_kg)?;
+                }
+                AttachmentType::PiezoShunt => {
+                    need("capacitance_f", a.capacitance_f)?;
+                    need("resistance_ohm", a.resistance_ohm)?;
+                    need("coupling_n_per_v", a.coupling_n_per_v)?;
+                    if let Some(s) = a.stiffness_n_per_m {
+                        if !(s.is_finite() && s >= 0.0) {
+                            return Err(bad(
+                                &k("stiffness_n_per_m"),
+                                format!("expected a finite number >= 0, got {s}"),
+                            ));
+                        }
+                    }
+                }
+                AttachmentType::Lti => {
+                    let ak = a.a_k.as_ref().ok_or_else(|| {
+                        bad(&k("a_k"), "missing: type \"lti\" needs A_0, A_1, ...")
+                    })?;
+                    if ak.is_empty() {
+                        return Err(bad(&k("a_k"), "expected at least A_0"));
+                    }
+                    if a.b2.is_none() {
+                        return Err(bad(&k("b2"), "missing: type \"lti\" needs B2"));
+                    }
+                    let pts = a.points.as_ref().ok_or_else(|| {
+                        bad(&k("points"), "missing: one structure point per row of b2")
+                    })?;
+                    if pts.is_empty() {
+                        return Err(bad(&k("points"), "expected at least one point"));
+                    }
+                    if let Some(b) = &a.input {
+                        if let Some(v) = b.iter().find(|v| !v.is_finite()) {
+                            return Err(bad(&k("input"), format!("non-finite entry {v}")));
+                        }
+                    }
+                }
+            }
+            if a.kind != AttachmentType::Lti {
+                match (beam, &a.point, a.location, a.location_m) {
+                    (true, Some(_), _, _) => {
+                        return Err(bad(
+                            &k("point"),
+                            "a beam has no named points: use location = \"2l/3\" or location_m",
+                        ))
+                    }
+                    (true, None, None, None) => {
+                        return Err(bad(
+                            &k("location"),
+                            "missing: expected location = \"2l/3\" (fraction of l) or location_m",
+                        ))
+                    }
+                    (true, None, Some(_), Some(_)) => {
+                        return Err(bad(
+                            &k("location"),
+                            "give either location or location_m, not both",
+                        ))
+                    }
+                    (false, None, _, _) => {
+                        return Err(bad(
+                            &k("point"),
+                            "missing: the [[structure.point]] it attaches to",
+                        ))
+                    }
+                    (false, Some(_), l, lm) if l.is_some() || lm.is_some() => {
+                        return Err(bad(
+                            &k("location"),
+                            "only a beam has locations; use point = \"name\"",
+                        ))
+                    }
+                    _ => {}
+                }
+            }
+            let name = a.name_or(i);
+            let taken = self.exciter.iter().any(|e| e.name == name)
+                || self.attachment[..i]
+                    .iter()
+                    .enumerate()
+                    .any(|(j, o)| o.name_or(j) == name);
+            if taken {
+                return Err(bad(
+                    &k("name"),
+                    format!("attachment and exciter names must be unique, '{name}' repeats"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Location of attachment `i` along the beam [m] (beams only).
+    pub fn attachment_location_m(&self, i: usize) -> Result<f64, ScenarioError> {
+        let a = &self.attachment[i];
+        let key = format!("attachment[{i}].location");
+        let beam = self
+            .structure
+            .beam()
+            .ok_or_else(|| bad(&key, "only a beam has locations; use point = \"name\""))?;
+        let l = beam.length_m;
+        let x = match (a.location, a.location_m) {
+            (Some(LengthFraction(f)), None) => l * f,
+            (None, Some(x)) => x,
+            _ => return Err(bad(&key, "expected exactly one of location, location_m")),
+        };
+        if !(x.is_finite() && x > 0.0 && x <= l * (1.0 + 1e-12)) {
+            return Err(bad(
+                &key,
+                format!("location {x} m lies outside the beam (0, {l}] m"),
+            ));
+        }
+        Ok(x.min(l))
     }
 }
 
@@ -1794,5 +2150,42 @@ mod tests {
             }
         }
         assert!(n >= 9, "only {n} example scenarios");
+    }
+
+    #[test]
+    fn attachment_tables_parse_and_name_their_keys() {
+        let s = Scenario::parse(
+            "[[attachment]]\ntype = \"tuned-mass-damper\"\nlocation = \"l\"\nmass_kg = 0.01\n\
+             stiffness_n_per_m = 1e3\ndamping_ratio = 0.1\n\
+             [[attachment]]\ntype = \"lti\"\npoints = [\"tip\"]\na_k = [[[1.0]], \"A1.mtx\"]\nb2 = [[1.0]]\n\
+             [[exciter]]\nlocation = \"2l/3\"\nvoltage_v = 4.0\nphase_rad = 0.5\n",
+        )
+        .unwrap();
+        assert_eq!(s.attachment.len(), 2);
+        assert_eq!(s.attachment[0].kind, AttachmentType::TunedMassDamper);
+        assert_eq!(s.attachment[0].name_or(0), "attachment0");
+        assert_eq!(
+            s.attachment[1].a_k.as_ref().unwrap()[1],
+            MatrixSpec::File("A1.mtx".into())
+        );
+        assert_eq!(s.exciter[0].voltage_v, Some(4.0));
+        assert_eq!(s.exciter[0].phase_rad, 0.5);
+        for (text, key) in [
+            ("[[attachment]]\ntype = \"mass\"\npoint = \"a\"\nmass_kg = 1.0\n", "attachment[0].point"),
+            ("[[attachment]]\ntype = \"mass\"\nlocation = \"l\"\n", "attachment[0].mass_kg"),
+            (
+                "[[attachment]]\ntype = \"tuned-mass-damper\"\nlocation = \"l\"\nmass_kg = 1.0\nstiffness_n_per_m = -1.0\ndamping_ratio = 0.1\n",
+                "attachment[0].stiffness_n_per_m",
+            ),
+            ("[[attachment]]\ntype = \"piezo\"\n", "attachment[0]"),
+            ("[[exciter]]\nlocation = \"l\"\nphase_rad = nan\n", "exciter[0].phase_rad"),
+            (
+                "[[attachment]]\ntype = \"mass\"\nname = \"shaker\"\nlocation = \"l\"\nmass_kg = 1.0\n",
+                "attachment[0].name",
+            ),
+        ] {
+            let e = Scenario::parse(text).unwrap_err();
+            assert!(e.key.starts_with(key), "{text}: {e}");
+        }
     }
 }

@@ -276,6 +276,143 @@ impl LinearAttachment {
         })
     }
 
+    /// A rigid mass `m` \[kg\] at the structure point `point` (eq:component2 with
+    /// `x = [x_s]`, `A_2 = [m]`, `B2 = [1]`): `Z_G = -Omega^2 m`.
+    pub fn rigid_mass(name: &str, point: &str, mass_kg: f64) -> Result<Self> {
+        if !(mass_kg.is_finite() && mass_kg > 0.0) {
+            return Err(AttachmentError::NonPositive {
+                name: "mass_kg",
+                value: mass_kg,
+            });
+        }
+        Ok(LinearAttachment {
+            name: name.into(),
+            coefficients: vec![
+                DMatrix::zeros(1, 1),
+                DMatrix::zeros(1, 1),
+                DMatrix::from_element(1, 1, mass_kg),
+            ],
+            b2: DMatrix::from_element(1, 1, 1.0),
+            interface_points: vec![point.into()],
+            input_map: DMatrix::zeros(1, 0),
+            state_names: vec!["x_s".into()],
+            input_names: vec![],
+        })
+    }
+
+    /// A piezoelectric stack between the structure point `point` and ground,
+    /// its electrodes shunted by a resistor (energy harvesting). States
+    /// `x = [x_s, v]` (interface displacement \[m\], electrode voltage \[V\]),
+    /// `B2 = [1, 0]`, with the short-circuit stack stiffness `k_p`, the coupling
+    /// `theta` \[N/V = C/m\], the blocked capacitance `C_p` and the shunt `R`:
+    ///
+    /// ```text
+    /// k_p x_s - theta v = c2          (force of the structure on the stack)
+    /// theta x_s' + C_p v' + v / R = 0 (charge balance: piezo current = shunt current)
+    /// ```
+    ///
+    /// i.e. `A_0 = [[k_p, -theta], [0, 1/R]]`, `A_1 = [[0, 0], [theta, C_p]]`.
+    /// The force on the structure is `-k_p x_s + theta v`; the power dissipated in
+    /// the shunt (harvested) is `v^2 / R`, mean `|v_hat|^2 / (2 R)` in steady state.
+    /// `C_p, R, theta > 0`, `k_p >= 0`.
+    pub fn piezo_shunt(
+        name: &str,
+        point: &str,
+        capacitance_f: f64,
+        resistance_ohm: f64,
+        coupling_n_per_v: f64,
+        stiffness_n_per_m: f64,
+    ) -> Result<Self> {
+        for (name, value) in [
+            ("capacitance_f", capacitance_f),
+            ("resistance_ohm", resistance_ohm),
+            ("coupling_n_per_v", coupling_n_per_v),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(AttachmentError::NonPositive { name, value });
+            }
+        }
+        if !(stiffness_n_per_m.is_finite() && stiffness_n_per_m >= 0.0) {
+            return Err(AttachmentError::Negative {
+                name: "stiffness_n_per_m",
+                value: stiffness_n_per_m,
+            });
+        }
+        let (kp, th, cp, r) = (
+            stiffness_n_per_m,
+            coupling_n_per_v,
+            capacitance_f,
+            resistance_ohm,
+        );
+        Ok(LinearAttachment {
+            name: name.into(),
+            coefficients: vec![
+                DMatrix::from_row_slice(2, 2, &[kp, -th, 0.0, 1.0 / r]),
+                DMatrix::from_row_slice(2, 2, &[0.0, 0.0, th, cp]),
+            ],
+            b2: DMatrix::from_row_slice(1, 2, &[1.0, 0.0]),
+            interface_points: vec![point.into()],
+            input_map: DMatrix::zeros(2, 0),
+            state_names: vec!["x_s".into(), "v".into()],
+            input_names: vec![],
+        })
+    }
+
+    /// Fixed-interface poles of the attachment: the roots `s` of
+    /// `det(sum_k s^k L2^T A_k L2) = 0` (`Z22` of `eq:fc1` at `Omega = s / i`),
+    /// finite ones only. Computed from the companion linearisation of the
+    /// reversed polynomial in `mu = 1/s`, whose leading coefficient
+    /// `L2^T A_0 L2` is regular unless the fixed attachment has a static
+    /// (zero-stiffness) mode ([`AttachmentError::SingularZ22`] at `Omega = 0`);
+    /// `mu = 0` (`s = infinity`, e.g. a massless state) is dropped. Empty when
+    /// the interface fixes every state. \[rad/s, complex\]
+    pub fn fixed_interface_poles(&self) -> Result<Vec<Complex64>> {
+        let loc = self.localization()?;
+        let l2 = &loc.l2;
+        let nr = l2.ncols();
+        if nr == 0 {
+            return Ok(Vec::new());
+        }
+        let a: Vec<DMatrix<f64>> = self
+            .coefficients
+            .iter()
+            .map(|ak| l2.transpose() * ak * l2)
+            .collect();
+        let p = a.len() - 1;
+        if p == 0 {
+            return Ok(Vec::new());
+        }
+        // reversed polynomial sum_k mu^(p-k) A_k: leading coefficient A_0
+        let Some(a0_inv) = a[0].clone().try_inverse() else {
+            return Err(AttachmentError::SingularZ22 {
+                attachment: self.name.clone(),
+                omega_rad_s: 0.0,
+                condition_number: f64::INFINITY,
+                limit: Z22_CONDITION_LIMIT,
+            });
+        };
+        // companion matrix of mu^p I + sum_{j<p} mu^j A0^-1 A_{p-j}
+        let n = nr * p;
+        let mut c = DMatrix::<f64>::zeros(n, n);
+        for blk in 0..p - 1 {
+            for i in 0..nr {
+                c[(blk * nr + i, (blk + 1) * nr + i)] = 1.0;
+            }
+        }
+        for j in 0..p {
+            let coef = -(&a0_inv * &a[p - j]);
+            c.view_mut(((p - 1) * nr, j * nr), (nr, nr))
+                .copy_from(&coef);
+        }
+        let mus = c.complex_eigenvalues();
+        let scale = mus.iter().map(|m| m.norm()).fold(0.0, f64::max);
+        Ok(mus
+            .iter()
+            .filter(|m| m.norm() > 1e-12 * scale.max(f64::MIN_POSITIVE))
+            .map(|m| Complex64::new(1.0, 0.0) / m)
+            .collect())
+    }
+
     /// Number of attachment states `N = dim x`.
     pub fn ndim(&self) -> usize {
         self.b2.ncols()

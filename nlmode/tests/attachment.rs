@@ -602,3 +602,111 @@ fn condensation_derivative_is_exact() {
         }
     }
 }
+
+/// The rigid mass and the piezo shunt: their interface impedances by hand,
+/// `Z_G = -Omega^2 m` and `Z_G = k_p + i Omega theta^2 / (i Omega C_p + 1/R)`
+/// (eliminate `v` from `theta x' + C_p v' + v/R = 0`), and the piezo's
+/// recovered voltage `v = -i Omega theta x / (i Omega C_p + 1/R)`.
+#[test]
+fn rigid_mass_and_piezo_shunt_impedances() {
+    let mass = LinearAttachment::rigid_mass("m", "drive", 0.25).unwrap();
+    let (cp, r, th, kp) = (1.2e-7, 3.0e4, 0.05, 1.0e4);
+    let piezo = LinearAttachment::piezo_shunt("p", "drive", cp, r, th, kp).unwrap();
+    for &w in &OMEGAS[1..] {
+        let zm = mass.interface_impedance(w).unwrap()[(0, 0)];
+        assert!(
+            (zm - c(-w * w * 0.25)).norm() <= 1e-12 * (w * w * 0.25),
+            "{w}: {zm}"
+        );
+        let iw = Complex64::new(0.0, w);
+        let y = iw * cp + 1.0 / r;
+        let expected = c(kp) + iw * th * th / y;
+        let zp = piezo.interface_impedance(w).unwrap()[(0, 0)];
+        assert!(
+            (zp - expected).norm() <= 1e-12 * expected.norm(),
+            "{w}: {zp} vs {expected}"
+        );
+        let x = Complex64::new(1e-3, -2e-4);
+        let s = piezo
+            .states(w, &DVector::from_element(1, x), &DVector::zeros(0))
+            .unwrap();
+        let v = -(iw * th * x) / y;
+        assert!(
+            (s[1] - v).norm() <= 1e-12 * v.norm(),
+            "{w}: {} vs {v}",
+            s[1]
+        );
+    }
+    for (name, res) in [
+        ("mass_kg", LinearAttachment::rigid_mass("m", "x", 0.0).err()),
+        (
+            "resistance_ohm",
+            LinearAttachment::piezo_shunt("p", "x", cp, -1.0, th, kp).err(),
+        ),
+        (
+            "stiffness_n_per_m",
+            LinearAttachment::piezo_shunt("p", "x", cp, r, th, -1.0).err(),
+        ),
+    ] {
+        let e = res.expect("rejected").to_string();
+        assert!(e.contains(name), "{e}");
+    }
+}
+
+/// Fixed-interface poles against closed forms: TMD `m s^2 + d s + k = 0`,
+/// piezo shunt `s = -1/(R C_p)`, rigid mass none.
+#[test]
+fn fixed_interface_poles_closed_forms() {
+    let (m, k, d) = (0.1, 9000.0, 2.0);
+    let mut p = tmd("drive", m, k, d).fixed_interface_poles().unwrap();
+    p.sort_by(|a, b| a.im.total_cmp(&b.im));
+    let disc = Complex64::new(d * d - 4.0 * m * k, 0.0).sqrt();
+    let mut e = [(-d + disc) / (2.0 * m), (-d - disc) / (2.0 * m)];
+    e.sort_by(|a, b| a.im.total_cmp(&b.im));
+    assert_eq!(p.len(), 2);
+    for (a, b) in p.iter().zip(&e) {
+        assert!((a - b).norm() <= 1e-10 * b.norm(), "{a} vs {b}");
+    }
+    let piezo = LinearAttachment::piezo_shunt("p", "x", 1e-7, 2e4, 0.05, 0.0).unwrap();
+    let p = piezo.fixed_interface_poles().unwrap();
+    assert_eq!(p.len(), 1);
+    assert!(
+        (p[0] - c(-1.0 / (2e4 * 1e-7))).norm() <= 1e-9 * 500.0,
+        "{:?}",
+        p
+    );
+    let mass = LinearAttachment::rigid_mass("m", "x", 1.0).unwrap();
+    assert!(mass.fixed_interface_poles().unwrap().is_empty());
+}
+
+/// The assembly's linear poles and mode shape: a 1-DOF structure `(m, k)` with a
+/// rigid mass `m_r` has the undamped pole `i sqrt(k / (m + m_r))` with shape 1.
+#[test]
+fn assembled_linear_poles_of_a_mass_loaded_oscillator() {
+    let (m, k, mr) = (2.0, 2e5, 0.5);
+    let model = StructuralModel {
+        mass: DMatrix::from_element(1, 1, m),
+        stiffness: DMatrix::from_element(1, 1, k),
+        damping: DMatrix::zeros(1, 1),
+        nonlinear: vec![],
+        points: vec![NamedPoint {
+            name: "x".into(),
+            direction: DVector::from_element(1, 1.0),
+        }],
+    };
+    let att = LinearAttachment::rigid_mass("m", "x", mr).unwrap();
+    let sys = nlmode::reference::AssembledSystem::new(&model, &[att], "x").unwrap();
+    let w = (k / (m + mr)).sqrt();
+    let s = sys
+        .linear_poles()
+        .into_iter()
+        .find(|s| s.im > 0.0)
+        .expect("oscillatory pole");
+    assert!(
+        (s - Complex64::new(0.0, w)).norm() <= 1e-10 * w,
+        "{s} vs {w}"
+    );
+    let q = sys.structure_mode_shape(s).unwrap();
+    assert_eq!(q.len(), 1);
+    assert!(q[0].norm() > 0.0);
+}

@@ -11,9 +11,10 @@
 //!
 //! Samples run on a rayon pool. The structure (FE model, Craig-Bampton
 //! reduction) and its modal table are built once per distinct structure and
-//! shared by all threads: the cache is keyed by the serialized `[structure]`
-//! and `[nma]` sections, the exciter locations and the response point,
-//! which is everything they depend on ([`structure_key`]); so is the
+//! shared by all threads: the cache is keyed by the serialized `[structure]`,
+//! `[[nonlinearity]]` and `[nma]` sections, the exciters' and attachments'
+//! points and the response point, which is everything they depend on
+//! ([`structure_key`]); so is the
 //! table's interpolant (the reduced model without attachments), cloned per
 //! sample. The figures of merit are folded from the slow flow's output
 //! samples ([`fom`]: the same samples and definitions as `summary.json`, so
@@ -326,8 +327,21 @@ pub fn structure_key(sc: &Scenario) -> String {
         .iter()
         .map(|e| (&e.location, &e.location_m, &e.point))
         .collect();
-    serde_json::to_string(&(&sc.structure, &sc.nma, locations, sc.response_point()))
-        .unwrap_or_default()
+    // attachments' points become structure points (beam nodes, Craig-Bampton masters)
+    let attached: Vec<_> = sc
+        .attachment
+        .iter()
+        .map(|a| (&a.location, &a.location_m, &a.point, &a.points))
+        .collect();
+    serde_json::to_string(&(
+        &sc.structure,
+        &sc.nonlinearity,
+        &sc.nma,
+        locations,
+        attached,
+        sc.response_point(),
+    ))
+    .unwrap_or_default()
 }
 
 /// A structure shared by the samples that have it.

@@ -338,6 +338,48 @@ fn rref_null_space(b: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
 }
 
 impl AssembledSystem {
+    /// The linear poles of the assembly (nonlinear elements off): the
+    /// eigenvalues `s` of the explicit first-order matrix `A`, `z' = A z`
+    /// \[rad/s, complex\]. An oscillatory pole has natural frequency `|s|` and
+    /// damping ratio `-Re s / |s|`.
+    pub fn linear_poles(&self) -> Vec<num_complex::Complex64> {
+        self.first_order
+            .a
+            .complex_eigenvalues()
+            .iter()
+            .copied()
+            .collect()
+    }
+
+    /// The structure part `q` of the eigenvector of `A` belonging to the pole
+    /// `s` (from [`Self::linear_poles`]), by three steps of inverse iteration
+    /// shifted by `1e-9 |s|` off the pole; `None` if the shifted matrix is
+    /// singular. Normalised to unit Euclidean norm of the whole state.
+    pub fn structure_mode_shape(
+        &self,
+        s: num_complex::Complex64,
+    ) -> Option<DVector<num_complex::Complex64>> {
+        use num_complex::Complex64;
+        let nz = self.first_order.nz();
+        let sigma = s + Complex64::new(1e-9 * s.norm(), 1e-9 * s.norm());
+        let a = self.first_order.a.map(|v| Complex64::new(v, 0.0))
+            - DMatrix::<Complex64>::identity(nz, nz) * sigma;
+        let lu = a.lu();
+        let mut x = DVector::<Complex64>::from_element(nz, Complex64::new(1.0, 0.0));
+        for _ in 0..3 {
+            x = lu.solve(&x)?;
+            let n = x.norm();
+            if !(n.is_finite() && n > 0.0) {
+                return None;
+            }
+            x /= Complex64::new(n, 0.0);
+        }
+        Some(DVector::from_iterator(
+            self.ndof,
+            (0..self.ndof).map(|i| x[self.state_of[i][0]]),
+        ))
+    }
+
     /// Assemble `model` and `attachments`; `tip_point` names the structure point
     /// reported as the tip.
     pub fn new(
