@@ -82,18 +82,26 @@ impl Fmu {
                 message: format!("{}; each variable needs its own", p.message),
             }));
         }
-        let id = &md.co_simulation.model_identifier;
-        let plain = !id.is_empty()
-            && !id.contains(['/', '\\', '\0'])
-            && id != "."
-            && id != ".."
-            && !id.contains("..");
-        if !plain {
-            return Err(FmuError::BadIdentifier {
-                model: md.model_name.clone(),
-                identifier: id.clone(),
-            });
+        // every declared identifier names a binary of this archive (the host
+        // co-simulates, but a tool may load the Model Exchange one)
+        let plain = |id: &str| {
+            !id.is_empty()
+                && !id.contains(['/', '\\', '\0'])
+                && id != "."
+                && id != ".."
+                && !id.contains("..")
+        };
+        let declared = std::iter::once(&md.co_simulation.model_identifier)
+            .chain(md.model_exchange.as_ref().map(|me| &me.model_identifier));
+        for id in declared {
+            if !plain(id) {
+                return Err(FmuError::BadIdentifier {
+                    model: md.model_name.clone(),
+                    identifier: id.clone(),
+                });
+            }
         }
+        let id = &md.co_simulation.model_identifier;
         let rel = PathBuf::from(format!("binaries/linux64/{id}.so"));
         let so = dir.path().join(&rel);
         if !so.is_file() {
