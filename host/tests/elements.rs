@@ -54,7 +54,8 @@ use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions,
 use nlmode::structure::{ElasticDryFriction, StructuralModel, UnilateralSpring};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::expect_nma_failure;
 
 fn one_dof(m: f64, k: f64, c: f64) -> StructuralModel {
     let mut s = StructuralModel::new(
@@ -422,10 +423,6 @@ fn matrices_elements_between_points_and_cb_masters() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-fn host() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host"))
-}
-
 #[test]
 fn bad_nonlinearity_input_names_the_key_and_exits_2() {
     let dir = tmpdir("bad");
@@ -474,21 +471,7 @@ fn bad_nonlinearity_input_names_the_key_and_exits_2() {
         ),
     ];
     for (toml, needles) in cases {
-        let p = dir.join("bad.toml");
-        std::fs::write(&p, toml).unwrap();
-        let o = host()
-            .arg("nma")
-            .arg(&p)
-            .arg("-o")
-            .arg(dir.join("out"))
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{toml}\nstderr: {err}");
-        assert!(!err.contains("panicked") && !err.contains("NaN"), "{err}");
-        for n in *needles {
-            assert!(err.contains(n), "expected '{n}' in: {err}");
-        }
+        expect_nma_failure(&dir, toml, needles);
     }
     std::fs::remove_dir_all(&dir).ok();
 }

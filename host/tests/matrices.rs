@@ -16,7 +16,8 @@ use host::scenario::{Method, Scenario};
 use nlmode::structure::matrices::write_matrix_market;
 use nlmode::structure::{paper_structure, PaperStructureOptions};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::{expect_nma_failure, host};
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("host-mtx-{name}-{}", std::process::id()));
@@ -137,29 +138,6 @@ fn the_paper_beam_read_back_from_matrix_market_reproduces_the_beam() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-fn host() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host"))
-}
-
-/// `host nma` on `toml` (written to `dir`) fails with exit 2 and every needle.
-fn expect_failure(dir: &Path, toml: &str, needles: &[&str]) {
-    let p = dir.join("bad.toml");
-    std::fs::write(&p, toml).unwrap();
-    let o = host()
-        .arg("nma")
-        .arg(&p)
-        .arg("-o")
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    assert!(!err.contains("panicked") && !err.contains("NaN"), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "expected '{n}' in: {err}");
-    }
-}
-
 #[test]
 fn bad_matrices_input_names_the_key_and_exits_2() {
     let dir = tmpdir("bad");
@@ -202,72 +180,72 @@ fn bad_matrices_input_names_the_key_and_exits_2() {
     let s = Setup::new(&good).unwrap();
     assert_eq!(s.model.ndof(), 2);
     assert!(s.omega0_rad_s > 0.0 && s.d0 > 0.0);
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &sc("missing.mtx", "K.mtx", "", 1),
         &["structure.mass_mtx", "missing.mtx", "cannot read"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &sc("M.mtx", "bad_line.mtx", "", 1),
         &["structure.stiffness_mtx", "bad_line.mtx", "line 4"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &sc("M.mtx", "K3.mtx", "", 1),
         &["structure.stiffness_mtx", "3x3", "mass_mtx is 2x2"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &sc("M.mtx", "Kasym.mtx", "", 1),
         &["structure.stiffness_mtx", "not symmetric"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &sc("Mindef.mtx", "K.mtx", "", 1),
         &["structure.mass_mtx", "not positive definite"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &sc("M.mtx", "K.mtx", "", 2),
         &["structure.point[1].dof", "out of range"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &ok.replace("name = \"b\"", "name = \"a\""),
         &["structure.point[1].name", "unique"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &ok.replace("response_point = \"b\"", "response_point = \"c\""),
         &["output.response_point", "unknown point 'c'"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &ok.replace("point = \"a\"\n[output]", "point = \"z\"\n[output]"),
         &["exciter[0].point", "unknown point 'z'"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &ok.replace("k3_n_per_m3 = 1e9", "k3_n_per_m3 = -1e9"),
         &["structure.k3_n_per_m3"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &ok.replace("rayleigh = [0.0, 1e-4]", "rayleigh = [0.0, -1e-4]"),
         &["structure.rayleigh[1]"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &ok.replace("rayleigh = [0.0, 1e-4]\n", ""),
         &["structure.damping_mtx", "exactly one"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &ok.replace("[output]", "location = \"l/3\"\n[output]"),
         &["exciter[0].location", "point"],
     );
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &ok.replace("reduction = \"none\"", "length_m = 1.0"),
         &["structure.length_m", "not a key of kind"],
@@ -278,7 +256,7 @@ fn bad_matrices_input_names_the_key_and_exits_2() {
         "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 1e4\n2 1 -1e4\n2 2 1e4\n",
     )
     .unwrap();
-    expect_failure(
+    expect_nma_failure(
         &dir,
         &sc("M.mtx", "Kfree.mtx", "", 1),
         &[
