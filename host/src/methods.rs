@@ -197,7 +197,7 @@ pub fn nma_table(
         mode_index: setup.mode_index,
         amplitude: AmplitudeRange::Point {
             name: setup.response_point.clone(),
-            start_m: 1e-7,
+            start_m: crate::scenario::NMA_START_TIP_AMPLITUDE_M,
             end_m: sc.nma.max_tip_amplitude_m,
         },
         conservative,

@@ -769,6 +769,19 @@ pub struct ScenarioError {
     pub line: Option<usize>,
 }
 
+/// Largest `structure.n_nodes` of a beam: its matrices are assembled dense
+/// (2000 nodes: about 4000 DOFs, 128 MB per matrix).
+pub const MAX_BEAM_NODES: usize = 2000;
+/// Largest `excitation.eta_start` / `eta_end` (`Omega / omega0`): the time
+/// step of every integrator follows the highest excitation frequency.
+pub const MAX_ETA: f64 = 100.0;
+/// Smallest `excitation.rate_per_pseudo_period`: a sweep of `|eta_end -
+/// eta_start|` lasts `|eta_end - eta_start| / r` pseudo periods (1e5 at the
+/// limit, a 4-million-sample reference at 40 samples per period).
+pub const MIN_RATE_PER_PSEUDO_PERIOD: f64 = 1e-5;
+/// Tip amplitude the NMA starts from \[m\] (`nma.max_tip_amplitude_m` must exceed it).
+pub const NMA_START_TIP_AMPLITUDE_M: f64 = 1e-7;
+
 fn bad(key: &str, message: impl Into<String>) -> ScenarioError {
     ScenarioError {
         key: key.into(),
@@ -961,10 +974,14 @@ impl Scenario {
         positive("structure.width_m", st.width_m)?;
         positive("structure.youngs_modulus_pa", st.youngs_modulus_pa)?;
         positive("structure.density_kg_m3", st.density_kg_m3)?;
-        if st.n_nodes < 3 {
+        if !(3..=MAX_BEAM_NODES).contains(&st.n_nodes) {
             return Err(bad(
                 "structure.n_nodes",
-                format!("expected at least 3 nodes, got {}", st.n_nodes),
+                format!(
+                    "expected 3 ..= {MAX_BEAM_NODES} nodes (the beam is assembled dense; a larger model \
+                     goes in as kind = \"matrices\"), got {}",
+                    st.n_nodes
+                ),
             ));
         }
         if st.boundary == BoundaryCondition::FreeFree {
@@ -1052,31 +1069,54 @@ impl Scenario {
             }
         }
         let e = &self.excitation;
-        if !(e.voltage_v.is_finite() && e.voltage_v >= 0.0) {
+        // 0 V (or -0.0) has no response: every ratio (force drop) would be 0/0
+        if !(e.voltage_v.is_finite() && e.voltage_v > 0.0) {
             return Err(bad(
                 "excitation.voltage_v",
-                format!("expected a finite voltage >= 0, got {}", e.voltage_v),
+                format!("expected a finite voltage > 0, got {}", e.voltage_v),
             ));
         }
-        positive("excitation.eta_start", e.eta_start)?;
-        positive("excitation.eta_end", e.eta_end)?;
+        for (key, eta) in [
+            ("excitation.eta_start", e.eta_start),
+            ("excitation.eta_end", e.eta_end),
+        ] {
+            if !(eta.is_finite() && eta > 0.0 && eta <= MAX_ETA) {
+                return Err(bad(
+                    key,
+                    format!("expected 0 < Omega/omega0 <= {MAX_ETA}, got {eta:e}"),
+                ));
+            }
+        }
         if e.eta_start == e.eta_end {
             return Err(bad(
                 "excitation.eta_end",
                 format!("expected eta_end != eta_start (both {})", e.eta_start),
             ));
         }
-        positive(
-            "excitation.rate_per_pseudo_period",
-            e.rate_per_pseudo_period,
-        )?;
+        let r = e.rate_per_pseudo_period;
+        if !(r.is_finite() && r >= MIN_RATE_PER_PSEUDO_PERIOD) {
+            return Err(bad(
+                "excitation.rate_per_pseudo_period",
+                format!(
+                    "expected a rate >= {MIN_RATE_PER_PSEUDO_PERIOD:e} (the sweep lasts |eta_end - eta_start| / r pseudo periods), got {r:e}"
+                ),
+            ));
+        }
         if !(1..=64).contains(&self.nma.harmonics) {
             return Err(bad(
                 "nma.harmonics",
                 format!("expected 1 <= H <= 64, got {}", self.nma.harmonics),
             ));
         }
-        positive("nma.max_tip_amplitude_m", self.nma.max_tip_amplitude_m)?;
+        let a = self.nma.max_tip_amplitude_m;
+        if !(a.is_finite() && a > NMA_START_TIP_AMPLITUDE_M) {
+            return Err(bad(
+                "nma.max_tip_amplitude_m",
+                format!(
+                    "expected an amplitude above the NMA's start {NMA_START_TIP_AMPLITUDE_M:e} m, got {a:e}"
+                ),
+            ));
+        }
         if self.run.methods.is_empty() {
             let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
             return Err(bad(

@@ -303,3 +303,44 @@ fn imposed_force_from_the_reference_and_from_nlmode_are_both_hypersensitive() {
         "imposed-force peaks {peaks:?}"
     );
 }
+
+/// Values the scenario parser accepted and `host run` then panicked on (issue
+/// 14: an overflowing sample count, a capacity overflow, a 0/0 force drop, an
+/// amplitude range named by a derived quantity): each refused before any
+/// method runs, naming the key, exit 2.
+#[test]
+fn values_that_crashed_a_run_are_refused_by_key() {
+    let cases: [(&str, &[&str]); 7] = [
+        (
+            "[excitation]\nrate_per_pseudo_period = 1e-30\n",
+            &["excitation.rate_per_pseudo_period", "1e-5"],
+        ),
+        (
+            "[excitation]\neta_start = 9007199254740993\n",
+            &["excitation.eta_start", "<= 100"],
+        ),
+        (
+            "[excitation]\neta_end = 1e300\n",
+            &["excitation.eta_end", "<= 100"],
+        ),
+        (
+            "[structure]\nn_nodes = 9223372036854775807\n",
+            &["structure.n_nodes", "2000", "matrices"],
+        ),
+        (
+            "[excitation]\nvoltage_v = -0.0\n",
+            &["excitation.voltage_v", "> 0"],
+        ),
+        (
+            "[excitation]\nvoltage_v = 0.0\n",
+            &["excitation.voltage_v", "> 0"],
+        ),
+        (
+            "[nma]\nmax_tip_amplitude_m = 1e-30\n",
+            &["nma.max_tip_amplitude_m", "1e-7"],
+        ),
+    ];
+    for (toml, needles) in cases {
+        expect_failure(&["run"], Some(toml), needles);
+    }
+}

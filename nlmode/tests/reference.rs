@@ -453,6 +453,22 @@ fn bad_inputs_are_rejected_with_names() {
         simulate_sweep(&model, &[force_source("drive")], &sweep, &opts),
         Err(ReferenceError::TooManySteps { steps: 10, .. })
     ));
+    // a sweep so slow that its record would not fit: refused before allocating
+    let slow = LinearSweep::new(100.0, 120.0, 1e-9, 1.0).unwrap();
+    match simulate_sweep(
+        &model,
+        &[force_source("drive")],
+        &slow,
+        &ReferenceOptions::default(),
+    ) {
+        Err(ReferenceError::TooManySamples { samples, .. }) => {
+            assert!(
+                samples > nlmode::reference::MAX_SWEEP_SAMPLES as f64,
+                "{samples}"
+            )
+        }
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]

@@ -65,6 +65,16 @@ use num_complex::Complex64;
 /// Errors of the reference integration; each names the input or the time.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ReferenceError {
+    #[error(
+        "the sweep needs {samples:.3e} output samples (duration {duration_s:.4e} s at \
+         {samples_per_period} samples per period of the highest frequency); at most \
+         {MAX_SWEEP_SAMPLES} are recorded: sweep faster or over a shorter band"
+    )]
+    TooManySamples {
+        samples: f64,
+        duration_s: f64,
+        samples_per_period: usize,
+    },
     #[error("{owner}: point '{point}' is not a named point of the structure (known: {known:?})")]
     UnknownPoint {
         owner: String,
@@ -416,6 +426,10 @@ fn integrate_with_states(
     )
 }
 
+/// Most output samples a reference sweep records (each holds every observed
+/// quantity: about 100 bytes; 1e7 samples about 1 GB).
+pub const MAX_SWEEP_SAMPLES: usize = 10_000_000;
+
 /// Sweep the assembled structure + attachments from rest (see the module docs).
 pub fn simulate_sweep(
     model: &StructuralModel,
@@ -439,7 +453,15 @@ pub fn simulate_sweep_with_progress(
     let duration = sweep.duration_s();
     let omega_max = sweep.omega_start_rad_s.max(sweep.omega_end_rad_s);
     let dt_req = 2.0 * std::f64::consts::PI / omega_max / options.samples_per_period as f64;
-    let n = (duration / dt_req).ceil().max(1.0) as usize;
+    let n_f = (duration / dt_req).ceil().max(1.0);
+    if !(n_f <= MAX_SWEEP_SAMPLES as f64) {
+        return Err(ReferenceError::TooManySamples {
+            samples: n_f,
+            duration_s: duration,
+            samples_per_period: options.samples_per_period,
+        });
+    }
+    let n = n_f as usize;
     let dt = duration / n as f64;
     let nobs = system.n_observed();
     let m = system.first_order.m();
