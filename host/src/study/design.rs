@@ -273,6 +273,10 @@ pub fn normal_quantile(u: f64) -> f64 {
     x - step / (1.0 + 0.5 * x * step)
 }
 
+/// Most samples a study takes (each sample's row and design values are held in
+/// memory: about 100 bytes per parameter and sample).
+pub const MAX_SAMPLES: usize = 10_000_000;
+
 /// The parameter values of every sample: `values[sample][parameter]`.
 pub fn samples(
     kind: DesignKind,
@@ -287,10 +291,10 @@ pub fn samples(
                 key: "samples".into(),
                 message: "random and lhs designs need `samples`".into(),
             })?;
-            if n == 0 {
+            if !(1..=MAX_SAMPLES).contains(&n) {
                 return Err(StudyError::Study {
                     key: "samples".into(),
-                    message: "must be at least 1".into(),
+                    message: format!("expected 1 ..= {MAX_SAMPLES}, got {n}"),
                 });
             }
             let dists = params
@@ -350,7 +354,16 @@ fn grid(
         }
         axes.push(v.clone());
     }
-    let total: usize = axes.iter().map(Vec::len).product();
+    let total = axes
+        .iter()
+        .try_fold(1usize, |t, a| t.checked_mul(a.len()))
+        .filter(|t| *t <= MAX_SAMPLES)
+        .ok_or_else(|| StudyError::Study {
+            key: "parameter".into(),
+            message: format!(
+                "the grid (the product of the values' lengths) has more than {MAX_SAMPLES} samples"
+            ),
+        })?;
     if let Some(n) = samples {
         if n != total {
             return Err(StudyError::Study {
@@ -453,6 +466,9 @@ mod tests {
                 Some(1.0),
             ),
         ];
+        // a sample count sized from input is bounded before anything is allocated
+        assert!(samples(DesignKind::Lhs, &p, Some(100_000_000_000), 7).is_err());
+        assert!(samples(DesignKind::Lhs, &p, Some(0), 7).is_err());
         let x = samples(DesignKind::Lhs, &p, Some(50), 7).unwrap();
         let mut strata: Vec<usize> = x
             .iter()
