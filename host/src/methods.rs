@@ -17,6 +17,58 @@ pub fn frf_omegas(setup: &Setup, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Mean power [W] a piezo shunt (attachment `att`, shunt resistance
+/// `resistance_ohm`) harvests at the steady fundamental with interface
+/// displacements `u_g` [m] at `omega_rad_s`: `mean(v^2 / R) = |v_hat|^2 / (2 R)`
+/// with the electrode voltage `v_hat` = attachment state 1 recovered by
+/// [`nlmode::attachment::LinearAttachment::states`] (no inputs: the shunt is passive).
+pub fn shunt_power(
+    att: &nlmode::attachment::LinearAttachment,
+    resistance_ohm: f64,
+    omega_rad_s: f64,
+    u_g: &DVector<Complex64>,
+    u_hat: &DVector<Complex64>,
+) -> Result<f64> {
+    let x = att.states(omega_rad_s, u_g, u_hat)?;
+    Ok(x[1].norm_sqr() / (2.0 * resistance_ohm))
+}
+
+/// Harvested power of every piezo shunt of `setup` from the single-mode model
+/// `model` at the points `(Omega, A)` (complex modal amplitude `A = a e^{i
+/// theta}`): the shunt's interface displacements are the fundamentals
+/// `A phi_1(a)` of the model (`eq:ansatz`; harmonics neglected) -> one
+/// `(attachment name, power [W] per point)` per shunt.
+pub fn modal_harvested_power(
+    setup: &Setup,
+    model: &nlmode::reduced::ReducedModel,
+    points: &[(f64, Complex64)],
+) -> Result<Vec<(String, Vec<f64>)>> {
+    let mut out = Vec::new();
+    for &(a_idx, resistance) in &setup.harvesters {
+        let att = &setup.attachments[a_idx];
+        let power = points
+            .iter()
+            .map(|&(w, amp)| {
+                let u_g = att
+                    .interface_points
+                    .iter()
+                    .map(|p| Ok(model.displacement_harmonics(p, amp)?[1]))
+                    .collect::<Result<Vec<Complex64>>>()?;
+                shunt_power(
+                    att,
+                    resistance,
+                    w,
+                    &DVector::from_vec(u_g),
+                    &DVector::zeros(0),
+                )
+            })
+            .collect::<Result<Vec<f64>>>()
+            .with_context(|| format!("harvested power of '{}'", att.name))?;
+        out.push((att.name.clone(), power));
+    }
+    Ok(out)
+}
+
 /// `linear-frf`: the assembled linear frequency response (structure + all
 /// attachments, all modes of the model), force drop at `omega0` from it and from
 /// the closed form `eq:forcedrop`.
@@ -70,8 +122,7 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
             .iter()
             .map(|p| {
                 let u_g = DVector::from_iterator(idx.len(), idx.iter().map(|&j| p.points[j]));
-                let x = att.states(p.omega_rad_s, &u_g, &inputs[a])?;
-                Ok(x[1].norm_sqr() / (2.0 * resistance))
+                shunt_power(att, resistance, p.omega_rad_s, &u_g, &inputs[a])
             })
             .collect::<Result<Vec<f64>>>()
             .context("linear-frf: harvested power")?;
@@ -368,8 +419,13 @@ pub fn slow_flow(
                     .iter()
                     .map(|&j| Ok(x.amplitude * tab.shape(j, 1, x.a)?))
                     .collect::<Result<Vec<Complex64>>>()?;
-                let v = att.states(x.omega_rad_s, &DVector::from_vec(u_g), &DVector::zeros(0))?[1];
-                Ok(v.norm_sqr() / (2.0 * resistance))
+                shunt_power(
+                    att,
+                    resistance,
+                    x.omega_rad_s,
+                    &DVector::from_vec(u_g),
+                    &DVector::zeros(0),
+                )
             })
             .collect::<Result<Vec<f64>>>()
             .with_context(|| format!("{name}: harvested power of '{}'", att.name))?;
@@ -392,6 +448,18 @@ pub fn linear_steady(
     let wall = t0.elapsed().as_secs_f64();
     let env = Envelope::from(&ls);
     let mut r = MethodResult::new(Method::LinearSteady.name(), wall, env, false);
+    // harvested power at the linear model's fundamentals A phi0
+    if !setup.harvesters.is_empty() {
+        let lin = model.linear().context("linear-steady")?;
+        let pts: Vec<(f64, Complex64)> = ls
+            .points
+            .iter()
+            .map(|p| (p.omega_rad_s, Complex64::from_polar(p.a, p.theta_rad)))
+            .collect();
+        for (name, power) in modal_harvested_power(setup, &lin, &pts).context("linear-steady")? {
+            r.add_harvested_power(&name, power);
+        }
+    }
     r.summary.force_drop = Some(ls.force_drop);
     r.summary.omega0_single_mode_rad_s = Some(ls.omega0_rad_s);
     Ok(r)
@@ -404,7 +472,7 @@ pub fn reference(
     sc: &crate::scenario::Scenario,
     progress: &mut dyn FnMut(f64),
 ) -> Result<MethodResult> {
-    use nlmode::reference::{simulate_sweep_with_progress, ReferenceOptions};
+    use nlmode::reference::{simulate_phased_sweep_with_progress, ReferenceOptions};
     let method = sc.reference.integrator.unwrap_or_default();
     let opts = ReferenceOptions {
         method,
@@ -414,14 +482,30 @@ pub fn reference(
         tip_point: setup.response_point.clone(),
         ..Default::default()
     };
-    let attachments = setup.reference_attachments()?;
     let t0 = Instant::now();
-    let res =
-        simulate_sweep_with_progress(&setup.model, &attachments, &setup.sweep, &opts, progress)
-            .context("reference")?;
+    // each exciter's voltage ratio and phase: the in-phase and quadrature sweeps
+    let res = simulate_phased_sweep_with_progress(
+        &setup.model,
+        &setup.attachments,
+        Some(&setup.inputs),
+        &setup.sweep,
+        &opts,
+        progress,
+    )
+    .context("reference")?;
     let wall = t0.elapsed().as_secs_f64();
     let env = Envelope::from(res.envelope.clone());
     let mut r = MethodResult::new(Method::Reference.name(), wall, env, true);
+    // harvested power of every piezo shunt: |v_hat|^2 / (2 R) from the electrode
+    // voltage's (state 1) fundamental envelope, on the envelope's windows
+    for &(a, resistance) in &setup.harvesters {
+        let series = &res.attachments[a];
+        let power = series.state_amplitudes[1]
+            .iter()
+            .map(|v| v * v / (2.0 * resistance))
+            .collect();
+        r.add_harvested_power(&series.name, power);
+    }
     r.time_series = Some(crate::results::TimeSeries {
         columns: vec![
             ("t_s".into(), res.time_s.clone()),
@@ -444,8 +528,8 @@ pub fn reference(
 /// structure), written to `out/cosim_modal_table.json` and given to the
 /// structure FMU by its `modal_table` parameter; `None`: the FMU's own table
 /// (the paper beam's, in its `resources/`). The FMU reports `x_tip` at the
-/// table's point `tip`; a table without one gets the response point's shape a
-/// second time under that name.
+/// table's point `tip`; the table written gets the response point's shape under
+/// that name (replacing a user point `tip` that is not the response point).
 pub fn cosim(
     setup: &Setup,
     sc: &crate::scenario::Scenario,
@@ -478,7 +562,14 @@ pub fn cosim(
     if let Some((table, out)) = table {
         let mut t = table.clone();
         let tip = nlmode::structure::paper::TIP;
-        if t.points.iter().all(|q| q.name != tip) {
+        if setup.response_point != tip {
+            // the FMU's x_tip is the table's point `tip`: the response point's
+            // shape under that name (a user point named `tip` gives way to it)
+            anyhow::ensure!(
+                p.drive_point != tip,
+                "cosim: the exciter's point is named '{tip}' but output.response_point = '{}'; the structure FMU reports x_tip at the table point '{tip}': rename the point",
+                setup.response_point
+            );
             let mut alias = t
                 .points
                 .iter()
@@ -486,6 +577,7 @@ pub fn cosim(
                 .context("cosim: the modal table lacks the response point")?
                 .clone();
             alias.name = tip.into();
+            t.points.retain(|q| q.name != tip);
             t.points.push(alias);
         }
         let path = out.join("cosim_modal_table.json");

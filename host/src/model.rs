@@ -454,34 +454,6 @@ pub fn build_attachment(spec: &AttachmentSpec, i: usize, point: &str) -> Result<
 }
 
 impl Setup {
-    /// The attachments as the time-domain reference integrates them: every
-    /// input receives the one sweep signal `u(t) = u_hat cos Phi`, so each
-    /// attachment's input map is scaled by its (real) input factor. A phase
-    /// other than 0 or pi would need the quadrature signal `sin Phi`, which the
-    /// reference does not carry: refused, naming the exciter.
-    pub fn reference_attachments(&self) -> Result<Vec<LinearAttachment>> {
-        self.attachments
-            .iter()
-            .zip(&self.inputs)
-            .enumerate()
-            .map(|(a, (att, u))| {
-                let mut att = att.clone();
-                for (j, f) in u.iter().enumerate() {
-                    if f.im.abs() > 1e-12 * f.norm() {
-                        anyhow::bail!(
-                            "exciter[{a}].phase_rad: the reference integrates one sweep signal u(t) = u_hat cos Phi; phases other than 0 and pi are not supported by `reference` (use the frequency-domain methods)"
-                        );
-                    }
-                    if f.re != 1.0 {
-                        let mut col = att.input_map.column_mut(j);
-                        col *= f.re;
-                    }
-                }
-                Ok(att)
-            })
-            .collect()
-    }
-
     /// The complex input amplitudes `u_hat` of every attachment at the sweep's
     /// amplitude (`inputs[a]` times it).
     pub fn input_amplitudes(&self) -> Vec<nalgebra::DVector<Complex64>> {

@@ -329,6 +329,7 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
     let (mut w, mut a, mut tip, mut f, mut st) = (vec![], vec![], vec![], vec![], vec![]);
     let mut multi = 0;
     let mut above = 0;
+    let mut modal: Vec<(f64, nlmode::Complex64)> = Vec::new();
     for p in &ss {
         if p.solutions.len() > 1 {
             multi += 1;
@@ -342,19 +343,27 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
             tip.push(s.tip_amplitude_m);
             f.push(s.force_amplitude_n);
             st.push(if s.stable { 1.0 } else { 0.0 });
+            modal.push((
+                p.omega_rad_s,
+                nlmode::Complex64::from_polar(s.a, s.theta_rad),
+            ));
         }
     }
-    write_csv(
-        &out.join("frf.csv"),
-        &[
-            "omega_rad_s".into(),
-            "modal_amplitude".into(),
-            "tip_amplitude_m".into(),
-            "force_amplitude_N".into(),
-            "stable".into(),
-        ],
-        &[&w, &a, &tip, &f, &st],
-    )?;
+    // piezo shunts: `<name>_harvested_power_W` per solution (as `nlmode`)
+    let power = methods::modal_harvested_power(&setup, &model, &modal).context("frf")?;
+    let mut header: Vec<String> = vec![
+        "omega_rad_s".into(),
+        "modal_amplitude".into(),
+        "tip_amplitude_m".into(),
+        "force_amplitude_N".into(),
+        "stable".into(),
+    ];
+    let mut cols: Vec<&[f64]> = vec![&w, &a, &tip, &f, &st];
+    for (name, p) in &power {
+        header.push(format!("{name}_harvested_power_W"));
+        cols.push(p);
+    }
+    write_csv(&out.join("frf.csv"), &header, &cols)?;
     let split = |stable: bool| {
         let idx: Vec<usize> = (0..w.len()).filter(|&i| (st[i] == 1.0) == stable).collect();
         (

@@ -323,5 +323,20 @@ fn the_frame_example_runs_with_host_run() {
         "{} vs {r}",
         peak("cosim")
     );
+    // cosim of the matrix model through the structure FMU's modal table (drive
+    // point and response point by name) against nlmode: the tolerances of the
+    // beam's cosim-vs-nlmode check (peak 3 %, jump-down 1 %, RMS 5 %)
+    let env =
+        |m: &str| host::results::read_envelope(&out.join(format!("{m}_envelope.csv"))).unwrap();
+    let (c, n) = (env("cosim"), env("nlmode"));
+    let cmp = c.compare_with(&n.omega_rad_s, &n.force_amplitude_n, &n.tip_amplitude_m);
+    eprintln!("frame cosim vs nlmode: {cmp:?}");
+    assert!(cmp.overlap > 300, "{cmp:?}");
+    assert!(cmp.peak_tip_rel.abs() < 0.03, "{cmp:?}");
+    assert!(cmp.jump_down_rel.abs() < 0.01, "{cmp:?}");
+    assert!(
+        cmp.rms_tip_rel < 0.05 && cmp.rms_force_rel < 0.05,
+        "{cmp:?}"
+    );
     std::fs::remove_dir_all(&out).ok();
 }

@@ -10,15 +10,19 @@
 //! `x_r` columns (`x_a = T_a y`), `eq:finalassembly1`-`eq:finalassembly2` read
 //!
 //! ```text
-//! sum_k A_k^asm y^(k) + W f(W^T q, W^T q') = b u(t),
+//! sum_k A_k^asm y^(k) + W f(W^T q, W^T q') = b u(t) + b_q u_q(t),
 //! A_2^asm = [M 0; 0 0] + sum_a T_a^T A_2^a T_a,  A_1^asm = [C 0; 0 0] + ...,
 //! A_0^asm = [K 0; 0 0] + ...,                    A_k^asm = sum_a T_a^T A_k^a T_a (k > 2),
-//! b = sum_a T_a^T (input_map_a 1),
+//! b = sum_a T_a^T (input_map_a Re c_a),        b_q = -sum_a T_a^T (input_map_a Im c_a),
 //! ```
 //!
 //! where `W` holds the directions of the structure's nonlinear elements (zero in
-//! the `x_r` rows). Every input of every attachment receives the same excitation
-//! signal `u(t)` (the sweep).
+//! the `x_r` rows). The input `j` of attachment `a` receives
+//! `Re(c_aj e^{i Phi}) u_hat = Re(c_aj) u(t) - Im(c_aj) u_q(t)` with the in-phase
+//! signal `u(t) = u_hat cos Phi(t)` (the sweep) and the quadrature signal
+//! `u_q(t) = u_hat sin Phi(t)`, `c_aj` its complex input factor
+//! ([`AssembledSystem::with_input_factors`]; 1 by default, every input then
+//! receives `u(t)` and the system has the one input signal, `b` one column).
 //!
 //! `L1 = -pinv(B2) B1 = pinv(B2) E^T` (`eq:L1L2`, with `B1 = -E^T` and `E` the
 //! interface points' directions) uses `pinv(B2) = B2^T (B2 B2^T)^-1`, exact for
@@ -84,14 +88,16 @@ pub struct AttachmentLocalization {
     pub t: DMatrix<f64>,
 }
 
-/// The explicit first-order form `z' = A z + b u(t) + G f`, with the nonlinear
+/// The explicit first-order form `z' = A z + b u(t) + G f` (`b u` summed over the
+/// input signals, [`super::MAX_INPUT_SIGNALS`]), with the nonlinear
 /// forces `f_e = law_e(c_e^T z, d_e^T z)` (`c_e`, `d_e` pick `w_e^T q`, `w_e^T q'`).
 #[derive(Debug, Clone)]
 pub struct FirstOrderSystem {
     /// `A` (`nz x nz`).
     pub a: DMatrix<f64>,
-    /// `b` (`nz`): response of `z'` to the input `u`.
-    pub b: DVector<f64>,
+    /// `b` (`nz x p`): response of `z'` to the `p` input signals (column 0 the
+    /// in-phase `u(t)`, column 1, when present, the quadrature `u_q(t)`).
+    pub b: DMatrix<f64>,
     /// `G` (`nz x m`): response of `z'` to the nonlinear forces.
     pub g: DMatrix<f64>,
     /// `P` (`2m x nz`): rows `c_e^T` (displacements of the elements) then `d_e^T`
@@ -107,6 +113,10 @@ impl FirstOrderSystem {
     /// Number of states.
     pub fn nz(&self) -> usize {
         self.a.nrows()
+    }
+    /// Number of input signals `p` (1 or 2, the columns of `b`).
+    pub fn n_inputs(&self) -> usize {
+        self.b.ncols()
     }
     /// Number of nonlinear elements.
     pub fn m(&self) -> usize {
@@ -169,11 +179,12 @@ impl FirstOrderSystem {
             *fe = self.element(e, states[e], u, v).0;
         }
     }
-    /// `z' = A z + b u + G f(z)`; `f` is scratch of length `m`, `states` the
-    /// element states.
+    /// `z' = A z + b u + G f(z)`; `u` the input signals (the first
+    /// [`Self::n_inputs`] entries are used), `f` is scratch of length `m`,
+    /// `states` the element states.
     pub fn rhs(
         &self,
-        u: f64,
+        u: &[f64],
         z: &DVector<f64>,
         states: &[f64],
         f: &mut [f64],
@@ -193,7 +204,9 @@ impl FirstOrderSystem {
                 *o += a * zj;
             }
         }
-        out.axpy(u, &self.b, 1.0);
+        for (c, uc) in u.iter().take(self.b.ncols()).enumerate() {
+            out.axpy(*uc, &self.b.column(c), 1.0);
+        }
         for (e, fe) in f.iter().enumerate() {
             out.axpy(*fe, &self.g.column(e), 1.0);
         }
@@ -204,15 +217,16 @@ impl FirstOrderSystem {
 #[derive(Debug, Clone)]
 struct LinearMap {
     z: DMatrix<f64>,
-    u: DVector<f64>,
+    /// `rows x p`: one column per input signal.
+    u: DMatrix<f64>,
     f: DMatrix<f64>,
 }
 
 impl LinearMap {
-    fn zeros(rows: usize, nz: usize, m: usize) -> Self {
+    fn zeros(rows: usize, nz: usize, p: usize, m: usize) -> Self {
         Self {
             z: DMatrix::zeros(rows, nz),
-            u: DVector::zeros(rows),
+            u: DMatrix::zeros(rows, p),
             f: DMatrix::zeros(rows, m),
         }
     }
@@ -243,8 +257,9 @@ pub struct AssembledSystem {
     pub ndof: usize,
     /// `A_k^asm`, `k = 0..=K` (`N x N`).
     pub coefficients: Vec<DMatrix<f64>>,
-    /// `b` (`N`): the assembled input vector.
-    pub input: DVector<f64>,
+    /// `b` (`N x p`): the assembled input vectors, one column per input signal
+    /// (see the module docs).
+    pub input: DMatrix<f64>,
     /// `W` (`N x m`): nonlinear element directions.
     pub nonlinear_directions: DMatrix<f64>,
     /// Differential order `k_j` of each primal variable.
@@ -381,12 +396,56 @@ impl AssembledSystem {
     }
 
     /// Assemble `model` and `attachments`; `tip_point` names the structure point
-    /// reported as the tip.
+    /// reported as the tip. Every attachment input receives the in-phase signal
+    /// `u(t)` (input factors 1, one input signal).
     pub fn new(
         model: &StructuralModel,
         attachments: &[LinearAttachment],
         tip_point: &str,
     ) -> Result<Self, ReferenceError> {
+        Self::with_input_factors(model, attachments, None, tip_point)
+    }
+
+    /// [`Self::new`] with complex input factors `factors[a][j]` of attachment
+    /// `a`'s input `j`: it receives `Re(c e^{i Phi}) u_hat`, i.e. `Re(c) u(t) -
+    /// Im(c) u_q(t)` (module docs). The system has a second input signal (the
+    /// quadrature `u_q`) exactly when some factor has a non-zero imaginary part;
+    /// `None` means every factor 1.
+    pub fn with_input_factors(
+        model: &StructuralModel,
+        attachments: &[LinearAttachment],
+        factors: Option<&[Vec<num_complex::Complex64>]>,
+        tip_point: &str,
+    ) -> Result<Self, ReferenceError> {
+        if let Some(f) = factors {
+            assert_eq!(f.len(), attachments.len(), "one factor list per attachment");
+            for (att, fa) in attachments.iter().zip(f) {
+                assert_eq!(
+                    fa.len(),
+                    att.input_map.ncols(),
+                    "attachment '{}': one factor per input",
+                    att.name
+                );
+            }
+        }
+        // (in-phase, quadrature) input vector of each attachment, `ndim` rows
+        let quadrature = factors.is_some_and(|f| f.iter().flatten().any(|c| c.im != 0.0));
+        let p = if quadrature { 2 } else { 1 };
+        let att_inputs: Vec<(DVector<f64>, DVector<f64>)> = attachments
+            .iter()
+            .enumerate()
+            .map(|(a, att)| {
+                let nu = att.input_map.ncols();
+                let (re, im) = match factors {
+                    Some(f) => (
+                        DVector::from_iterator(nu, f[a].iter().map(|c| c.re)),
+                        DVector::from_iterator(nu, f[a].iter().map(|c| -c.im)),
+                    ),
+                    None => (DVector::from_element(nu, 1.0), DVector::zeros(nu)),
+                };
+                (&att.input_map * re, &att.input_map * im)
+            })
+            .collect();
         let ndof = model.mass.nrows();
         assert_eq!(
             model.mass.shape(),
@@ -523,13 +582,17 @@ impl AssembledSystem {
         coeffs[2]
             .view_mut((0, 0), (ndof, ndof))
             .copy_from(&model.mass);
-        let mut input = DVector::zeros(n);
-        for (att, loc) in attachments.iter().zip(&locs) {
+        let mut input = DMatrix::zeros(n, p);
+        for ((att, loc), (bc, bs)) in attachments.iter().zip(&locs).zip(&att_inputs) {
             for (k, a) in att.coefficients.iter().enumerate() {
                 coeffs[k] += loc.t.transpose() * a * &loc.t;
             }
-            let ones = DVector::from_element(att.input_map.ncols(), 1.0);
-            input += loc.t.transpose() * (&att.input_map * ones);
+            let mut c0 = input.column_mut(0);
+            c0 += loc.t.transpose() * bc;
+            if quadrature {
+                let mut c1 = input.column_mut(1);
+                c1 += loc.t.transpose() * bs;
+            }
         }
         let m = model.nonlinear.len();
         let mut w = DMatrix::zeros(n, m);
@@ -581,7 +644,7 @@ impl AssembledSystem {
         let pb = &lead_inv * &input;
         let pw = &lead_inv * &w;
         let mut a = DMatrix::zeros(nz, nz);
-        let mut bz = DVector::zeros(nz);
+        let mut bz = DMatrix::zeros(nz, p);
         let mut g = DMatrix::zeros(nz, m);
         for j in 0..n {
             let kj = orders[j];
@@ -593,7 +656,7 @@ impl AssembledSystem {
             }
             let row = state_of[j][kj - 1];
             a.set_row(row, &(-pl.row(j)));
-            bz[row] = pb[j];
+            bz.set_row(row, &pb.row(j));
             g.set_row(row, &(-pw.row(j)));
         }
         let mut proj = DMatrix::zeros(2 * m, nz);
@@ -624,11 +687,11 @@ impl AssembledSystem {
             first_order,
             observations: Vec::new(),
             tip_direction,
-            obs: LinearMap::zeros(0, nz, m),
+            obs: LinearMap::zeros(0, nz, p, m),
             lead_inv,
             lower,
         };
-        sys.build_observations(attachments)?;
+        sys.build_observations(attachments, &att_inputs)?;
         Ok(sys)
     }
 
@@ -687,20 +750,21 @@ impl AssembledSystem {
         &self,
         j: usize,
         k: usize,
-    ) -> Option<(RowDVector<f64>, f64, RowDVector<f64>)> {
+    ) -> Option<(RowDVector<f64>, RowDVector<f64>, RowDVector<f64>)> {
         let nz = self.first_order.nz();
         let m = self.first_order.m();
+        let p = self.first_order.n_inputs();
         let kj = self.orders[j];
         if k < kj {
             let mut r = RowDVector::zeros(nz);
             r[self.state_of[j][k]] = 1.0;
-            Some((r, 0.0, RowDVector::zeros(m)))
+            Some((r, RowDVector::zeros(p), RowDVector::zeros(m)))
         } else if k == kj {
-            let p = self.lead_inv.row(j);
+            let li = self.lead_inv.row(j);
             Some((
-                -(p * &self.lower),
-                (p * &self.input)[0],
-                -(p * &self.nonlinear_directions),
+                -(li * &self.lower),
+                li * &self.input,
+                -(li * &self.nonlinear_directions),
             ))
         } else {
             None
@@ -710,7 +774,12 @@ impl AssembledSystem {
     /// The map of `sum_k R_k y^(k)` (`R_k`: `rows x N`).
     fn combine(&self, r: &[DMatrix<f64>], owner: &str) -> Result<LinearMap, ReferenceError> {
         let rows = r[0].nrows();
-        let mut out = LinearMap::zeros(rows, self.first_order.nz(), self.first_order.m());
+        let mut out = LinearMap::zeros(
+            rows,
+            self.first_order.nz(),
+            self.first_order.n_inputs(),
+            self.first_order.m(),
+        );
         for (k, rk) in r.iter().enumerate() {
             for j in 0..rk.ncols() {
                 let col = rk.column(j);
@@ -726,7 +795,7 @@ impl AssembledSystem {
                     }
                 })?;
                 out.z += col * dz;
-                out.u.axpy(du, &col, 1.0);
+                out.u += col * du;
                 out.f += col * df;
             }
         }
@@ -736,6 +805,7 @@ impl AssembledSystem {
     fn build_observations(
         &mut self,
         attachments: &[LinearAttachment],
+        att_inputs: &[(DVector<f64>, DVector<f64>)],
     ) -> Result<(), ReferenceError> {
         let n = self.variable_names.len();
         let mut blocks: Vec<LinearMap> = Vec::new();
@@ -754,19 +824,27 @@ impl AssembledSystem {
         blocks.push(tip_map);
         let mut index = 1;
         let mut observations = Vec::new();
-        for (att, loc) in attachments.iter().zip(self.localizations.clone()) {
+        for ((att, loc), (bc, bs)) in attachments
+            .iter()
+            .zip(self.localizations.clone())
+            .zip(att_inputs)
+        {
             let ncon = loc.interface_points.len();
             let ndim = loc.l1.nrows();
             let drive = self.combine(&[sel_q(&loc.interface_directions)], &att.name)?;
-            // lambda = pinv(B2)^T (input_map 1 u - sum_k A_k T y^(k))
+            // lambda = pinv(B2)^T (input_map (Re c u - Im c u_q) - sum_k A_k T y^(k))
             let rk: Vec<DMatrix<f64>> = att
                 .coefficients
                 .iter()
                 .map(|a| -(loc.pinv_b2.transpose() * a * &loc.t))
                 .collect();
             let mut force = self.combine(&rk, &att.name)?;
-            let ones = DVector::from_element(att.input_map.ncols(), 1.0);
-            force.u += loc.pinv_b2.transpose() * (&att.input_map * ones);
+            let mut f0 = force.u.column_mut(0);
+            f0 += loc.pinv_b2.transpose() * bc;
+            if force.u.ncols() > 1 {
+                let mut f1 = force.u.column_mut(1);
+                f1 += loc.pinv_b2.transpose() * bs;
+            }
             let states = self.combine(std::slice::from_ref(&loc.t), &att.name)?;
             observations.push(AttachmentObservation {
                 name: att.name.clone(),
@@ -788,12 +866,13 @@ impl AssembledSystem {
         }
         let nz = self.first_order.nz();
         let m = self.first_order.m();
-        let mut obs = LinearMap::zeros(index, nz, m);
+        let p = self.first_order.n_inputs();
+        let mut obs = LinearMap::zeros(index, nz, p, m);
         let mut row = 0;
         for b in blocks {
             let r = b.z.nrows();
             obs.z.view_mut((row, 0), (r, nz)).copy_from(&b.z);
-            obs.u.rows_mut(row, r).copy_from(&b.u);
+            obs.u.view_mut((row, 0), (r, p)).copy_from(&b.u);
             obs.f.view_mut((row, 0), (r, m)).copy_from(&b.f);
             row += r;
         }
@@ -810,10 +889,24 @@ impl AssembledSystem {
     /// Observed quantities at state `z`, input `u` and nonlinear forces `f`:
     /// `[tip displacement [m], then per attachment: interface displacements [m],
     /// interface forces on the structure \[N\], attachment states x]` (indices in
-    /// [`Self::observations`]).
+    /// [`Self::observations`]). For a system with the one input signal; see
+    /// [`Self::observe_inputs`] for the quadrature one.
     pub fn observe(&self, z: &DVector<f64>, u: f64, f: &[f64], out: &mut DVector<f64>) {
+        assert_eq!(
+            self.first_order.n_inputs(),
+            1,
+            "observe: the system has a quadrature input; use observe_inputs"
+        );
+        self.observe_inputs(z, &[u], f, out)
+    }
+
+    /// [`Self::observe`] with every input signal (`u[c]`, `c <
+    /// first_order.n_inputs()`: in-phase, then quadrature).
+    pub fn observe_inputs(&self, z: &DVector<f64>, u: &[f64], f: &[f64], out: &mut DVector<f64>) {
         out.gemv(1.0, &self.obs.z, z, 0.0);
-        out.axpy(u, &self.obs.u, 1.0);
+        for c in 0..self.obs.u.ncols() {
+            out.axpy(u[c], &self.obs.u.column(c), 1.0);
+        }
         for (e, fe) in f.iter().enumerate() {
             out.axpy(*fe, &self.obs.f.column(e), 1.0);
         }

@@ -24,7 +24,7 @@ pub(crate) fn integrate(
     sys: &FirstOrderSystem,
     z0: &DVector<f64>,
     grid: SampleGrid,
-    input: &dyn Fn(f64) -> f64,
+    input: &super::InputSignals,
     ctl: &StepControl,
     on_sample: &mut super::SampleWithStates,
     progress: &mut dyn FnMut(f64),
@@ -38,7 +38,7 @@ pub(crate) fn integrate(
     let states = std::cell::RefCell::new(sys.initial_element_states(z0));
     let hysteretic = sys.has_hysteresis();
     let rhs = |t: f64, z: &DVector<f64>, dz: &mut DVector<f64>| -> Result<(), ReferenceError> {
-        sys.rhs(input(t), z, &states.borrow(), &mut f, dz);
+        sys.rhs(&input(t), z, &states.borrow(), &mut f, dz);
         Ok(())
     };
     let tol = Tolerances {

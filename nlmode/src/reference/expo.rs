@@ -1,7 +1,8 @@
 //! Exponential collocation integrator (the default method).
 //!
 //! The assembled system is `z' = A z + F r(t)` with `F = [b, G]` and the forcing
-//! `r(t) = [u(t); f(t)]`: the excitation and the nonlinear element forces, which
+//! `r(t) = [u(t); f(t)]`: the excitation (one or two input signals, the columns
+//! of `b`) and the nonlinear element forces, which
 //! act through a few fixed vectors. Over a step `[t_n, t_n + h]` the forcing is
 //! replaced by its interpolation polynomial through `s` equidistant nodes
 //! `t_n + l h/(s-1)`, `l = 0..s-1`, and the linear part is integrated exactly
@@ -147,7 +148,8 @@ fn balance(a: &DMatrix<f64>) -> DVector<f64> {
 fn build_level(sys: &FirstOrderSystem, d: &DVector<f64>, h: f64, s: usize) -> Level {
     let nz = sys.nz();
     let m = sys.m();
-    let mf = 1 + m;
+    let p = sys.n_inputs();
+    let mf = p + m;
     let tau = h / (s - 1) as f64;
     let na = nz + s * mf;
     // balanced coordinates z_b = D^-1 z: A_b = D^-1 A D, F_b = D^-1 F
@@ -155,9 +157,11 @@ fn build_level(sys: &FirstOrderSystem, d: &DVector<f64>, h: f64, s: usize) -> Le
     let mut aug = DMatrix::<f64>::zeros(na, na);
     aug.view_mut((0, 0), (nz, nz)).copy_from(&(&a_b * tau));
     for i in 0..nz {
-        aug[(i, nz)] = sys.b[i] / d[i] * tau;
+        for c in 0..p {
+            aug[(i, nz + c)] = sys.b[(i, c)] / d[i] * tau;
+        }
         for e in 0..m {
-            aug[(i, nz + 1 + e)] = sys.g[(i, e)] / d[i] * tau;
+            aug[(i, nz + p + e)] = sys.g[(i, e)] / d[i] * tau;
         }
     }
     for k in 0..s - 1 {
@@ -245,7 +249,7 @@ pub(crate) fn integrate(
     sys: &FirstOrderSystem,
     z0: &DVector<f64>,
     grid: SampleGrid,
-    input: &dyn Fn(f64) -> f64,
+    input: &super::InputSignals,
     ctl: &StepControl,
     on_sample: &mut super::SampleWithStates,
     progress: &mut dyn FnMut(f64),
@@ -255,7 +259,8 @@ pub(crate) fn integrate(
     assert!(s >= 2, "at least two collocation nodes");
     let nz = sys.nz();
     let m = sys.m();
-    let mf = 1 + m;
+    let p = sys.n_inputs();
+    let mf = p + m;
     let mut stats = IntegrationStats::default();
     let d = balance(&sys.a);
     let mut levels: Vec<Option<Level>> = (0..=MAX_LEVEL).map(|_| None).collect();
@@ -305,7 +310,8 @@ pub(crate) fn integrate(
         let tau = h / (s - 1) as f64;
         // node values: inputs everywhere, forces at node 0 from z_n
         for l in 0..s {
-            r[l * mf] = input(t + l as f64 * tau);
+            let u = input(t + l as f64 * tau);
+            r.rows_mut(l * mf, p).copy_from_slice(&u[..p]);
         }
         sys.forces(&z, &states, &mut f0);
         stats.law_evals += m;
@@ -328,9 +334,9 @@ pub(crate) fn integrate(
             }
         }
         for e in 0..m {
-            r[1 + e] = f0[e];
+            r[p + e] = f0[e];
             for l in 1..s {
-                r[l * mf + 1 + e] = match prev {
+                r[l * mf + p + e] = match prev {
                     Some(_) => (0..s)
                         .map(|k| extrap.1[l * s + k] * prev_f[k * m + e])
                         .sum(),
@@ -358,13 +364,13 @@ pub(crate) fn integrate(
                         node_states[e] = se;
                         stats.law_evals += 1;
                         let row = (j - 1) * m + e;
-                        let cur = r[j * mf + 1 + e];
+                        let cur = r[j * mf + p + e];
                         fscale = fscale.max(fe.abs()).max(cur.abs());
                         res[row] = cur - fe;
                         for l in 1..s {
                             for e2 in 0..m {
                                 let col = (l - 1) * m + e2;
-                                let w = l * mf + 1 + e2;
+                                let w = l * mf + p + e2;
                                 jac[row * nu + col] = if row == col { 1.0 } else { 0.0 }
                                     - dfu * lv.pq_t[(w, pj + e)]
                                     - dfv * lv.pq_t[(w, pj + m + e)];
@@ -379,7 +385,7 @@ pub(crate) fn integrate(
                 for j in 1..s {
                     for e in 0..m {
                         let d = res[(j - 1) * m + e];
-                        r[j * mf + 1 + e] -= d;
+                        r[j * mf + p + e] -= d;
                         dmax = dmax.max(d.abs());
                     }
                 }
@@ -429,7 +435,7 @@ pub(crate) fn integrate(
         prev = Some((t, tau));
         for l in 0..s {
             for e in 0..m {
-                prev_f[l * m + e] = r[l * mf + 1 + e];
+                prev_f[l * m + e] = r[l * mf + p + e];
             }
         }
         pos += ticks;

@@ -3,7 +3,10 @@
 //! integration over a sine sweep, from rest.
 //!
 //! Every input of every attachment receives `u(t) = u_hat cos Phi(t)` of the
-//! [`LinearSweep`]. Two integrators are available ([`Integrator`]):
+//! [`LinearSweep`], or, with complex input factors `c` (an exciter's voltage
+//! ratio and phase, [`simulate_phased_sweep_with_progress`]), `Re(c e^{i Phi})
+//! u_hat = Re(c) u_hat cos Phi - Im(c) u_hat sin Phi`: the in-phase and the
+//! quadrature sweep as two input signals of the assembly ([`assembly`]). Two integrators are available ([`Integrator`]):
 //!
 //! - [`Integrator::Exponential`] (default): exponential collocation, exact for
 //!   the stiff linear time-invariant part, implicit in the few scalar nonlinear
@@ -333,6 +336,10 @@ pub struct AttachmentSeries {
     pub state_names: Vec<String>,
     /// `states[k][i]`: attachment state `x_k` (SI units of that state).
     pub states: Vec<Vec<f64>>,
+    /// `state_amplitudes[k][j]`: fundamental-harmonic amplitude of state `x_k` at
+    /// the envelope point `j` (the points of [`SweepResult::envelope`], same
+    /// windows), e.g. a piezo shunt's electrode voltage amplitude \[V\].
+    pub state_amplitudes: Vec<Vec<f64>>,
 }
 
 /// Result of [`simulate_sweep`].
@@ -361,6 +368,14 @@ pub struct SweepResult {
     pub stats: IntegrationStats,
 }
 
+/// Most input signals of an assembled system: the in-phase sweep `u_hat cos Phi`
+/// and the quadrature sweep `u_hat sin Phi`.
+pub const MAX_INPUT_SIGNALS: usize = 2;
+
+/// The input signals at time `t` (in-phase, quadrature); a system uses the
+/// first [`FirstOrderSystem::n_inputs`] of them.
+pub(crate) type InputSignals<'a> = dyn Fn(f64) -> [f64; MAX_INPUT_SIGNALS] + 'a;
+
 /// The integrators' sample callback `(i, z, element_states)`: the hysteretic
 /// elements' states at the sample are needed for their forces.
 pub(crate) type SampleWithStates<'a> = dyn FnMut(usize, &DVector<f64>, &[f64]) + 'a;
@@ -377,7 +392,8 @@ pub struct SampleGrid {
 /// Integrate the assembled system (first-order state `z`, see
 /// [`AssembledSystem::state_from_structure`]) from `z0` at `t = 0` with the
 /// input signal `input(t)` on every attachment input, calling `on_sample(i, z)` at
-/// every grid time and `progress(fraction)` now and then.
+/// every grid time and `progress(fraction)` now and then. For a system with the
+/// one input signal ([`AssembledSystem::new`]).
 pub fn integrate(
     system: &AssembledSystem,
     z0: &DVector<f64>,
@@ -388,11 +404,16 @@ pub fn integrate(
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
     assert_eq!(z0.len(), system.first_order.nz(), "initial state length");
+    assert_eq!(
+        system.first_order.n_inputs(),
+        1,
+        "integrate: the system has a quadrature input signal"
+    );
     integrate_with_states(
         system,
         z0,
         grid,
-        input,
+        &|t| [input(t), 0.0],
         options,
         &mut |i, z, _states| on_sample(i, z),
         progress,
@@ -405,7 +426,7 @@ fn integrate_with_states(
     system: &AssembledSystem,
     z0: &DVector<f64>,
     grid: SampleGrid,
-    input: &dyn Fn(f64) -> f64,
+    input: &InputSignals,
     options: &ReferenceOptions,
     on_sample: &mut SampleWithStates,
     progress: &mut dyn FnMut(f64),
@@ -448,8 +469,28 @@ pub fn simulate_sweep_with_progress(
     options: &ReferenceOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<SweepResult, ReferenceError> {
+    simulate_phased_sweep_with_progress(model, attachments, None, sweep, options, progress)
+}
+
+/// [`simulate_sweep_with_progress`] with complex input factors
+/// `factors[a][j]` of attachment `a`'s input `j` (its voltage ratio and phase:
+/// the input receives `Re(c e^{i Phi}) u_hat`, see
+/// [`AssembledSystem::with_input_factors`]); `None`: every factor 1.
+pub fn simulate_phased_sweep_with_progress(
+    model: &StructuralModel,
+    attachments: &[LinearAttachment],
+    factors: Option<&[Vec<Complex64>]>,
+    sweep: &LinearSweep,
+    options: &ReferenceOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<SweepResult, ReferenceError> {
     options.validate()?;
-    let system = AssembledSystem::new(model, attachments, &options.tip_point)?;
+    let system =
+        AssembledSystem::with_input_factors(model, attachments, factors, &options.tip_point)?;
+    let signals = |t: f64| -> [f64; MAX_INPUT_SIGNALS] {
+        let phi = sweep.phase_rad(t);
+        [sweep.value(t), sweep.amplitude * phi.sin()]
+    };
     let duration = sweep.duration_s();
     let omega_max = sweep.omega_start_rad_s.max(sweep.omega_end_rad_s);
     let dt_req = 2.0 * std::f64::consts::PI / omega_max / options.samples_per_period as f64;
@@ -471,12 +512,11 @@ pub fn simulate_sweep_with_progress(
     let z0 = DVector::zeros(system.first_order.nz());
     let stats = {
         let mut on_sample = |i: usize, z: &DVector<f64>, states: &[f64]| {
-            let u = sweep.value(i as f64 * dt);
+            let u = signals(i as f64 * dt);
             system.first_order.forces(z, states, &mut f);
-            system.observe(z, u, &f, &mut obs);
+            system.observe_inputs(z, &u, &f, &mut obs);
             record[i * nobs..(i + 1) * nobs].copy_from_slice(obs.as_slice());
         };
-        let input = |t: f64| sweep.value(t);
         let grid = SampleGrid {
             interval_s: dt,
             count: n,
@@ -485,7 +525,7 @@ pub fn simulate_sweep_with_progress(
             &system,
             &z0,
             grid,
-            &input,
+            &signals,
             options,
             &mut on_sample,
             progress,
@@ -503,7 +543,7 @@ pub fn simulate_sweep_with_progress(
     let time_s: Vec<f64> = out_idx.iter().map(|&i| i as f64 * dt).collect();
     let omega_rad_s: Vec<f64> = time_s.iter().map(|&t| sweep.omega_rad_s(t)).collect();
     let input: Vec<f64> = time_s.iter().map(|&t| sweep.value(t)).collect();
-    let attachments_out: Vec<AttachmentSeries> = system
+    let mut attachments_out: Vec<AttachmentSeries> = system
         .observations
         .iter()
         .map(|o| {
@@ -517,6 +557,7 @@ pub fn simulate_sweep_with_progress(
                 states: (0..o.state_names.len())
                     .map(|k| series(o.state_index + k))
                     .collect(),
+                state_amplitudes: Vec::new(),
             }
         })
         .collect();
@@ -543,13 +584,30 @@ pub fn simulate_sweep_with_progress(
         None => vec![Some(Complex64::new(0.0, 0.0)); out_idx.len()],
     };
     let mut env = Envelope::default();
+    let mut kept = Vec::new();
     for (k, &i) in out_idx.iter().enumerate() {
         if let (Some(a), Some(fa)) = (tip_env[k], force_env[k]) {
             env.omega_rad_s.push(sweep.omega_rad_s(i as f64 * dt));
             env.tip_amplitude_m.push(a);
             env.force_amplitude_n.push(fa.norm());
             env.force_phase_rad.push(fa.arg());
+            kept.push(k);
         }
+    }
+    // the attachment states' envelopes on the same windows (same phase and
+    // centres: defined exactly where the tip's is)
+    for (o, out) in system.observations.iter().zip(attachments_out.iter_mut()) {
+        out.state_amplitudes = (0..o.state_names.len())
+            .map(|k| {
+                let a = envelope::fundamental_amplitudes(
+                    &phase,
+                    &full(o.state_index + k),
+                    &out_idx,
+                    options.envelope_periods,
+                );
+                kept.iter().map(|&j| a[j].unwrap_or(f64::NAN)).collect()
+            })
+            .collect();
     }
     Ok(SweepResult {
         tip_m: series(0),
