@@ -255,6 +255,8 @@ pub fn nma_table(
         points: setup.model.points.iter().map(|p| p.name.clone()).collect(),
         // the refinement's Newton guesses
         store_coordinates: true,
+        // the table is the primary branch: the loops beyond its fold are not computed
+        stop_at_first_fold: true,
         ..Default::default()
     };
     let basis = std::sync::Arc::new(

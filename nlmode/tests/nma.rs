@@ -1341,3 +1341,59 @@ fn sweep_table_harmonics_agree_with_h13_within_the_refined_accuracy() {
         "{d:?}"
     );
 }
+
+/// `stop_at_first_fold` ends the continuation one point past the first fold of
+/// the primary branch; the refined table uses only the points before it, so it
+/// is the same table (bit for bit, but for the branch count in its
+/// description) as from the whole branch, loops included.
+#[test]
+fn stopping_at_the_first_fold_gives_the_same_refined_table() {
+    let ps = paper_beam();
+    let basis = Arc::new(ModalBasis::new(&ps.model, false).unwrap());
+    let whole = NmaOptions {
+        harmonics: 7,
+        amplitude: AmplitudeRange::Point {
+            name: "tip".into(),
+            start_m: 1e-7,
+            end_m: 0.02,
+        },
+        points: ps.model.points.iter().map(|p| p.name.clone()).collect(),
+        ..Default::default()
+    };
+    let early = NmaOptions {
+        stop_at_first_fold: true,
+        ..whole.clone()
+    };
+    let table = |opts: &NmaOptions| {
+        let r = nonlinear_modal_analysis_with_basis(&ps.model, basis.clone(), opts).unwrap();
+        let mut t = r
+            .refined_table(
+                &ps.model,
+                basis.clone(),
+                opts,
+                TablePolicy::PrimaryBranch,
+                &RefineOptions::default(),
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+        t.description.clear();
+        (r, t)
+    };
+    let (rw, tw) = table(&whole);
+    let (re, te) = table(&early);
+    let (iw, fw) = rw.table_indices(TablePolicy::PrimaryBranch);
+    println!(
+        "whole branch {} points, stopped {} points, primary branch {} points, fold {fw:?}",
+        rw.branch.len(),
+        re.branch.len(),
+        iw.len()
+    );
+    assert!(fw.is_some(), "the tip range passes the first fold");
+    // one point past the fold, nothing more
+    assert_eq!(re.branch.len(), iw.len() + 1);
+    assert!(rw.branch.len() > re.branch.len() + 10);
+    assert_eq!(re.table_indices(TablePolicy::PrimaryBranch), (iw, fw));
+    assert_eq!(
+        serde_json::to_string(&te).unwrap(),
+        serde_json::to_string(&tw).unwrap()
+    );
+}

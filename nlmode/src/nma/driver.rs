@@ -10,6 +10,7 @@ use super::{ModalTable, PointShape, TableAccuracy, MODAL_TABLE_FORMAT, MODAL_TAB
 use crate::structure::StructuralModel;
 use crate::Complex64;
 use nalgebra::DVector;
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Errors of the nonlinear modal analysis. Failures during continuation carry
@@ -189,6 +190,12 @@ pub struct NmaOptions {
     /// frequency end; the amplitude range ends the branch). A branch ending
     /// before it is reported with [`NmaWarning::EndFrequencyNotReached`].
     pub end_omega_over_omega0: Option<f64>,
+    /// End the branch at the first point whose `a` falls below an earlier
+    /// one (the first fold of the primary branch, [`NmaResult::table_indices`]):
+    /// all that a [`TablePolicy::PrimaryBranch`] table uses, so the table is
+    /// the same as from the whole branch (default `false`: the whole branch,
+    /// loops included, for plots and `host nma`).
+    pub stop_at_first_fold: bool,
 }
 
 /// Harmonic order `H` of the modal table the single-nonlinear-mode methods use
@@ -230,6 +237,7 @@ impl Default for NmaOptions {
             min_fundamental_share: 0.005,
             normalisation: Normalisation::Fundamental,
             end_omega_over_omega0: None,
+            stop_at_first_fold: false,
         }
     }
 }
@@ -691,6 +699,17 @@ impl NmaResult {
             let interp = table
                 .interpolator()
                 .map_err(|e| NmaError::Table(e.to_string()))?;
+            // the unchecked intervals' HB solves are independent of each
+            // other: solved in parallel, then taken in interval order (the
+            // table is the same for any number of threads)
+            let unchecked: Vec<usize> = (0..pts.len().saturating_sub(1))
+                .filter(|&i| !checked[i])
+                .collect();
+            let mut solved = unchecked
+                .par_iter()
+                .map(|&i| check_interval(&solver, &interp, &pts[i], &pts[i + 1]))
+                .collect::<Vec<_>>()
+                .into_iter();
             let mut next: Vec<BranchPoint> = Vec::with_capacity(2 * pts.len());
             let mut next_checked = Vec::new();
             let mut next_errors = Vec::new();
@@ -703,37 +722,8 @@ impl NmaResult {
                     continue;
                 }
                 let (p, q) = (&pts[i], &pts[i + 1]);
-                let am = 0.5 * (p.amplitude + q.amplitude);
-                // frequency and damping from the table being checked (close
-                // to the solution: fewer Newton steps), shapes blended
-                let (omega_rad_s, damping_ratio) = match interp.eval(am) {
-                    Ok(t) => (t.omega_rad_s, t.damping_ratio),
-                    Err(_) => (
-                        0.5 * (p.omega_rad_s + q.omega_rad_s),
-                        0.5 * (p.damping_ratio + q.damping_ratio),
-                    ),
-                };
-                let guess = BranchPoint {
-                    omega_rad_s,
-                    damping_ratio,
-                    coordinates: p
-                        .coordinates
-                        .iter()
-                        .zip(&q.coordinates)
-                        .map(|(u, v)| u.iter().zip(v).map(|(x, y)| 0.5 * (x + y)).collect())
-                        .collect(),
-                    ..p.clone()
-                };
-                // Newton from the blended neighbours, else from either one
-                // (near the fold ending the primary branch `omega(a)` is steep)
-                let sol = solver
-                    .solve(am, &guess)
-                    .or_else(|_| solver.solve(am, q))
-                    .or_else(|_| solver.solve(am, p))
-                    .map_err(|e| refine_failed(e, am))?;
+                let (sol, err) = solved.next().expect("one solve per unchecked interval")?;
                 checks += 1;
-                let err =
-                    table_errors(&interp, &sol).map_err(|e| NmaError::Table(e.to_string()))?;
                 // the midpoint error underestimates an interval's largest
                 // error (PCHIP's error is not symmetric): ask half the target
                 let good = err.0 <= 0.5 * refine.omega_rel
@@ -1047,6 +1037,7 @@ pub fn nonlinear_modal_analysis_with_basis(
     };
     let mut end_omega_reached = false;
     let mut last_step = 0.0;
+    let mut max_amplitude = f64::NEG_INFINITY;
     let on_point = |s: &BranchState| -> bool {
         last_step = s.step;
         let bp = branch_point(
@@ -1057,6 +1048,9 @@ pub fn nonlinear_modal_analysis_with_basis(
             s.newton_iterations,
         );
         let x = &res.to_fundamental(s.x);
+        // the criterion of `table_indices`: `a` no longer above every earlier one
+        let below_fold = bp.amplitude <= max_amplitude;
+        max_amplitude = max_amplitude.max(bp.amplitude);
         result.branch.push(bp);
         tangent_sign.push(s.tangent[m + 2].signum());
         if opts.normalisation == Normalisation::Fundamental
@@ -1071,6 +1065,9 @@ pub fn nonlinear_modal_analysis_with_basis(
                 end_omega_reached = true;
                 return false;
             }
+        }
+        if opts.stop_at_first_fold && below_fold {
+            return false;
         }
         if let Some((em, end_m)) = &stop_point {
             let amp = 10f64.powf(x[m + 2]) * res.observe(x, em)[1].norm();
@@ -1253,6 +1250,46 @@ pub fn solve_at_amplitude(
 /// [`solve_at_amplitude`] set up once for many amplitudes (the residual with
 /// its AFT, the points' modal directions, `Phi^T M`): the refinement of a
 /// table solves at every interval's midpoint.
+/// The HB solution at the midpoint amplitude of the interval `p`-`q` and the
+/// PCHIP errors of `interp` there ([`NmaResult::refined_table`]).
+fn check_interval(
+    solver: &AmplitudeSolver,
+    interp: &crate::table::TableInterpolator,
+    p: &BranchPoint,
+    q: &BranchPoint,
+) -> Result<(BranchPoint, (f64, f64, f64)), NmaError> {
+    let am = 0.5 * (p.amplitude + q.amplitude);
+    // frequency and damping from the table being checked (close to the
+    // solution: fewer Newton steps), shapes blended
+    let (omega_rad_s, damping_ratio) = match interp.eval(am) {
+        Ok(t) => (t.omega_rad_s, t.damping_ratio),
+        Err(_) => (
+            0.5 * (p.omega_rad_s + q.omega_rad_s),
+            0.5 * (p.damping_ratio + q.damping_ratio),
+        ),
+    };
+    let guess = BranchPoint {
+        omega_rad_s,
+        damping_ratio,
+        coordinates: p
+            .coordinates
+            .iter()
+            .zip(&q.coordinates)
+            .map(|(u, v)| u.iter().zip(v).map(|(x, y)| 0.5 * (x + y)).collect())
+            .collect(),
+        ..p.clone()
+    };
+    // Newton from the blended neighbours, else from either one (near the
+    // fold ending the primary branch `omega(a)` is steep)
+    let sol = solver
+        .solve(am, &guess)
+        .or_else(|_| solver.solve(am, q))
+        .or_else(|_| solver.solve(am, p))
+        .map_err(|e| refine_failed(e, am))?;
+    let err = table_errors(interp, &sol).map_err(|e| NmaError::Table(e.to_string()))?;
+    Ok((sol, err))
+}
+
 struct AmplitudeSolver<'a> {
     model: &'a StructuralModel,
     opts: &'a NmaOptions,

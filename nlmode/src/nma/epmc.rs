@@ -304,6 +304,34 @@ pub struct HbJacobian {
     explicit: Vec<(usize, usize)>,
 }
 
+/// The real coefficient indices of harmonic `nn`: the mean alone, or its
+/// cosine and sine.
+#[derive(Clone, Copy)]
+struct Components {
+    idx: [usize; 2],
+    len: usize,
+}
+
+impl Components {
+    fn as_slice(&self) -> &[usize] {
+        &self.idx[..self.len]
+    }
+}
+
+fn components(nn: usize) -> Components {
+    if nn == 0 {
+        Components {
+            idx: [0, 0],
+            len: 1,
+        }
+    } else {
+        Components {
+            idx: [cos_index(nn), sin_index(nn)],
+            len: 2,
+        }
+    }
+}
+
 impl HbJacobian {
     fn m(&self) -> usize {
         self.basis.n_modes() * (2 * self.harmonics + 1)
@@ -451,11 +479,8 @@ impl HbJacobian {
         src.set_column(0, &f);
         src.view_mut((0, 1), (m, p)).copy_from(&self.border_cols);
         for nn in 0..=hmax {
-            let comps: Vec<usize> = if nn == 0 {
-                vec![0]
-            } else {
-                vec![cos_index(nn), sin_index(nn)]
-            };
+            let comps = components(nn);
+            let comps = comps.as_slice();
             for k in 0..n {
                 if is_explicit[comps[0] * n + k] {
                     continue;
@@ -542,6 +567,22 @@ impl HbJacobian {
             }
             b[i] = f[gi];
         }
+        // the explicit components by harmonic component `h`, in `e_list` order:
+        // `e_by_h[e_start[h]..e_start[h + 1]]` holds `(position in e_list, mode)`
+        let mut e_start = vec![0usize; nh + 1];
+        for &gi in &e_list {
+            e_start[gi / n + 1] += 1;
+        }
+        for h in 0..nh {
+            e_start[h + 1] += e_start[h];
+        }
+        let mut e_fill = e_start.clone();
+        let mut e_by_h = vec![(0usize, 0usize); ne_e];
+        for (i, &gi) in e_list.iter().enumerate() {
+            let h = gi / n;
+            e_by_h[e_fill[h]] = (i, gi % n);
+            e_fill[h] += 1;
+        }
         for (e, g) in self.g.iter().enumerate() {
             for h in 0..nh {
                 let ri = ne_e + e * nh + h;
@@ -564,10 +605,8 @@ impl HbJacobian {
                             a[(ri, ne_e + cz)] += gv * q[(e * nh + h2, cz)];
                         }
                     }
-                    for (i, &gi) in e_list.iter().enumerate() {
-                        if gi / n == h2 {
-                            a[(ri, i)] -= gv * w[(gi % n, e)];
-                        }
+                    for &(i, k) in &e_by_h[e_start[h2]..e_start[h2 + 1]] {
+                        a[(ri, i)] -= gv * w[(k, e)];
                     }
                     for c in 0..p {
                         a[(ri, ne_e + s + c)] += gv * ptv[(e * nh + h2, 1 + c)];
@@ -602,20 +641,17 @@ impl HbJacobian {
             y[i] = v[(i, 0)] - vb_yb[i];
         }
         for nn in 0..=hmax {
-            let comps: Vec<usize> = if nn == 0 {
-                vec![0]
-            } else {
-                vec![cos_index(nn), sin_index(nn)]
-            };
+            let comps = components(nn);
+            let comps = comps.as_slice();
             for k in 0..n {
                 if is_explicit[comps[0] * n + k] {
                     continue;
                 }
                 let (la, lb) = self.block(k, nn);
-                let pz: Vec<f64> = comps
-                    .iter()
-                    .map(|&h| (0..ne).map(|e| w[(k, e)] * z[e * nh + h]).sum::<f64>())
-                    .collect();
+                let mut pz = [0.0; 2];
+                for (pzi, &h) in pz.iter_mut().zip(comps) {
+                    *pzi = (0..ne).map(|e| w[(k, e)] * z[e * nh + h]).sum::<f64>();
+                }
                 if nn == 0 {
                     y[k] -= pz[0] / la;
                 } else {
