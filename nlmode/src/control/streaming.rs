@@ -91,7 +91,8 @@ struct Completed {
     /// The loop's last phase error before this period (replay of the update).
     error_before_rad: Option<f64>,
     periods: usize,
-    amplitude_change: f64,
+    /// `None`: the level's first period (infinite change; JSON has no infinity).
+    amplitude_change: Option<f64>,
     settled: bool,
     time_s: f64,
 }
@@ -242,10 +243,14 @@ impl StreamingPll {
         self.record.as_ref()
     }
 
-    /// Sets the voltage amplitude of the next level \[V\] (from the next period start).
+    /// Sets the voltage amplitude of the next level \[V\] (from the next
+    /// period start); [`Self::level_done`] is false from now until the new
+    /// level is done.
     pub fn set_voltage(&mut self, voltage_v: f64) -> Result<(), ControlError> {
         check_voltage(voltage_v)?;
         self.pending_voltage_v = Some(voltage_v);
+        // the old level is over: `level_done` now waits for the new one
+        self.level_done = false;
         Ok(())
     }
 
@@ -324,7 +329,7 @@ impl StreamingPll {
             voltage_v: self.voltage_v,
             error_before_rad: self.last_error_rad,
             periods: self.periods + 1,
-            amplitude_change: f64::INFINITY,
+            amplitude_change: None,
             settled: false,
             time_s: self.time_s,
         };
@@ -344,9 +349,11 @@ impl StreamingPll {
         } else {
             self.inside = 0;
         }
-        c.amplitude_change = change;
+        c.amplitude_change = Some(change).filter(|c| c.is_finite());
         c.settled = self.inside >= o.settle_periods;
-        let finished = !self.level_done && (c.settled || self.periods >= o.max_periods_per_level);
+        let finished = self.pending_voltage_v.is_none()
+            && !self.level_done
+            && (c.settled || self.periods >= o.max_periods_per_level);
         self.level_done |= finished;
         self.record = Some(self.level_record(&c, m));
         self.completed = Some(c);
@@ -406,7 +413,7 @@ impl StreamingPll {
             time_s: c.time_s,
             omega_rad_s: omega,
             phase_error_rad: m.phase_error_rad,
-            amplitude_change: c.amplitude_change,
+            amplitude_change: c.amplitude_change.unwrap_or(f64::INFINITY),
             damping_ratio: power / (omega * self.drive_modal_mass_kg * kinetic),
             power_w: power,
             current_amplitude_a: m.current_amplitude_a,
@@ -664,7 +671,16 @@ mod tests {
                 plant.rk4(h, |_| G * u);
             }
         };
-        run(&mut pll, &mut plant, 5000);
+        // right after the first period (its amplitude change is infinite)
+        run(&mut pll, &mut plant, 1500);
+        assert_eq!(pll.periods(), 1);
+        let json = serde_json::to_string(&pll).unwrap();
+        let copy = serde_json::from_str::<StreamingPll>(&json)
+            .unwrap()
+            .restored()
+            .unwrap();
+        assert_eq!(copy.last_period(), pll.last_period());
+        run(&mut pll, &mut plant, 3500);
         let json = serde_json::to_string(&pll).unwrap();
         let mut copy: StreamingPll = serde_json::from_str::<StreamingPll>(&json)
             .unwrap()
