@@ -96,3 +96,24 @@ fn three_fmu_loop_matches_the_reference_pll() {
 fn three_fmu_loop_matches_the_reference_pll_up_the_backbone() {
     compare("iterative", 1e-5, [1.0, 5.0], [0.01, 0.03]);
 }
+
+/// More harmonics than the controller FMU outputs: an error naming the key,
+/// before anything is packaged or run.
+#[test]
+fn too_many_harmonics_name_the_key() {
+    let text = "[run]\nmethods = [\"phase-resonance\"]\n[[exciter]]\nlocation = \"2l/3\"\n\
+                [output]\nplots = false\n\
+                [phase_resonance]\nmodel = \"cosim\"\nvoltage_levels_v = [1.0]\n\
+                [phase_resonance.pll]\nharmonics = 7\n";
+    let sc = Scenario::parse(text).unwrap();
+    let setup = Setup::new(&sc).unwrap();
+    let (nma, _) = methods::nma_table(&setup, &sc, false).unwrap();
+    let dir = tmpdir("harmonics");
+    let e = phase_resonance(&setup, &sc, &nma.table, &dir).unwrap_err();
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains("phase_resonance.pll.harmonics = 7") && msg.contains("at most 5"),
+        "{msg}"
+    );
+    assert!(!dir.join("phase_resonance_fmus").exists());
+}
