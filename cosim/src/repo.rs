@@ -44,6 +44,15 @@ pub const SHAKER: RepoFmu = RepoFmu {
     readme: include_str!("../../fmu-shaker/README.md"),
 };
 
+/// The controller FMU (crate `fmu-controller`): the phase-locked loop of
+/// phase-resonant testing, packaged on its own ([`package_controller_fmu`]).
+pub const CONTROLLER: RepoFmu = RepoFmu {
+    id: "controller",
+    package: "fmu-controller",
+    model_description: include_str!("../../modelDescription/controller/modelDescription.xml"),
+    readme: include_str!("../../fmu-controller/README.md"),
+};
+
 /// Why the repository's FMUs could not be packaged.
 #[derive(Debug, thiserror::Error)]
 pub enum RepoFmuError {
@@ -108,17 +117,7 @@ pub fn search_dirs(fmu_dir: Option<&Path>) -> Vec<PathBuf> {
 /// `cargo test` rebuilds `deps/` but leaves an older `cargo build` copy).
 pub fn locate_libraries(fmu_dir: Option<&Path>) -> Result<FmuLibraries, RepoFmuError> {
     let searched = search_dirs(fmu_dir);
-    let find = |id: &str| -> Option<PathBuf> {
-        searched
-            .iter()
-            .map(|d| d.join(format!("lib{id}.so")))
-            .filter(|p| p.is_file())
-            .max_by_key(|p| {
-                std::fs::metadata(p)
-                    .and_then(|m| m.modified())
-                    .unwrap_or(SystemTime::UNIX_EPOCH)
-            })
-    };
+    let find = |id: &str| newest_library(&searched, id);
     match (find(STRUCTURE.id), find(SHAKER.id)) {
         (Some(structure), Some(shaker)) => Ok(FmuLibraries { structure, shaker }),
         (s, sh) => Err(RepoFmuError::NotFound {
@@ -130,6 +129,46 @@ pub fn locate_libraries(fmu_dir: Option<&Path>) -> Result<FmuLibraries, RepoFmuE
             searched,
         }),
     }
+}
+
+/// The most recently built `lib<id>.so` in `dirs`.
+fn newest_library(dirs: &[PathBuf], id: &str) -> Option<PathBuf> {
+    dirs.iter()
+        .map(|d| d.join(format!("lib{id}.so")))
+        .filter(|p| p.is_file())
+        .max_by_key(|p| {
+            std::fs::metadata(p)
+                .and_then(|m| m.modified())
+                .unwrap_or(SystemTime::UNIX_EPOCH)
+        })
+}
+
+/// Find the library of one FMU (`lib<fmu.id>.so`) in [`search_dirs`], the
+/// most recently built where there are several.
+pub fn locate_library(fmu_dir: Option<&Path>, fmu: &RepoFmu) -> Result<PathBuf, RepoFmuError> {
+    let searched = search_dirs(fmu_dir);
+    newest_library(&searched, fmu.id).ok_or_else(|| RepoFmuError::NotFound {
+        missing: vec![format!("lib{}.so", fmu.id)],
+        searched,
+    })
+}
+
+/// Write `out_dir/controller.fmu` from its library and the embedded parts.
+pub fn package_controller_fmu(library: &Path, out_dir: &Path) -> Result<PathBuf, RepoFmuError> {
+    std::fs::create_dir_all(out_dir).map_err(|source| RepoFmuError::Dir {
+        path: out_dir.into(),
+        source,
+    })?;
+    let spec = FmuSpec {
+        model_identifier: CONTROLLER.id.into(),
+        model_description: CONTROLLER.model_description.into(),
+        library: library.into(),
+        resources: Vec::new(),
+        documentation: readme_documentation(CONTROLLER.id, CONTROLLER.readme),
+    };
+    let path = out_dir.join("controller.fmu");
+    write_fmu(&spec, &path)?;
+    Ok(path)
 }
 
 /// Write `out_dir/structure.fmu` and `out_dir/shaker.fmu` from `libs` and
@@ -176,7 +215,7 @@ mod tests {
     #[test]
     fn model_description_folders_hold_only_what_is_embedded() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        for fmu in [STRUCTURE, SHAKER] {
+        for fmu in [STRUCTURE, SHAKER, CONTROLLER] {
             let dir = root.join("modelDescription").join(fmu.id);
             let names: Vec<String> = std::fs::read_dir(&dir)
                 .unwrap()
@@ -213,5 +252,10 @@ mod tests {
             libs.structure.is_file() && libs.shaker.is_file(),
             "{libs:?}"
         );
+        let controller = locate_library(None, &CONTROLLER).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let fmu = package_controller_fmu(&controller, dir.path()).unwrap();
+        let loaded = crate::import::Fmu::load(&fmu).unwrap();
+        assert_eq!(loaded.md.co_simulation.model_identifier, "controller");
     }
 }

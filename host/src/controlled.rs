@@ -68,11 +68,17 @@ pub fn phase_resonance(
     out: &Path,
 ) -> Result<MethodResult> {
     let spec = &sc.phase_resonance;
-    if spec.model != PhaseResonanceModel::Reference {
-        return Err(anyhow!(
-            "phase_resonance.model = \"{}\" is not yet available (today: \"reference\")",
-            spec.model.name()
-        ));
+    match spec.model {
+        PhaseResonanceModel::Reference => {}
+        PhaseResonanceModel::Cosim => {
+            return crate::controlled_cosim::phase_resonance(setup, sc, table, out)
+        }
+        other => {
+            return Err(anyhow!(
+            "phase_resonance.model = \"{}\" is not yet available (today: \"reference\", \"cosim\")",
+            other.name()
+        ))
+        }
     }
     let opts = ReferenceOptions {
         method: sc.reference.integrator.unwrap_or_default(),
@@ -157,7 +163,7 @@ pub fn phase_resonance(
     Ok(r)
 }
 
-fn write_csv(
+pub(crate) fn write_csv(
     path: &Path,
     levels: &[PllLevel],
     nma: &[Option<(f64, f64)>],
@@ -220,7 +226,12 @@ fn write_csv(
 }
 
 /// The measured backbone and damping over the NMA's, against `|q_tip,1|`.
-fn plots(out: &Path, setup: &Setup, table: &ModalTable, levels: &[PllLevel]) -> Result<()> {
+pub(crate) fn plots(
+    out: &Path,
+    setup: &Setup,
+    table: &ModalTable,
+    levels: &[PllLevel],
+) -> Result<()> {
     let w0 = setup.omega0_rad_s;
     let tip_max = levels
         .iter()

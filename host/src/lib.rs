@@ -9,6 +9,7 @@
 //! generic co-simulation file; `host study` runs a parameter study.
 #![forbid(unsafe_code)]
 pub mod controlled;
+pub mod controlled_cosim;
 pub mod cosim_cmd;
 pub mod methods;
 pub mod model;

@@ -1,4 +1,5 @@
-//! `host package`: `structure.fmu` and `shaker.fmu` from the built FMU
+//! `host package`: `structure.fmu`, `shaker.fmu` and (when its library
+//! `libcontroller.so` is there too) `controller.fmu` from the built FMU
 //! libraries (found by [`cosim::repo::locate_libraries`]: `--fmu-dir`,
 //! `NLMODE_FMU_DIR` or beside this executable; never built here), with the
 //! paper beam's modal table in the structure FMU's `resources/`.
@@ -11,9 +12,12 @@ use std::path::{Path, PathBuf};
 /// Harmonics of the modal table shipped in the structure FMU (the paper's H).
 pub const FMU_TABLE_HARMONICS: usize = 13;
 
-/// Writes `out/structure.fmu` and `out/shaker.fmu`; returns their paths.
-/// Fails (before the modal analysis) if the libraries are not found, with a
-/// message naming where it looked and how to build them.
+/// Writes `out/structure.fmu`, `out/shaker.fmu` and `out/controller.fmu`;
+/// returns their paths (in this order). Fails (before the modal analysis) if
+/// the structure or shaker library is not found, with a message naming where
+/// it looked and how to build them; without the controller's library (an
+/// installation that ships only the first two) the controller FMU is left
+/// out with a warning on stderr.
 pub fn package(out: &Path, fmu_dir: Option<&Path>) -> Result<Vec<PathBuf>> {
     let libs = cosim::repo::locate_libraries(fmu_dir)?;
     let mut sc = Scenario::default_scenario();
@@ -28,5 +32,10 @@ pub fn package(out: &Path, fmu_dir: Option<&Path>) -> Result<Vec<PathBuf>> {
     let result = cosim::repo::package_repo_fmus(&libs, out, Some(&table));
     let _ = std::fs::remove_dir_all(&tmp);
     let (structure, shaker) = result?;
-    Ok(vec![structure, shaker])
+    let mut paths = vec![structure, shaker];
+    match cosim::repo::locate_library(fmu_dir, &cosim::repo::CONTROLLER) {
+        Ok(lib) => paths.push(cosim::repo::package_controller_fmu(&lib, out)?),
+        Err(e) => eprintln!("warning: controller.fmu not packaged: {e}"),
+    }
+    Ok(paths)
 }

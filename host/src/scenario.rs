@@ -1586,7 +1586,8 @@ pub enum PhaseResonanceModel {
     Reference,
     /// The slow flow of `eq:NM` (not yet available).
     Nlmode,
-    /// The co-simulated FMUs with a controller FMU (not yet available).
+    /// The structure, shaker and controller FMUs co-simulated
+    /// (`host/src/controlled_cosim.rs`).
     Cosim,
 }
 

@@ -147,7 +147,7 @@ fn measured_backbone_follows_the_nma() {
     }
 
     // the models not yet available are refused with a clear message
-    for m in [PhaseResonanceModel::Nlmode, PhaseResonanceModel::Cosim] {
+    for m in [PhaseResonanceModel::Nlmode] {
         sc.phase_resonance.model = m;
         let e = phase_resonance(&setup, &sc, &nma.table, &dir).unwrap_err();
         let msg = format!("{e:#}");

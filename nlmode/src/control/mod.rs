@@ -32,6 +32,7 @@
 pub mod force;
 pub mod plant;
 pub mod pll;
+pub mod streaming;
 
 pub use force::{
     force_controlled_stepped_sine, ForceControlOptions, ForceControlResult, ForceStep,
@@ -40,6 +41,7 @@ pub use plant::{DuffingOscillator, ReferencePlant};
 pub use pll::{
     phase_resonance, PhaseLockedLoop, PhaseMeasurement, PllLevel, PllOptions, PllResult,
 };
+pub use streaming::{StreamEvent, StreamSample, StreamingPll};
 
 #[cfg(test)]
 mod force_tests;

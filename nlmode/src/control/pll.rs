@@ -249,6 +249,31 @@ impl PhaseLockedLoop {
         self.omega_rad_s
     }
 
+    /// Phase error of the last period \[rad\] (`None` before the first):
+    /// with [`Self::omega_rad_s`] the loop's whole state.
+    pub fn last_phase_error_rad(&self) -> Option<f64> {
+        self.last_error_rad
+    }
+
+    /// A loop resumed from a saved state ([`Self::omega_rad_s`],
+    /// [`Self::last_phase_error_rad`]), e.g. a co-simulation FMU's state.
+    pub fn resume(
+        options: PllOptions,
+        omega_rad_s: f64,
+        last_phase_error_rad: Option<f64>,
+    ) -> Result<Self, ControlError> {
+        let mut pll = Self::new(options, omega_rad_s)?;
+        if let Some(e) = last_phase_error_rad.filter(|e| !e.is_finite()) {
+            return Err(ControlError::BadOption {
+                name: "last_phase_error_rad",
+                value: e.to_string(),
+                expected: "a finite phase error",
+            });
+        }
+        pll.last_error_rad = last_phase_error_rad;
+        Ok(pll)
+    }
+
     /// Runs one period on `plant` at `voltage_v`, measures, and updates the frequency.
     pub fn step(
         &mut self,

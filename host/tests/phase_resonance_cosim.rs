@@ -1,0 +1,119 @@
+//! `phase-resonance` with `model = "cosim"`: the controller FMU closing the
+//! loop around the structure FMU (single nonlinear mode) and the shaker FMU,
+//! against the phase-locked loop on the full-order reference, per voltage
+//! level (paper beam, exciter at 2l/3, default loop options).
+//!
+//! Measured (test profile, two tests running at once on two shared cores;
+//! relative differences cosim / reference - 1):
+//!
+//! | master, h | U [V] | omega | q_tip,1 | x_drive,1 | F_1 | loop time |
+//! |---|---|---|---|---|---|---|
+//! | iterative, 1e-5 s | 1 | -3.5e-6 | -3.8e-4 | -3.8e-4 | -4.5e-4 | 44 s for both levels (268k macro steps; reference PLL 1.0 s) |
+//! | iterative, 1e-5 s | 5 | 7.1e-5 | 2.3e-4 | 2.3e-4 | -2.45e-2 | |
+//! | jacobi, 1e-5 s | 1 | 5.9e-6 | 7.6e-4 | 7.6e-4 | 6.9e-4 | 41 s (270k macro steps) |
+//! | jacobi, 1e-5 s | 5 | 2.4e-4 | 1.3e-3 | 1.3e-3 | -2.47e-2 | |
+//!
+//! Frequency and response amplitudes agree within 1.3e-3. The force
+//! fundamental at 5 V is 2.5 % below the reference's: at phase resonance it
+//! only balances the damping, and the structure FMU is the single nonlinear
+//! mode (damping `D(a)` of the autonomous mode, force projected on the mode)
+//! while the full-order structure also takes power through the third
+//! harmonic of the stinger force (`|F_3|/|F_1|` = 0.92 at 5 V, a 2.5 % share
+//! of the input power in `phase_resonance.rs`), so the fundamental tolerance
+//! is 3 % at 5 V and 1 % at 1 V. The default test runs the linear range (0.5
+//! and 1 V) at 2e-5 s to stay short; the 1 and 5 V comparison at 1e-5 s is
+//! the ignored test.
+use host::controlled::{phase_resonance, PHASE_RESONANCE_COLUMNS};
+use host::methods;
+use host::model::Setup;
+use host::scenario::{PhaseResonanceModel, Scenario};
+use std::path::PathBuf;
+use std::time::Instant;
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("host-pll-cosim-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn compare(algorithm: &str, macro_step_s: f64, levels: [f64; 2], force_tol: [f64; 2]) {
+    let text = format!(
+        "[run]\nmethods = [\"phase-resonance\"]\n[[exciter]]\nlocation = \"2l/3\"\n\
+         [output]\nplots = false\n[cosim]\nalgorithm = \"{algorithm}\"\nmacro_step_s = {macro_step_s}\n\
+         [phase_resonance]\nvoltage_levels_v = [{}, {}]\n",
+        levels[0], levels[1]
+    );
+    let mut sc = Scenario::parse(&text).unwrap();
+    let setup = Setup::new(&sc).unwrap();
+    let (nma, _) = methods::nma_table(&setup, &sc, false).unwrap();
+    let t0 = Instant::now();
+    let reference = phase_resonance(&setup, &sc, &nma.table, &tmpdir("ref")).unwrap();
+    let t_ref = t0.elapsed().as_secs_f64();
+    sc.phase_resonance.model = PhaseResonanceModel::Cosim;
+    let dir = tmpdir(algorithm);
+    let t0 = Instant::now();
+    let r = phase_resonance(&setup, &sc, &nma.table, &dir).unwrap();
+    let t_cosim = t0.elapsed().as_secs_f64();
+    eprintln!(
+        "reference PLL {t_ref:.2} s, three-FMU loop {t_cosim:.2} s ({:?} macro steps)",
+        r.summary.steps
+    );
+    assert!(r.summary.warnings.is_empty(), "{:?}", r.summary.warnings);
+    let csv = std::fs::read_to_string(dir.join("phase_resonance.csv")).unwrap();
+    eprintln!("{csv}");
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    assert_eq!(&header[..7], &PHASE_RESONANCE_COLUMNS[..]);
+    assert_eq!(csv.lines().count(), 3);
+    let (a, b) = (&reference.envelope, &r.envelope);
+    for i in 0..2 {
+        let rel = |x: f64, y: f64| x / y - 1.0;
+        let dw = rel(b.omega_rad_s[i], a.omega_rad_s[i]);
+        let dq = rel(b.tip_amplitude_m[i], a.tip_amplitude_m[i]);
+        let df = rel(b.force_amplitude_n[i], a.force_amplitude_n[i]);
+        let dd = rel(
+            b.drive_amplitude_m.as_ref().unwrap()[i],
+            a.drive_amplitude_m.as_ref().unwrap()[i],
+        );
+        eprintln!(
+            "level {i}: omega {dw:.2e}, |q_tip,1| {dq:.2e}, |F_1| {df:.2e}, |x_drive,1| {dd:.2e}"
+        );
+        for d in [dw, dq, dd] {
+            assert!(d.abs() < 0.01, "{d}");
+        }
+        // the force fundamental: see the module docs
+        assert!(df.abs() < force_tol[i], "{df}");
+    }
+}
+
+#[test]
+fn three_fmu_loop_matches_the_reference_pll() {
+    compare("iterative", 2e-5, [0.5, 1.0], [0.01, 0.01]);
+}
+
+#[test]
+#[ignore = "about 45 s in the test profile"]
+fn three_fmu_loop_matches_the_reference_pll_up_the_backbone() {
+    compare("iterative", 1e-5, [1.0, 5.0], [0.01, 0.03]);
+}
+
+/// More harmonics than the controller FMU outputs: an error naming the key,
+/// before anything is packaged or run.
+#[test]
+fn too_many_harmonics_name_the_key() {
+    let text = "[run]\nmethods = [\"phase-resonance\"]\n[[exciter]]\nlocation = \"2l/3\"\n\
+                [output]\nplots = false\n\
+                [phase_resonance]\nmodel = \"cosim\"\nvoltage_levels_v = [1.0]\n\
+                [phase_resonance.pll]\nharmonics = 7\n";
+    let sc = Scenario::parse(text).unwrap();
+    let setup = Setup::new(&sc).unwrap();
+    let (nma, _) = methods::nma_table(&setup, &sc, false).unwrap();
+    let dir = tmpdir("harmonics");
+    let e = phase_resonance(&setup, &sc, &nma.table, &dir).unwrap_err();
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains("phase_resonance.pll.harmonics = 7") && msg.contains("at most 5"),
+        "{msg}"
+    );
+    assert!(!dir.join("phase_resonance_fmus").exists());
+}
