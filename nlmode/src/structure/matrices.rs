@@ -271,14 +271,17 @@ pub fn read_matrix_market_sparse_str(
 /// non-zeros) of the symmetric matrix `a`; numbers in Rust's shortest round-trip
 /// form, so [`read_matrix_market_str`] gives back the same bits.
 pub fn write_matrix_market(a: &DMatrix<f64>) -> String {
+    write_matrix_market_sparse(&sparse_from_dense(a))
+}
+
+/// As [`write_matrix_market`] for a sparse symmetric matrix (its lower triangle).
+pub fn write_matrix_market_sparse(a: &SparseMatrix) -> String {
     let mut entries = Vec::new();
-    for c in 0..a.ncols() {
-        for r in c..a.nrows() {
-            if a[(r, c)] != 0.0 {
-                entries.push(format!("{} {} {:e}", r + 1, c + 1, a[(r, c)]));
-            }
+    for_each_entry(a, |r, c, v| {
+        if r >= c && v != 0.0 {
+            entries.push(format!("{} {} {:e}", r + 1, c + 1, v));
         }
-    }
+    });
     format!(
         "%%MatrixMarket matrix coordinate real symmetric\n{} {} {}\n{}\n",
         a.nrows(),
@@ -817,6 +820,199 @@ pub fn matrix_structure_sparse_cb(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The 3-DOF chain of `tests/matrices.rs` and a 30-node beam (58 DOFs),
+    /// through the dense and the sparse Craig-Bampton paths.
+    fn chain() -> (DMatrix<f64>, DMatrix<f64>) {
+        let m = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 2.0, 3.0]));
+        let k = DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                300.0, -200.0, 0.0, -200.0, 500.0, -300.0, 0.0, -300.0, 300.0,
+            ],
+        );
+        (m, k)
+    }
+
+    fn opts(m: DMatrix<f64>, k: DMatrix<f64>, pts: Vec<(String, usize)>) -> MatrixStructureOptions {
+        let last = pts.last().unwrap().0.clone();
+        MatrixStructureOptions {
+            mass: m,
+            mass_path: "M.mtx".into(),
+            stiffness: k,
+            stiffness_path: "K.mtx".into(),
+            damping: MatrixDamping::StiffnessProportional {
+                ratio: 0.01,
+                mode_index: 0,
+            },
+            damping_path: None,
+            points: pts,
+            cubic_spring: Some((last.clone(), 1e6)),
+            craig_bampton: Some((vec![last], 1)),
+            allow_rigid_body_modes: false,
+        }
+    }
+
+    fn to_sparse(o: &MatrixStructureOptions) -> MatrixStructureOptions<SparseMatrix> {
+        MatrixStructureOptions {
+            mass: sparse_from_dense(&o.mass),
+            mass_path: o.mass_path.clone(),
+            stiffness: sparse_from_dense(&o.stiffness),
+            stiffness_path: o.stiffness_path.clone(),
+            damping: match &o.damping {
+                MatrixDamping::Matrix(c) => MatrixDamping::Matrix(sparse_from_dense(c)),
+                MatrixDamping::Rayleigh {
+                    alpha_per_s,
+                    beta_s,
+                } => MatrixDamping::Rayleigh {
+                    alpha_per_s: *alpha_per_s,
+                    beta_s: *beta_s,
+                },
+                MatrixDamping::StiffnessProportional { ratio, mode_index } => {
+                    MatrixDamping::StiffnessProportional {
+                        ratio: *ratio,
+                        mode_index: *mode_index,
+                    }
+                }
+            },
+            damping_path: o.damping_path.clone(),
+            points: o.points.clone(),
+            cubic_spring: o.cubic_spring.clone(),
+            craig_bampton: o.craig_bampton.clone(),
+            allow_rigid_body_modes: o.allow_rigid_body_modes,
+        }
+    }
+
+    #[test]
+    fn sparse_path_equals_the_dense_one() {
+        let beam = crate::structure::BeamSpec {
+            n_nodes: 30,
+            ..crate::structure::BeamSpec::paper()
+        }
+        .assemble()
+        .unwrap();
+        let (cm, ck) = chain();
+        let tip = beam.translation_dof(29).unwrap();
+        let mid = beam.translation_dof(15).unwrap();
+        let mut beam_opts = opts(
+            beam.model.mass.clone(),
+            beam.model.stiffness.clone(),
+            vec![("mid".into(), mid), ("tip".into(), tip)],
+        );
+        beam_opts.craig_bampton = Some((vec!["tip".into(), "mid".into()], 8));
+        beam_opts.damping = MatrixDamping::Rayleigh {
+            alpha_per_s: 0.5,
+            beta_s: 1e-5,
+        };
+        let mut chain_opts = opts(cm.clone(), ck, vec![("a".into(), 0), ("b".into(), 2)]);
+        chain_opts.damping = MatrixDamping::Matrix(cm * 0.1);
+        for o in [chain_opts, beam_opts] {
+            let d = matrix_structure(&o).unwrap();
+            let s = matrix_structure_sparse_cb(&to_sparse(&o)).unwrap();
+            // small models take the dense path through matrix_structure_sparse
+            let via = matrix_structure_sparse(&to_sparse(&o)).unwrap();
+            assert_eq!(via.omega0_rad_s, d.omega0_rad_s);
+            assert!(s.full.is_none() && s.full_ndof == d.full_ndof);
+            let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+            assert!(rel(s.omega0_rad_s, d.omega0_rad_s) < 1e-9);
+            assert!(rel(s.damping_ratio, d.damping_ratio) < 1e-9);
+            assert_eq!(s.rigid_body_modes, 0);
+            for (a, b) in s.interface_omega_rad_s.iter().zip(&d.interface_omega_rad_s) {
+                assert!(rel(*a, *b) < 1e-9, "{a} vs {b}");
+            }
+            // the reduced models' spectra and their points / spring
+            let n = s.model.ndof();
+            let ws = modal_analysis(&s.model, n).unwrap().omega_rad_s;
+            let wd = modal_analysis(&d.model, n).unwrap().omega_rad_s;
+            for (a, b) in ws.iter().zip(&wd) {
+                assert!(rel(*a, *b) < 1e-9, "{a} vs {b}");
+            }
+            assert_eq!(s.model.points.len(), d.model.points.len());
+            assert_eq!(s.model.nonlinear.len(), 1);
+            let (es, ed) = (
+                &s.model.nonlinear[0].direction,
+                &d.model.nonlinear[0].direction,
+            );
+            assert_eq!(es[0], ed[0]);
+        }
+    }
+
+    #[test]
+    fn sparse_path_checks() {
+        let (m, k) = chain();
+        let pts = vec![("a".into(), 0), ("b".into(), 2)];
+        let err = |o: MatrixStructureOptions| {
+            matrix_structure_sparse_cb(&to_sparse(&o))
+                .unwrap_err()
+                .to_string()
+        };
+        let mut ka = k.clone();
+        ka[(0, 1)] += 1.0;
+        let e = err(opts(m.clone(), ka, pts.clone()));
+        assert!(
+            e.contains("stiffness_mtx") && e.contains("not symmetric"),
+            "{e}"
+        );
+        let mut mi = m.clone();
+        mi[(0, 1)] = 5.0;
+        mi[(1, 0)] = 5.0;
+        let e = err(opts(mi, k.clone(), pts.clone()));
+        assert!(
+            e.contains("mass_mtx") && e.contains("not positive definite"),
+            "{e}"
+        );
+        let mut kn = k.clone();
+        kn[(0, 0)] = 50.0;
+        let e = err(opts(m.clone(), kn, pts.clone()));
+        assert!(e.contains("not positive semi-definite"), "{e}");
+        // free chain: one rigid-body mode, refused unless allowed
+        let mut kf = k.clone();
+        kf[(0, 0)] = 200.0;
+        let e = err(opts(m.clone(), kf.clone(), pts.clone()));
+        assert!(e.contains("1 rigid-body mode"), "{e}");
+        let mut o = opts(m.clone(), kf, pts.clone());
+        o.allow_rigid_body_modes = true;
+        o.craig_bampton = Some((vec!["a".into(), "b".into()], 1));
+        o.damping = MatrixDamping::StiffnessProportional {
+            ratio: 0.01,
+            mode_index: 1,
+        };
+        let s = matrix_structure_sparse_cb(&to_sparse(&o)).unwrap();
+        assert_eq!(s.rigid_body_modes, 1);
+        let e = err(opts(
+            m.clone(),
+            k.clone(),
+            vec![("a".into(), 0), ("c".into(), 3)],
+        ));
+        assert!(e.contains("`c`") && e.contains("dof = 3"), "{e}");
+        // reduction = "none" above the dense cap
+        let big = sparse_from_triplets(
+            DENSE_MAX_DOF + 1,
+            &(0..=DENSE_MAX_DOF).map(|i| (i, i, 1.0)).collect::<Vec<_>>(),
+        )
+        .unwrap();
+        let mut o = to_sparse(&opts(m, k, pts));
+        o.mass = big.clone();
+        o.stiffness = big;
+        o.craig_bampton = None;
+        let e = matrix_structure_sparse(&o).unwrap_err();
+        assert!(
+            matches!(e, MatricesError::TooLargeForDense { ndof, .. } if ndof == DENSE_MAX_DOF + 1)
+        );
+        assert!(e.to_string().contains("craig-bampton"));
+    }
+
+    #[test]
+    fn sparse_writer_round_trips() {
+        let (_, k) = chain();
+        let s = sparse_from_dense(&k);
+        let text = write_matrix_market_sparse(&s);
+        assert_eq!(text, write_matrix_market(&k));
+        let back = read_matrix_market_sparse_str(MatrixRole::Stiffness, Path::new("K.mtx"), &text)
+            .unwrap();
+        assert_eq!(sparse_to_dense(&back), k);
+    }
 
     #[test]
     fn pest_line_numbers() {
