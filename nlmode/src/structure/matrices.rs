@@ -16,15 +16,37 @@
 //!   Then, as for the paper's beam ([`super::paper_structure`]): damping on the full
 //!   model, the cubic spring `f = k3 u^3` at its point, Craig-Bampton with the given
 //!   master points and fixed-interface modes.
-use super::craig_bampton::craig_bampton;
+//! * [`matrix_structure_sparse`] does the same from sparse matrices
+//!   ([`read_matrix_market_sparse`]) for large FE models: with Craig-Bampton the
+//!   full model stays sparse from the file to the reduction (sparse Cholesky for
+//!   `M` positive definite and the constraint modes, the shift-invert Lanczos of
+//!   [`super::sparse`] for the full model's lowest modes and the fixed-interface
+//!   modes); without reduction the model is made dense, up to [`DENSE_MAX_DOF`].
+use super::craig_bampton::{craig_bampton, craig_bampton_sparse};
 use super::damping::{rayleigh_damping, stiffness_proportional_damping_from_modes};
 use super::modal::modal_analysis;
-use super::{CubicSpring, StructuralModel, StructureError};
+use super::sparse::{
+    asymmetry, diagonal, for_each_entry, sparse_add, sparse_from_dense, sparse_from_triplets,
+    sparse_modal, sparse_mul, sparse_to_dense, SparseCholesky, SparseMatrix,
+};
+use super::{CubicSpring, NamedPoint, NonlinearElement, StructuralModel, StructureError};
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Relative symmetry tolerance of the matrices: `max |A - A^T| <= 1e-9 max |A|`.
 pub const SYMMETRY_RTOL: f64 = 1e-9;
+
+/// Largest full model kept dense (`reduction = "none"`): 3000 DOFs are 72 MB per
+/// dense matrix and a dense eigen-analysis of some ten seconds; a larger model
+/// needs `reduction = "craig-bampton"` (sparse to the reduction).
+pub const DENSE_MAX_DOF: usize = 3000;
+
+/// Smallest full model that [`matrix_structure_sparse`] reduces on the sparse
+/// path. Smaller models take the dense path, whose numbers the paper beam's
+/// scenario (198 DOFs) is held to: the two agree to about `1e-9` (the dense
+/// eigensolver's own error on fine meshes), not bit for bit.
+pub const SPARSE_MIN_DOF: usize = 500;
 
 /// Name of the cubic spring element of a matrices structure.
 pub const CUBIC_SPRING: &str = super::paper::CUBIC_SPRING;
@@ -151,6 +173,12 @@ pub enum MatricesError {
         value: f64,
         expected: &'static str,
     },
+    /// A full model above [`DENSE_MAX_DOF`] without reduction.
+    #[error(
+        "reduction = \"none\" keeps the full model dense: its {ndof} DOFs exceed the \
+             limit of {max}; use reduction = \"craig-bampton\" (sparse up to the reduction)"
+    )]
+    TooLargeForDense { ndof: usize, max: usize },
     /// An error of the structure layer (modal analysis, Craig-Bampton).
     #[error(transparent)]
     Structure(#[from] StructureError),
@@ -167,12 +195,20 @@ fn pest_line(message: &str) -> Option<usize> {
 /// Reads a Matrix Market file (coordinate or array; real; general, symmetric or
 /// skew-symmetric) into a dense square matrix; duplicate coordinate entries add up.
 pub fn read_matrix_market(role: MatrixRole, path: &Path) -> Result<DMatrix<f64>, MatricesError> {
+    Ok(sparse_to_dense(&read_matrix_market_sparse(role, path)?))
+}
+
+/// As [`read_matrix_market`] into a sparse matrix (compressed columns).
+pub fn read_matrix_market_sparse(
+    role: MatrixRole,
+    path: &Path,
+) -> Result<SparseMatrix, MatricesError> {
     let text = std::fs::read_to_string(path).map_err(|e| MatricesError::Io {
         role,
         path: path.into(),
         message: e.to_string(),
     })?;
-    read_matrix_market_str(role, path, &text)
+    read_matrix_market_sparse_str(role, path, &text)
 }
 
 /// As [`read_matrix_market`] from the file's text (`path` only names it in errors).
@@ -181,6 +217,17 @@ pub fn read_matrix_market_str(
     path: &Path,
     text: &str,
 ) -> Result<DMatrix<f64>, MatricesError> {
+    Ok(sparse_to_dense(&read_matrix_market_sparse_str(
+        role, path, text,
+    )?))
+}
+
+/// As [`read_matrix_market_sparse`] from the file's text.
+pub fn read_matrix_market_sparse_str(
+    role: MatrixRole,
+    path: &Path,
+    text: &str,
+) -> Result<SparseMatrix, MatricesError> {
     let coo = nalgebra_sparse::io::load_coo_from_matrix_market_str::<f64>(text).map_err(|e| {
         let message = e.message().replace('\n', " ");
         MatricesError::Malformed {
@@ -199,7 +246,7 @@ pub fn read_matrix_market_str(
             cols,
         });
     }
-    let mut a = DMatrix::zeros(rows, cols);
+    let mut triplets = Vec::with_capacity(coo.nnz());
     for (r, c, v) in coo.triplet_iter() {
         if !v.is_finite() {
             return Err(MatricesError::NonFinite {
@@ -210,23 +257,31 @@ pub fn read_matrix_market_str(
                 value: *v,
             });
         }
-        a[(r, c)] += *v;
+        triplets.push((r, c, *v));
     }
-    Ok(a)
+    sparse_from_triplets(rows, &triplets).ok_or_else(|| MatricesError::Malformed {
+        role,
+        path: path.into(),
+        line: None,
+        message: "an entry's index is out of range".into(),
+    })
 }
 
 /// The Matrix Market text (coordinate, real, symmetric: the lower triangle's
 /// non-zeros) of the symmetric matrix `a`; numbers in Rust's shortest round-trip
 /// form, so [`read_matrix_market_str`] gives back the same bits.
 pub fn write_matrix_market(a: &DMatrix<f64>) -> String {
+    write_matrix_market_sparse(&sparse_from_dense(a))
+}
+
+/// As [`write_matrix_market`] for a sparse symmetric matrix (its lower triangle).
+pub fn write_matrix_market_sparse(a: &SparseMatrix) -> String {
     let mut entries = Vec::new();
-    for c in 0..a.ncols() {
-        for r in c..a.nrows() {
-            if a[(r, c)] != 0.0 {
-                entries.push(format!("{} {} {:e}", r + 1, c + 1, a[(r, c)]));
-            }
+    for_each_entry(a, |r, c, v| {
+        if r >= c && v != 0.0 {
+            entries.push(format!("{} {} {:e}", r + 1, c + 1, v));
         }
-    }
+    });
     format!(
         "%%MatrixMarket matrix coordinate real symmetric\n{} {} {}\n{}\n",
         a.nrows(),
@@ -236,11 +291,11 @@ pub fn write_matrix_market(a: &DMatrix<f64>) -> String {
     )
 }
 
-/// Linear damping of a matrices structure.
+/// Linear damping of a matrices structure (`A`: dense or [`SparseMatrix`]).
 #[derive(Debug, Clone, PartialEq)]
-pub enum MatrixDamping {
+pub enum MatrixDamping<A = DMatrix<f64>> {
     /// `C` given as a matrix (already read and checked for shape).
-    Matrix(DMatrix<f64>),
+    Matrix(A),
     /// `C = alpha M + beta K` (`alpha` [1/s], `beta` [s]).
     Rayleigh { alpha_per_s: f64, beta_s: f64 },
     /// `C = beta K` with damping ratio `ratio` on mode `mode_index` (0-based) of the
@@ -248,15 +303,15 @@ pub enum MatrixDamping {
     StiffnessProportional { ratio: f64, mode_index: usize },
 }
 
-/// Everything [`matrix_structure`] needs; the file paths only name the matrices in
-/// errors.
+/// Everything [`matrix_structure`] (dense `A`) and [`matrix_structure_sparse`]
+/// (`A = SparseMatrix`) need; the file paths only name the matrices in errors.
 #[derive(Debug, Clone)]
-pub struct MatrixStructureOptions {
-    pub mass: DMatrix<f64>,
+pub struct MatrixStructureOptions<A = DMatrix<f64>> {
+    pub mass: A,
     pub mass_path: PathBuf,
-    pub stiffness: DMatrix<f64>,
+    pub stiffness: A,
     pub stiffness_path: PathBuf,
-    pub damping: MatrixDamping,
+    pub damping: MatrixDamping<A>,
     /// `None` when the damping is not a matrix file.
     pub damping_path: Option<PathBuf>,
     /// Named points `(name, dof)`, `dof` the 0-based row of `M` and `K`.
@@ -276,8 +331,11 @@ pub struct MatrixStructureOptions {
 pub struct MatrixStructure {
     /// The model used downstream (Craig-Bampton reduced unless none was asked).
     pub model: StructuralModel,
-    /// The full model with damping, points and the nonlinear element.
-    pub full: StructuralModel,
+    /// The full model with damping, points and the nonlinear element (dense);
+    /// `None` on the sparse Craig-Bampton path, where it is never formed.
+    pub full: Option<StructuralModel>,
+    /// Number of DOFs of the full model.
+    pub full_ndof: usize,
     /// `n_full x model.ndof()`, identity when unreduced.
     pub transform: DMatrix<f64>,
     /// Rigid-body modes of the full model (0 unless allowed).
@@ -306,6 +364,24 @@ fn check_matrix(
             cols: a.ncols(),
         });
     }
+    check_sparse_matrix(role, path, &sparse_from_dense(a), n)
+}
+
+/// The checks of the module docs on one matrix: size, finite, symmetric, diagonal.
+fn check_sparse_matrix(
+    role: MatrixRole,
+    path: &Path,
+    a: &SparseMatrix,
+    n: usize,
+) -> Result<(), MatricesError> {
+    if a.nrows() != a.ncols() {
+        return Err(MatricesError::NotSquare {
+            role,
+            path: path.into(),
+            rows: a.nrows(),
+            cols: a.ncols(),
+        });
+    }
     if a.nrows() != n {
         return Err(MatricesError::SizeMismatch {
             role,
@@ -314,22 +390,27 @@ fn check_matrix(
             expected: n,
         });
     }
-    if let Some(i) = a.iter().position(|v| !v.is_finite()) {
+    let mut bad = None;
+    for_each_entry(a, |r, c, v| {
+        if bad.is_none() && !v.is_finite() {
+            bad = Some((r, c, v));
+        }
+    });
+    if let Some((row, col, value)) = bad {
         return Err(MatricesError::NonFinite {
             role,
             path: path.into(),
-            row: i % n,
-            col: i / n,
-            value: a[i],
+            row,
+            col,
+            value,
         });
     }
-    let scale = a.amax();
-    let asymmetry = (a - a.transpose()).amax();
-    if asymmetry > SYMMETRY_RTOL * scale {
+    let (asym, scale) = asymmetry(a);
+    if asym > SYMMETRY_RTOL * scale {
         return Err(MatricesError::NotSymmetric {
             role,
             path: path.into(),
-            asymmetry,
+            asymmetry: asym,
             scale,
         });
     }
@@ -338,12 +419,13 @@ fn check_matrix(
         MatrixRole::Stiffness => ("stiffness", ">= 0", |v| v >= 0.0),
         MatrixRole::Damping => ("damping", ">= 0", |v| v >= 0.0),
     };
-    if let Some(row) = (0..n).find(|&i| !ok(a[(i, i)])) {
+    let d = diagonal(a);
+    if let Some(row) = (0..n).find(|&i| !ok(d[i])) {
         return Err(MatricesError::BadDiagonal {
             role,
             path: path.into(),
             row,
-            value: a[(row, row)],
+            value: d[row],
             what,
             expected,
         });
@@ -357,7 +439,154 @@ fn unit(n: usize, dof: usize) -> DVector<f64> {
     e
 }
 
-/// Checks and builds the structure of `opts` (see the module docs).
+/// The points' DOFs in range and their names unique.
+fn check_points(points: &[(String, usize)], n: usize) -> Result<(), MatricesError> {
+    for (i, (name, dof)) in points.iter().enumerate() {
+        if *dof >= n {
+            return Err(MatricesError::DofOutOfRange {
+                name: name.clone(),
+                dof: *dof,
+                ndof: n,
+            });
+        }
+        if points[..i].iter().any(|(p, _)| p == name) {
+            return Err(MatricesError::DuplicatePoint { name: name.clone() });
+        }
+    }
+    Ok(())
+}
+
+/// The DOF of the point `name` (`key` names the option that refers to it).
+fn dof_of(
+    points: &[(String, usize)],
+    key: &'static str,
+    name: &str,
+) -> Result<usize, MatricesError> {
+    points
+        .iter()
+        .find(|(p, _)| p == name)
+        .map(|(_, d)| *d)
+        .ok_or_else(|| MatricesError::UnknownPoint {
+            key,
+            name: name.to_string(),
+            available: points.iter().map(|(p, _)| p.clone()).collect(),
+        })
+}
+
+/// The cubic spring's DOF and `k3` [N/m^3] when it is not zero.
+fn cubic_spring_dof<A>(
+    opts: &MatrixStructureOptions<A>,
+) -> Result<Option<(usize, f64)>, MatricesError> {
+    let Some((point, k3)) = &opts.cubic_spring else {
+        return Ok(None);
+    };
+    if !(k3.is_finite() && *k3 >= 0.0) {
+        return Err(MatricesError::InvalidParameter {
+            key: "k3_n_per_m3",
+            value: *k3,
+            expected: "a finite number >= 0",
+        });
+    }
+    let dof = dof_of(&opts.points, "nonlinear_point", point)?;
+    Ok((*k3 != 0.0).then_some((dof, *k3)))
+}
+
+/// How many modes of the full model to compute: enough to count rigid-body modes
+/// (at most 6 in space) and to calibrate the damping mode; the eigenvalues do not
+/// depend on how many are kept.
+fn full_mode_count<A>(damping: &MatrixDamping<A>, n: usize) -> Result<usize, MatricesError> {
+    let damping_mode = match damping {
+        MatrixDamping::StiffnessProportional { mode_index, .. } => *mode_index,
+        _ => 0,
+    };
+    if damping_mode >= n {
+        return Err(MatricesError::InvalidParameter {
+            key: "damping_mode",
+            value: (damping_mode + 1) as f64,
+            expected: "a mode number between 1 and the number of DOFs",
+        });
+    }
+    Ok((damping_mode + 1).max(7).min(n))
+}
+
+/// Rigid-body modes (refused unless allowed) and the lowest non-zero frequency.
+fn rigid_and_omega0<A>(
+    opts: &MatrixStructureOptions<A>,
+    omega: &[f64],
+) -> Result<(usize, f64), MatricesError> {
+    let rigid_body_modes = omega.iter().filter(|w| **w == 0.0).count();
+    if rigid_body_modes > 0 && !opts.allow_rigid_body_modes {
+        return Err(MatricesError::RigidBodyModes {
+            path: opts.stiffness_path.clone(),
+            count: rigid_body_modes,
+        });
+    }
+    let omega0_rad_s =
+        omega
+            .iter()
+            .copied()
+            .find(|w| *w > 0.0)
+            .ok_or(MatricesError::RigidBodyModes {
+                path: opts.stiffness_path.clone(),
+                count: rigid_body_modes,
+            })?;
+    Ok((rigid_body_modes, omega0_rad_s))
+}
+
+/// The Rayleigh coefficients and the damping ratio checked (keys as the scenario's).
+fn check_damping<A>(damping: &MatrixDamping<A>) -> Result<(), MatricesError> {
+    match damping {
+        MatrixDamping::Matrix(_) => {}
+        MatrixDamping::Rayleigh {
+            alpha_per_s,
+            beta_s,
+        } => {
+            for (key, value) in [("rayleigh[0]", *alpha_per_s), ("rayleigh[1]", *beta_s)] {
+                if !(value.is_finite() && value >= 0.0) {
+                    return Err(MatricesError::InvalidParameter {
+                        key,
+                        value,
+                        expected: "a finite number >= 0",
+                    });
+                }
+            }
+        }
+        MatrixDamping::StiffnessProportional { ratio, .. } => {
+            if !(ratio.is_finite() && *ratio >= 0.0 && *ratio < 1.0) {
+                return Err(MatricesError::InvalidParameter {
+                    key: "damping_ratio",
+                    value: *ratio,
+                    expected: "0 <= D < 1",
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Modal damping ratio of the mode `omega0` of the full model (field docs of
+/// [`MatrixStructure::damping_ratio`]); `phi_c_phi` is `phi^T C phi` of that
+/// mass-normalised mode.
+fn damping_ratio_of<A>(
+    damping: &MatrixDamping<A>,
+    omega0_rad_s: f64,
+    omega: &[f64],
+    phi_c_phi: impl FnOnce() -> f64,
+) -> f64 {
+    // exact for the proportional kinds (damping.rs), the projection for a matrix
+    match damping {
+        MatrixDamping::StiffnessProportional { ratio, mode_index } => {
+            ratio * omega0_rad_s / omega[*mode_index]
+        }
+        MatrixDamping::Rayleigh {
+            alpha_per_s,
+            beta_s,
+        } => alpha_per_s / (2.0 * omega0_rad_s) + beta_s * omega0_rad_s / 2.0,
+        MatrixDamping::Matrix(_) => phi_c_phi() / (2.0 * omega0_rad_s),
+    }
+}
+
+/// Checks and builds the structure of `opts` (see the module docs), dense.
 pub fn matrix_structure(opts: &MatrixStructureOptions) -> Result<MatrixStructure, MatricesError> {
     let n = opts.mass.nrows();
     check_matrix(MatrixRole::Mass, &opts.mass_path, &opts.mass, n)?;
@@ -377,59 +606,14 @@ pub fn matrix_structure(opts: &MatrixStructureOptions) -> Result<MatrixStructure
         });
     }
     let mut full = StructuralModel::new(opts.mass.clone(), opts.stiffness.clone());
-    let mut point_dofs = Vec::new();
+    check_points(&opts.points, n)?;
     for (name, dof) in &opts.points {
-        if *dof >= n {
-            return Err(MatricesError::DofOutOfRange {
-                name: name.clone(),
-                dof: *dof,
-                ndof: n,
-            });
-        }
-        if point_dofs.iter().any(|(p, _): &(String, usize)| p == name) {
-            return Err(MatricesError::DuplicatePoint { name: name.clone() });
-        }
         full.add_named_point(name, unit(n, *dof))?;
-        point_dofs.push((name.clone(), *dof));
     }
-    let dof_of = |key: &'static str, name: &str| {
-        point_dofs
-            .iter()
-            .find(|(p, _)| p == name)
-            .map(|(_, d)| *d)
-            .ok_or_else(|| MatricesError::UnknownPoint {
-                key,
-                name: name.to_string(),
-                available: point_dofs.iter().map(|(p, _)| p.clone()).collect(),
-            })
-    };
-    if let Some((point, k3)) = &opts.cubic_spring {
-        if !(k3.is_finite() && *k3 >= 0.0) {
-            return Err(MatricesError::InvalidParameter {
-                key: "k3_n_per_m3",
-                value: *k3,
-                expected: "a finite number >= 0",
-            });
-        }
-        let dof = dof_of("nonlinear_point", point)?;
-        if *k3 != 0.0 {
-            full.add_nonlinear(CUBIC_SPRING, unit(n, dof), CubicSpring::new(*k3)?)?;
-        }
+    if let Some((dof, k3)) = cubic_spring_dof(opts)? {
+        full.add_nonlinear(CUBIC_SPRING, unit(n, dof), CubicSpring::new(k3)?)?;
     }
-    // Enough modes to count rigid-body modes (at most 6 in space) and to calibrate
-    // the damping mode; the eigenvalues do not depend on how many are kept.
-    let damping_mode = match opts.damping {
-        MatrixDamping::StiffnessProportional { mode_index, .. } => mode_index,
-        _ => 0,
-    };
-    if damping_mode >= n {
-        return Err(MatricesError::InvalidParameter {
-            key: "damping_mode",
-            value: (damping_mode + 1) as f64,
-            expected: "a mode number between 1 and the number of DOFs",
-        });
-    }
-    let n_modes = (damping_mode + 1).max(7).min(n);
+    let n_modes = full_mode_count(&opts.damping, n)?;
     let modes = modal_analysis(&full, n_modes).map_err(|e| match e {
         StructureError::NegativeEigenvalue { lambda, .. } => MatricesError::StiffnessIndefinite {
             path: opts.stiffness_path.clone(),
@@ -437,66 +621,27 @@ pub fn matrix_structure(opts: &MatrixStructureOptions) -> Result<MatrixStructure
         },
         e => e.into(),
     })?;
-    let rigid_body_modes = modes.omega_rad_s.iter().filter(|w| **w == 0.0).count();
-    if rigid_body_modes > 0 && !opts.allow_rigid_body_modes {
-        return Err(MatricesError::RigidBodyModes {
-            path: opts.stiffness_path.clone(),
-            count: rigid_body_modes,
-        });
-    }
-    let omega0_rad_s = modes.omega_rad_s.iter().copied().find(|w| *w > 0.0).ok_or(
-        MatricesError::RigidBodyModes {
-            path: opts.stiffness_path.clone(),
-            count: rigid_body_modes,
-        },
-    )?;
+    let (rigid_body_modes, omega0_rad_s) = rigid_and_omega0(opts, &modes.omega_rad_s)?;
+    check_damping(&opts.damping)?;
     match &opts.damping {
         MatrixDamping::Matrix(c) => full.damping = c.clone(),
         MatrixDamping::Rayleigh {
             alpha_per_s,
             beta_s,
-        } => {
-            for (key, value) in [("rayleigh[0]", *alpha_per_s), ("rayleigh[1]", *beta_s)] {
-                if !(value.is_finite() && value >= 0.0) {
-                    return Err(MatricesError::InvalidParameter {
-                        key,
-                        value,
-                        expected: "a finite number >= 0",
-                    });
-                }
-            }
-            rayleigh_damping(&mut full, *alpha_per_s, *beta_s)?;
-        }
+        } => rayleigh_damping(&mut full, *alpha_per_s, *beta_s)?,
         MatrixDamping::StiffnessProportional { ratio, mode_index } => {
-            if !(ratio.is_finite() && *ratio >= 0.0 && *ratio < 1.0) {
-                return Err(MatricesError::InvalidParameter {
-                    key: "damping_ratio",
-                    value: *ratio,
-                    expected: "0 <= D < 1",
-                });
-            }
             stiffness_proportional_damping_from_modes(&mut full, &modes, *mode_index, *ratio)?;
         }
     }
-    // exact for the proportional kinds (damping.rs), the projection for a matrix
-    let damping_ratio = match &opts.damping {
-        MatrixDamping::StiffnessProportional { ratio, mode_index } => {
-            ratio * omega0_rad_s / modes.omega_rad_s[*mode_index]
-        }
-        MatrixDamping::Rayleigh {
-            alpha_per_s,
-            beta_s,
-        } => alpha_per_s / (2.0 * omega0_rad_s) + beta_s * omega0_rad_s / 2.0,
-        MatrixDamping::Matrix(c) => {
-            let phi = modes.shape(rigid_body_modes);
-            phi.dot(&(c * &phi)) / (2.0 * omega0_rad_s)
-        }
-    };
+    let damping_ratio = damping_ratio_of(&opts.damping, omega0_rad_s, &modes.omega_rad_s, || {
+        let phi = modes.shape(rigid_body_modes);
+        phi.dot(&(&full.damping * &phi))
+    });
     let (model, transform, interface_omega_rad_s) = match &opts.craig_bampton {
         Some((masters, n_modes)) => {
             let dofs = masters
                 .iter()
-                .map(|m| dof_of("cb_masters", m))
+                .map(|m| dof_of(&opts.points, "cb_masters", m))
                 .collect::<Result<Vec<_>, _>>()?;
             let cb = craig_bampton(&full, &dofs, *n_modes)?;
             (cb.reduced, cb.transform, cb.interface_omega_rad_s)
@@ -505,7 +650,8 @@ pub fn matrix_structure(opts: &MatrixStructureOptions) -> Result<MatrixStructure
     };
     Ok(MatrixStructure {
         model,
-        full,
+        full: Some(full),
+        full_ndof: n,
         transform,
         rigid_body_modes,
         omega0_rad_s,
@@ -514,9 +660,359 @@ pub fn matrix_structure(opts: &MatrixStructureOptions) -> Result<MatrixStructure
     })
 }
 
+/// As [`matrix_structure`] from sparse matrices. With Craig-Bampton and at least
+/// [`SPARSE_MIN_DOF`] DOFs the full model is never made dense
+/// ([`matrix_structure_sparse_cb`]; [`MatrixStructure::full`] is `None`); a
+/// smaller model, or one without reduction up to [`DENSE_MAX_DOF`] DOFs
+/// ([`MatricesError::TooLargeForDense`] above), takes the dense path.
+pub fn matrix_structure_sparse(
+    opts: &MatrixStructureOptions<SparseMatrix>,
+) -> Result<MatrixStructure, MatricesError> {
+    let n = opts.mass.nrows();
+    if opts.craig_bampton.is_some() && n >= SPARSE_MIN_DOF {
+        return matrix_structure_sparse_cb(opts);
+    }
+    {
+        if opts.craig_bampton.is_none() && n > DENSE_MAX_DOF {
+            return Err(MatricesError::TooLargeForDense {
+                ndof: n,
+                max: DENSE_MAX_DOF,
+            });
+        }
+        let dense = MatrixStructureOptions {
+            mass: sparse_to_dense(&opts.mass),
+            mass_path: opts.mass_path.clone(),
+            stiffness: sparse_to_dense(&opts.stiffness),
+            stiffness_path: opts.stiffness_path.clone(),
+            damping: match &opts.damping {
+                MatrixDamping::Matrix(c) => MatrixDamping::Matrix(sparse_to_dense(c)),
+                MatrixDamping::Rayleigh {
+                    alpha_per_s,
+                    beta_s,
+                } => MatrixDamping::Rayleigh {
+                    alpha_per_s: *alpha_per_s,
+                    beta_s: *beta_s,
+                },
+                MatrixDamping::StiffnessProportional { ratio, mode_index } => {
+                    MatrixDamping::StiffnessProportional {
+                        ratio: *ratio,
+                        mode_index: *mode_index,
+                    }
+                }
+            },
+            damping_path: opts.damping_path.clone(),
+            points: opts.points.clone(),
+            cubic_spring: opts.cubic_spring.clone(),
+            craig_bampton: opts.craig_bampton.clone(),
+            allow_rigid_body_modes: opts.allow_rigid_body_modes,
+        };
+        matrix_structure(&dense)
+    }
+}
+
+/// The sparse Craig-Bampton path of [`matrix_structure_sparse`] at any size (the
+/// module docs; `opts.craig_bampton` must be given, else
+/// [`MatricesError::InvalidParameter`] on `cb_modes`).
+pub fn matrix_structure_sparse_cb(
+    opts: &MatrixStructureOptions<SparseMatrix>,
+) -> Result<MatrixStructure, MatricesError> {
+    let n = opts.mass.nrows();
+    let Some((masters, cb_modes)) = &opts.craig_bampton else {
+        return Err(MatricesError::InvalidParameter {
+            key: "cb_modes",
+            value: 0.0,
+            expected: "a Craig-Bampton reduction on the sparse path",
+        });
+    };
+    let (m, k) = (&opts.mass, &opts.stiffness);
+    check_sparse_matrix(MatrixRole::Mass, &opts.mass_path, m, n)?;
+    check_sparse_matrix(MatrixRole::Stiffness, &opts.stiffness_path, k, n)?;
+    if let MatrixDamping::Matrix(c) = &opts.damping {
+        let p = opts.damping_path.clone().unwrap_or_default();
+        check_sparse_matrix(MatrixRole::Damping, &p, c, n)?;
+    }
+    if n == 0 || SparseCholesky::new(m).is_none() {
+        return Err(MatricesError::MassNotPositiveDefinite {
+            path: opts.mass_path.clone(),
+        });
+    }
+    check_points(&opts.points, n)?;
+    let spring = cubic_spring_dof(opts)?;
+    let n_modes = full_mode_count(&opts.damping, n)?;
+    let (omega, phi) = sparse_modal(m, k, n_modes, "n_modes").map_err(|e| match e {
+        StructureError::NegativeEigenvalue { lambda, .. } => MatricesError::StiffnessIndefinite {
+            path: opts.stiffness_path.clone(),
+            lambda,
+        },
+        e => e.into(),
+    })?;
+    let (rigid_body_modes, omega0_rad_s) = rigid_and_omega0(opts, &omega)?;
+    check_damping(&opts.damping)?;
+    // C as damping.rs builds it, entry by entry
+    let c = match &opts.damping {
+        MatrixDamping::Matrix(c) => c.clone(),
+        MatrixDamping::Rayleigh {
+            alpha_per_s,
+            beta_s,
+        } => sparse_add(*alpha_per_s, m, *beta_s, k),
+        MatrixDamping::StiffnessProportional { ratio, mode_index } => {
+            let w = omega[*mode_index];
+            if w == 0.0 {
+                return Err(StructureError::ZeroFrequencyMode {
+                    index: *mode_index,
+                    omega_rad_s: w,
+                }
+                .into());
+            }
+            let beta = 2.0 * ratio / w;
+            let mut c = k.clone();
+            for v in c.val_mut() {
+                *v *= beta;
+            }
+            c
+        }
+    };
+    let damping_ratio = damping_ratio_of(&opts.damping, omega0_rad_s, &omega, || {
+        let p = phi.columns(rigid_body_modes, 1).into_owned();
+        p.dot(&sparse_mul(&c, &p))
+    });
+    let dofs = masters
+        .iter()
+        .map(|name| dof_of(&opts.points, "cb_masters", name))
+        .collect::<Result<Vec<_>, _>>()?;
+    let cb = craig_bampton_sparse(m, k, Some(&c), &dofs, *cb_modes)?;
+    let row = |dof: usize| cb.transform.row(dof).transpose();
+    let mut nonlinear = Vec::new();
+    if let Some((dof, k3)) = spring {
+        nonlinear.push(NonlinearElement {
+            name: CUBIC_SPRING.into(),
+            direction: row(dof),
+            law: Arc::new(CubicSpring::new(k3)?),
+        });
+    }
+    let model = StructuralModel {
+        mass: cb.mass,
+        stiffness: cb.stiffness,
+        damping: cb.damping,
+        nonlinear,
+        points: opts
+            .points
+            .iter()
+            .map(|(name, dof)| NamedPoint {
+                name: name.clone(),
+                direction: row(*dof),
+            })
+            .collect(),
+    };
+    model.validate()?;
+    Ok(MatrixStructure {
+        model,
+        full: None,
+        full_ndof: n,
+        transform: cb.transform,
+        rigid_body_modes,
+        omega0_rad_s,
+        damping_ratio,
+        interface_omega_rad_s: cb.interface_omega_rad_s,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The 3-DOF chain of `tests/matrices.rs` and a 30-node beam (58 DOFs),
+    /// through the dense and the sparse Craig-Bampton paths.
+    fn chain() -> (DMatrix<f64>, DMatrix<f64>) {
+        let m = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 2.0, 3.0]));
+        let k = DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                300.0, -200.0, 0.0, -200.0, 500.0, -300.0, 0.0, -300.0, 300.0,
+            ],
+        );
+        (m, k)
+    }
+
+    fn opts(m: DMatrix<f64>, k: DMatrix<f64>, pts: Vec<(String, usize)>) -> MatrixStructureOptions {
+        let last = pts.last().unwrap().0.clone();
+        MatrixStructureOptions {
+            mass: m,
+            mass_path: "M.mtx".into(),
+            stiffness: k,
+            stiffness_path: "K.mtx".into(),
+            damping: MatrixDamping::StiffnessProportional {
+                ratio: 0.01,
+                mode_index: 0,
+            },
+            damping_path: None,
+            points: pts,
+            cubic_spring: Some((last.clone(), 1e6)),
+            craig_bampton: Some((vec![last], 1)),
+            allow_rigid_body_modes: false,
+        }
+    }
+
+    fn to_sparse(o: &MatrixStructureOptions) -> MatrixStructureOptions<SparseMatrix> {
+        MatrixStructureOptions {
+            mass: sparse_from_dense(&o.mass),
+            mass_path: o.mass_path.clone(),
+            stiffness: sparse_from_dense(&o.stiffness),
+            stiffness_path: o.stiffness_path.clone(),
+            damping: match &o.damping {
+                MatrixDamping::Matrix(c) => MatrixDamping::Matrix(sparse_from_dense(c)),
+                MatrixDamping::Rayleigh {
+                    alpha_per_s,
+                    beta_s,
+                } => MatrixDamping::Rayleigh {
+                    alpha_per_s: *alpha_per_s,
+                    beta_s: *beta_s,
+                },
+                MatrixDamping::StiffnessProportional { ratio, mode_index } => {
+                    MatrixDamping::StiffnessProportional {
+                        ratio: *ratio,
+                        mode_index: *mode_index,
+                    }
+                }
+            },
+            damping_path: o.damping_path.clone(),
+            points: o.points.clone(),
+            cubic_spring: o.cubic_spring.clone(),
+            craig_bampton: o.craig_bampton.clone(),
+            allow_rigid_body_modes: o.allow_rigid_body_modes,
+        }
+    }
+
+    #[test]
+    fn sparse_path_equals_the_dense_one() {
+        let beam = crate::structure::BeamSpec {
+            n_nodes: 30,
+            ..crate::structure::BeamSpec::paper()
+        }
+        .assemble()
+        .unwrap();
+        let (cm, ck) = chain();
+        let tip = beam.translation_dof(29).unwrap();
+        let mid = beam.translation_dof(15).unwrap();
+        let mut beam_opts = opts(
+            beam.model.mass.clone(),
+            beam.model.stiffness.clone(),
+            vec![("mid".into(), mid), ("tip".into(), tip)],
+        );
+        beam_opts.craig_bampton = Some((vec!["tip".into(), "mid".into()], 8));
+        beam_opts.damping = MatrixDamping::Rayleigh {
+            alpha_per_s: 0.5,
+            beta_s: 1e-5,
+        };
+        let mut chain_opts = opts(cm.clone(), ck, vec![("a".into(), 0), ("b".into(), 2)]);
+        chain_opts.damping = MatrixDamping::Matrix(cm * 0.1);
+        for o in [chain_opts, beam_opts] {
+            let d = matrix_structure(&o).unwrap();
+            let s = matrix_structure_sparse_cb(&to_sparse(&o)).unwrap();
+            // small models take the dense path through matrix_structure_sparse
+            let via = matrix_structure_sparse(&to_sparse(&o)).unwrap();
+            assert_eq!(via.omega0_rad_s, d.omega0_rad_s);
+            assert!(s.full.is_none() && s.full_ndof == d.full_ndof);
+            let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+            assert!(rel(s.omega0_rad_s, d.omega0_rad_s) < 1e-9);
+            assert!(rel(s.damping_ratio, d.damping_ratio) < 1e-9);
+            assert_eq!(s.rigid_body_modes, 0);
+            for (a, b) in s.interface_omega_rad_s.iter().zip(&d.interface_omega_rad_s) {
+                assert!(rel(*a, *b) < 1e-9, "{a} vs {b}");
+            }
+            // the reduced models' spectra and their points / spring
+            let n = s.model.ndof();
+            let ws = modal_analysis(&s.model, n).unwrap().omega_rad_s;
+            let wd = modal_analysis(&d.model, n).unwrap().omega_rad_s;
+            for (a, b) in ws.iter().zip(&wd) {
+                assert!(rel(*a, *b) < 1e-9, "{a} vs {b}");
+            }
+            assert_eq!(s.model.points.len(), d.model.points.len());
+            assert_eq!(s.model.nonlinear.len(), 1);
+            let (es, ed) = (
+                &s.model.nonlinear[0].direction,
+                &d.model.nonlinear[0].direction,
+            );
+            assert_eq!(es[0], ed[0]);
+        }
+    }
+
+    #[test]
+    fn sparse_path_checks() {
+        let (m, k) = chain();
+        let pts = vec![("a".into(), 0), ("b".into(), 2)];
+        let err = |o: MatrixStructureOptions| {
+            matrix_structure_sparse_cb(&to_sparse(&o))
+                .unwrap_err()
+                .to_string()
+        };
+        let mut ka = k.clone();
+        ka[(0, 1)] += 1.0;
+        let e = err(opts(m.clone(), ka, pts.clone()));
+        assert!(
+            e.contains("stiffness_mtx") && e.contains("not symmetric"),
+            "{e}"
+        );
+        let mut mi = m.clone();
+        mi[(0, 1)] = 5.0;
+        mi[(1, 0)] = 5.0;
+        let e = err(opts(mi, k.clone(), pts.clone()));
+        assert!(
+            e.contains("mass_mtx") && e.contains("not positive definite"),
+            "{e}"
+        );
+        let mut kn = k.clone();
+        kn[(0, 0)] = 50.0;
+        let e = err(opts(m.clone(), kn, pts.clone()));
+        assert!(e.contains("not positive semi-definite"), "{e}");
+        // free chain: one rigid-body mode, refused unless allowed
+        let mut kf = k.clone();
+        kf[(0, 0)] = 200.0;
+        let e = err(opts(m.clone(), kf.clone(), pts.clone()));
+        assert!(e.contains("1 rigid-body mode"), "{e}");
+        let mut o = opts(m.clone(), kf, pts.clone());
+        o.allow_rigid_body_modes = true;
+        o.craig_bampton = Some((vec!["a".into(), "b".into()], 1));
+        o.damping = MatrixDamping::StiffnessProportional {
+            ratio: 0.01,
+            mode_index: 1,
+        };
+        let s = matrix_structure_sparse_cb(&to_sparse(&o)).unwrap();
+        assert_eq!(s.rigid_body_modes, 1);
+        let e = err(opts(
+            m.clone(),
+            k.clone(),
+            vec![("a".into(), 0), ("c".into(), 3)],
+        ));
+        assert!(e.contains("`c`") && e.contains("dof = 3"), "{e}");
+        // reduction = "none" above the dense cap
+        let big = sparse_from_triplets(
+            DENSE_MAX_DOF + 1,
+            &(0..=DENSE_MAX_DOF).map(|i| (i, i, 1.0)).collect::<Vec<_>>(),
+        )
+        .unwrap();
+        let mut o = to_sparse(&opts(m, k, pts));
+        o.mass = big.clone();
+        o.stiffness = big;
+        o.craig_bampton = None;
+        let e = matrix_structure_sparse(&o).unwrap_err();
+        assert!(
+            matches!(e, MatricesError::TooLargeForDense { ndof, .. } if ndof == DENSE_MAX_DOF + 1)
+        );
+        assert!(e.to_string().contains("craig-bampton"));
+    }
+
+    #[test]
+    fn sparse_writer_round_trips() {
+        let (_, k) = chain();
+        let s = sparse_from_dense(&k);
+        let text = write_matrix_market_sparse(&s);
+        assert_eq!(text, write_matrix_market(&k));
+        let back = read_matrix_market_sparse_str(MatrixRole::Stiffness, Path::new("K.mtx"), &text)
+            .unwrap();
+        assert_eq!(sparse_to_dense(&back), k);
+    }
 
     #[test]
     fn pest_line_numbers() {

@@ -15,6 +15,8 @@
 //! * [`mod@craig_bampton`]: Craig-Bampton reduction with chosen master DOFs and fixed-interface modes.
 //! * [`paper`]: the benchmark structure of the paper (Section 5).
 //! * [`matrices`]: the user's structure from FE matrices (Matrix Market files).
+//! * [`sparse`]: sparse FE matrices (faer): sparse Cholesky and the shift-invert
+//!   block Lanczos eigensolver of the large-model Craig-Bampton path.
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
@@ -108,9 +110,10 @@ pub mod laws;
 pub mod matrices;
 pub mod modal;
 pub mod paper;
+pub mod sparse;
 
 pub use beam::{Beam, BeamSpec, BoundaryCondition};
-pub use craig_bampton::{craig_bampton, CraigBampton};
+pub use craig_bampton::{craig_bampton, craig_bampton_sparse, CraigBampton, SparseCraigBampton};
 pub use damping::{
     modal_damping, rayleigh_damping, stiffness_proportional_damping,
     stiffness_proportional_damping_from_modes,
@@ -119,11 +122,13 @@ pub use laws::{
     ElasticDryFriction, PolynomialSpring, QuadraticDamper, RegularizedFriction, UnilateralSpring,
 };
 pub use matrices::{
-    matrix_structure, read_matrix_market, MatricesError, MatrixDamping, MatrixRole,
-    MatrixStructure, MatrixStructureOptions,
+    matrix_structure, matrix_structure_sparse, matrix_structure_sparse_cb, read_matrix_market,
+    read_matrix_market_sparse, MatricesError, MatrixDamping, MatrixRole, MatrixStructure,
+    MatrixStructureOptions,
 };
 pub use modal::{modal_analysis, LinearModes};
 pub use paper::{paper_structure, PaperStructure, PaperStructureOptions};
+pub use sparse::SparseMatrix;
 
 /// Errors of the structure layer. Every variant names the offending input and
 /// carries its value.
@@ -215,6 +220,17 @@ pub enum StructureError {
     /// do not restrain the rigid-body motion.
     #[error("the interior stiffness K_ii is not positive definite: the masters {masters:?} do not restrain all rigid-body motion")]
     SingularInterior { masters: Vec<usize> },
+    /// The sparse eigensolver did not converge within its bounded basis.
+    #[error(
+        "`{name}`: the sparse eigensolver did not converge for {requested} modes within a \
+         basis of {basis} vectors (relative residual {residual:e})"
+    )]
+    EigenNotConverged {
+        name: &'static str,
+        requested: usize,
+        basis: usize,
+        residual: f64,
+    },
     /// A matrix that must be symmetric is not.
     #[error(
         "matrix `{name}` is not symmetric: max |A - A^T| = {asymmetry:e}, max |A| = {scale:e}"
