@@ -85,6 +85,27 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+    /// Measurements (no files kept).
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Samples per second of `host study` on an embedded case-(a) study at 1
+    /// and 2 threads, the parallel efficiency, and against the
+    /// envelope-storing path.
+    Study {
+        /// Samples of the study.
+        #[arg(long, default_value_t = 4000)]
+        samples: usize,
+        /// Most worker threads (1, 2 and this are measured).
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Repetitions (the best counts).
+        #[arg(long, default_value_t = 2)]
+        repeat: usize,
+    },
 }
 
 /// `host run` wrote what it could, but a requested method could not run.
@@ -142,6 +163,20 @@ fn main() -> ExitCode {
                 ExitCode::SUCCESS
             })
         }
+        Command::Bench(BenchCommand::Study {
+            samples,
+            threads,
+            repeat,
+        }) => study::bench::bench(samples, threads, repeat).map(|r| {
+            for l in study::bench::lines(&r) {
+                println!("{l}");
+            }
+            if r.identical {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(2)
+            }
+        }),
         Command::Cosim { spec, out } => cosim_cmd::cosim(&spec, &out).map(|()| ExitCode::SUCCESS),
         Command::Package { out, fmu_dir } => {
             package::package(&out, fmu_dir.as_deref()).map(|paths| {

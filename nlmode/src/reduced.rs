@@ -101,7 +101,8 @@ pub use imposed::ForceEnvelope;
 pub use post::TimeSignals;
 pub use steady::{LinearSteady, SteadyFrequency, SteadyPoint};
 pub use sweep::{
-    Envelope, SlowFlowOptions, SlowFlowResult, SlowFlowSample, SweepStatus, SweepSummary,
+    Envelope, SlowFlowOptions, SlowFlowResult, SlowFlowSample, SweepRun, SweepSink, SweepStatus,
+    SweepSummary, SWEEP_BATCH,
 };
 
 /// Boxed error of an attachment model.

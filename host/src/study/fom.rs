@@ -6,7 +6,8 @@
 //! the jump-down ([`crate::results::jump_down`]) is the steepest drop of the
 //! tip envelope over `w = max(n / 400, 1)` samples at or after the last
 //! largest finite tip amplitude, at the midpoint of that window, none for
-//! fewer than 8 samples. [`Figures::fold`] evaluates the same expressions in
+//! fewer than 8 samples. [`Figures::fold`] (by [`Fold`], which a sweep feeds
+//! as it integrates) evaluates the same expressions in
 //! the same order on the same samples, keeping only the last `w + 1` of them
 //! (a ring), so the study's numbers are bit-identical to `host run`'s without
 //! an envelope being stored: when a new maximum arrives the steepest-drop
@@ -42,56 +43,12 @@ impl Figures {
         n: usize,
         is_sweep: bool,
     ) -> Self {
-        let w = (n / 400).max(1);
-        // ring of the last w + 1 samples (omega, tip)
-        let mut ring = vec![(0.0f64, 0.0f64); w + 1];
-        let mut peak = (f64::NAN, f64::NAN);
-        let (mut fmin, mut fmax) = (f64::INFINITY, f64::NEG_INFINITY);
-        // last largest finite tip amplitude (index, value) and the steepest drop after it
-        let mut top: Option<(usize, f64)> = None;
-        let mut best: Option<(f64, f64)> = None;
-        let mut count = 0usize;
-        for (j, (x, y, f)) in samples.into_iter().enumerate() {
-            count += 1;
-            if y.is_finite() && !(y <= peak.0) {
-                peak = (y, x);
-            }
-            if f.is_finite() {
-                fmin = fmin.min(f);
-                fmax = fmax.max(f);
-            }
-            ring[j % (w + 1)] = (x, y);
-            if y.is_finite() && top.map_or(true, |(_, v)| y.total_cmp(&v).is_ge()) {
-                top = Some((j, y));
-                best = None;
-            }
-            // the window (i, i + w) = (j - w, j), for i at or after the maximum
-            if let Some((ipk, _)) = top {
-                if j >= w && j - w >= ipk {
-                    let (xi, yi) = ring[(j - w) % (w + 1)];
-                    let dx = x - xi;
-                    if dx != 0.0 {
-                        let slope = (y - yi) / dx.abs();
-                        if best.map_or(true, |(s, _)| slope < s) {
-                            best = Some((slope, 0.5 * (xi + x)));
-                        }
-                    }
-                }
-            }
+        let mut fold = Fold::new(n);
+        for (x, y, f) in samples {
+            fold.push(x, y, f);
         }
-        debug_assert_eq!(count, n, "Figures::fold: n must be the sample count");
-        let finite = |v: f64| v.is_finite().then_some(v);
-        Self {
-            peak_tip_amplitude_m: finite(peak.0),
-            peak_omega_rad_s: finite(peak.1),
-            jump_down_omega_rad_s: if is_sweep && n >= 8 {
-                best.map(|(_, x)| x)
-            } else {
-                None
-            },
-            min_force_amplitude_n: finite(fmin),
-            max_force_amplitude_n: finite(fmax),
-        }
+        debug_assert_eq!(fold.count, n, "Figures::fold: n must be the sample count");
+        fold.finish(is_sweep)
     }
 
     /// The figures of a slow-flow sweep (its output samples in order).
@@ -119,6 +76,122 @@ impl Figures {
             n,
             is_sweep,
         )
+    }
+}
+
+/// [`Figures::fold`] one sample at a time: the figures of a sweep of `n`
+/// samples without the samples stored. The jump-down window `w = max(n /
+/// 400, 1)` is fixed by the count announced to [`Fold::new`]; a sweep that
+/// ends with another count (it stopped early) is folded exactly only if its
+/// window is the same ([`Fold::is_exact`]).
+#[derive(Debug, Clone)]
+pub struct Fold {
+    w: usize,
+    /// The last `w + 1` samples (omega, tip); sample `j` in slot `j % (w + 1)`.
+    ring: Vec<(f64, f64)>,
+    /// Slot of the next sample.
+    slot: usize,
+    peak: (f64, f64),
+    fmin: f64,
+    fmax: f64,
+    /// Last largest finite tip amplitude (index, value) and the steepest drop after it.
+    top: Option<(usize, f64)>,
+    best: Option<(f64, f64)>,
+    count: usize,
+}
+
+impl Fold {
+    /// A fold of a sweep of `n` output samples.
+    pub fn new(n: usize) -> Self {
+        let w = (n / 400).max(1);
+        Self {
+            w,
+            ring: vec![(0.0, 0.0); w + 1],
+            slot: 0,
+            peak: (f64::NAN, f64::NAN),
+            fmin: f64::INFINITY,
+            fmax: f64::NEG_INFINITY,
+            top: None,
+            best: None,
+            count: 0,
+        }
+    }
+
+    /// The next sample `(omega [rad/s], tip amplitude [m], force amplitude [N])`.
+    #[inline]
+    pub fn push(&mut self, x: f64, y: f64, f: f64) {
+        let (j, w) = (self.count, self.w);
+        self.count += 1;
+        if y.is_finite() && !(y <= self.peak.0) {
+            self.peak = (y, x);
+        }
+        if f.is_finite() {
+            self.fmin = self.fmin.min(f);
+            self.fmax = self.fmax.max(f);
+        }
+        // slot of sample j - w (= (j + 1) % (w + 1)), read after j is written
+        let slot = self.slot;
+        let older = if slot == w { 0 } else { slot + 1 };
+        self.ring[slot] = (x, y);
+        self.slot = older;
+        if y.is_finite() && self.top.map_or(true, |(_, v)| y.total_cmp(&v).is_ge()) {
+            self.top = Some((j, y));
+            self.best = None;
+        }
+        // the window (i, i + w) = (j - w, j), for i at or after the maximum
+        if let Some((ipk, _)) = self.top {
+            if j >= w && j - w >= ipk {
+                let (xi, yi) = self.ring[older];
+                let dx = x - xi;
+                if dx != 0.0 {
+                    let slope = (y - yi) / dx.abs();
+                    if self.best.map_or(true, |(s, _)| slope < s) {
+                        self.best = Some((slope, 0.5 * (xi + x)));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Samples folded.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// Whether the samples folded so far give the figures of [`Figures::fold`]
+    /// of exactly these samples (the window of their count is the one used).
+    pub fn is_exact(&self) -> bool {
+        (self.count / 400).max(1) == self.w
+    }
+
+    /// The figures of the samples folded; `is_sweep`: a transient sweep.
+    pub fn finish(&self, is_sweep: bool) -> Figures {
+        let finite = |v: f64| v.is_finite().then_some(v);
+        Figures {
+            peak_tip_amplitude_m: finite(self.peak.0),
+            peak_omega_rad_s: finite(self.peak.1),
+            jump_down_omega_rad_s: if is_sweep && self.count >= 8 {
+                self.best.map(|(_, x)| x)
+            } else {
+                None
+            },
+            min_force_amplitude_n: finite(self.fmin),
+            max_force_amplitude_n: finite(self.fmax),
+        }
+    }
+}
+
+/// A slow-flow sweep folded as it integrates
+/// ([`nlmode::reduced::ReducedModel::simulate_sweep_into`]).
+impl nlmode::reduced::SweepSink for Fold {
+    fn samples(
+        &mut self,
+        batch: &[nlmode::reduced::SlowFlowSample],
+    ) -> Result<(), nlmode::reduced::ReducedError> {
+        for s in batch {
+            self.push(s.omega_rad_s, s.tip_amplitude_m, s.force_amplitude_n);
+        }
+        Ok(())
     }
 }
 

@@ -16,16 +16,24 @@
 //! points and the response point, which is everything they depend on
 //! ([`structure_key`]); so is the
 //! table's interpolant (the reduced model without attachments), cloned per
-//! sample. The figures of merit are folded from the slow flow's output
-//! samples ([`fom`]: the same samples and definitions as `summary.json`, so
-//! the numbers are bit-identical to `host run`'s); `nlmode` returns a sweep's
-//! samples in one batch, which is dropped once folded: no envelope is kept
-//! or written, each worker holds one sweep's samples at a time.
-//! Rows are appended to `DIR/results.csv` (flushed) as samples finish, so an
-//! interrupted study loses nothing; `--resume` skips the samples already
-//! there. At the end the rows are sorted by sample (the files do not depend
+//! sample. The figures of merit are folded as the sweep integrates: the
+//! slow flow hands its output samples to a [`fom::Fold`] in batches of
+//! [`nlmode::reduced::SWEEP_BATCH`]
+//! ([`nlmode::reduced::ReducedModel::simulate_sweep_into`], the one sweep
+//! kernel; `host run` stores the same samples through it), so no envelope is
+//! kept or written. The numbers stay bit-identical to `host run`'s
+//! `summary.json`: the same samples (same integration, same output
+//! expressions, element-wise, so batching changes nothing) are folded in the
+//! same order by the same expressions as its summary ([`fom`]). A sweep that
+//! stops early with a sample count in another jump-down window than
+//! announced is run again storing its samples (exact, rare).
+//! Rows are appended to `DIR/results.csv` in batches as samples finish
+//! ([`output::RowWriter`]: at most the rows finished in the last half
+//! second, fewer than 64, are lost to an interruption); `--resume` skips the
+//! samples already there. At the end the rows are sorted by sample (the files do not depend
 //! on the thread count), `results.parquet` is rebuilt from the sorted CSV,
 //! and `study_summary.json` and the plots are written ([`output`]).
+pub mod bench;
 pub mod design;
 pub mod fom;
 pub mod output;
@@ -429,8 +437,29 @@ pub struct Row {
     pub status: String,
 }
 
+/// How [`run_sample_with`] takes a slow-flow sweep's figures of merit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SweepPath {
+    /// Folded as the sweep integrates ([`fom::Fold`] as the sweep's sink): no envelope.
+    Fold,
+    /// The sweep's samples stored, then folded (the path before the sink; the bench's baseline).
+    Stored,
+}
+
 /// Run `method` on one sample's scenario.
 fn run_sample(cache: &Cache, sample: usize, sc: &Scenario, method: Method) -> Row {
+    run_sample_with(cache, sample, sc, method, SweepPath::Fold)
+}
+
+/// [`run_sample`] by either [`SweepPath`]: the rows are identical, bit for
+/// bit (the same samples folded in the same order by the same expressions).
+fn run_sample_with(
+    cache: &Cache,
+    sample: usize,
+    sc: &Scenario,
+    method: Method,
+    path: SweepPath,
+) -> Row {
     let row = |figures, left_table, status: String| Row {
         sample,
         figures,
@@ -470,16 +499,38 @@ fn run_sample(cache: &Cache, sample: usize, sc: &Scenario, method: Method) -> Ro
                 if method == Method::LinearSlowflow {
                     model = model.linear().map_err(|e| format!("{e}"))?;
                 }
-                let res = model
-                    .simulate_sweep(&setup.sweep, &sc.slowflow.options(method))
-                    .map_err(|e| format!("{method}: {e}"))?;
+                let opts = sc.slowflow.options(method);
+                let stored = || {
+                    model
+                        .simulate_sweep(&setup.sweep, &opts)
+                        .map(|res| (Figures::of_slow_flow(&res), res.status))
+                };
+                let (figures, status) = match path {
+                    SweepPath::Stored => stored(),
+                    SweepPath::Fold => {
+                        let mut fold = fom::Fold::new(opts.output_samples);
+                        let zero = num_complex::Complex64::new(0.0, 0.0);
+                        model
+                            .simulate_sweep_into(&setup.sweep, &opts, zero, &mut fold)
+                            .and_then(|run| {
+                                if fold.is_exact() {
+                                    Ok((fold.finish(true), run.status))
+                                } else {
+                                    // stopped early with another jump-down window
+                                    // than announced: the stored path, exact
+                                    stored()
+                                }
+                            })
+                    }
+                }
+                .map_err(|e| format!("{method}: {e}"))?;
                 use nlmode::reduced::SweepStatus;
-                let (left, status) = match res.status {
+                let (left, status) = match status {
                     SweepStatus::Completed => (false, "ok".to_string()),
                     SweepStatus::LeftTableRange { .. } => (true, "ok".to_string()),
                     other => (false, format!("sweep stopped early: {other:?}")),
                 };
-                Ok(row(Figures::of_slow_flow(&res), left, status))
+                Ok(row(figures, left, status))
             }
         }
     })();
@@ -524,6 +575,16 @@ pub fn study(path: &Path, out: &Path, opts: &Options) -> Result<Outcome> {
 
 /// Run a loaded study into `out`.
 pub fn run_study(st: &Study, out: &Path, opts: &Options) -> Result<Outcome> {
+    run_study_with(st, out, opts, SweepPath::Fold)
+}
+
+/// [`run_study`] with the slow-flow figures of merit taken by `path`.
+pub(crate) fn run_study_with(
+    st: &Study,
+    out: &Path,
+    opts: &Options,
+    path: SweepPath,
+) -> Result<Outcome> {
     use rayon::prelude::*;
     let t0 = std::time::Instant::now();
     if opts.threads == Some(0) {
@@ -580,14 +641,17 @@ pub fn run_study(st: &Study, out: &Path, opts: &Options) -> Result<Outcome> {
         let writer = files.writer(table);
         let failed: Result<()> = pool.install(|| {
             todo.par_iter().try_for_each(|&i| {
-                let r = run_sample(&cache, i, &st.scenarios[i], method);
+                let r = match path {
+                    SweepPath::Fold => run_sample(&cache, i, &st.scenarios[i], method),
+                    other => run_sample_with(&cache, i, &st.scenarios[i], method, other),
+                };
                 writer.append(st, &r)?;
                 bar.inc(1);
                 Ok(())
             })
         });
         bar.finish_and_clear();
-        failed?;
+        failed.and_then(|()| writer.flush())?;
         samples_s += t2.elapsed().as_secs_f64();
         computed += todo.len();
     }

@@ -5,8 +5,8 @@
 //!   `jump_down_omega_rad_s` (empty when there is none),
 //!   `min_force_amplitude_N`, `max_force_amplitude_N`, `left_table`,
 //!   `status` (`ok` or the error), then `force_drop` = 1 - min/max of the
-//!   force envelope). Rows are appended and flushed as samples finish, in
-//!   completion order; at the end the file is rewritten sorted by sample.
+//!   force envelope). Rows are appended as samples finish, in batches
+//!   ([`RowWriter`]), in completion order; at the end the file is rewritten sorted by sample.
 //!   Numbers in their shortest round-trip decimal form.
 //! - `results.parquet`: the same table, rebuilt from the sorted CSV at the
 //!   end (one row group; parquet's low-level column writer, no compression).
@@ -103,19 +103,85 @@ pub fn record(st: &Study, r: &Row) -> Vec<String> {
     rec
 }
 
-/// Appends rows to a results CSV as samples finish (shared by the workers).
+/// Rows a [`RowWriter`] holds before it writes them to its file.
+pub const FLUSH_ROWS: usize = 64;
+/// Longest a finished row waits in a [`RowWriter`] before it is written (the
+/// next row to finish after this writes the batch) [s].
+pub const FLUSH_INTERVAL_S: f64 = 0.5;
+
+/// Appends rows to a results CSV as samples finish (shared by the workers),
+/// in batches: the rows are formatted into memory and written (whole lines,
+/// one `write` per batch) every [`FLUSH_ROWS`] rows or after
+/// [`FLUSH_INTERVAL_S`], so an interrupted study loses at most the last
+/// `FLUSH_ROWS - 1` rows (those finished within the interval), which
+/// `--resume` computes again. [`RowWriter::flush`] writes the rest.
 pub struct RowWriter {
-    inner: Mutex<csv::Writer<File>>,
+    inner: Mutex<Pending>,
     path: PathBuf,
 }
 
+/// The rows of a [`RowWriter`] not yet written.
+struct Pending {
+    file: File,
+    rows: csv::Writer<Vec<u8>>,
+    count: usize,
+    since: std::time::Instant,
+}
+
 impl RowWriter {
-    pub fn append(&self, st: &Study, r: &Row) -> Result<()> {
-        let mut w = self.inner.lock().unwrap_or_else(|e| e.into_inner());
-        w.write_record(record(st, r))
-            .and_then(|()| w.flush().map_err(csv::Error::from))
-            .with_context(|| format!("cannot write {}", self.path.display()))
+    fn new(file: File, path: PathBuf) -> Self {
+        let rows = row_buffer(Vec::with_capacity(FLUSH_ROWS * 256));
+        Self {
+            inner: Mutex::new(Pending {
+                file,
+                rows,
+                count: 0,
+                since: std::time::Instant::now(),
+            }),
+            path,
+        }
     }
+
+    pub fn append(&self, st: &Study, r: &Row) -> Result<()> {
+        let mut p = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+        p.rows
+            .write_record(record(st, r))
+            .with_context(|| format!("cannot write {}", self.path.display()))?;
+        p.count += 1;
+        if p.count >= FLUSH_ROWS || p.since.elapsed().as_secs_f64() >= FLUSH_INTERVAL_S {
+            self.write_pending(&mut p)?;
+        }
+        Ok(())
+    }
+
+    /// Write the rows held.
+    pub fn flush(&self) -> Result<()> {
+        let mut p = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+        self.write_pending(&mut p)
+    }
+
+    fn write_pending(&self, p: &mut Pending) -> Result<()> {
+        use std::io::Write;
+        let context = || format!("cannot write {}", self.path.display());
+        let mut bytes = std::mem::replace(&mut p.rows, row_buffer(Vec::new()))
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .with_context(context)?;
+        p.file
+            .write_all(&bytes)
+            .and_then(|()| p.file.flush())
+            .with_context(context)?;
+        bytes.clear();
+        p.rows = row_buffer(bytes);
+        p.count = 0;
+        p.since = std::time::Instant::now();
+        Ok(())
+    }
+}
+
+/// The in-memory CSV writer of a [`RowWriter`]'s batch.
+fn row_buffer(v: Vec<u8>) -> csv::Writer<Vec<u8>> {
+    csv::WriterBuilder::new().has_headers(false).from_writer(v)
 }
 
 /// How a study ran (`study_summary.json`'s `run`).
@@ -256,17 +322,7 @@ impl StudyFiles {
                 .append(true)
                 .open(&path)
                 .with_context(|| format!("cannot open {}", path.display()))?;
-            let w = csv::WriterBuilder::new()
-                .has_headers(false)
-                .from_writer(file);
-            open.push((
-                t,
-                done,
-                RowWriter {
-                    inner: Mutex::new(w),
-                    path,
-                },
-            ));
+            open.push((t, done, RowWriter::new(file, path)));
         }
         Ok(Self {
             dir: dir.to_path_buf(),
@@ -296,6 +352,7 @@ impl StudyFiles {
         let mut files = Vec::new();
         let mut main_rows = Vec::new();
         for (t, _, w) in self.tables {
+            w.flush()?;
             drop(w);
             let csv_path = self.dir.join(format!("{}.csv", t.stem()));
             let mut rows = read_done(&csv_path, st)?;

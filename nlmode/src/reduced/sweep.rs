@@ -416,6 +416,32 @@ impl ReducedModel {
         opts: &SlowFlowOptions,
         a0: Complex64,
     ) -> Result<SlowFlowResult, ReducedError> {
+        let mut samples: Vec<SlowFlowSample> = Vec::with_capacity(opts.output_samples + 1);
+        let run = self.simulate_sweep_into(sweep, opts, a0, &mut samples)?;
+        Ok(SlowFlowResult {
+            sweep: *sweep,
+            samples,
+            status: run.status,
+            stats: run.stats,
+            channel_nodes: run.channel_nodes,
+        })
+    }
+
+    /// The sweep integration of [`Self::simulate_sweep_from`] (the one
+    /// kernel: the envelope-storing path is this with a `Vec` as the sink),
+    /// handing the output samples to `sink` in sweep order, in batches of at
+    /// most [`SWEEP_BATCH`] as the integration passes them, instead of
+    /// storing them: e.g. to fold figures of merit without an envelope. Each
+    /// sample is computed by the same expressions as in the stored result
+    /// (the output quantities are element-wise, so the batching does not
+    /// change a bit). An error of the sink stops the sweep and is returned.
+    pub fn simulate_sweep_into(
+        &self,
+        sweep: &LinearSweep,
+        opts: &SlowFlowOptions,
+        a0: Complex64,
+        sink: &mut dyn SweepSink,
+    ) -> Result<SweepRun, ReducedError> {
         opts.check()?;
         let (lo, hi) = {
             let (s, e) = (sweep.omega_start_rad_s, sweep.omega_end_rad_s);
@@ -447,8 +473,12 @@ impl ReducedModel {
             Ok(())
         };
         let n = opts.output_samples;
-        let mut ts: Vec<f64> = Vec::with_capacity(n + 1);
-        let mut amps: Vec<Complex64> = Vec::with_capacity(n + 1);
+        let mut batch = OutputBatch {
+            ts: Vec::with_capacity(SWEEP_BATCH),
+            amps: Vec::with_capacity(SWEEP_BATCH),
+            emitted: 0,
+            last_t: None,
+        };
         let mut next = 0usize;
         let dt = duration / (n - 1) as f64;
         let sample_t = |j: usize| if j + 1 == n { duration } else { j as f64 * dt };
@@ -458,27 +488,24 @@ impl ReducedModel {
             while next < n && sample_t(next) <= t1 * (1.0 + 1e-14) {
                 let t = sample_t(next).max(d.t0);
                 let y = d.eval(t);
-                ts.push(t);
-                amps.push(Complex64::new(y[0], y[1]));
+                batch.push(t, Complex64::new(y[0], y[1]));
                 next += 1;
+                if batch.ts.len() == SWEEP_BATCH {
+                    batch.flush(self, sweep, &cache, sink)?;
+                }
             }
             last_state = (t1, d.eval(t1));
             Ok(())
         });
-        if ts.is_empty() {
-            ts.push(0.0);
-            amps.push(a0);
+        if batch.last_t.is_none() {
+            batch.push(0.0, a0);
         }
         let status = match stop {
             None => SweepStatus::Completed,
             Some(stop) => {
                 let t_stop = last_state.0;
-                if ts.last().map(|&t| t < t_stop).unwrap_or(true) {
-                    ts.push(t_stop);
-                    amps.push(Complex64::new(last_state.1[0], last_state.1[1]));
-                }
                 let w = sweep.omega_rad_s(t_stop);
-                match stop {
+                let status = match stop {
                     Stop::Rhs {
                         error: ReducedError::Table(TableError::AboveRange { max, .. }),
                         ..
@@ -502,32 +529,102 @@ impl ReducedModel {
                         t_s: t_stop,
                         omega_rad_s: w,
                     },
+                };
+                // the state where the sweep stopped ends the output
+                if batch.last_t.map(|t| t < t_stop).unwrap_or(true) {
+                    batch.push(t_stop, Complex64::new(last_state.1[0], last_state.1[1]));
                 }
+                status
             }
         };
-        let w: Vec<f64> = ts.iter().map(|&t| sweep.omega_rad_s(t)).collect();
-        let channels = cache.eval_rows(&w);
-        let imposed_n = match &self.imposed {
-            Some(_) => w
-                .iter()
-                .map(|&w| self.imposed_at(w))
-                .collect::<Result<Vec<_>, _>>()?,
-            None => Vec::new(),
-        };
-        let samples = self.output_samples(&OutputStates {
-            t_s: &ts,
-            omega_rad_s: &w,
-            amplitude: &amps,
-            channels: &channels,
-            imposed_n: &imposed_n,
-        })?;
-        Ok(SlowFlowResult {
-            sweep: *sweep,
-            samples,
+        batch.flush(self, sweep, &cache, sink)?;
+        Ok(SweepRun {
             status,
             stats,
             channel_nodes: cache.len(),
+            samples: batch.emitted,
         })
+    }
+}
+
+/// Output samples a sweep computes and hands to its [`SweepSink`] at a time.
+pub const SWEEP_BATCH: usize = 1024;
+
+/// Receives the output samples of a sweep in order
+/// ([`ReducedModel::simulate_sweep_into`]).
+pub trait SweepSink {
+    /// The next samples of the sweep (at most [`SWEEP_BATCH`], at least one).
+    fn samples(&mut self, batch: &[SlowFlowSample]) -> Result<(), ReducedError>;
+}
+
+/// The envelope-storing sink: every sample kept.
+impl SweepSink for Vec<SlowFlowSample> {
+    fn samples(&mut self, batch: &[SlowFlowSample]) -> Result<(), ReducedError> {
+        self.extend_from_slice(batch);
+        Ok(())
+    }
+}
+
+/// How a sweep into a [`SweepSink`] ended.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SweepRun {
+    pub status: SweepStatus,
+    pub stats: IntegratorStats,
+    /// As [`SlowFlowResult::channel_nodes`].
+    pub channel_nodes: usize,
+    /// Output samples handed to the sink.
+    pub samples: usize,
+}
+
+/// The states of the output samples not yet handed to the sink.
+struct OutputBatch {
+    ts: Vec<f64>,
+    amps: Vec<Complex64>,
+    /// Samples handed to the sink so far.
+    emitted: usize,
+    /// Time of the last sample taken.
+    last_t: Option<f64>,
+}
+
+impl OutputBatch {
+    fn push(&mut self, t: f64, a: Complex64) {
+        self.ts.push(t);
+        self.amps.push(a);
+        self.last_t = Some(t);
+    }
+
+    /// The output quantities of the pending states, to the sink.
+    fn flush(
+        &mut self,
+        model: &ReducedModel,
+        sweep: &LinearSweep,
+        cache: &OmegaCache,
+        sink: &mut dyn SweepSink,
+    ) -> Result<(), ReducedError> {
+        if self.ts.is_empty() {
+            return Ok(());
+        }
+        let w: Vec<f64> = self.ts.iter().map(|&t| sweep.omega_rad_s(t)).collect();
+        let channels = cache.eval_rows(&w);
+        let imposed_n = match &model.imposed {
+            Some(_) => w
+                .iter()
+                .map(|&w| model.imposed_at(w))
+                .collect::<Result<Vec<_>, _>>()?,
+            None => Vec::new(),
+        };
+        let samples = model.output_samples(&OutputStates {
+            t_s: &self.ts,
+            omega_rad_s: &w,
+            amplitude: &self.amps,
+            channels: &channels,
+            imposed_n: &imposed_n,
+        })?;
+        sink.samples(&samples)?;
+        self.emitted += self.ts.len();
+        self.ts.clear();
+        self.amps.clear();
+        Ok(())
     }
 }
 
@@ -575,6 +672,60 @@ mod tests {
             // shaker's suspension resonance
             assert!(e < 2e-7, "{w}: {e:e}");
             assert!((&dt - &dtf).norm() < 2e-7 * dt.norm(), "{w}");
+        }
+    }
+
+    /// A sink sees the stored result's samples, in order, in bounded batches,
+    /// also for a sweep that leaves the table (the stop sample last).
+    #[test]
+    fn the_sink_receives_the_stored_samples() {
+        struct Batches(Vec<SlowFlowSample>, usize);
+        impl SweepSink for Batches {
+            fn samples(&mut self, b: &[SlowFlowSample]) -> Result<(), ReducedError> {
+                assert!(!b.is_empty() && b.len() <= SWEEP_BATCH);
+                self.0.extend_from_slice(b);
+                self.1 += 1;
+                Ok(())
+            }
+        }
+        let table = ModalTable::linear(
+            356.2,
+            0.004,
+            &[
+                ("tip", Complex64::new(1.5, 0.0)),
+                ("2l3", Complex64::new(1.0, 0.0)),
+            ],
+            1e-6,
+            1e-2,
+        );
+        let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
+        let m = ReducedModel::new(&table, "tip", "2l3")
+            .unwrap()
+            .with_linear_attachment(&shaker, &[Complex64::new(1.0, 0.0)])
+            .unwrap();
+        let opts = SlowFlowOptions {
+            output_samples: 2501,
+            ..Default::default()
+        };
+        for volts in [1.0, 1e4] {
+            let sweep = LinearSweep::new(300.0, 420.0, 400.0, volts).unwrap();
+            let stored = m.simulate_sweep(&sweep, &opts).unwrap();
+            let mut sink = Batches(Vec::new(), 0);
+            let zero = Complex64::new(0.0, 0.0);
+            let run = m
+                .simulate_sweep_into(&sweep, &opts, zero, &mut sink)
+                .unwrap();
+            assert_eq!(sink.0, stored.samples, "{volts} V");
+            assert_eq!(run.samples, stored.samples.len());
+            assert_eq!(run.status, stored.status);
+            assert!(sink.1 >= stored.samples.len().div_ceil(SWEEP_BATCH));
+            if volts > 1e3 {
+                assert!(
+                    matches!(run.status, SweepStatus::LeftTableRange { .. }),
+                    "{:?}",
+                    run.status
+                );
+            }
         }
     }
 
