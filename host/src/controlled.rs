@@ -115,7 +115,7 @@ pub fn phase_resonance(
         force_phase_rad: Some(
             levels
                 .iter()
-                .map(|l| l.force_harmonics_n[1].arg())
+                .map(|l| l.harmonics.force_n[1].arg())
                 .collect(),
         ),
         drive_amplitude_m: Some(levels.iter().map(|l| l.drive_amplitude_m()).collect()),
@@ -200,12 +200,12 @@ fn write_csv(
                 n.map(|n| f(n.1)).unwrap_or_default(),
                 f(l.phase_error_rad),
                 l.periods.to_string(),
-                f(l.current_amplitude_a),
+                f(l.harmonics.current_amplitude_a),
             ];
             for h in [
-                &l.tip_harmonics_m,
-                &l.drive_harmonics_m,
-                &l.force_harmonics_n,
+                &l.harmonics.tip_m,
+                &l.harmonics.drive_m,
+                &l.harmonics.force_n,
             ] {
                 for n in 2..=harmonics {
                     row.push(f(h[n].norm() / h[1].norm()));

@@ -129,8 +129,8 @@ fn measured_backbone_follows_the_nma() {
         let p: Vec<f64> = (1..=5)
             .map(|h| {
                 power(
-                    l.force_harmonics_n[h],
-                    l.drive_harmonics_m[h],
+                    l.harmonics.force_n[h],
+                    l.harmonics.drive_m[h],
                     h,
                     l.omega_rad_s,
                 )

@@ -29,8 +29,7 @@
 //! A step whose voltage hits `max_voltage_v` is reported as saturated (the
 //! force it reached is recorded); one that does not settle within
 //! `max_periods_per_step` is recorded as not settled.
-use super::{period_harmonics, ControlError, Plant};
-use num_complex::Complex64;
+use super::{ControlError, PeriodHarmonics, Plant};
 
 /// Tolerances and limits of [`force_controlled_stepped_sine`]; `Default`
 /// gives the documented defaults.
@@ -118,14 +117,9 @@ pub struct ForceStep {
     pub periods: usize,
     /// Voltage corrections made on the step.
     pub corrections: usize,
-    /// Harmonics `0..=H` of the force on the structure \[N\].
-    pub force_harmonics_n: Vec<Complex64>,
-    /// Harmonics `0..=H` of the drive-point displacement \[m\].
-    pub drive_harmonics_m: Vec<Complex64>,
-    /// Harmonics `0..=H` of the tip displacement \[m\].
-    pub tip_harmonics_m: Vec<Complex64>,
-    /// Fundamental amplitude of the coil current \[A\] (0 without one).
-    pub current_amplitude_a: f64,
+    /// Harmonics of force, drive point, tip and the coil current of the
+    /// last period.
+    pub harmonics: PeriodHarmonics,
 }
 
 /// Result of [`force_controlled_stepped_sine`].
@@ -191,7 +185,7 @@ pub fn force_controlled_stepped_sine(
 fn flatness(steps: &[ForceStep], force_set_n: f64) -> f64 {
     steps
         .iter()
-        .map(|s| (s.force_harmonics_n[1].norm() / force_set_n - 1.0).abs())
+        .map(|s| (s.harmonics.force_amplitude_n() / force_set_n - 1.0).abs())
         .fold(0.0, f64::max)
 }
 
@@ -209,16 +203,8 @@ fn force_step(
         plant.set_excitation(*u, omega);
         let s = plant.advance_period()?;
         periods += 1;
-        if 2 * (h + 1) > s.force_n.len() {
-            return Err(ControlError::BadOption {
-                name: "harmonics",
-                value: h.to_string(),
-                expected: "fewer than half the samples per period",
-            });
-        }
-        let force = period_harmonics(&s.force_n, h);
-        let drive = period_harmonics(&s.drive_m, h);
-        let (f1, x1) = (force[1].norm(), drive[1].norm());
+        let harmonics = PeriodHarmonics::from_samples(s, h)?;
+        let (f1, x1) = (harmonics.force_amplitude_n(), harmonics.drive_amplitude_m());
         let settled_now = last.is_some_and(|(fp, xp)| {
             ((f1 - fp) / f1).abs() < o.settle_tolerance
                 && ((x1 - xp) / x1).abs() < o.settle_tolerance
@@ -231,11 +217,6 @@ fn force_step(
             let next = (*u * force_set_n / f1).min(o.max_voltage_v);
             let saturated = !on_target && next >= o.max_voltage_v && *u >= o.max_voltage_v;
             if on_target || saturated || give_up {
-                let current = if s.current_a.is_empty() {
-                    0.0
-                } else {
-                    period_harmonics(&s.current_a, 1)[1].norm()
-                };
                 return Ok(ForceStep {
                     omega_rad_s: omega,
                     voltage_v: *u,
@@ -243,10 +224,7 @@ fn force_step(
                     saturated,
                     periods,
                     corrections,
-                    force_harmonics_n: force,
-                    drive_harmonics_m: drive,
-                    tip_harmonics_m: period_harmonics(&s.tip_m, h),
-                    current_amplitude_a: current,
+                    harmonics,
                 });
             }
             *u = next;

@@ -97,6 +97,61 @@ pub struct PeriodSamples {
     pub current_a: Vec<f64>,
 }
 
+/// The harmonics `0..=H` of one measured period (see the module docs), what
+/// every controlled test records per level or step.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PeriodHarmonics {
+    /// Harmonics of the force on the structure at the drive point \[N\].
+    pub force_n: Vec<Complex64>,
+    /// Harmonics of the drive-point displacement \[m\].
+    pub drive_m: Vec<Complex64>,
+    /// Harmonics of the tip displacement \[m\].
+    pub tip_m: Vec<Complex64>,
+    /// Fundamental amplitude of the coil current \[A\] (0 without one).
+    pub current_amplitude_a: f64,
+}
+
+impl PeriodHarmonics {
+    /// Demodulates `samples` up to harmonic `harmonics`; an error if
+    /// `harmonics` is not below half the samples per period.
+    pub fn from_samples(samples: &PeriodSamples, harmonics: usize) -> Result<Self, ControlError> {
+        if 2 * (harmonics + 1) > samples.force_n.len() {
+            return Err(ControlError::BadOption {
+                name: "harmonics",
+                value: harmonics.to_string(),
+                expected: "fewer than half the samples per period",
+            });
+        }
+        let current_amplitude_a = if samples.current_a.is_empty() {
+            0.0
+        } else {
+            period_harmonics(&samples.current_a, 1)[1].norm()
+        };
+        Ok(Self {
+            force_n: period_harmonics(&samples.force_n, harmonics),
+            drive_m: period_harmonics(&samples.drive_m, harmonics),
+            tip_m: period_harmonics(&samples.tip_m, harmonics),
+            current_amplitude_a,
+        })
+    }
+    /// `|q_tip,1|` \[m\].
+    pub fn tip_amplitude_m(&self) -> f64 {
+        self.tip_m[1].norm()
+    }
+    /// `|q_drive,1|` \[m\].
+    pub fn drive_amplitude_m(&self) -> f64 {
+        self.drive_m[1].norm()
+    }
+    /// `|F_1|` \[N\].
+    pub fn force_amplitude_n(&self) -> f64 {
+        self.force_n[1].norm()
+    }
+    /// Mean input power at the drive point ([`mean_power_w`]) \[W\].
+    pub fn power_w(&self, omega_rad_s: f64) -> f64 {
+        mean_power_w(&self.force_n, &self.drive_m, omega_rad_s)
+    }
+}
+
 /// The plant a controller drives: set the excitation, advance one period,
 /// read the measured samples.
 pub trait Plant {
