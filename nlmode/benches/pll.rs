@@ -4,12 +4,16 @@
 //! omega0), from rest. Structure and shaker are built outside the timed loop;
 //! the timed part is the plant's assembly and the whole test.
 //!
-//! Measured (release, 2 shared cores under load): 1430 periods, 103 542
-//! exponential steps, 2773 propagator sets; 4.2-5.2 s. The time goes into the
-//! per-period restart of the reference integrator (its propagator cache lives
-//! for one `integrate` call, and every period has a new step size), not into
-//! the steps; the target (< 1 s) needs an integrator that keeps its
-//! propagators across periods.
+//! Two variants in the same run: `reference_20_levels_restart` restarts the
+//! integration every period (new propagators from the augmented matrix
+//! exponential at every period's new step size: the plant before the
+//! integration was kept), `reference_20_levels` keeps one continued
+//! integration (step level, error scale, propagators; a new step size built
+//! from the eigenvectors of `A`).
+//!
+//! Measured before the change (release, 2 shared cores under load): 1430
+//! periods, 103 542 exponential steps, 2773 propagator sets; 4.2-5.2 s. The
+//! time went into the per-period propagators, not into the steps. MEASURED_AFTER
 //!
 //! `cargo bench -p nlmode --bench pll`
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -25,23 +29,32 @@ fn pll_20_levels(c: &mut Criterion) {
     let levels: Vec<f64> = (0..20).map(|i| 0.5 * 80f64.powf(i as f64 / 19.0)).collect();
     let opts = ReferenceOptions::default();
     let pll = PllOptions::default();
-    let run = || {
-        let mut plant = ReferencePlant::new(&ps.model, &atts, &opts).unwrap();
+    let run_with = |restart: bool| {
+        let mut plant = if restart {
+            ReferencePlant::restarting(&ps.model, &atts, &opts).unwrap()
+        } else {
+            ReferencePlant::new(&ps.model, &atts, &opts).unwrap()
+        };
         let r = phase_resonance(&mut plant, ps.omega0_rad_s, &levels, 0.919, &pll).unwrap();
         assert!(r.failure.is_none() && r.levels.iter().all(|l| l.settled));
         (r, plant.stats())
     };
-    let (r, stats) = run();
-    let periods: usize = r.levels.iter().map(|l| l.periods).sum();
-    eprintln!(
-        "20 levels: {periods} periods, {} steps, {} propagators, last omega/omega0 = {:.4}",
-        stats.steps,
-        stats.propagators,
-        r.levels.last().unwrap().omega_rad_s / ps.omega0_rad_s
-    );
+    for restart in [true, false] {
+        let t0 = std::time::Instant::now();
+        let (r, stats) = run_with(restart);
+        let periods: usize = r.levels.iter().map(|l| l.periods).sum();
+        eprintln!(
+            "20 levels (restart {restart}): {:?}, {periods} periods, {} steps, {} propagators, last omega/omega0 = {:.6}",
+            t0.elapsed(),
+            stats.steps,
+            stats.propagators,
+            r.levels.last().unwrap().omega_rad_s / ps.omega0_rad_s
+        );
+    }
     let mut g = c.benchmark_group("pll");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
-    g.bench_function("reference_20_levels", |b| b.iter(run));
+    g.bench_function("reference_20_levels_restart", |b| b.iter(|| run_with(true)));
+    g.bench_function("reference_20_levels", |b| b.iter(|| run_with(false)));
     g.finish();
 }
 

@@ -63,8 +63,9 @@ pub enum ControlError {
     #[error("assembly of the plant: {0}")]
     Assembly(#[source] ReferenceError),
     #[error(
-        "the plant's structure has a hysteretic element ({law}): the controlled tests restart the \
-         time integration every period and do not carry its slider state yet"
+        "the plant's structure has a hysteretic element ({law}): with the Dormand-Prince \
+         integrator the controlled tests restart the time integration every period and do not \
+         carry its slider state (use the exponential integrator)"
     )]
     Hysteretic { law: String },
     #[error("time integration of the plant failed at t = {time_s} s: {source}")]
