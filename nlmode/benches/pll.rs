@@ -53,10 +53,46 @@ fn pll_20_levels(c: &mut Criterion) {
     }
     let mut g = c.benchmark_group("pll");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
-    g.bench_function("reference_20_levels_restart", |b| b.iter(|| run_with(true)));
     g.bench_function("reference_20_levels", |b| b.iter(|| run_with(false)));
     g.finish();
 }
 
-criterion_group!(benches, pll_20_levels);
+/// The same 20 levels on the single-nonlinear-mode plant (slow flow of
+/// `eq:NM` with the shaker at 2l/3), on the benchmark-like Duffing table of
+/// the paper beam (`omega0`, `D0`, shapes, `k3 = 6e9 N/m^3` at the tip:
+/// `nlmode::reduced::problems`); the plant's construction is timed too.
+fn pll_20_levels_nlmode(c: &mut Criterion) {
+    use nlmode::control::ReducedPlant;
+    use nlmode::reduced::problems::{benchmark_duffing_table, benchmark_points, BENCHMARK_OMEGA0};
+    use nlmode::reduced::ReducedModel;
+    let table = benchmark_duffing_table(6e9);
+    let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
+    let levels: Vec<f64> = (0..20).map(|i| 0.5 * 80f64.powf(i as f64 / 19.0)).collect();
+    let m_d = 1.0 / benchmark_points()[1].1.norm_sqr();
+    let pll = PllOptions::default();
+    let run = || {
+        let model = ReducedModel::new(&table, "tip", "2l3")
+            .unwrap()
+            .with_linear_attachment(&shaker, &[1.0.into()])
+            .unwrap();
+        let mut plant = ReducedPlant::new(model, 40).unwrap();
+        let r = phase_resonance(&mut plant, BENCHMARK_OMEGA0, &levels, m_d, &pll).unwrap();
+        assert!(r.failure.is_none() && r.levels.iter().all(|l| l.settled));
+        r
+    };
+    let t0 = std::time::Instant::now();
+    let r = run();
+    let periods: usize = r.levels.iter().map(|l| l.periods).sum();
+    eprintln!(
+        "20 levels on nlmode: {:?}, {periods} periods, last omega/omega0 = {:.6}",
+        t0.elapsed(),
+        r.levels.last().unwrap().omega_rad_s / BENCHMARK_OMEGA0
+    );
+    let mut g = c.benchmark_group("pll");
+    g.sample_size(20).measurement_time(Duration::from_secs(5));
+    g.bench_function("nlmode_20_levels", |b| b.iter(run));
+    g.finish();
+}
+
+criterion_group!(benches, pll_20_levels, pll_20_levels_nlmode);
 criterion_main!(benches);

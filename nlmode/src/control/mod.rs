@@ -13,6 +13,9 @@
 //! - [`plant`]: the plant driven by the full-order reference assembly
 //!   (`eq:finalassembly1`-`eq:finalassembly2`), for the paper beam with its
 //!   shaker or a single-DOF Duffing oscillator with the paper's shaker.
+//! - [`reduced_plant`]: the plant on the single-nonlinear-mode model (`eq:NM`,
+//!   the slow flow with the attachments), with what its averaging implies for
+//!   the loop.
 //!
 //! # Demodulation
 //!
@@ -32,6 +35,7 @@
 pub mod force;
 pub mod plant;
 pub mod pll;
+pub mod reduced_plant;
 
 pub use force::{
     force_controlled_stepped_sine, ForceControlOptions, ForceControlResult, ForceStep,
@@ -40,11 +44,14 @@ pub use plant::{DuffingOscillator, ReferencePlant};
 pub use pll::{
     phase_resonance, PhaseLockedLoop, PhaseMeasurement, PllLevel, PllOptions, PllResult,
 };
+pub use reduced_plant::ReducedPlant;
 
 #[cfg(test)]
 mod force_tests;
 #[cfg(test)]
 mod pll_tests;
+#[cfg(test)]
+mod reduced_tests;
 
 use crate::reference::ReferenceError;
 use num_complex::Complex64;
@@ -74,6 +81,8 @@ pub enum ControlError {
         #[source]
         source: ReferenceError,
     },
+    #[error("single-nonlinear-mode model: {0}")]
+    Reduced(String),
     #[error("structure model: {0}")]
     Structure(#[from] crate::structure::StructureError),
     #[error("attachment: {0}")]

@@ -635,11 +635,13 @@ impl Modal {
         }
         let a_b = DMatrix::from_fn(nz, nz, |i, j| sys.a[(i, j)] * d[j] / d[i]);
         let schur = nalgebra::linalg::Schur::try_new(a_b.clone(), 1e-14 * a_b.amax(), 10_000)?;
-        let lambda: Vec<Complex64> = schur.complex_eigenvalues().iter().copied().collect();
+        let mut lambda: Vec<Complex64> = schur.complex_eigenvalues().iter().copied().collect();
         let a_c = a_b.map(|x| Complex64::new(x, 0.0));
         let scale = a_b.amax();
         let mut v_b = DMatrix::<Complex64>::zeros(nz, nz);
-        for (i, &l) in lambda.iter().enumerate() {
+        #[allow(clippy::needless_range_loop)] // lambda[i] is refined in the loop
+        for i in 0..nz {
+            let l = lambda[i];
             let shift = l + Complex64::new(1e-10 * scale.max(l.norm()), 0.0) * 1e-3;
             let mut shifted = a_c.clone();
             for k in 0..nz {
@@ -655,6 +657,8 @@ impl Modal {
                 }
                 x /= Complex64::new(nrm, 0.0);
             }
+            // Rayleigh quotient: the eigenvalue to the accuracy of the vector
+            lambda[i] = x.dotc(&(&a_c * &x));
             v_b.set_column(i, &x);
         }
         let v_b_inv = v_b.clone().try_inverse()?;
