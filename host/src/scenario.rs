@@ -1584,7 +1584,7 @@ pub enum PhaseResonanceModel {
     /// The full-order assembly with the shaker, integrated period by period.
     #[default]
     Reference,
-    /// The slow flow of `eq:NM` (not yet available).
+    /// The slow flow of `eq:NM` with the shakers (the loop sees its fundamental).
     Nlmode,
     /// The co-simulated FMUs with a controller FMU (not yet available).
     Cosim,

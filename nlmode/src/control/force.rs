@@ -31,12 +31,14 @@
 //! `max_periods_per_step` is recorded as not settled.
 use super::{ControlError, PeriodHarmonics, Plant};
 
-/// Tolerances and limits of [`force_controlled_stepped_sine`]; `Default`
-/// gives the documented defaults.
+/// Tolerances and limits of [`force_controlled_stepped_sine`] and
+/// [`super::response_controlled_stepped_sine`]; `Default` gives the
+/// documented defaults.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ForceControlOptions {
-    /// Relative tolerance on `|F_1|` against the set value (default 2e-3).
+    /// Relative tolerance on the controlled amplitude (`|F_1|`, or `|x_1|` for
+    /// response control) against the set value (default 2e-3).
     pub force_tolerance: f64,
     /// Relative change per period of `|F_1|` and `|x_1|` below which the
     /// response counts as settled (default 1e-4).
@@ -133,6 +135,30 @@ pub struct ForceControlResult {
     pub failure: Option<(f64, ControlError)>,
 }
 
+/// The amplitude a stepped controller holds at its set value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Controlled {
+    /// `|F_1|` of the force at the structure (force control).
+    Force,
+    /// `|x_1|` of the drive-point displacement (response control).
+    Response,
+}
+
+impl Controlled {
+    pub(crate) fn of(self, h: &PeriodHarmonics) -> f64 {
+        match self {
+            Controlled::Force => h.force_amplitude_n(),
+            Controlled::Response => h.drive_amplitude_m(),
+        }
+    }
+    fn set_name(self) -> &'static str {
+        match self {
+            Controlled::Force => "force_set_n",
+            Controlled::Response => "response_set_m",
+        }
+    }
+}
+
 /// Force-controlled stepped sine through `omegas_rad_s` (in the given order,
 /// up or down) at the set force amplitude `force_set_n`, starting at the
 /// voltage `voltage_start_v` (see the module docs).
@@ -140,6 +166,25 @@ pub fn force_controlled_stepped_sine(
     plant: &mut dyn Plant,
     omegas_rad_s: &[f64],
     force_set_n: f64,
+    voltage_start_v: f64,
+    options: &ForceControlOptions,
+) -> Result<ForceControlResult, ControlError> {
+    stepped_sine(
+        plant,
+        omegas_rad_s,
+        Controlled::Force,
+        force_set_n,
+        voltage_start_v,
+        options,
+    )
+}
+
+/// The dwell-and-correct stepped sine holding `quantity` at `set`.
+pub(crate) fn stepped_sine(
+    plant: &mut dyn Plant,
+    omegas_rad_s: &[f64],
+    quantity: Controlled,
+    set: f64,
     voltage_start_v: f64,
     options: &ForceControlOptions,
 ) -> Result<ForceControlResult, ControlError> {
@@ -155,7 +200,7 @@ pub fn force_controlled_stepped_sine(
             })
         }
     };
-    positive("force_set_n", force_set_n)?;
+    positive(quantity.set_name(), set)?;
     positive("voltage_start_v", voltage_start_v)?;
     for &w in omegas_rad_s {
         positive("omegas_rad_s", w)?;
@@ -164,11 +209,11 @@ pub fn force_controlled_stepped_sine(
     let mut u = voltage_start_v.min(o.max_voltage_v);
     let mut steps = Vec::with_capacity(omegas_rad_s.len());
     for &w in omegas_rad_s {
-        match force_step(plant, w, force_set_n, &mut u, o) {
+        match controlled_step(plant, w, quantity, set, &mut u, o) {
             Ok(s) => steps.push(s),
             Err(e) => {
                 return Ok(ForceControlResult {
-                    flatness: flatness(&steps, force_set_n),
+                    flatness: flatness(&steps, quantity, set),
                     steps,
                     failure: Some((w, e)),
                 })
@@ -176,23 +221,24 @@ pub fn force_controlled_stepped_sine(
         }
     }
     Ok(ForceControlResult {
-        flatness: flatness(&steps, force_set_n),
+        flatness: flatness(&steps, quantity, set),
         steps,
         failure: None,
     })
 }
 
-fn flatness(steps: &[ForceStep], force_set_n: f64) -> f64 {
+fn flatness(steps: &[ForceStep], quantity: Controlled, set: f64) -> f64 {
     steps
         .iter()
-        .map(|s| (s.harmonics.force_amplitude_n() / force_set_n - 1.0).abs())
+        .map(|s| (quantity.of(&s.harmonics) / set - 1.0).abs())
         .fold(0.0, f64::max)
 }
 
-fn force_step(
+fn controlled_step(
     plant: &mut dyn Plant,
     omega: f64,
-    force_set_n: f64,
+    quantity: Controlled,
+    set: f64,
     u: &mut f64,
     o: &ForceControlOptions,
 ) -> Result<ForceStep, ControlError> {
@@ -213,8 +259,9 @@ fn force_step(
         inside = if settled_now { inside + 1 } else { 0 };
         let give_up = periods >= o.max_periods_per_step;
         if inside >= o.settle_periods || give_up {
-            let on_target = (f1 / force_set_n - 1.0).abs() <= o.force_tolerance;
-            let next = (*u * force_set_n / f1).min(o.max_voltage_v);
+            let y = quantity.of(&harmonics);
+            let on_target = (y / set - 1.0).abs() <= o.force_tolerance;
+            let next = (*u * set / y).min(o.max_voltage_v);
             let saturated = !on_target && next >= o.max_voltage_v && *u >= o.max_voltage_v;
             if on_target || saturated || give_up {
                 return Ok(ForceStep {

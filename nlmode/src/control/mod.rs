@@ -10,6 +10,9 @@
 //!   stepped through voltage levels; modal damping from the power balance.
 //! - [`force`]: force control, a stepped sine whose voltage holds the
 //!   fundamental of the force at the structure at a set value.
+//! - [`response`]: response-controlled stepped sine, a stepped sine whose
+//!   voltage holds the drive-point response amplitude at a set value (the
+//!   constant-response FRF, whose peak lies on the backbone).
 //! - [`plant`]: the plant driven by the full-order reference assembly
 //!   (`eq:finalassembly1`-`eq:finalassembly2`), for the paper beam with its
 //!   shaker or a single-DOF Duffing oscillator with the paper's shaker.
@@ -36,6 +39,7 @@ pub mod force;
 pub mod plant;
 pub mod pll;
 pub mod reduced_plant;
+pub mod response;
 
 pub use force::{
     force_controlled_stepped_sine, ForceControlOptions, ForceControlResult, ForceStep,
@@ -45,6 +49,7 @@ pub use pll::{
     phase_resonance, PhaseLockedLoop, PhaseMeasurement, PllLevel, PllOptions, PllResult,
 };
 pub use reduced_plant::ReducedPlant;
+pub use response::{constant_response_peak, response_controlled_stepped_sine};
 
 #[cfg(test)]
 mod force_tests;
@@ -52,6 +57,8 @@ mod force_tests;
 mod pll_tests;
 #[cfg(test)]
 mod reduced_tests;
+#[cfg(test)]
+mod response_tests;
 
 use crate::reference::ReferenceError;
 use num_complex::Complex64;

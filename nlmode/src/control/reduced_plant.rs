@@ -25,9 +25,11 @@
 //! - With the fundamental only, the power balance `P = 1/2 Re(F_1 conj(i Omega
 //!   X_1)) = D(a) omega(a) Omega^2 a^2` and the loop's 90-degree point is
 //!   `Omega = omega(a)`: the measured backbone is the table's backbone and the
-//!   power-balance damping (with the drive-point modal mass `1/|phi_d|^2`) is the
-//!   table's `D(a)`, whatever the single-point appropriation would add in the
-//!   full-order plant.
+//!   power-balance damping with the drive-point modal mass `m_d` is the
+//!   table's `D(a) / (m_d |phi_d,1(a)|^2)`: exactly `D(a)` with `m_d =
+//!   1/|phi_d,1(a)|^2`, and `D(a) |phi_d(0)|^2 / |phi_d,1(a)|^2` with the linear
+//!   modal mass, whatever the single-point appropriation would add in the
+//!   full-order plant (no higher harmonics do work).
 //! - The slow flow has no transients faster than its envelope (no stinger or
 //!   shaker resonances): a gain that is stable here may still not be on the
 //!   reference.
