@@ -148,7 +148,7 @@ fn pll_on_a_jenkins_element_measures_the_friction_loop_power() {
     let att = crate::attachment::LinearAttachment::shaker("shaker", &ShakerParams::paper(), "tip")
         .unwrap();
     let opts = ReferenceOptions::default();
-    let mut plant = super::ReferencePlant::new(&model, &[att.clone()], &opts).unwrap();
+    let mut plant = super::ReferencePlant::new(&model, std::slice::from_ref(&att), &opts).unwrap();
     let res = phase_resonance(
         &mut plant,
         d.omega0_rad_s(),

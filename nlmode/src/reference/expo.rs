@@ -279,7 +279,7 @@ pub(crate) fn integrate(
 pub(crate) fn integrate_continued(
     sys: &FirstOrderSystem,
     z: &mut DVector<f64>,
-    states: &mut Vec<f64>,
+    states: &mut [f64],
     grid: SampleGrid,
     input: &dyn Fn(f64) -> f64,
     ctl: &StepControl,
@@ -321,7 +321,7 @@ pub(crate) fn integrate_continued(
     let mut prev: Option<(f64, f64)> = None;
     let mut prev_f = vec![0.0; s * m];
     let hysteretic = sys.has_hysteresis();
-    let mut node_states = states.clone();
+    let mut node_states = states.to_vec();
     on_sample(0, z, states);
     let mut next_progress = 0.0;
     while pos < end {
@@ -596,9 +596,9 @@ impl Level {
 }
 
 /// `phi_0(x) ..= phi_kmax(x)`, `phi_0 = e^x`, `phi_k(x) = sum_j x^j/(j+k)!`:
-/// the series for `phi_kmax` and the downward recurrence `phi_{k-1} = x phi_k
-/// + 1/(k-1)!` for `|x| < 2`, the upward recurrence `phi_k = (phi_{k-1} -
-/// 1/(k-1)!)/x` otherwise (each stable in its range).
+/// for `|x| < 2` the series for `phi_kmax` and the downward recurrence
+/// `phi_{k-1} = x phi_k + 1/(k-1)!`; otherwise the upward recurrence
+/// `phi_k = (phi_{k-1} - 1/(k-1)!)/x` (each stable in its range).
 fn phi_functions(x: Complex64, kmax: usize, out: &mut [Complex64]) {
     if x.norm() < 2.0 {
         let mut term = Complex64::new(1.0 / factorial(kmax), 0.0);
@@ -668,7 +668,7 @@ impl Modal {
             .iter()
             .map(|x| x.norm())
             .fold(0.0, f64::max);
-        if !(res <= 1e-10 * scale) || !v_b_inv.iter().all(|x| x.is_finite()) {
+        if res.is_nan() || res > 1e-10 * scale || !v_b_inv.iter().all(|x| x.is_finite()) {
             return None;
         }
         let v = DMatrix::from_fn(nz, nz, |i, j| v_b[(i, j)] * d[i]);

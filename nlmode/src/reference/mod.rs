@@ -478,6 +478,7 @@ impl ContinuedIntegration {
     /// Integrates over `grid` (its time origin is the current state's) with
     /// `input(t)` on every attachment input, calling `on_sample(i, z,
     /// element_states)` at every grid time `i = 0..=count`.
+    #[allow(clippy::type_complexity)] // the sample callback of `integrate`, with the states
     pub fn advance(
         &mut self,
         system: &AssembledSystem,
