@@ -1,7 +1,10 @@
-//! The controlled virtual tests of `host run` (issue 16): today the
+//! The controlled virtual tests of `host run` (issue 16): the
 //! phase-resonance test (`phase-resonance`), a phase-locked loop
 //! ([`nlmode::control::pll`]) stepped through `[phase_resonance]
-//! voltage_levels_v` on the full-order reference with the shaker. Writes
+//! voltage_levels_v` on the full-order reference with the shaker
+//! (`model = "reference"`) or on the single-nonlinear-mode model
+//! (`model = "nlmode"`, [`nlmode::control::reduced_plant`]: the loop sees only
+//! the fundamental, the harmonic ratios are 0, the current is not sampled). Writes
 //! `phase_resonance.csv` (one row per level, the column contract in
 //! [`PHASE_RESONANCE_COLUMNS`] then the harmonic ratios), the measured backbone
 //! over the numerical NMA (`phase_resonance_backbone.svg`, `omega/omega0`
@@ -11,7 +14,7 @@ use crate::plot;
 use crate::results::{Envelope, MethodResult};
 use crate::scenario::{Method, PhaseResonanceModel, Scenario};
 use anyhow::{anyhow, Context, Result};
-use nlmode::control::{phase_resonance as run_pll, PllLevel, ReferencePlant};
+use nlmode::control::{phase_resonance as run_pll, Plant, PllLevel, ReducedPlant, ReferencePlant};
 use nlmode::nma::ModalTable;
 use nlmode::reference::ReferenceOptions;
 use std::path::Path;
@@ -68,31 +71,14 @@ pub fn phase_resonance(
     out: &Path,
 ) -> Result<MethodResult> {
     let spec = &sc.phase_resonance;
-    match spec.model {
-        PhaseResonanceModel::Reference => {}
-        PhaseResonanceModel::Cosim => {
-            return crate::controlled_cosim::phase_resonance(setup, sc, table, out)
-        }
-        other => {
-            return Err(anyhow!(
-            "phase_resonance.model = \"{}\" is not yet available (today: \"reference\", \"cosim\")",
-            other.name()
-        ))
-        }
+    if spec.model == PhaseResonanceModel::Cosim {
+        return crate::controlled_cosim::phase_resonance(setup, sc, table, out);
     }
-    let opts = ReferenceOptions {
-        method: sc.reference.integrator.unwrap_or_default(),
-        rtol: sc.reference.rtol,
-        samples_per_period: spec.samples_per_period,
-        tip_point: setup.response_point.clone(),
-        ..Default::default()
-    };
     let t0 = Instant::now();
-    let mut plant =
-        ReferencePlant::new(&setup.model, &setup.attachments, &opts).context("phase-resonance")?;
     let drive_mass = setup.modal_masses[0].0;
+    let mut plant = plant(setup, sc, table, spec.model, spec.samples_per_period)?;
     let res = run_pll(
-        &mut plant,
+        plant.as_plant(),
         spec.eta_start * setup.omega0_rad_s,
         &spec.voltage_levels_v,
         drive_mass,
@@ -121,7 +107,7 @@ pub fn phase_resonance(
         force_phase_rad: Some(
             levels
                 .iter()
-                .map(|l| l.force_harmonics_n[1].arg())
+                .map(|l| l.harmonics.force_n[1].arg())
                 .collect(),
         ),
         drive_amplitude_m: Some(levels.iter().map(|l| l.drive_amplitude_m()).collect()),
@@ -129,8 +115,10 @@ pub fn phase_resonance(
         modal_frequency_rad_s: None,
     };
     let mut r = MethodResult::new(Method::PhaseResonance.name(), wall, env, false);
-    r.summary.steps = Some(plant.stats().steps as u64);
-    r.summary.rejected_steps = Some(plant.stats().rejected as u64);
+    if let ControlledPlant::Reference(p) = &plant {
+        r.summary.steps = Some(p.stats().steps as u64);
+        r.summary.rejected_steps = Some(p.stats().rejected as u64);
+    }
     for l in levels.iter().filter(|l| !l.settled) {
         r.summary.warnings.push(format!(
             "phase-resonance: level {} V did not settle within {} periods (phase error {:.3e} rad, \
@@ -161,6 +149,63 @@ pub fn phase_resonance(
         }
     }
     Ok(r)
+}
+
+/// The plant of a controlled test, by `model`.
+pub enum ControlledPlant {
+    /// The full-order reference with the shaker.
+    Reference(Box<ReferencePlant>),
+    /// The slow flow of `eq:NM` with the scenario's shakers.
+    Nlmode(Box<ReducedPlant>),
+}
+
+impl ControlledPlant {
+    /// The plant for the controllers.
+    pub fn as_plant(&mut self) -> &mut dyn Plant {
+        match self {
+            ControlledPlant::Reference(p) => p.as_mut(),
+            ControlledPlant::Nlmode(p) => p.as_mut(),
+        }
+    }
+}
+
+/// The plant of the model `model`, sampled `samples_per_period` times per
+/// period, from rest: the reference assembly (`reference`, with the
+/// scenario's integrator and `rtol`) or the single-nonlinear-mode model on
+/// `table` (`nlmode`). `cosim` is refused with its reason.
+pub fn plant(
+    setup: &Setup,
+    sc: &Scenario,
+    table: &ModalTable,
+    model: PhaseResonanceModel,
+    samples_per_period: usize,
+) -> Result<ControlledPlant> {
+    match model {
+        PhaseResonanceModel::Reference => {
+            let opts = ReferenceOptions {
+                method: sc.reference.integrator.unwrap_or_default(),
+                rtol: sc.reference.rtol,
+                samples_per_period,
+                tip_point: setup.response_point.clone(),
+                ..Default::default()
+            };
+            let p = ReferencePlant::new(&setup.model, &setup.attachments, &opts)
+                .context("controlled test on the reference model")?;
+            Ok(ControlledPlant::Reference(Box::new(p)))
+        }
+        PhaseResonanceModel::Nlmode => {
+            let m = crate::methods::reduced_model(setup, table, None)
+                .context("controlled test on the nlmode model")?;
+            let p = ReducedPlant::new(m, samples_per_period)
+                .context("controlled test on the nlmode model")?;
+            Ok(ControlledPlant::Nlmode(Box::new(p)))
+        }
+        PhaseResonanceModel::Cosim => Err(anyhow!(
+            "model = \"cosim\" runs the phase-resonance test only (structure.fmu, shaker.fmu and \
+             controller.fmu, whose loop is the phase-locked loop); the force- and \
+             response-controlled tests take \"reference\" or \"nlmode\""
+        )),
+    }
 }
 
 pub(crate) fn write_csv(
@@ -206,12 +251,12 @@ pub(crate) fn write_csv(
                 n.map(|n| f(n.1)).unwrap_or_default(),
                 f(l.phase_error_rad),
                 l.periods.to_string(),
-                f(l.current_amplitude_a),
+                f(l.harmonics.current_amplitude_a),
             ];
             for h in [
-                &l.tip_harmonics_m,
-                &l.drive_harmonics_m,
-                &l.force_harmonics_n,
+                &l.harmonics.tip_m,
+                &l.harmonics.drive_m,
+                &l.harmonics.force_n,
             ] {
                 for n in 2..=harmonics {
                     row.push(f(h[n].norm() / h[1].norm()));

@@ -19,4 +19,5 @@ pub mod plot;
 pub mod results;
 pub mod run;
 pub mod scenario;
+pub mod stepped;
 pub mod study;

@@ -294,6 +294,17 @@ pub fn run(path: Option<&Path>, out: &Path, fmu_dir: Option<&Path>) -> Result<Fa
                     out,
                 )?);
             }
+            Method::ForceControlled => {
+                done.push(crate::stepped::force_controlled(&setup, &sc, table(), out)?);
+            }
+            Method::ResponseControlled => {
+                done.push(crate::stepped::response_controlled(
+                    &setup,
+                    &sc,
+                    table(),
+                    out,
+                )?);
+            }
             Method::Cosim => {
                 let Some(f) = fmus.as_ref().or(given_fmus.as_ref()) else {
                     continue; // FMUs not packaged: recorded in `failed`

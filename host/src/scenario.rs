@@ -40,11 +40,16 @@ pub enum Method {
     /// Phase-resonance test: phase-locked loop stepped through voltage levels
     /// (`[phase_resonance]`, `phase_resonance.csv`).
     PhaseResonance,
+    /// Force-controlled stepped sine (`[force_control]`, `force_control.csv`).
+    ForceControlled,
+    /// Response-controlled stepped sine (`[response_control]`,
+    /// `response_control.csv`).
+    ResponseControlled,
 }
 
 impl Method {
     /// Every method, in the order of the docs.
-    pub const ALL: [Method; 8] = [
+    pub const ALL: [Method; 10] = [
         Method::Reference,
         Method::LinearFrf,
         Method::Nlmode,
@@ -53,6 +58,8 @@ impl Method {
         Method::ImposedForce,
         Method::Cosim,
         Method::PhaseResonance,
+        Method::ForceControlled,
+        Method::ResponseControlled,
     ];
 
     /// The name in scenarios and output files (`linear-frf`).
@@ -66,6 +73,8 @@ impl Method {
             Method::Cosim => "cosim",
             Method::ImposedForce => "imposed-force",
             Method::PhaseResonance => "phase-resonance",
+            Method::ForceControlled => "force-controlled",
+            Method::ResponseControlled => "response-controlled",
         }
     }
 
@@ -78,6 +87,8 @@ impl Method {
                 | Method::LinearSteady
                 | Method::ImposedForce
                 | Method::PhaseResonance
+                | Method::ForceControlled
+                | Method::ResponseControlled
         )
     }
 }
@@ -123,6 +134,10 @@ pub struct Scenario {
     pub output: OutputSpec,
     #[serde(default)]
     pub phase_resonance: PhaseResonanceSpec,
+    #[serde(default)]
+    pub force_control: ForceControlSpec,
+    #[serde(default)]
+    pub response_control: ResponseControlSpec,
 }
 
 /// The paper's case (a): every section's default, one exciter at 2l/3 and the
@@ -144,6 +159,8 @@ impl Default for Scenario {
             cosim: CosimSpec::default(),
             output: OutputSpec::default(),
             phase_resonance: PhaseResonanceSpec::default(),
+            force_control: ForceControlSpec::default(),
+            response_control: ResponseControlSpec::default(),
         }
     }
 }
@@ -1016,6 +1033,8 @@ impl Scenario {
 
     fn validate_rest(&self) -> Result<(), ScenarioError> {
         self.phase_resonance.validate()?;
+        self.force_control.validate()?;
+        self.response_control.validate()?;
         if self.exciter.is_empty() {
             return Err(bad("exciter", "expected at least one [[exciter]] table"));
         }
@@ -1584,7 +1603,7 @@ pub enum PhaseResonanceModel {
     /// The full-order assembly with the shaker, integrated period by period.
     #[default]
     Reference,
-    /// The slow flow of `eq:NM` (not yet available).
+    /// The slow flow of `eq:NM` with the shakers (the loop sees its fundamental).
     Nlmode,
     /// The structure, shaker and controller FMUs co-simulated
     /// (`host/src/controlled_cosim.rs`).
@@ -1705,6 +1724,223 @@ impl PhaseResonanceSpec {
             ),
             other => bad("phase_resonance.pll", other.to_string()),
         })
+    }
+}
+
+/// Most frequency steps of a controlled stepped sine, and most response levels.
+pub const MAX_CONTROL_STEPS: usize = 2000;
+/// Most response levels of `[response_control]`.
+pub const MAX_RESPONSE_LEVELS: usize = 50;
+/// Most periods per step of a controlled stepped sine.
+pub const MAX_PERIODS_PER_STEP: usize = 1_000_000;
+
+/// The frequency steps, model and controller of a controlled stepped sine
+/// (the keys shared by `[force_control]` and `[response_control]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SteppedSpec {
+    /// `reference` or `nlmode` (`cosim` is refused).
+    pub model: PhaseResonanceModel,
+    /// First and last frequency, in units of omega0 (defaults 0.9, 1.1).
+    pub eta_start: f64,
+    pub eta_end: f64,
+    /// Number of frequency steps, uniform in `Omega` (default 21).
+    pub steps: usize,
+    /// Voltage amplitude of the first step \[V\] (default 0.5).
+    pub voltage_start_v: f64,
+    /// Samples per excitation period (default 40).
+    pub samples_per_period: usize,
+    /// Tolerances and limits ([`nlmode::control::ForceControlOptions`]).
+    pub control: nlmode::control::ForceControlOptions,
+}
+
+impl Default for SteppedSpec {
+    fn default() -> Self {
+        Self {
+            model: PhaseResonanceModel::Reference,
+            eta_start: 0.9,
+            eta_end: 1.1,
+            steps: 21,
+            voltage_start_v: 0.5,
+            samples_per_period: 40,
+            control: nlmode::control::ForceControlOptions::default(),
+        }
+    }
+}
+
+impl SteppedSpec {
+    fn validate(&self, section: &str) -> Result<(), ScenarioError> {
+        positive(&format!("{section}.eta_start"), self.eta_start)?;
+        positive(&format!("{section}.eta_end"), self.eta_end)?;
+        if !(2..=MAX_CONTROL_STEPS).contains(&self.steps) {
+            return Err(bad(
+                &format!("{section}.steps"),
+                format!("expected 2 ..= {MAX_CONTROL_STEPS}, got {}", self.steps),
+            ));
+        }
+        positive(&format!("{section}.voltage_start_v"), self.voltage_start_v)?;
+        if !(8..=1000).contains(&self.samples_per_period) {
+            return Err(bad(
+                &format!("{section}.samples_per_period"),
+                format!("expected 8 ..= 1000, got {}", self.samples_per_period),
+            ));
+        }
+        let c = &self.control;
+        if 2 * (c.harmonics + 1) > self.samples_per_period {
+            return Err(bad(
+                &format!("{section}.control.harmonics"),
+                format!(
+                    "expected at most samples_per_period / 2 - 1 = {}, got {}",
+                    self.samples_per_period / 2 - 1,
+                    c.harmonics
+                ),
+            ));
+        }
+        for (name, v) in [
+            ("settle_periods", c.settle_periods),
+            ("max_periods_per_step", c.max_periods_per_step),
+        ] {
+            if v > MAX_PERIODS_PER_STEP {
+                return Err(bad(
+                    &format!("{section}.control.{name}"),
+                    format!("expected at most {MAX_PERIODS_PER_STEP}, got {v}"),
+                ));
+            }
+        }
+        c.validate().map_err(|e| match e {
+            nlmode::control::ControlError::BadOption {
+                name,
+                value,
+                expected,
+            } => bad(
+                &format!("{section}.control.{name}"),
+                format!("expected {expected}, got {value}"),
+            ),
+            other => bad(&format!("{section}.control"), other.to_string()),
+        })
+    }
+}
+
+/// `[force_control]`: the force-controlled stepped sine (method
+/// `force-controlled`).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ForceControlSpec {
+    /// Set value of the force fundamental at the structure \[N\] (default 0.1).
+    pub force_set_n: f64,
+    /// `reference` or `nlmode` (`cosim` is refused).
+    pub model: PhaseResonanceModel,
+    /// First and last frequency, in units of omega0 (defaults 0.9, 1.1).
+    pub eta_start: f64,
+    pub eta_end: f64,
+    /// Number of frequency steps, uniform in `Omega` (default 21).
+    pub steps: usize,
+    /// Voltage amplitude of the first step \[V\] (default 0.5).
+    pub voltage_start_v: f64,
+    /// Samples per excitation period (default 40).
+    pub samples_per_period: usize,
+    /// Tolerances and limits ([`nlmode::control::ForceControlOptions`]).
+    pub control: nlmode::control::ForceControlOptions,
+}
+
+impl Default for ForceControlSpec {
+    fn default() -> Self {
+        let d = SteppedSpec::default();
+        Self {
+            force_set_n: 0.1,
+            model: d.model,
+            eta_start: d.eta_start,
+            eta_end: d.eta_end,
+            steps: d.steps,
+            voltage_start_v: d.voltage_start_v,
+            samples_per_period: d.samples_per_period,
+            control: d.control,
+        }
+    }
+}
+
+impl ForceControlSpec {
+    fn validate(&self) -> Result<(), ScenarioError> {
+        positive("force_control.force_set_n", self.force_set_n)?;
+        self.stepped().validate("force_control")
+    }
+    /// The frequency steps, model and controller.
+    pub fn stepped(&self) -> SteppedSpec {
+        SteppedSpec {
+            model: self.model,
+            eta_start: self.eta_start,
+            eta_end: self.eta_end,
+            steps: self.steps,
+            voltage_start_v: self.voltage_start_v,
+            samples_per_period: self.samples_per_period,
+            control: self.control.clone(),
+        }
+    }
+}
+
+/// `[response_control]`: the response-controlled stepped sine (method
+/// `response-controlled`), one sweep per response level.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ResponseControlSpec {
+    /// Set values of the drive-point response amplitude \[m\] (default
+    /// `[1e-4, 3e-4, 6e-4]`).
+    pub response_levels_m: Vec<f64>,
+    /// `reference` or `nlmode` (`cosim` is refused).
+    pub model: PhaseResonanceModel,
+    /// First and last frequency, in units of omega0 (defaults 0.9, 1.1).
+    pub eta_start: f64,
+    pub eta_end: f64,
+    /// Number of frequency steps, uniform in `Omega` (default 21).
+    pub steps: usize,
+    /// Voltage amplitude of the first step \[V\] (default 0.5).
+    pub voltage_start_v: f64,
+    /// Samples per excitation period (default 40).
+    pub samples_per_period: usize,
+    /// Tolerances and limits ([`nlmode::control::ForceControlOptions`]).
+    pub control: nlmode::control::ForceControlOptions,
+}
+
+impl Default for ResponseControlSpec {
+    fn default() -> Self {
+        let d = SteppedSpec::default();
+        Self {
+            response_levels_m: vec![1e-4, 3e-4, 6e-4],
+            model: d.model,
+            eta_start: d.eta_start,
+            eta_end: d.eta_end,
+            steps: d.steps,
+            voltage_start_v: d.voltage_start_v,
+            samples_per_period: d.samples_per_period,
+            control: d.control,
+        }
+    }
+}
+
+impl ResponseControlSpec {
+    fn validate(&self) -> Result<(), ScenarioError> {
+        let n = self.response_levels_m.len();
+        if n == 0 || n > MAX_RESPONSE_LEVELS {
+            return Err(bad(
+                "response_control.response_levels_m",
+                format!("expected 1 ..= {MAX_RESPONSE_LEVELS} response amplitudes, got {n}"),
+            ));
+        }
+        for (i, v) in self.response_levels_m.iter().enumerate() {
+            positive(&format!("response_control.response_levels_m[{i}]"), *v)?;
+        }
+        self.stepped().validate("response_control")
+    }
+    /// The frequency steps, model and controller.
+    pub fn stepped(&self) -> SteppedSpec {
+        SteppedSpec {
+            model: self.model,
+            eta_start: self.eta_start,
+            eta_end: self.eta_end,
+            steps: self.steps,
+            voltage_start_v: self.voltage_start_v,
+            samples_per_period: self.samples_per_period,
+            control: self.control.clone(),
+        }
     }
 }
 

@@ -29,15 +29,16 @@
 //! A step whose voltage hits `max_voltage_v` is reported as saturated (the
 //! force it reached is recorded); one that does not settle within
 //! `max_periods_per_step` is recorded as not settled.
-use super::{period_harmonics, ControlError, Plant};
-use num_complex::Complex64;
+use super::{ControlError, PeriodHarmonics, Plant};
 
-/// Tolerances and limits of [`force_controlled_stepped_sine`]; `Default`
-/// gives the documented defaults.
+/// Tolerances and limits of [`force_controlled_stepped_sine`] and
+/// [`super::response_controlled_stepped_sine`]; `Default` gives the
+/// documented defaults.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ForceControlOptions {
-    /// Relative tolerance on `|F_1|` against the set value (default 2e-3).
+    /// Relative tolerance on the controlled amplitude (`|F_1|`, or `|x_1|` for
+    /// response control) against the set value (default 2e-3).
     pub force_tolerance: f64,
     /// Relative change per period of `|F_1|` and `|x_1|` below which the
     /// response counts as settled (default 1e-4).
@@ -118,14 +119,9 @@ pub struct ForceStep {
     pub periods: usize,
     /// Voltage corrections made on the step.
     pub corrections: usize,
-    /// Harmonics `0..=H` of the force on the structure \[N\].
-    pub force_harmonics_n: Vec<Complex64>,
-    /// Harmonics `0..=H` of the drive-point displacement \[m\].
-    pub drive_harmonics_m: Vec<Complex64>,
-    /// Harmonics `0..=H` of the tip displacement \[m\].
-    pub tip_harmonics_m: Vec<Complex64>,
-    /// Fundamental amplitude of the coil current \[A\] (0 without one).
-    pub current_amplitude_a: f64,
+    /// Harmonics of force, drive point, tip and the coil current of the
+    /// last period.
+    pub harmonics: PeriodHarmonics,
 }
 
 /// Result of [`force_controlled_stepped_sine`].
@@ -139,6 +135,30 @@ pub struct ForceControlResult {
     pub failure: Option<(f64, ControlError)>,
 }
 
+/// The amplitude a stepped controller holds at its set value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Controlled {
+    /// `|F_1|` of the force at the structure (force control).
+    Force,
+    /// `|x_1|` of the drive-point displacement (response control).
+    Response,
+}
+
+impl Controlled {
+    pub(crate) fn of(self, h: &PeriodHarmonics) -> f64 {
+        match self {
+            Controlled::Force => h.force_amplitude_n(),
+            Controlled::Response => h.drive_amplitude_m(),
+        }
+    }
+    fn set_name(self) -> &'static str {
+        match self {
+            Controlled::Force => "force_set_n",
+            Controlled::Response => "response_set_m",
+        }
+    }
+}
+
 /// Force-controlled stepped sine through `omegas_rad_s` (in the given order,
 /// up or down) at the set force amplitude `force_set_n`, starting at the
 /// voltage `voltage_start_v` (see the module docs).
@@ -146,6 +166,25 @@ pub fn force_controlled_stepped_sine(
     plant: &mut dyn Plant,
     omegas_rad_s: &[f64],
     force_set_n: f64,
+    voltage_start_v: f64,
+    options: &ForceControlOptions,
+) -> Result<ForceControlResult, ControlError> {
+    stepped_sine(
+        plant,
+        omegas_rad_s,
+        Controlled::Force,
+        force_set_n,
+        voltage_start_v,
+        options,
+    )
+}
+
+/// The dwell-and-correct stepped sine holding `quantity` at `set`.
+pub(crate) fn stepped_sine(
+    plant: &mut dyn Plant,
+    omegas_rad_s: &[f64],
+    quantity: Controlled,
+    set: f64,
     voltage_start_v: f64,
     options: &ForceControlOptions,
 ) -> Result<ForceControlResult, ControlError> {
@@ -161,7 +200,7 @@ pub fn force_controlled_stepped_sine(
             })
         }
     };
-    positive("force_set_n", force_set_n)?;
+    positive(quantity.set_name(), set)?;
     positive("voltage_start_v", voltage_start_v)?;
     for &w in omegas_rad_s {
         positive("omegas_rad_s", w)?;
@@ -170,11 +209,11 @@ pub fn force_controlled_stepped_sine(
     let mut u = voltage_start_v.min(o.max_voltage_v);
     let mut steps = Vec::with_capacity(omegas_rad_s.len());
     for &w in omegas_rad_s {
-        match force_step(plant, w, force_set_n, &mut u, o) {
+        match controlled_step(plant, w, quantity, set, &mut u, o) {
             Ok(s) => steps.push(s),
             Err(e) => {
                 return Ok(ForceControlResult {
-                    flatness: flatness(&steps, force_set_n),
+                    flatness: flatness(&steps, quantity, set),
                     steps,
                     failure: Some((w, e)),
                 })
@@ -182,23 +221,24 @@ pub fn force_controlled_stepped_sine(
         }
     }
     Ok(ForceControlResult {
-        flatness: flatness(&steps, force_set_n),
+        flatness: flatness(&steps, quantity, set),
         steps,
         failure: None,
     })
 }
 
-fn flatness(steps: &[ForceStep], force_set_n: f64) -> f64 {
+fn flatness(steps: &[ForceStep], quantity: Controlled, set: f64) -> f64 {
     steps
         .iter()
-        .map(|s| (s.force_harmonics_n[1].norm() / force_set_n - 1.0).abs())
+        .map(|s| (quantity.of(&s.harmonics) / set - 1.0).abs())
         .fold(0.0, f64::max)
 }
 
-fn force_step(
+fn controlled_step(
     plant: &mut dyn Plant,
     omega: f64,
-    force_set_n: f64,
+    quantity: Controlled,
+    set: f64,
     u: &mut f64,
     o: &ForceControlOptions,
 ) -> Result<ForceStep, ControlError> {
@@ -209,16 +249,8 @@ fn force_step(
         plant.set_excitation(*u, omega);
         let s = plant.advance_period()?;
         periods += 1;
-        if 2 * (h + 1) > s.force_n.len() {
-            return Err(ControlError::BadOption {
-                name: "harmonics",
-                value: h.to_string(),
-                expected: "fewer than half the samples per period",
-            });
-        }
-        let force = period_harmonics(&s.force_n, h);
-        let drive = period_harmonics(&s.drive_m, h);
-        let (f1, x1) = (force[1].norm(), drive[1].norm());
+        let harmonics = PeriodHarmonics::from_samples(s, h)?;
+        let (f1, x1) = (harmonics.force_amplitude_n(), harmonics.drive_amplitude_m());
         let settled_now = last.is_some_and(|(fp, xp)| {
             ((f1 - fp) / f1).abs() < o.settle_tolerance
                 && ((x1 - xp) / x1).abs() < o.settle_tolerance
@@ -227,15 +259,11 @@ fn force_step(
         inside = if settled_now { inside + 1 } else { 0 };
         let give_up = periods >= o.max_periods_per_step;
         if inside >= o.settle_periods || give_up {
-            let on_target = (f1 / force_set_n - 1.0).abs() <= o.force_tolerance;
-            let next = (*u * force_set_n / f1).min(o.max_voltage_v);
+            let y = quantity.of(&harmonics);
+            let on_target = (y / set - 1.0).abs() <= o.force_tolerance;
+            let next = (*u * set / y).min(o.max_voltage_v);
             let saturated = !on_target && next >= o.max_voltage_v && *u >= o.max_voltage_v;
             if on_target || saturated || give_up {
-                let current = if s.current_a.is_empty() {
-                    0.0
-                } else {
-                    period_harmonics(&s.current_a, 1)[1].norm()
-                };
                 return Ok(ForceStep {
                     omega_rad_s: omega,
                     voltage_v: *u,
@@ -243,10 +271,7 @@ fn force_step(
                     saturated,
                     periods,
                     corrections,
-                    force_harmonics_n: force,
-                    drive_harmonics_m: drive,
-                    tip_harmonics_m: period_harmonics(&s.tip_m, h),
-                    current_amplitude_a: current,
+                    harmonics,
                 });
             }
             *u = next;

@@ -42,13 +42,13 @@ fn force_control_holds_the_force_through_the_force_drop() {
     assert!(res.failure.is_none());
     let h = structure_receptance(&ps.model, "2l3", "tip", &omegas).unwrap();
     for (s, hk) in res.steps.iter().zip(&h) {
-        let tip = s.tip_harmonics_m[1].norm();
+        let tip = s.harmonics.tip_amplitude_m();
         let want = hk.norm() * f_set;
         eprintln!(
             "eta {:.3}: U = {:.4} V, |F| = {:.5} N, tip {:.4e} vs {:.4e} ({:.2e}), periods {}, corrections {}",
             s.omega_rad_s / w0,
             s.voltage_v,
-            s.force_harmonics_n[1].norm(),
+            s.harmonics.force_amplitude_n(),
             tip,
             want,
             tip / want - 1.0,
@@ -72,6 +72,6 @@ fn force_control_holds_the_force_through_the_force_drop() {
     assert_eq!(sat, [false, true, false]);
     let s = &res.steps[1];
     assert_eq!(s.voltage_v, 0.3);
-    assert!(!s.settled && s.force_harmonics_n[1].norm() < 0.5 * f_set);
+    assert!(!s.settled && s.harmonics.force_amplitude_n() < 0.5 * f_set);
     assert!(res.flatness > 0.5);
 }

@@ -10,9 +10,15 @@
 //!   stepped through voltage levels; modal damping from the power balance.
 //! - [`force`]: force control, a stepped sine whose voltage holds the
 //!   fundamental of the force at the structure at a set value.
+//! - [`response`]: response-controlled stepped sine, a stepped sine whose
+//!   voltage holds the drive-point response amplitude at a set value (the
+//!   constant-response FRF, whose peak lies on the backbone).
 //! - [`plant`]: the plant driven by the full-order reference assembly
 //!   (`eq:finalassembly1`-`eq:finalassembly2`), for the paper beam with its
 //!   shaker or a single-DOF Duffing oscillator with the paper's shaker.
+//! - [`reduced_plant`]: the plant on the single-nonlinear-mode model (`eq:NM`,
+//!   the slow flow with the attachments), with what its averaging implies for
+//!   the loop.
 //!
 //! # Demodulation
 //!
@@ -32,6 +38,8 @@
 pub mod force;
 pub mod plant;
 pub mod pll;
+pub mod reduced_plant;
+pub mod response;
 pub mod streaming;
 
 pub use force::{
@@ -41,12 +49,18 @@ pub use plant::{DuffingOscillator, ReferencePlant};
 pub use pll::{
     phase_resonance, PhaseLockedLoop, PhaseMeasurement, PllLevel, PllOptions, PllResult,
 };
+pub use reduced_plant::ReducedPlant;
+pub use response::{constant_response_peak, response_controlled_stepped_sine};
 pub use streaming::{StreamEvent, StreamSample, StreamingPll};
 
 #[cfg(test)]
 mod force_tests;
 #[cfg(test)]
 mod pll_tests;
+#[cfg(test)]
+mod reduced_tests;
+#[cfg(test)]
+mod response_tests;
 
 use crate::reference::ReferenceError;
 use num_complex::Complex64;
@@ -65,8 +79,9 @@ pub enum ControlError {
     #[error("assembly of the plant: {0}")]
     Assembly(#[source] ReferenceError),
     #[error(
-        "the plant's structure has a hysteretic element ({law}): the controlled tests restart the \
-         time integration every period and do not carry its slider state yet"
+        "the plant's structure has a hysteretic element ({law}): with the Dormand-Prince \
+         integrator the controlled tests restart the time integration every period and do not \
+         carry its slider state (use the exponential integrator)"
     )]
     Hysteretic { law: String },
     #[error("time integration of the plant failed at t = {time_s} s: {source}")]
@@ -75,6 +90,8 @@ pub enum ControlError {
         #[source]
         source: ReferenceError,
     },
+    #[error("single-nonlinear-mode model: {0}")]
+    Reduced(String),
     #[error("structure model: {0}")]
     Structure(#[from] crate::structure::StructureError),
     #[error("attachment: {0}")]
@@ -97,6 +114,61 @@ pub struct PeriodSamples {
     pub tip_m: Vec<f64>,
     /// Current through the shaker coil \[A\] (empty if the plant has none).
     pub current_a: Vec<f64>,
+}
+
+/// The harmonics `0..=H` of one measured period (see the module docs), what
+/// every controlled test records per level or step.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PeriodHarmonics {
+    /// Harmonics of the force on the structure at the drive point \[N\].
+    pub force_n: Vec<Complex64>,
+    /// Harmonics of the drive-point displacement \[m\].
+    pub drive_m: Vec<Complex64>,
+    /// Harmonics of the tip displacement \[m\].
+    pub tip_m: Vec<Complex64>,
+    /// Fundamental amplitude of the coil current \[A\] (0 without one).
+    pub current_amplitude_a: f64,
+}
+
+impl PeriodHarmonics {
+    /// Demodulates `samples` up to harmonic `harmonics`; an error if
+    /// `harmonics` is not below half the samples per period.
+    pub fn from_samples(samples: &PeriodSamples, harmonics: usize) -> Result<Self, ControlError> {
+        if 2 * (harmonics + 1) > samples.force_n.len() {
+            return Err(ControlError::BadOption {
+                name: "harmonics",
+                value: harmonics.to_string(),
+                expected: "fewer than half the samples per period",
+            });
+        }
+        let current_amplitude_a = if samples.current_a.is_empty() {
+            0.0
+        } else {
+            period_harmonics(&samples.current_a, 1)[1].norm()
+        };
+        Ok(Self {
+            force_n: period_harmonics(&samples.force_n, harmonics),
+            drive_m: period_harmonics(&samples.drive_m, harmonics),
+            tip_m: period_harmonics(&samples.tip_m, harmonics),
+            current_amplitude_a,
+        })
+    }
+    /// `|q_tip,1|` \[m\].
+    pub fn tip_amplitude_m(&self) -> f64 {
+        self.tip_m[1].norm()
+    }
+    /// `|q_drive,1|` \[m\].
+    pub fn drive_amplitude_m(&self) -> f64 {
+        self.drive_m[1].norm()
+    }
+    /// `|F_1|` \[N\].
+    pub fn force_amplitude_n(&self) -> f64 {
+        self.force_n[1].norm()
+    }
+    /// Mean input power at the drive point ([`mean_power_w`]) \[W\].
+    pub fn power_w(&self, omega_rad_s: f64) -> f64 {
+        mean_power_w(&self.force_n, &self.drive_m, omega_rad_s)
+    }
 }
 
 /// The plant a controller drives: set the excitation, advance one period,

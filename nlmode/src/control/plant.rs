@@ -9,10 +9,19 @@
 //! The same type serves the paper beam with its shaker and the single-DOF
 //! Duffing oscillator driven through the paper's shaker ([`DuffingOscillator`]),
 //! the analytic test case of the phase-locked loop.
+//!
+//! With the exponential integrator (the default) one [`ContinuedIntegration`]
+//! lives as long as the plant: the propagators of the step sizes met so far,
+//! the step level and the states of hysteretic elements (Jenkins sliders)
+//! carry over from one period to the next, and a period whose frequency is
+//! new builds its propagators from the eigenvectors of the assembled `A`
+//! rather than a matrix exponential. Dormand-Prince restarts every period
+//! from the state the last one left and therefore refuses hysteretic elements.
 use super::{ControlError, PeriodSamples, Plant};
 use crate::attachment::{LinearAttachment, ShakerParams};
 use crate::reference::{
-    integrate, AssembledSystem, IntegrationStats, ReferenceOptions, SampleGrid,
+    integrate, AssembledSystem, ContinuedIntegration, IntegrationStats, Integrator,
+    ReferenceOptions, SampleGrid,
 };
 use crate::structure::{CubicSpring, StructuralModel};
 use nalgebra::{DMatrix, DVector};
@@ -24,6 +33,8 @@ pub struct ReferencePlant {
     system: AssembledSystem,
     options: ReferenceOptions,
     z: DVector<f64>,
+    /// The exponential integration kept across periods (`None`: Dormand-Prince).
+    continued: Option<ContinuedIntegration>,
     time_s: f64,
     voltage_v: f64,
     omega_rad_s: f64,
@@ -46,11 +57,12 @@ impl ReferencePlant {
     ) -> Result<Self, ControlError> {
         let system = AssembledSystem::new(model, attachments, &options.tip_point)
             .map_err(ControlError::Assembly)?;
+        let exponential = options.method == Integrator::Exponential;
         if let Some(l) = system
             .first_order
             .laws
             .iter()
-            .find(|l| l.hysteresis().is_some())
+            .find(|l| l.hysteresis().is_some() && !exponential)
         {
             return Err(ControlError::Hysteretic {
                 law: l.name().to_string(),
@@ -68,10 +80,19 @@ impl ReferencePlant {
             .position(|s| s == "I")
             .map(|k| obs.state_index + k);
         let z = DVector::zeros(system.first_order.nz());
+        let continued = if exponential {
+            Some(
+                ContinuedIntegration::new(&system, z.clone(), options)
+                    .map_err(ControlError::Assembly)?,
+            )
+        } else {
+            None
+        };
         Ok(Self {
             system,
             options: options.clone(),
             z,
+            continued,
             time_s: 0.0,
             voltage_v: 0.0,
             omega_rad_s: 0.0,
@@ -81,6 +102,27 @@ impl ReferencePlant {
             samples: PeriodSamples::default(),
             stats: IntegrationStats::default(),
         })
+    }
+
+    /// As [`ReferencePlant::new`], but restarting the integration every
+    /// period from the state the last one left (new propagators per period:
+    /// the behaviour before the integration was kept across periods, for
+    /// comparison in the `pll` bench); memoryless elements only.
+    pub fn restarting(
+        model: &StructuralModel,
+        attachments: &[LinearAttachment],
+        options: &ReferenceOptions,
+    ) -> Result<Self, ControlError> {
+        let mut plant = Self::new(
+            model,
+            attachments,
+            &ReferenceOptions {
+                method: Integrator::DormandPrince,
+                ..options.clone()
+            },
+        )?;
+        plant.options.method = options.method;
+        Ok(plant)
     }
 
     /// Work counters summed over all periods so far.
@@ -127,16 +169,12 @@ impl Plant for ReferencePlant {
         let sys = &self.system;
         let mut obs = DVector::zeros(sys.n_observed());
         let mut f = vec![0.0; sys.first_order.m()];
-        // memoryless laws only (checked in `new`): their states are unused
-        let states = vec![0.0; sys.first_order.m()];
-        let mut z_end = self.z.clone();
         let (di, fi, ci) = (self.drive_index, self.force_index, self.current_index);
-        let mut on_sample = |i: usize, z: &DVector<f64>| {
+        let mut on_sample = |i: usize, z: &DVector<f64>, states: &[f64]| {
             if i == n {
-                z_end.copy_from(z);
                 return;
             }
-            sys.first_order.forces(z, &states, &mut f);
+            sys.first_order.forces(z, states, &mut f);
             sys.observe(z, input(i as f64 * dt), &f, &mut obs);
             s.tip_m.push(obs[0]);
             s.drive_m.push(obs[di]);
@@ -149,20 +187,39 @@ impl Plant for ReferencePlant {
             interval_s: dt,
             count: n,
         };
-        let stats = integrate(
-            sys,
-            &self.z,
-            grid,
-            &input,
-            &self.options,
-            &mut on_sample,
-            &mut |_| {},
-        )
-        .map_err(|source| ControlError::Integration {
-            time_s: self.time_s,
-            source,
-        })?;
-        self.z = z_end;
+        let time_s = self.time_s;
+        let failed = |source| ControlError::Integration { time_s, source };
+        let stats = match &mut self.continued {
+            Some(c) => {
+                let st = c
+                    .advance(sys, grid, &input, &mut on_sample)
+                    .map_err(failed)?;
+                self.z.copy_from(c.state());
+                st
+            }
+            None => {
+                // memoryless laws only (checked in `new`): their states are unused
+                let states = vec![0.0; sys.first_order.m()];
+                let mut z_end = self.z.clone();
+                let st = integrate(
+                    sys,
+                    &self.z,
+                    grid,
+                    &input,
+                    &self.options,
+                    &mut |i, z| {
+                        if i == n {
+                            z_end.copy_from(z);
+                        }
+                        on_sample(i, z, &states)
+                    },
+                    &mut |_| {},
+                )
+                .map_err(failed)?;
+                self.z = z_end;
+                st
+            }
+        };
         self.time_s += n as f64 * dt;
         let t = &mut self.stats;
         t.steps += stats.steps;

@@ -58,7 +58,7 @@
 //! single DOF: `D = c / (2 m Omega)`). A level that does not settle within
 //! `max_periods_per_level` is recorded with `settled = false` and the loop
 //! goes on with the next level.
-use super::{mean_power_w, period_harmonics, wrap_angle, ControlError, Plant};
+use super::{wrap_angle, ControlError, PeriodHarmonics, Plant};
 use num_complex::Complex64;
 use std::f64::consts::FRAC_PI_2;
 
@@ -169,14 +169,9 @@ pub struct PllLevel {
     pub phase_error_rad: f64,
     /// Relative change of `|X_1|` in the recorded period.
     pub amplitude_change: f64,
-    /// Harmonics `0..=H` of the force on the structure \[N\].
-    pub force_harmonics_n: Vec<Complex64>,
-    /// Harmonics `0..=H` of the drive-point displacement \[m\].
-    pub drive_harmonics_m: Vec<Complex64>,
-    /// Harmonics `0..=H` of the tip displacement \[m\].
-    pub tip_harmonics_m: Vec<Complex64>,
-    /// Fundamental amplitude of the coil current \[A\] (0 without one).
-    pub current_amplitude_a: f64,
+    /// Harmonics of force, drive point, tip and the coil current of the
+    /// recorded period.
+    pub harmonics: PeriodHarmonics,
     /// Mean input power at the drive point \[W\].
     pub power_w: f64,
     /// Modal damping ratio from the power balance (module docs).
@@ -186,15 +181,15 @@ pub struct PllLevel {
 impl PllLevel {
     /// `|q_tip,1|` \[m\].
     pub fn tip_amplitude_m(&self) -> f64 {
-        self.tip_harmonics_m[1].norm()
+        self.harmonics.tip_amplitude_m()
     }
     /// `|q_drive,1|` \[m\].
     pub fn drive_amplitude_m(&self) -> f64 {
-        self.drive_harmonics_m[1].norm()
+        self.harmonics.drive_amplitude_m()
     }
     /// `|F_1|` \[N\].
     pub fn force_amplitude_n(&self) -> f64 {
-        self.force_harmonics_n[1].norm()
+        self.harmonics.force_amplitude_n()
     }
 }
 
@@ -282,24 +277,13 @@ impl PhaseLockedLoop {
     ) -> Result<PhaseMeasurement, ControlError> {
         plant.set_excitation(voltage_v, self.omega_rad_s);
         let s = plant.advance_period()?;
-        let h = self.options.harmonics;
-        let n = s.force_n.len();
-        if 2 * (h + 1) > n {
-            return Err(ControlError::BadOption {
-                name: "harmonics",
-                value: h.to_string(),
-                expected: "fewer than half the samples per period",
-            });
-        }
-        let force = period_harmonics(&s.force_n, h);
-        let drive = period_harmonics(&s.drive_m, h);
-        let tip = period_harmonics(&s.tip_m, h);
-        let current = if s.current_a.is_empty() {
-            0.0
-        } else {
-            period_harmonics(&s.current_a, 1)[1].norm()
-        };
         let omega = s.omega_rad_s;
+        let PeriodHarmonics {
+            force_n: force,
+            drive_m: drive,
+            tip_m: tip,
+            current_amplitude_a: current,
+        } = PeriodHarmonics::from_samples(s, self.options.harmonics)?;
         let lag = wrap_angle(force[1].arg() - drive[1].arg());
         let e = wrap_angle(FRAC_PI_2 - lag);
         let o = &self.options;
@@ -344,9 +328,15 @@ impl PhaseLockedLoop {
             let settled = inside >= o.settle_periods;
             if settled || periods >= o.max_periods_per_level {
                 let omega = m.omega_rad_s;
-                let power = mean_power_w(&m.force_harmonics_n, &m.drive_harmonics_m, omega);
-                let kinetic: f64 = m
-                    .drive_harmonics_m
+                let harmonics = PeriodHarmonics {
+                    force_n: m.force_harmonics_n,
+                    drive_m: m.drive_harmonics_m,
+                    tip_m: m.tip_harmonics_m,
+                    current_amplitude_a: m.current_amplitude_a,
+                };
+                let power = harmonics.power_w(omega);
+                let kinetic: f64 = harmonics
+                    .drive_m
                     .iter()
                     .enumerate()
                     .skip(1)
@@ -362,10 +352,7 @@ impl PhaseLockedLoop {
                     amplitude_change: change,
                     damping_ratio: power / (omega * drive_modal_mass_kg * kinetic),
                     power_w: power,
-                    current_amplitude_a: m.current_amplitude_a,
-                    force_harmonics_n: m.force_harmonics_n,
-                    drive_harmonics_m: m.drive_harmonics_m,
-                    tip_harmonics_m: m.tip_harmonics_m,
+                    harmonics,
                 });
             }
         }

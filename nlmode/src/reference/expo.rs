@@ -43,6 +43,7 @@
 use super::assembly::FirstOrderSystem;
 use super::{IntegrationStats, ReferenceError, SampleGrid, StepControl};
 use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
 
 /// Finest level: the smallest step is `dt / 2^MAX_LEVEL`.
 const MAX_LEVEL: u32 = 40;
@@ -254,6 +255,42 @@ pub(crate) fn integrate(
     on_sample: &mut super::SampleWithStates,
     progress: &mut dyn FnMut(f64),
 ) -> Result<IntegrationStats, ReferenceError> {
+    let mut z = z0.clone();
+    let mut states = sys.initial_element_states(&z);
+    let mut cache = Propagators::new(sys, false);
+    integrate_continued(
+        sys,
+        &mut z,
+        &mut states,
+        grid,
+        input,
+        ctl,
+        &mut cache,
+        on_sample,
+        progress,
+    )
+}
+
+/// [`integrate`] from the state `z` and element states `states` (both left
+/// at the end of the grid), reusing the propagators, the step level and the
+/// error scale that `cache` kept from earlier calls (an integration continued
+/// over several grids, e.g. one excitation period each).
+#[allow(
+    clippy::neg_cmp_op_on_partial_ord,
+    clippy::manual_is_multiple_of,
+    clippy::too_many_arguments
+)]
+pub(crate) fn integrate_continued(
+    sys: &FirstOrderSystem,
+    z: &mut DVector<f64>,
+    states: &mut [f64],
+    grid: SampleGrid,
+    input: &dyn Fn(f64) -> f64,
+    ctl: &StepControl,
+    cache: &mut Propagators,
+    on_sample: &mut super::SampleWithStates,
+    progress: &mut dyn FnMut(f64),
+) -> Result<IntegrationStats, ReferenceError> {
     let (dt, n) = (grid.interval_s, grid.count);
     let s = ctl.nodes;
     assert!(s >= 2, "at least two collocation nodes");
@@ -262,17 +299,18 @@ pub(crate) fn integrate(
     let p = sys.n_inputs();
     let mf = p + m;
     let mut stats = IntegrationStats::default();
-    let d = balance(&sys.a);
-    let mut levels: Vec<Option<Level>> = (0..=MAX_LEVEL).map(|_| None).collect();
-    let mut level: u32 = 0;
+    let mut level: u32 = cache.level;
     let one: u64 = 1 << MAX_LEVEL;
     let end: u64 = n as u64 * one;
     let mut pos: u64 = 0;
     let tick = dt / one as f64;
-    let mut z = z0.clone();
     let mut znew = DVector::zeros(nz);
     let mut err = DVector::zeros(nz);
-    let mut zmax = z.abs();
+    if cache.zmax.len() != nz {
+        cache.zmax = z.abs().as_slice().to_vec();
+    }
+    // taken out of the cache while the loop borrows it for the propagators
+    let mut zmax = std::mem::take(&mut cache.zmax);
     let mut r = DVector::zeros(s * mf);
     let mut f0 = vec![0.0; m];
     let np = 2 * m;
@@ -288,9 +326,8 @@ pub(crate) fn integrate(
     let mut prev: Option<(f64, f64)> = None;
     let mut prev_f = vec![0.0; s * m];
     let hysteretic = sys.has_hysteresis();
-    let mut states = sys.initial_element_states(&z);
-    let mut node_states = states.clone();
-    on_sample(0, &z, &states);
+    let mut node_states = states.to_vec();
+    on_sample(0, z, states);
     let mut next_progress = 0.0;
     while pos < end {
         if stats.steps + stats.rejected >= ctl.max_steps {
@@ -302,18 +339,14 @@ pub(crate) fn integrate(
         let ticks: u64 = 1 << (MAX_LEVEL - level);
         let t = pos as f64 * tick;
         let h = ticks as f64 * tick;
-        if levels[level as usize].is_none() {
-            levels[level as usize] = Some(build_level(sys, &d, h, s));
-            stats.propagators += 1;
-        }
-        let lv = levels[level as usize].as_ref().unwrap();
+        let lv = cache.level_for(sys, h, s, &mut stats);
         let tau = h / (s - 1) as f64;
         // node values: inputs everywhere, forces at node 0 from z_n
         for l in 0..s {
             let u = input(t + l as f64 * tau);
             r.rows_mut(l * mf, p).copy_from_slice(&u[..p]);
         }
-        sys.forces(&z, &states, &mut f0);
+        sys.forces(z, states, &mut f0);
         stats.law_evals += m;
         // initial guess of the node forces: the previous step's interpolation
         // polynomial, extrapolated (constant force on the first step)
@@ -347,7 +380,7 @@ pub(crate) fn integrate(
         let mut newton_ok = true;
         if m > 0 {
             // known part of the projections: P e^{j tau A} z_n
-            base.gemv_tr(1.0, &lv.pe_t, &z, 0.0);
+            base.gemv_tr(1.0, &lv.pe_t, z, 0.0);
             let nu = m * (s - 1);
             let mut converged = false;
             for _ in 0..MAX_NEWTON {
@@ -355,7 +388,7 @@ pub(crate) fn integrate(
                 let mut fscale: f64 = f64::MIN_POSITIVE;
                 pall.copy_from(&base);
                 pall.gemv_tr(1.0, &lv.pq_t, &r, 1.0);
-                node_states.copy_from_slice(&states);
+                node_states.copy_from_slice(states);
                 for j in 1..s {
                     let pj = (j - 1) * np;
                     for e in 0..m {
@@ -398,7 +431,7 @@ pub(crate) fn integrate(
         }
         let mut enorm = f64::INFINITY;
         if newton_ok {
-            znew.gemv(1.0, &lv.e, &z, 0.0);
+            znew.gemv(1.0, &lv.e, z, 0.0);
             znew.gemv(1.0, &lv.zw, &r, 1.0);
             err.gemv(1.0, &lv.ew, &r, 0.0);
             let mut acc = 0.0;
@@ -431,7 +464,7 @@ pub(crate) fn integrate(
                 }
             }
         }
-        std::mem::swap(&mut z, &mut znew);
+        std::mem::swap(z, &mut znew);
         prev = Some((t, tau));
         for l in 0..s {
             for e in 0..m {
@@ -441,9 +474,9 @@ pub(crate) fn integrate(
         pos += ticks;
         stats.steps += 1;
         let t_new = pos as f64 * tick;
-        ctl.check_state(&z, zmax.as_mut_slice(), t_new)?;
+        ctl.check_state(z, &mut zmax, t_new)?;
         if pos % one == 0 {
-            on_sample((pos / one) as usize, &z, &states);
+            on_sample((pos / one) as usize, z, states);
             let frac = pos as f64 / end as f64;
             if frac >= next_progress {
                 progress(frac);
@@ -456,6 +489,288 @@ pub(crate) fn integrate(
             level -= 1;
         }
         last_rejected = false;
+        cache.level = level;
     }
+    cache.zmax = zmax;
     Ok(stats)
+}
+
+/// Most step sizes whose propagators a [`Propagators`] keeps (one integration
+/// over a fixed grid uses at most `MAX_LEVEL + 1`).
+const MAX_CACHED: usize = MAX_LEVEL as usize + 1;
+
+/// Propagators, step level and error scale kept across the calls of
+/// [`integrate_continued`], keyed by the step size.
+///
+/// With `modal` set, a new step size's propagators come from the eigenvectors
+/// of `A` computed once (`A = V diag(lambda) V^-1`): `e^{sigma A} = V
+/// diag(e^{sigma lambda}) V^-1` and `X_k(sigma) = V diag(sigma^{k+1}
+/// phi_{k+1}(sigma lambda)) V^-1 F`, scalar functions per eigenvalue instead of
+/// the exponential of the augmented matrix and its powers (about ten times
+/// cheaper for the paper beam's 25 + 3 states). That serves a controller
+/// whose excitation period, and so the step size, changes every period. The
+/// eigenvectors are checked once against the augmented exponential (entries
+/// agree to 1e-9 of the largest); where they do not (a defective or
+/// ill-conditioned `A`) the augmented exponential is used.
+pub(crate) struct Propagators {
+    d: DVector<f64>,
+    modal: Option<Modal>,
+    modal_checked: bool,
+    levels: Vec<(f64, Level)>,
+    /// Step level of the last accepted step (relative to the grid interval).
+    pub level: u32,
+    /// Running maximum of `|z_i|` (the error scale).
+    pub zmax: Vec<f64>,
+}
+
+/// Eigen-decomposition of `A` (balanced coordinates folded back in).
+struct Modal {
+    lambda: Vec<Complex64>,
+    /// `V` (`nz x nz`).
+    v: DMatrix<Complex64>,
+    /// `V^-1`.
+    v_inv: DMatrix<Complex64>,
+    /// `V^-1 F` (`nz x mf`).
+    g: DMatrix<Complex64>,
+    /// `P V` (`2m x nz`).
+    pv: DMatrix<Complex64>,
+}
+
+impl Propagators {
+    /// An empty cache; `modal`: build new step sizes from the eigenvectors of `A`.
+    pub(crate) fn new(sys: &FirstOrderSystem, modal: bool) -> Self {
+        let d = balance(&sys.a);
+        let modal = if modal { Modal::new(sys, &d) } else { None };
+        Self {
+            d,
+            modal_checked: modal.is_none(),
+            modal,
+            levels: Vec::new(),
+            level: 0,
+            zmax: Vec::new(),
+        }
+    }
+
+    fn level_for(
+        &mut self,
+        sys: &FirstOrderSystem,
+        h: f64,
+        s: usize,
+        stats: &mut IntegrationStats,
+    ) -> &Level {
+        if let Some(k) = self.levels.iter().position(|(hk, _)| *hk == h) {
+            return &self.levels[k].1;
+        }
+        let lv = match &self.modal {
+            Some(md) if !self.modal_checked => {
+                let exact = build_level(sys, &self.d, h, s);
+                let fast = md.level(sys, h, s);
+                self.modal_checked = true;
+                if !fast.agrees_with(&exact, 1e-9) {
+                    self.modal = None;
+                }
+                exact
+            }
+            Some(md) => md.level(sys, h, s),
+            None => build_level(sys, &self.d, h, s),
+        };
+        stats.propagators += 1;
+        if self.levels.len() >= MAX_CACHED {
+            self.levels.remove(0);
+        }
+        self.levels.push((h, lv));
+        &self.levels.last().unwrap().1
+    }
+}
+
+impl Level {
+    /// Every matrix within `tol` of the other's largest entry.
+    fn agrees_with(&self, other: &Level, tol: f64) -> bool {
+        [
+            (&self.e, &other.e),
+            (&self.zw, &other.zw),
+            (&self.ew, &other.ew),
+            (&self.pe_t, &other.pe_t),
+            (&self.pq_t, &other.pq_t),
+        ]
+        .iter()
+        .all(|(a, b)| {
+            let scale = b.amax().max(f64::MIN_POSITIVE);
+            a.shape() == b.shape() && (*a - *b).amax() <= tol * scale
+        })
+    }
+}
+
+/// `phi_0(x) ..= phi_kmax(x)`, `phi_0 = e^x`, `phi_k(x) = sum_j x^j/(j+k)!`:
+/// for `|x| < 2` the series for `phi_kmax` and the downward recurrence
+/// `phi_{k-1} = x phi_k + 1/(k-1)!`; otherwise the upward recurrence
+/// `phi_k = (phi_{k-1} - 1/(k-1)!)/x` (each stable in its range).
+fn phi_functions(x: Complex64, kmax: usize, out: &mut [Complex64]) {
+    if x.norm() < 2.0 {
+        let mut term = Complex64::new(1.0 / factorial(kmax), 0.0);
+        let mut sum = term;
+        for j in 1..60 {
+            term *= x / (j + kmax) as f64;
+            sum += term;
+            if term.norm() <= 1e-17 * sum.norm() {
+                break;
+            }
+        }
+        out[kmax] = sum;
+        for k in (1..=kmax).rev() {
+            out[k - 1] = x * out[k] + 1.0 / factorial(k - 1);
+        }
+        out[0] = x.exp();
+    } else {
+        out[0] = x.exp();
+        for k in 1..=kmax {
+            out[k] = (out[k - 1] - 1.0 / factorial(k - 1)) / x;
+        }
+    }
+}
+
+impl Modal {
+    /// Eigenvalues by the real Schur form, eigenvectors by inverse iteration,
+    /// of the balanced `D^-1 A D`; `None` if any step fails or `V` is
+    /// numerically singular.
+    fn new(sys: &FirstOrderSystem, d: &DVector<f64>) -> Option<Self> {
+        let nz = sys.nz();
+        let m = sys.m();
+        if nz == 0 {
+            return None;
+        }
+        let a_b = DMatrix::from_fn(nz, nz, |i, j| sys.a[(i, j)] * d[j] / d[i]);
+        let schur = nalgebra::linalg::Schur::try_new(a_b.clone(), 1e-14 * a_b.amax(), 10_000)?;
+        let mut lambda: Vec<Complex64> = schur.complex_eigenvalues().iter().copied().collect();
+        let a_c = a_b.map(|x| Complex64::new(x, 0.0));
+        let scale = a_b.amax();
+        let mut v_b = DMatrix::<Complex64>::zeros(nz, nz);
+        #[allow(clippy::needless_range_loop)] // lambda[i] is refined in the loop
+        for i in 0..nz {
+            let l = lambda[i];
+            let shift = l + Complex64::new(1e-10 * scale.max(l.norm()), 0.0) * 1e-3;
+            let mut shifted = a_c.clone();
+            for k in 0..nz {
+                shifted[(k, k)] -= shift;
+            }
+            let lu = shifted.lu();
+            let mut x = DVector::from_fn(nz, |k, _| Complex64::new(1.0 + 0.1 * k as f64, 0.3));
+            for _ in 0..3 {
+                x = lu.solve(&x)?;
+                let nrm = x.norm();
+                if !(nrm.is_finite() && nrm > 0.0) {
+                    return None;
+                }
+                x /= Complex64::new(nrm, 0.0);
+            }
+            // Rayleigh quotient: the eigenvalue to the accuracy of the vector
+            lambda[i] = x.dotc(&(&a_c * &x));
+            v_b.set_column(i, &x);
+        }
+        let v_b_inv = v_b.clone().try_inverse()?;
+        // residual of the decomposition, relative
+        let lam = DMatrix::from_diagonal(&DVector::from_vec(lambda.clone()));
+        let res = (&a_c * &v_b - &v_b * &lam)
+            .iter()
+            .map(|x| x.norm())
+            .fold(0.0, f64::max);
+        if res.is_nan() || res > 1e-10 * scale || !v_b_inv.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let v = DMatrix::from_fn(nz, nz, |i, j| v_b[(i, j)] * d[i]);
+        let v_inv = DMatrix::from_fn(nz, nz, |i, j| v_b_inv[(i, j)] / d[j]);
+        let mut f = DMatrix::<Complex64>::zeros(nz, 1 + m);
+        for i in 0..nz {
+            f[(i, 0)] = Complex64::new(sys.b[i], 0.0);
+            for e in 0..m {
+                f[(i, 1 + e)] = Complex64::new(sys.g[(i, e)], 0.0);
+            }
+        }
+        let g = &v_inv * f;
+        let pv = sys.proj.map(|x| Complex64::new(x, 0.0)) * &v;
+        Some(Self {
+            lambda,
+            v,
+            v_inv,
+            g,
+            pv,
+        })
+    }
+
+    /// The [`Level`] of step `h` (same content as [`build_level`]).
+    fn level(&self, sys: &FirstOrderSystem, h: f64, s: usize) -> Level {
+        let nz = sys.nz();
+        let m = sys.m();
+        let mf = 1 + m;
+        let np = 2 * m;
+        let tau = h / (s - 1) as f64;
+        let vhat = DMatrix::from_fn(s, s, |l, k| (l as f64).powi(k as i32) / factorial(k));
+        let vhat_inv = vhat
+            .try_inverse()
+            .expect("equidistant Vandermonde is regular");
+        let mut phi = vec![Complex64::new(0.0, 0.0); s + 1];
+        // c[j][l][i]: weight of node value l in mode i at time j tau (all k),
+        // cs: the same from k = s-1 only (error estimate, j = s-1)
+        let mut c = vec![vec![vec![Complex64::new(0.0, 0.0); nz]; s]; s];
+        let mut cs = vec![vec![Complex64::new(0.0, 0.0); nz]; s];
+        let mut ej = vec![vec![Complex64::new(0.0, 0.0); nz]; s];
+        for (i, &l) in self.lambda.iter().enumerate() {
+            for j in 1..s {
+                let sigma = j as f64 * tau;
+                phi_functions(l * sigma, s, &mut phi);
+                ej[j][i] = phi[0];
+                for k in 0..s {
+                    // X_k(sigma) = sigma^{k+1} phi_{k+1}(sigma lambda), times tau^-k
+                    let xk = phi[k + 1] * sigma * (j as f64).powi(k as i32);
+                    for ll in 0..s {
+                        let w = vhat_inv[(k, ll)];
+                        if w != 0.0 {
+                            c[j][ll][i] += xk * w;
+                            if j == s - 1 && k == s - 1 {
+                                cs[ll][i] += xk * w;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // V diag(w) M, real part
+        let scaled = |left: &DMatrix<Complex64>, w: &[Complex64], right: &DMatrix<Complex64>| {
+            let mut r = right.clone();
+            for (i, wi) in w.iter().enumerate() {
+                for x in r.row_mut(i).iter_mut() {
+                    *x *= wi;
+                }
+            }
+            (left * r).map(|x| x.re)
+        };
+        let e = scaled(&self.v, &ej[s - 1], &self.v_inv);
+        let weights = |cw: &[Vec<Complex64>], left: &DMatrix<Complex64>| {
+            let mut w = DMatrix::zeros(left.nrows(), s * mf);
+            for (l, cl) in cw.iter().enumerate() {
+                w.view_mut((0, l * mf), (left.nrows(), mf))
+                    .copy_from(&scaled(left, cl, &self.g));
+            }
+            w
+        };
+        let zw = weights(&c[s - 1], &self.v);
+        let ew = weights(&cs, &self.v);
+        let mut pe_t = DMatrix::zeros(nz, (s - 1) * np);
+        let mut pq_t = DMatrix::zeros(s * mf, (s - 1) * np);
+        for j in 1..s {
+            let pe = scaled(&self.pv, &ej[j], &self.v_inv);
+            let pq = weights(&c[j], &self.pv);
+            pe_t.view_mut((0, (j - 1) * np), (nz, np))
+                .copy_from(&pe.transpose());
+            pq_t.view_mut((0, (j - 1) * np), (s * mf, np))
+                .copy_from(&pq.transpose());
+        }
+        Level {
+            e,
+            zw,
+            ew,
+            pe_t,
+            pq_t,
+        }
+    }
 }

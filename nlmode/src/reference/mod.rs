@@ -447,6 +447,90 @@ fn integrate_with_states(
     )
 }
 
+/// The exponential integration of an assembled system continued over a
+/// sequence of sample grids (a controller's excitation periods, each with its
+/// own interval): the state, the hysteretic elements' states, the step level,
+/// the error scale and the propagators carry over from one grid to the next.
+/// New step sizes are built from the eigenvectors of `A` where they reproduce
+/// the augmented exponential (see [`expo`]), so a grid interval that changes
+/// every period costs scalar functions per eigenvalue rather than a matrix
+/// exponential.
+pub struct ContinuedIntegration {
+    ctl: StepControl,
+    cache: expo::Propagators,
+    z: DVector<f64>,
+    states: Vec<f64>,
+}
+
+impl std::fmt::Debug for ContinuedIntegration {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ContinuedIntegration")
+            .field("z", &self.z)
+            .field("states", &self.states)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ContinuedIntegration {
+    /// From `z0` (element states relaxed at `z0`); `options.method` must be
+    /// the exponential one.
+    pub fn new(
+        system: &AssembledSystem,
+        z0: DVector<f64>,
+        options: &ReferenceOptions,
+    ) -> Result<Self, ReferenceError> {
+        assert_eq!(z0.len(), system.first_order.nz(), "initial state length");
+        let ctl = options.validate()?;
+        if options.method != Integrator::Exponential {
+            return Err(ReferenceError::BadOption {
+                name: "method",
+                value: format!("{:?}", options.method),
+                expected: "the exponential method for a continued integration",
+            });
+        }
+        Ok(Self {
+            ctl,
+            cache: expo::Propagators::new(&system.first_order, true),
+            states: system.first_order.initial_element_states(&z0),
+            z: z0,
+        })
+    }
+
+    /// Integrates over `grid` (its time origin is the current state's) with
+    /// `input(t)` on every attachment input, calling `on_sample(i, z,
+    /// element_states)` at every grid time `i = 0..=count`.
+    #[allow(clippy::type_complexity)] // the sample callback of `integrate`, with the states
+    pub fn advance(
+        &mut self,
+        system: &AssembledSystem,
+        grid: SampleGrid,
+        input: &dyn Fn(f64) -> f64,
+        on_sample: &mut dyn FnMut(usize, &DVector<f64>, &[f64]),
+    ) -> Result<IntegrationStats, ReferenceError> {
+        expo::integrate_continued(
+            &system.first_order,
+            &mut self.z,
+            &mut self.states,
+            grid,
+            input,
+            &self.ctl,
+            &mut self.cache,
+            on_sample,
+            &mut |_| {},
+        )
+    }
+
+    /// Current state.
+    pub fn state(&self) -> &DVector<f64> {
+        &self.z
+    }
+
+    /// Current internal states of the nonlinear elements.
+    pub fn element_states(&self) -> &[f64] {
+        &self.states
+    }
+}
+
 /// Most output samples a reference sweep records (each holds every observed
 /// quantity: about 100 bytes; 1e7 samples about 1 GB).
 pub const MAX_SWEEP_SAMPLES: usize = 10_000_000;
