@@ -205,9 +205,11 @@ pub fn build_matrices_structure(
     sc: &Scenario,
     st: &MatricesStructureSpec,
 ) -> Result<nlmode::structure::MatrixStructure> {
+    // sparse from the files to the reduction (dense only for reduction = "none"
+    // or a small model, nlmode::structure::matrices::SPARSE_MIN_DOF)
     use nlmode::structure::{
-        matrix_structure, read_matrix_market, MatricesError, MatrixDamping, MatrixRole,
-        MatrixStructureOptions,
+        matrix_structure_sparse, read_matrix_market_sparse as read_matrix_market, MatricesError,
+        MatrixDamping, MatrixRole, MatrixStructureOptions,
     };
     let key = |e: MatricesError| -> anyhow::Error {
         let k = match &e {
@@ -221,6 +223,7 @@ pub fn build_matrices_structure(
                 format!("structure.{key}")
             }
             MatricesError::Structure(_) => "structure".into(),
+            MatricesError::TooLargeForDense { .. } => "structure.reduction".into(),
             MatricesError::MassNotPositiveDefinite { .. } => "structure.mass_mtx".into(),
             MatricesError::StiffnessIndefinite { .. } | MatricesError::RigidBodyModes { .. } => {
                 "structure.stiffness_mtx".into()
@@ -312,8 +315,10 @@ pub fn build_matrices_structure(
             }
         }
     }
-    let mut ms = matrix_structure(&opts).map_err(key)?;
-    add_nonlinearities(sc, &mut ms.full)?;
+    let mut ms = matrix_structure_sparse(&opts).map_err(key)?;
+    if let Some(full) = ms.full.as_mut() {
+        add_nonlinearities(sc, full)?;
+    }
     add_nonlinearities(sc, &mut ms.model)?;
     Ok(ms)
 }
@@ -546,7 +551,7 @@ impl Setup {
                     .iter()
                     .map(|e| e.point.clone().context("exciter point"))
                     .collect::<Result<Vec<_>>>()?;
-                let n = ms.full.ndof();
+                let n = ms.full_ndof;
                 (
                     ms.model,
                     ms.omega0_rad_s,
