@@ -344,9 +344,9 @@ impl Controller {
         let (s, h, part) = ((k / 12) as usize, ((k % 12) / 2) as usize, k % 2);
         let Some(r) = self.record() else { return 0.0 };
         let sig = [
-            &r.force_harmonics_n,
-            &r.drive_harmonics_m,
-            &r.tip_harmonics_m,
+            &r.harmonics.force_n,
+            &r.harmonics.drive_m,
+            &r.harmonics.tip_m,
         ][s];
         sig.get(h)
             .map_or(0.0, |c| if part == 0 { c.re } else { c.im })
@@ -430,7 +430,7 @@ impl CoSimModel for Controller {
             }),
             VR_DAMPING => rec(|l| l.damping_ratio),
             VR_POWER => rec(|l| l.power_w),
-            VR_I_AMPLITUDE => rec(|l| l.current_amplitude_a),
+            VR_I_AMPLITUDE => rec(|l| l.harmonics.current_amplitude_a),
             VR_RECORD_VOLTAGE => rec(|l| l.voltage_v),
             VR_RECORD_OMEGA => rec(|l| l.omega_rad_s),
             VR_RECORD_TIME => rec(|l| l.time_s),

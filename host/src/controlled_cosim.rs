@@ -115,7 +115,7 @@ pub fn phase_resonance(
         force_phase_rad: Some(
             levels
                 .iter()
-                .map(|l| l.force_harmonics_n[1].arg())
+                .map(|l| l.harmonics.force_n[1].arg())
                 .collect(),
         ),
         drive_amplitude_m: Some(levels.iter().map(|l| l.drive_amplitude_m()).collect()),
@@ -328,10 +328,12 @@ pub fn run_levels(
             amplitude_change: v[1],
             damping_ratio: v[2],
             power_w: v[3],
-            current_amplitude_a: v[4],
-            force_harmonics_n: sig(0),
-            drive_harmonics_m: sig(1),
-            tip_harmonics_m: sig(2),
+            harmonics: nlmode::control::PeriodHarmonics {
+                force_n: sig(0),
+                drive_m: sig(1),
+                tip_m: sig(2),
+                current_amplitude_a: v[4],
+            },
         });
     }
     Ok(CosimPll {

@@ -40,8 +40,8 @@
 //! last completed period (a [`PllLevel`] with the power-balance damping of
 //! [`super::pll`]).
 use super::{
-    mean_power_w, ControlError, PeriodSamples, PhaseLockedLoop, PhaseMeasurement, Plant, PllLevel,
-    PllOptions,
+    mean_power_w, ControlError, PeriodHarmonics, PeriodSamples, PhaseLockedLoop, PhaseMeasurement,
+    Plant, PllLevel, PllOptions,
 };
 use std::f64::consts::TAU;
 
@@ -416,10 +416,12 @@ impl StreamingPll {
             amplitude_change: c.amplitude_change.unwrap_or(f64::INFINITY),
             damping_ratio: power / (omega * self.drive_modal_mass_kg * kinetic),
             power_w: power,
-            current_amplitude_a: m.current_amplitude_a,
-            force_harmonics_n: m.force_harmonics_n,
-            drive_harmonics_m: m.drive_harmonics_m,
-            tip_harmonics_m: m.tip_harmonics_m,
+            harmonics: PeriodHarmonics {
+                force_n: m.force_harmonics_n,
+                drive_m: m.drive_harmonics_m,
+                tip_m: m.tip_harmonics_m,
+                current_amplitude_a: m.current_amplitude_a,
+            },
         }
     }
 

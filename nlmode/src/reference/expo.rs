@@ -285,7 +285,7 @@ pub(crate) fn integrate_continued(
     z: &mut DVector<f64>,
     states: &mut [f64],
     grid: SampleGrid,
-    input: &dyn Fn(f64) -> f64,
+    input: &super::InputSignals,
     ctl: &StepControl,
     cache: &mut Propagators,
     on_sample: &mut super::SampleWithStates,

@@ -507,12 +507,18 @@ impl ContinuedIntegration {
         input: &dyn Fn(f64) -> f64,
         on_sample: &mut dyn FnMut(usize, &DVector<f64>, &[f64]),
     ) -> Result<IntegrationStats, ReferenceError> {
+        // one input signal (the plant's system has no quadrature input)
+        let signals = |t: f64| {
+            let mut u = [0.0; MAX_INPUT_SIGNALS];
+            u[0] = input(t);
+            u
+        };
         expo::integrate_continued(
             &system.first_order,
             &mut self.z,
             &mut self.states,
             grid,
-            input,
+            &signals,
             &self.ctl,
             &mut self.cache,
             on_sample,
