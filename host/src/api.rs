@@ -439,7 +439,8 @@ pub enum ScenarioSource<'a> {
     File(&'a Path),
 }
 
-/// Read a scenario, optionally with `[run] methods` replaced by `methods`
+/// Read a scenario (a file as [`crate::run::load_scenario`] reads it, with
+/// the same messages), optionally with `[run] methods` replaced by `methods`
 /// (checked by the scenario's own rules: an unknown method is named as
 /// `run.methods[i]`). Returns the scenario and its name in messages. The
 /// errors read as `host run`'s (`scenario NAME: key: message`), with the
@@ -449,12 +450,6 @@ pub fn load_scenario(
     methods: Option<&[String]>,
 ) -> Result<(Scenario, String)> {
     use crate::scenario::{ScenarioError, DEFAULT_SCENARIO};
-    if methods.is_none() {
-        if let ScenarioSource::File(p) = src {
-            // exactly `host run`'s reading and messages
-            return crate::run::load_scenario(Some(p));
-        }
-    }
     let (text, name, dir) = match src {
         ScenarioSource::Default => (
             DEFAULT_SCENARIO.to_string(),

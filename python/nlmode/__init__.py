@@ -192,7 +192,7 @@ def read_results(source) -> "pandas.DataFrame":  # noqa: F821
 
     if isinstance(source, str) and "\n" in source:
         source = io.StringIO(source)
-    return pd.read_csv(source, float_precision="round_trip", keep_default_na=False, na_values=[""])
+    return pd.read_csv(source, keep_default_na=False, na_values=[""])
 
 
 def study(
