@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# The fmpy harness: creates .venv at the repository root if missing, installs
-# the pinned requirements, packages the FMUs into target/fmus and runs pytest.
+# The Python harness: creates .venv at the repository root if missing, installs
+# the pinned requirements, packages the FMUs into target/fmus, builds the
+# nlmode wheel (python/, maturin, in the workspace's target dir) into the venv
+# and runs pytest (the fmpy tests of the FMUs, the nlmode package, Dask).
 # Extra arguments go to pytest (e.g. tests/run.sh -k shaker -x).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -19,4 +21,9 @@ export FMU_DIR="${FMU_DIR:-$ROOT/target/fmus}"
 # paper beam's modal table in structure.fmu (host never runs cargo itself)
 cargo build --quiet --release --workspace
 target/release/host package --out "$FMU_DIR"
+# the nlmode wheel: maturin builds python/ in the shared target/ (release, as
+# above: only the PyO3 crates and the module itself are compiled again)
+rm -f target/wheels/nlmode-*.whl
+.venv/bin/maturin build --quiet --release -m python/Cargo.toml -o target/wheels -i .venv/bin/python
+.venv/bin/python -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps target/wheels/nlmode-*.whl
 exec .venv/bin/python -m pytest tests "$@"

@@ -8,6 +8,7 @@
 //! frequency responses; `host package` packages the FMUs; `host cosim` runs a
 //! generic co-simulation file; `host study` runs a parameter study.
 #![forbid(unsafe_code)]
+pub mod api;
 pub mod controlled;
 pub mod controlled_cosim;
 pub mod cosim_cmd;

@@ -313,44 +313,24 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
     let setup = Setup::new(&sc).with_context(|| format!("scenario {source}"))?;
-    let (nma, _) = methods::nma_table(&setup, &sc, false)?;
+    let (nma, r) = crate::api::frf(&setup, &sc)?;
     println!(
         "{} (table ready after {:.1} ms)",
         nma.note,
         1e3 * nma.wall_time_s
     );
-    let model = methods::reduced_model(&setup, &nma.table, None)?;
-    let omegas = methods::frf_omegas(&setup, sc.run.frf_points);
-    let t0 = std::time::Instant::now();
-    let ss = model
-        .steady_state(&omegas, setup.sweep.amplitude)
-        .context("frf: steady state")?;
-    let wall = t0.elapsed().as_secs_f64();
-    let (mut w, mut a, mut tip, mut f, mut st) = (vec![], vec![], vec![], vec![], vec![]);
-    let mut multi = 0;
-    let mut above = 0;
-    let mut modal: Vec<(f64, nlmode::Complex64)> = Vec::new();
-    for p in &ss {
-        if p.solutions.len() > 1 {
-            multi += 1;
-        }
-        if p.exceeds_table {
-            above += 1;
-        }
-        for s in &p.solutions {
-            w.push(p.omega_rad_s);
-            a.push(s.a);
-            tip.push(s.tip_amplitude_m);
-            f.push(s.force_amplitude_n);
-            st.push(if s.stable { 1.0 } else { 0.0 });
-            modal.push((
-                p.omega_rad_s,
-                nlmode::Complex64::from_polar(s.a, s.theta_rad),
-            ));
-        }
-    }
-    // piezo shunts: `<name>_harvested_power_W` per solution (as `nlmode`)
-    let power = methods::modal_harvested_power(&setup, &model, &modal).context("frf")?;
+    let (w, a, tip, f) = (
+        r.omega_rad_s,
+        r.modal_amplitude,
+        r.tip_amplitude_m,
+        r.force_amplitude_n,
+    );
+    let st: Vec<f64> = r
+        .stable
+        .iter()
+        .map(|&s| if s { 1.0 } else { 0.0 })
+        .collect();
+    let (multi, above, wall) = (r.multivalued, r.above_table, r.wall_time_s);
     let mut header: Vec<String> = vec![
         "omega_rad_s".into(),
         "modal_amplitude".into(),
@@ -359,7 +339,7 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
         "stable".into(),
     ];
     let mut cols: Vec<&[f64]> = vec![&w, &a, &tip, &f, &st];
-    for (name, p) in &power {
+    for (name, p) in &r.harvested_power_w {
         header.push(format!("{name}_harvested_power_W"));
         cols.push(p);
     }
@@ -416,7 +396,7 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
     )?;
     println!(
         "steady state at {} frequencies in {:.2} ms: {} with several solutions, {} possibly above the table's range",
-        ss.len(),
+        sc.run.frf_points,
         1e3 * wall,
         multi,
         above

@@ -301,6 +301,29 @@ fn row_values(row: &EnvelopeRow) -> Vec<f64> {
     v
 }
 
+/// The columns of `<name>_envelope.csv` in memory, named and ordered as
+/// [`write_envelope`] writes them (the contract's, the optional ones the
+/// envelope has, then [`MethodResult::extra_columns`]).
+pub fn envelope_columns(r: &MethodResult) -> Vec<(String, Vec<f64>)> {
+    let e = &r.envelope;
+    let optional = [
+        &e.force_phase_rad,
+        &e.drive_amplitude_m,
+        &e.modal_amplitude,
+        &e.modal_frequency_rad_s,
+    ];
+    let data = [&e.omega_rad_s, &e.force_amplitude_n, &e.tip_amplitude_m]
+        .into_iter()
+        .chain(optional.into_iter().flatten());
+    let mut cols: Vec<(String, Vec<f64>)> = envelope_header(e)
+        .into_iter()
+        .zip(data)
+        .map(|(n, v)| (n.to_string(), v.clone()))
+        .collect();
+    cols.extend(r.extra_columns.iter().cloned());
+    cols
+}
+
 /// The CSV header of an envelope without rows.
 fn envelope_header(e: &Envelope) -> Vec<&'static str> {
     let mut h = vec!["omega_rad_s", "force_amplitude_N", "tip_amplitude_m"];

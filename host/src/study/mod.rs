@@ -693,6 +693,60 @@ fn progress_bar(n: usize, label: String, show: bool) -> indicatif::ProgressBar {
     bar
 }
 
+/// The per-structure cache of a study (structures, modal tables and their
+/// interpolants, built once each) for callers that run samples themselves:
+/// the Python package keeps one per study in its process, so that each Dask
+/// worker builds a structure once for all the batches it is given.
+#[derive(Default)]
+pub struct StructureCache(Cache);
+
+impl StructureCache {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Structures built so far.
+    pub fn distinct(&self) -> usize {
+        self.0.distinct()
+    }
+}
+
+/// Run the study's method on the given samples (indices into the design) on
+/// the current rayon pool, rows in the order of `samples`: the same rows
+/// `host study` writes for them (a failing sample is a row with its error).
+/// An index outside the design is an error naming it.
+pub fn evaluate_samples(
+    st: &Study,
+    cache: &StructureCache,
+    samples: &[usize],
+) -> Result<Vec<Row>, StudyError> {
+    use rayon::prelude::*;
+    if let Some(&i) = samples.iter().find(|&&i| i >= st.len()) {
+        return Err(StudyError::Study {
+            key: "samples".into(),
+            message: format!("sample {i} asked of a study of {} samples", st.len()),
+        });
+    }
+    Ok(samples
+        .par_iter()
+        .map(|&i| run_sample(&cache.0, i, &st.scenarios[i], st.method))
+        .collect())
+}
+
+/// Rows as the text of `results.csv` (its header first when `header`), in the
+/// given order, formatted by [`output::record`].
+pub fn rows_csv(st: &Study, rows: &[Row], header: bool) -> Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    if header {
+        w.write_record(output::header(st))?;
+    }
+    for r in rows {
+        w.write_record(output::record(st, r))?;
+    }
+    let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(String::from_utf8(bytes)?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,221 @@
+"""nlmode: the single-nonlinear-mode theory with linear attachments (M. Krack)
+from Python.
+
+A sweep through resonance by any method of ``host run``, the nonlinear modal
+analysis as numpy arrays, the steady-state frequency response, and parameter
+studies on the local cores or on a Dask cluster. The computations are those of
+the ``host`` command line (the same Rust code, the same numbers); every long
+call releases the GIL.
+
+    import nlmode
+    r = nlmode.run(methods=["nlmode", "reference"])   # the paper's case (a)
+    r.summary["methods"]["nlmode"]["peak_tip_amplitude_m"]
+    env = r.envelope("nlmode")                          # dict of numpy arrays
+    df = nlmode.study("examples/study_lhs.toml")        # pandas DataFrame
+
+A scenario is ``None`` (the embedded default, the paper's case (a)), TOML text,
+a path (``str`` or ``os.PathLike``) or a dict of the TOML tables. A ``str`` is
+TOML text when it holds a newline or an ``=``, a path otherwise.
+"""
+from __future__ import annotations
+
+import io
+import json
+import os
+import pathlib
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _native
+from ._native import NlmodeError, ScenarioError
+
+__all__ = [
+    "run",
+    "nma",
+    "frf",
+    "study",
+    "read_results",
+    "RunResult",
+    "ModalTable",
+    "ScenarioError",
+    "NlmodeError",
+]
+
+Source = Union[None, str, "os.PathLike[str]", Mapping[str, Any]]
+
+
+def _source(scenario: Source):
+    """(text, path) for the native module."""
+    if scenario is None:
+        return None, None
+    if isinstance(scenario, Mapping):
+        return _native.dict_to_toml(dict(scenario)), None
+    if isinstance(scenario, os.PathLike):
+        return None, os.fspath(scenario)
+    if isinstance(scenario, str):
+        if "\n" in scenario or "=" in scenario:
+            return scenario, None
+        return None, scenario
+    raise TypeError(
+        f"scenario: expected None, TOML text, a path or a dict, not {type(scenario).__name__}"
+    )
+
+
+class RunResult:
+    """What a sweep computed: ``summary`` (the dict of ``summary.json``),
+    ``methods`` (the output names, e.g. ``nlmode``, ``closed-form``),
+    ``envelope(method)`` and ``time_series(method)``."""
+
+    def __init__(self, summary: Dict[str, Any], results):
+        self.summary = summary
+        self._envelopes = {name: env for name, env, _ in results}
+        self._series = {name: ts for name, _, ts in results}
+        self.methods: List[str] = [name for name, _, _ in results]
+
+    def envelope(self, method: str) -> Dict[str, np.ndarray]:
+        """The columns of ``<method>_envelope.csv`` as numpy arrays."""
+        try:
+            return self._envelopes[method]
+        except KeyError:
+            raise KeyError(f"no envelope of {method!r}; the run has {self.methods}") from None
+
+    def time_series(self, method: str) -> Dict[str, np.ndarray]:
+        """The columns of ``<method>_timeseries.csv`` as numpy arrays."""
+        ts = self._series.get(method)
+        if ts is None:
+            with_ts = [m for m, t in self._series.items() if t is not None]
+            raise KeyError(f"no time series of {method!r}; methods with one: {with_ts}")
+        return ts
+
+    def __repr__(self) -> str:
+        return f"RunResult(methods={self.methods})"
+
+
+def run(
+    scenario: Source = None,
+    methods: Optional[Sequence[str]] = None,
+    *,
+    out_dir: Union[None, str, "os.PathLike[str]"] = None,
+    fmu_dir: Union[None, str, "os.PathLike[str]"] = None,
+) -> RunResult:
+    """Sweep through resonance by every method the scenario lists (or
+    ``methods``, which replaces ``[run] methods``), as ``host run``.
+
+    ``out_dir``: where the files some methods need besides their results go
+    (the FMUs that ``cosim`` packages, ``phase_resonance.csv``; with it the
+    FMUs are packaged as ``output.fmus`` says); default a temporary folder.
+    ``fmu_dir``: the FMU libraries for ``cosim`` (else ``$NLMODE_FMU_DIR``);
+    without them ``cosim`` is listed under ``summary["failed_methods"]``.
+    """
+    text, path = _source(scenario)
+    m = None if methods is None else [str(x) for x in methods]
+    summary, results = _native.run(
+        text,
+        path,
+        m,
+        None if out_dir is None else os.fspath(out_dir),
+        None if fmu_dir is None else os.fspath(fmu_dir),
+    )
+    return RunResult(json.loads(summary), results)
+
+
+class ModalTable(dict):
+    """The nonlinear modal table of ``nma()`` (a dict): ``amplitude`` [sqrt(kg) m],
+    ``omega_rad_s``, ``damping_ratio`` (numpy arrays), ``shapes`` (point name ->
+    complex array ``[amplitude index, harmonic 0..H]``), ``harmonics``,
+    ``accuracy`` (the measured interpolation errors, a dict, or None),
+    ``truncated_at_fold``, ``omega0_rad_s``, ``note``, ``description``."""
+
+    def __getattr__(self, name):
+        try:
+            return self[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def nma(scenario: Source = None) -> ModalTable:
+    """The nonlinear modal analysis of the scenario's structure: the refined
+    modal table that ``host nma`` writes to ``modal_table.json``."""
+    text, path = _source(scenario)
+    table, note, omega0 = _native.nma(text, path)
+    t = json.loads(table)
+    shapes = {
+        p["name"]: np.asarray(p["re"], dtype=float) + 1j * np.asarray(p["im"], dtype=float)
+        for p in t["points"]
+    }
+    return ModalTable(
+        amplitude=np.asarray(t["amplitude"], dtype=float),
+        omega_rad_s=np.asarray(t["omega_rad_s"], dtype=float),
+        damping_ratio=np.asarray(t["damping_ratio"], dtype=float),
+        shapes=shapes,
+        harmonics=t["harmonics"],
+        accuracy=t.get("accuracy"),
+        truncated_at_fold=t.get("truncated_at_fold"),
+        description=t.get("description", ""),
+        omega0_rad_s=omega0,
+        note=note,
+    )
+
+
+def frf(scenario: Source = None) -> Dict[str, Any]:
+    """The steady state of ``eq:NM`` at the scenario's voltage, as ``host frf``:
+    every solution branch point (``omega_rad_s``, ``modal_amplitude``,
+    ``tip_amplitude_m``, ``force_amplitude_N``, ``stable`` as bool arrays),
+    plus ``omega0_rad_s`` and ``note``."""
+    text, path = _source(scenario)
+    return _native.frf(text, path)
+
+
+def _study_source(study):
+    """(text, base_dir) of a STUDY.toml given as a path, text or dict."""
+    if isinstance(study, Mapping):
+        return _native.dict_to_toml(dict(study)), os.getcwd()
+    if isinstance(study, os.PathLike) or (
+        isinstance(study, str) and "\n" not in study and "=" not in study
+    ):
+        p = pathlib.Path(os.fspath(study))
+        try:
+            text = p.read_text()
+        except OSError as e:
+            raise ScenarioError(f"cannot read study file {p}: {e}") from None
+        return text, str(p.resolve().parent)
+    if isinstance(study, str):
+        return study, os.getcwd()
+    raise TypeError(f"study: expected a path, TOML text or a dict, not {type(study).__name__}")
+
+
+def read_results(source) -> "pandas.DataFrame":  # noqa: F821
+    """A ``results.csv`` (a path or its text) as the DataFrame ``study()``
+    returns: the same columns, numbers read exactly (round trip)."""
+    import pandas as pd
+
+    if isinstance(source, str) and "\n" in source:
+        source = io.StringIO(source)
+    return pd.read_csv(source, keep_default_na=False, na_values=[""])
+
+
+def study(
+    study,
+    client=None,
+    *,
+    batch_size: Optional[int] = None,
+    threads: Optional[int] = None,
+):
+    """Run a parameter study (STUDY.toml as a path, TOML text or a dict) and
+    return a pandas DataFrame with the columns of ``host study``'s
+    ``results.csv``, one row per sample, sorted by sample.
+
+    ``client``: a ``dask.distributed.Client``; the samples go to its workers
+    in batches of ``batch_size`` (default: about four batches per worker
+    thread) and each worker process loads the study and builds each
+    structure and modal table once for all its batches. ``None``: the local
+    cores (``threads``, default all).
+    """
+    text, base_dir = _study_source(study)
+    st = _native.Study(text, base_dir)
+    if client is None:
+        return read_results(st.evaluate(None, threads))
+    from ._dask import evaluate_on_client
+
+    return read_results(evaluate_on_client(client, st, text, base_dir, batch_size))
