@@ -86,7 +86,42 @@ pub fn phase_resonance(
     )
     .context("phase-resonance")?;
     let wall = t0.elapsed().as_secs_f64();
-    let levels = &res.levels;
+    let failure = res.failure.as_ref().map(|(u, e)| (*u, e.to_string()));
+    let mut r = measured_levels_result(
+        setup,
+        sc,
+        table,
+        out,
+        &res.levels,
+        failure.as_ref(),
+        wall,
+        "phase-resonance",
+    )?;
+    if let ControlledPlant::Reference(p) = &plant {
+        r.summary.steps = Some(p.stats().steps as u64);
+        r.summary.rejected_steps = Some(p.stats().rejected as u64);
+    }
+    Ok(r)
+}
+
+/// What every model of the phase-resonance test does with its measured
+/// `levels`: writes `phase_resonance.csv` and the plots into `out` and makes
+/// the method's result (one envelope point per level) with a warning per level
+/// that did not settle or lies outside the modal table, and one for a
+/// `failure` `(voltage, message)` that ended the test. `label` starts the
+/// warnings (e.g. `phase-resonance (cosim)`).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn measured_levels_result(
+    setup: &Setup,
+    sc: &Scenario,
+    table: &ModalTable,
+    out: &Path,
+    levels: &[PllLevel],
+    failure: Option<&(f64, String)>,
+    wall_time_s: f64,
+    label: &str,
+) -> Result<MethodResult> {
+    let spec = &sc.phase_resonance;
     let nma: Vec<Option<(f64, f64)>> = levels
         .iter()
         .map(|l| nma_at_tip_amplitude(table, &setup.response_point, l.tip_amplitude_m()))
@@ -97,7 +132,7 @@ pub fn phase_resonance(
         &nma,
         spec.pll.harmonics,
     )?;
-    if sc.output.plots {
+    if sc.output.plots && !levels.is_empty() {
         plots(out, setup, table, levels)?;
     }
     let env = Envelope {
@@ -114,14 +149,10 @@ pub fn phase_resonance(
         modal_amplitude: None,
         modal_frequency_rad_s: None,
     };
-    let mut r = MethodResult::new(Method::PhaseResonance.name(), wall, env, false);
-    if let ControlledPlant::Reference(p) = &plant {
-        r.summary.steps = Some(p.stats().steps as u64);
-        r.summary.rejected_steps = Some(p.stats().rejected as u64);
-    }
+    let mut r = MethodResult::new(Method::PhaseResonance.name(), wall_time_s, env, false);
     for l in levels.iter().filter(|l| !l.settled) {
         r.summary.warnings.push(format!(
-            "phase-resonance: level {} V did not settle within {} periods (phase error {:.3e} rad, \
+            "{label}: level {} V did not settle within {} periods (phase error {:.3e} rad, \
              amplitude change {:.3e} per period; tolerances {:.1e} rad, {:.1e}); recorded with settled = false",
             l.voltage_v,
             l.periods,
@@ -131,16 +162,16 @@ pub fn phase_resonance(
             spec.pll.amplitude_tolerance
         ));
     }
-    if let Some((u, e)) = &res.failure {
+    if let Some((u, e)) = failure {
         r.summary.warnings.push(format!(
-            "phase-resonance: stopped at level {u} V: {e}; the {} levels before it are kept",
+            "{label}: stopped at level {u} V: {e}; the {} levels before it are kept",
             levels.len()
         ));
     }
     for (l, n) in levels.iter().zip(&nma) {
         if n.is_none() {
             r.summary.warnings.push(format!(
-                "phase-resonance: level {} V: |q_tip,1| = {:.4e} m lies outside the modal table \
+                "{label}: level {} V: |q_tip,1| = {:.4e} m lies outside the modal table \
                  (nma.max_tip_amplitude_m = {} m)",
                 l.voltage_v,
                 l.tip_amplitude_m(),

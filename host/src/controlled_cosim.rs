@@ -22,10 +22,9 @@
 //! `DIR/phase_resonance_fmus/`, with the scenario's modal table in the
 //! structure FMU. `phase_resonance.csv` and the plots are those of
 //! [`crate::controlled`].
-use crate::controlled::{nma_at_tip_amplitude, plots, write_csv};
 use crate::model::Setup;
-use crate::results::{Envelope, MethodResult};
-use crate::scenario::{CosimAlgorithm, Method, Scenario};
+use crate::results::MethodResult;
+use crate::scenario::{CosimAlgorithm, Scenario};
 use anyhow::{anyhow, bail, Context, Result};
 use controller_vr::*;
 use cosim::import::Fmu;
@@ -92,69 +91,19 @@ pub fn phase_resonance(
     table: &ModalTable,
     out: &Path,
 ) -> Result<MethodResult> {
-    let spec = &sc.phase_resonance;
     let run = run_levels(setup, sc, table, out).context("phase-resonance (model = \"cosim\")")?;
-    let levels = &run.levels;
-    let nma: Vec<Option<(f64, f64)>> = levels
-        .iter()
-        .map(|l| nma_at_tip_amplitude(table, &setup.response_point, l.tip_amplitude_m()))
-        .collect();
-    write_csv(
-        &out.join("phase_resonance.csv"),
-        levels,
-        &nma,
-        spec.pll.harmonics,
+    let mut r = crate::controlled::measured_levels_result(
+        setup,
+        sc,
+        table,
+        out,
+        &run.levels,
+        run.failure.as_ref(),
+        run.wall_time_s,
+        "phase-resonance (cosim)",
     )?;
-    if sc.output.plots && !levels.is_empty() {
-        plots(out, setup, table, levels)?;
-    }
-    let env = Envelope {
-        omega_rad_s: levels.iter().map(|l| l.omega_rad_s).collect(),
-        force_amplitude_n: levels.iter().map(|l| l.force_amplitude_n()).collect(),
-        tip_amplitude_m: levels.iter().map(|l| l.tip_amplitude_m()).collect(),
-        force_phase_rad: Some(
-            levels
-                .iter()
-                .map(|l| l.harmonics.force_n[1].arg())
-                .collect(),
-        ),
-        drive_amplitude_m: Some(levels.iter().map(|l| l.drive_amplitude_m()).collect()),
-        modal_amplitude: None,
-        modal_frequency_rad_s: None,
-    };
-    let mut r = MethodResult::new(Method::PhaseResonance.name(), run.wall_time_s, env, false);
     r.summary.steps = Some(run.macro_steps as u64);
     r.summary.algorithm = Some(sc.cosim.algorithm);
-    for l in levels.iter().filter(|l| !l.settled) {
-        r.summary.warnings.push(format!(
-            "phase-resonance (cosim): level {} V did not settle within {} periods (phase error \
-             {:.3e} rad, amplitude change {:.3e} per period; tolerances {:.1e} rad, {:.1e}); \
-             recorded with settled = false",
-            l.voltage_v,
-            l.periods,
-            l.phase_error_rad,
-            l.amplitude_change,
-            spec.pll.phase_tolerance_rad,
-            spec.pll.amplitude_tolerance
-        ));
-    }
-    if let Some((u, e)) = &run.failure {
-        r.summary.warnings.push(format!(
-            "phase-resonance (cosim): stopped at level {u} V: {e}; the {} levels before it are kept",
-            levels.len()
-        ));
-    }
-    for (l, n) in levels.iter().zip(&nma) {
-        if n.is_none() {
-            r.summary.warnings.push(format!(
-                "phase-resonance (cosim): level {} V: |q_tip,1| = {:.4e} m lies outside the modal \
-                 table (nma.max_tip_amplitude_m = {} m)",
-                l.voltage_v,
-                l.tip_amplitude_m(),
-                sc.nma.max_tip_amplitude_m
-            ));
-        }
-    }
     Ok(r)
 }
 
