@@ -6,7 +6,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 echo "== cargo test (workspace; the test profile optimises the numerics)"
 cargo test --workspace 2>&1
+echo "== cargo test done after ${SECONDS} s"
 if [ -x tests/run.sh ]; then
-  echo "== fmpy harness"
+  echo "== fmpy harness (the binaries of the test profile, already built)"
   ./tests/run.sh
+  echo "== fmpy harness done after ${SECONDS} s"
 fi

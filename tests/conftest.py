@@ -1,9 +1,13 @@
 """Shared fixtures of the fmpy harness.
 
 The FMUs are taken from $FMU_DIR (tests/run.sh packages them there); without it
-the workspace is built (`cargo build --release --workspace`, which puts the FMU
-libraries beside target/release/host) and the built `host package` writes them
-into target/fmus.
+the workspace is built (`cargo build --profile $NLMODE_CARGO_PROFILE`, which puts
+the FMU libraries beside the host binary in BUILD_DIR) and the built
+`host package` writes them into target/fmus.
+
+NLMODE_CARGO_PROFILE is the cargo profile of every binary the harness runs:
+tests/run.sh sets `test`, the profile `cargo test` has already compiled (so the
+harness compiles nothing again); `release` tests the optimised build users ship.
 """
 import ctypes
 import os
@@ -23,6 +27,10 @@ from fmpy.fmi2 import (
 from fmpy.logging import addLoggerProxy
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
+CARGO_PROFILE = os.environ.get("NLMODE_CARGO_PROFILE", "release")
+# cargo's output folder per profile: dev and test build into target/debug
+BUILD_DIR = REPO / "target" / ("debug" if CARGO_PROFILE in ("dev", "test") else CARGO_PROFILE)
+HOST = BUILD_DIR / "host"
 
 # Log messages per instance name: (status, category, message). fmpy's native
 # logger proxy (which formats the message with vsnprintf, as C masters do) has
@@ -50,8 +58,8 @@ def fmu_dir():
     if d:
         return pathlib.Path(d)
     out = REPO / "target" / "fmus"
-    subprocess.run(["cargo", "build", "--quiet", "--release", "--workspace"], cwd=REPO, check=True)
-    subprocess.run([str(REPO / "target" / "release" / "host"), "package", "--out", str(out)], cwd=REPO, check=True)
+    subprocess.run(["cargo", "build", "--quiet", "--profile", CARGO_PROFILE], cwd=REPO, check=True)
+    subprocess.run([str(HOST), "package", "--out", str(out)], cwd=REPO, check=True)
     return out
 
 

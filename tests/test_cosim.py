@@ -18,13 +18,12 @@ import zipfile
 
 import numpy as np
 import pytest
-from conftest import Instance
+from conftest import HOST, BUILD_DIR, CARGO_PROFILE, Instance
 from fmpy import extract
 from fmpy.ssp.simulation import simulate_ssp
 from fmpy.ssp.ssd import Parameter, ParameterSet, read_ssd
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
-HOST = REPO / "target" / "release" / "host"
 
 SCENARIO = """
 title = "cosim vs fmpy"
@@ -186,10 +185,10 @@ def test_ssp_export_runs_in_fmpy_like_a_zero_order_hold_jacobi(case_a, tmp_path)
     stop = sw["duration_s"]
     n_steps = int(round(stop / h))
     fmus = out / "fmus"
-    subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "host", "--example", "cosim_ssp"], check=True, cwd=REPO)
+    subprocess.run(["cargo", "build", "--quiet", "--profile", CARGO_PROFILE, "-p", "host", "--example", "cosim_ssp"], check=True, cwd=REPO)
     res = tmp_path / "ssp"
     subprocess.run(
-        [str(REPO / "target" / "release" / "examples" / "cosim_ssp"), str(fmus / "structure.fmu"), str(fmus / "shaker.fmu"),
+        [str(BUILD_DIR / "examples" / "cosim_ssp"), str(fmus / "structure.fmu"), str(fmus / "shaker.fmu"),
          str(res), "10.0", repr(sw["omega_start_rad_s"]), repr(sw["omega_end_rad_s"]), repr(sw["rate_rad_s2"]),
          repr(h), repr(stop), "zoh"],
         check=True, cwd=REPO,

@@ -4,6 +4,7 @@ import pathlib
 import subprocess
 
 import pytest
+from conftest import HOST
 
 nlmode = pytest.importorskip("nlmode", reason="the nlmode wheel is not installed (tests/run.sh builds it)")
 distributed = pytest.importorskip("dask.distributed")
@@ -27,7 +28,7 @@ def test_200_samples_on_two_workers_equal_the_local_study_and_host_study(client,
     dask = nlmode.study(STUDY, client=client, batch_size=25)
     pd.testing.assert_frame_equal(dask, local, check_exact=True)
     subprocess.run(
-        [str(REPO / "target" / "release" / "host"), "study", str(STUDY), "-o", str(tmp_path)],
+        [str(HOST), "study", str(STUDY), "-o", str(tmp_path)],
         check=True,
         capture_output=True,
     )

@@ -38,14 +38,13 @@ import time
 
 import numpy as np
 import pytest
-from conftest import CALLBACKS
+from conftest import HOST, CALLBACKS
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 from fmpy.fmi2 import FMU2Model, fmi2Real
 from scipy.integrate import solve_ivp
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
-HOST = REPO / "target" / "release" / "host"
 
 ETA_START, ETA_END = 0.95, 1.6
 

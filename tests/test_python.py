@@ -9,11 +9,11 @@ import time
 
 import numpy as np
 import pytest
+from conftest import HOST
 
 nlmode = pytest.importorskip("nlmode", reason="the nlmode wheel is not installed (tests/run.sh builds it)")
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
-HOST = REPO / "target" / "release" / "host"
 SWEEP = (REPO / "sweep.toml").read_text()
 # case (a) by every method but cosim (which needs the FMU libraries in the Python process)
 CASE_A_METHODS = ["reference", "nlmode", "linear-slowflow", "linear-steady", "linear-frf"]
