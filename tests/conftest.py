@@ -6,7 +6,7 @@ the FMU libraries beside the host binary in BUILD_DIR) and the built
 `host package` writes them into target/fmus.
 
 NLMODE_CARGO_PROFILE is the cargo profile of every binary the harness runs:
-tests/run.sh sets `test`, the profile `cargo test` has already compiled (so the
+tests/run.sh sets `dev`, whose units `cargo test` has already compiled (so the
 harness compiles nothing again); `release` tests the optimised build users ship.
 """
 import ctypes
@@ -31,6 +31,17 @@ CARGO_PROFILE = os.environ.get("NLMODE_CARGO_PROFILE", "release")
 # cargo's output folder per profile: dev and test build into target/debug
 BUILD_DIR = REPO / "target" / ("debug" if CARGO_PROFILE in ("dev", "test") else CARGO_PROFILE)
 HOST = BUILD_DIR / "host"
+
+
+def import_nlmode():
+    """The installed nlmode package. tests/run.sh has built and installed the
+    wheel and sets NLMODE_WHEEL=required: then a missing or broken module
+    fails the tests; run by plain pytest without the wheel, they are skipped."""
+    if os.environ.get("NLMODE_WHEEL") == "required":
+        import nlmode
+
+        return nlmode
+    return pytest.importorskip("nlmode", reason="the nlmode wheel is not installed (tests/run.sh builds it)")
 
 # Log messages per instance name: (status, category, message). fmpy's native
 # logger proxy (which formats the message with vsnprintf, as C masters do) has

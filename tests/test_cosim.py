@@ -185,7 +185,8 @@ def test_ssp_export_runs_in_fmpy_like_a_zero_order_hold_jacobi(case_a, tmp_path)
     stop = sw["duration_s"]
     n_steps = int(round(stop / h))
     fmus = out / "fmus"
-    subprocess.run(["cargo", "build", "--quiet", "--profile", CARGO_PROFILE, "-p", "host", "--example", "cosim_ssp"], check=True, cwd=REPO)
+    # --workspace: the feature resolution of `cargo test --workspace`, whose build of the example is reused
+    subprocess.run(["cargo", "build", "--quiet", "--profile", CARGO_PROFILE, "--workspace", "--example", "cosim_ssp"], check=True, cwd=REPO)
     res = tmp_path / "ssp"
     subprocess.run(
         [str(BUILD_DIR / "examples" / "cosim_ssp"), str(fmus / "structure.fmu"), str(fmus / "shaker.fmu"),

@@ -4,9 +4,9 @@ import pathlib
 import subprocess
 
 import pytest
-from conftest import HOST
+from conftest import HOST, import_nlmode
 
-nlmode = pytest.importorskip("nlmode", reason="the nlmode wheel is not installed (tests/run.sh builds it)")
+nlmode = import_nlmode()
 distributed = pytest.importorskip("dask.distributed")
 import pandas as pd  # noqa: E402
 

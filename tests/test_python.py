@@ -9,9 +9,9 @@ import time
 
 import numpy as np
 import pytest
-from conftest import HOST
+from conftest import HOST, import_nlmode
 
-nlmode = pytest.importorskip("nlmode", reason="the nlmode wheel is not installed (tests/run.sh builds it)")
+nlmode = import_nlmode()
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 SWEEP = (REPO / "sweep.toml").read_text()
