@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Regenerate the README's figures from the example scenarios (one per paper
-# figure). Needs the release build: cargo build --release
+# figure, and the controlled virtual tests). Needs the release build: cargo
+# build --release (or another host binary: HOST=path/to/host docs/figures/make.sh).
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/../.." && pwd)"
-HOST="$ROOT/target/release/host"
+HOST="${HOST:-$ROOT/target/release/host}"
 OUT="$(mktemp -d)"
 FIG="$ROOT/docs/figures"
 trap 'rm -rf "$OUT"' EXIT
@@ -18,3 +19,35 @@ done
 cp "$OUT/backbone/backbone.svg" "$FIG/backbone.svg"
 cp "$OUT/backbone/damping.svg" "$FIG/damping.svg"
 echo "figure backbone.svg, damping.svg"
+# the controlled virtual tests (issue 16): name, example, files to copy (as name_file)
+run_controlled() {
+  local name="$1" ex="$2"; shift 2
+  sed 's/^\[output\]//' "$ROOT/examples/$ex.toml" > "$OUT/$name.toml"
+  printf '\n[output]\nfmus = false\ntime_series = false\n' >> "$OUT/$name.toml"
+  "$HOST" run "$OUT/$name.toml" -o "$OUT/$name" > "$OUT/$name.log"
+  for f in "$@"; do
+    cp "$OUT/$name/$f.svg" "$FIG/$f.svg"
+    echo "figure $f.svg"
+  done
+}
+run_controlled pll phase_resonance phase_resonance_backbone phase_resonance_damping
+run_controlled force force_controlled force_control
+run_controlled response response_controlled response_control
+run_controlled plan test_plan test_plan
+# the paper's prospect: case (a) predicted from the measured modal table of the
+# phase-resonance test (nlmode with the shaker model) against the reference
+cat > "$OUT/prediction.toml" <<EOT
+title = "Case (a) predicted from the measured modal table"
+[run]
+methods = ["reference", "nlmode"]
+[[exciter]]
+location = "2l/3"
+[nma]
+table = "$OUT/pll/modal_table.json"
+[output]
+fmus = false
+time_series = false
+EOT
+"$HOST" run "$OUT/prediction.toml" -o "$OUT/prediction" > "$OUT/prediction.log"
+cp "$OUT/prediction/sweep.svg" "$FIG/measured_table_prediction.svg"
+echo "figure measured_table_prediction.svg"

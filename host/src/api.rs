@@ -316,6 +316,9 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
                     out,
                 )?);
             }
+            Method::TestPlan => {
+                done.push(crate::test_plan::test_plan(&setup, &sc, table(), out)?);
+            }
             Method::Cosim => {
                 let Some(f) = fmus.as_ref().or(given_fmus.as_ref()) else {
                     continue; // FMUs not packaged: recorded in `failed`

@@ -8,7 +8,11 @@
 //! `phase_resonance.csv` (one row per level, the column contract in
 //! [`PHASE_RESONANCE_COLUMNS`] then the harmonic ratios), the measured backbone
 //! over the numerical NMA (`phase_resonance_backbone.svg`, `omega/omega0`
-//! against `|q_tip,1|`) and the damping (`phase_resonance_damping.svg`).
+//! against `|q_tip,1|`) and the damping (`phase_resonance_damping.svg`), and
+//! the measured modal table `modal_table.json`
+//! ([`nlmode::control::modal_table_from_phase_resonance`]: force appropriation
+//! at phase resonance, shapes at the drive point and the response point) that
+//! `[nma] table` and the structure FMU's `modal_table` parameter accept.
 use crate::model::Setup;
 use crate::plot;
 use crate::results::{Envelope, MethodResult};
@@ -36,10 +40,19 @@ pub const PHASE_RESONANCE_COLUMNS: [&str; 7] = [
 ];
 
 /// `omega(a)` \[rad/s\] and `D(a)` of the modal table at the amplitude `a`
-/// where the tip's fundamental `a |phi_tip,1(a)|` equals `tip_m` (first
-/// crossing along the table, bisection inside the PCHIP interval); `None`
-/// outside the table.
+/// where the tip's fundamental `a |phi_tip,1(a)|` equals `tip_m`
+/// ([`amplitude_at_tip`]); `None` outside the table.
 pub fn nma_at_tip_amplitude(table: &ModalTable, tip: &str, tip_m: f64) -> Option<(f64, f64)> {
+    let a = amplitude_at_tip(table, tip, tip_m)?;
+    let m = table.interpolator().ok()?.eval(a).ok()?;
+    Some((m.omega_rad_s, m.damping_ratio))
+}
+
+/// The modal amplitude `a` \[sqrt(kg) m\] where the fundamental
+/// `a |phi_tip,1(a)|` of the point `tip` equals `tip_m` \[m\] (first crossing
+/// along the table, bisection inside the PCHIP interval); `None` outside the
+/// table.
+pub fn amplitude_at_tip(table: &ModalTable, tip: &str, tip_m: f64) -> Option<f64> {
     let interp = table.interpolator().ok()?;
     let p = table.point_index(tip).ok()?;
     let tip_at = |a: f64| interp.shape(p, 1, a).ok().map(|phi| a * phi.norm());
@@ -57,8 +70,7 @@ pub fn nma_at_tip_amplitude(table: &ModalTable, tip: &str, tip_m: f64) -> Option
             hi = mid;
         }
     }
-    let m = interp.eval(0.5 * (lo + hi)).ok()?;
-    Some((m.omega_rad_s, m.damping_ratio))
+    Some(0.5 * (lo + hi))
 }
 
 /// `host run`'s `phase-resonance`: runs the test, writes `phase_resonance.csv`
@@ -135,6 +147,7 @@ pub(crate) fn measured_levels_result(
     if sc.output.plots && !levels.is_empty() {
         plots(out, setup, table, levels)?;
     }
+    let measured = write_measured_table(setup, out, levels, label)?;
     let env = Envelope {
         omega_rad_s: levels.iter().map(|l| l.omega_rad_s).collect(),
         force_amplitude_n: levels.iter().map(|l| l.force_amplitude_n()).collect(),
@@ -150,6 +163,7 @@ pub(crate) fn measured_levels_result(
         modal_frequency_rad_s: None,
     };
     let mut r = MethodResult::new(Method::PhaseResonance.name(), wall_time_s, env, false);
+    r.summary.warnings.extend(measured);
     for l in levels.iter().filter(|l| !l.settled) {
         r.summary.warnings.push(format!(
             "{label}: level {} V did not settle within {} periods (phase error {:.3e} rad, \
@@ -180,6 +194,48 @@ pub(crate) fn measured_levels_result(
         }
     }
     Ok(r)
+}
+
+/// The name of the measured modal table in the phase-resonance output folder.
+pub const MEASURED_TABLE_FILE: &str = "modal_table.json";
+
+/// Writes the measured modal table of `levels` to `out/modal_table.json`
+/// (drive point: the first exciter's point; response point: the scenario's)
+/// and returns the warnings: each level left out, or why no table could be
+/// made (then no file is written; a stale one is removed).
+fn write_measured_table(
+    setup: &Setup,
+    out: &Path,
+    levels: &[PllLevel],
+    label: &str,
+) -> Result<Vec<String>> {
+    let path = out.join(MEASURED_TABLE_FILE);
+    let drive = &setup.exciter_points[0];
+    match nlmode::control::modal_table_from_phase_resonance(levels, drive, &setup.response_point) {
+        Ok(m) => {
+            m.table
+                .write(&path)
+                .with_context(|| format!("{label}: measured modal table"))?;
+            Ok(m.skipped
+                .iter()
+                .map(|s| {
+                    format!(
+                        "{label}: level {} V left out of {MEASURED_TABLE_FILE}: {}",
+                        s.voltage_v, s.reason
+                    )
+                })
+                .collect())
+        }
+        Err(e) => {
+            if path.exists() {
+                std::fs::remove_file(&path)
+                    .with_context(|| format!("cannot remove stale {}", path.display()))?;
+            }
+            Ok(vec![format!(
+                "{label}: no {MEASURED_TABLE_FILE} written: {e}"
+            )])
+        }
+    }
 }
 
 /// The plant of a controlled test, by `model`.

@@ -22,3 +22,4 @@ pub mod run;
 pub mod scenario;
 pub mod stepped;
 pub mod study;
+pub mod test_plan;

@@ -45,11 +45,14 @@ pub enum Method {
     /// Response-controlled stepped sine (`[response_control]`,
     /// `response_control.csv`).
     ResponseControlled,
+    /// Test planning on the single-nonlinear-mode model (`[test_plan]`,
+    /// `test_plan.csv`).
+    TestPlan,
 }
 
 impl Method {
     /// Every method, in the order of the docs.
-    pub const ALL: [Method; 10] = [
+    pub const ALL: [Method; 11] = [
         Method::Reference,
         Method::LinearFrf,
         Method::Nlmode,
@@ -60,6 +63,7 @@ impl Method {
         Method::PhaseResonance,
         Method::ForceControlled,
         Method::ResponseControlled,
+        Method::TestPlan,
     ];
 
     /// The name in scenarios and output files (`linear-frf`).
@@ -75,6 +79,7 @@ impl Method {
             Method::PhaseResonance => "phase-resonance",
             Method::ForceControlled => "force-controlled",
             Method::ResponseControlled => "response-controlled",
+            Method::TestPlan => "test-plan",
         }
     }
 
@@ -89,6 +94,7 @@ impl Method {
                 | Method::PhaseResonance
                 | Method::ForceControlled
                 | Method::ResponseControlled
+                | Method::TestPlan
         )
     }
 }
@@ -138,6 +144,8 @@ pub struct Scenario {
     pub force_control: ForceControlSpec,
     #[serde(default)]
     pub response_control: ResponseControlSpec,
+    #[serde(default)]
+    pub test_plan: TestPlanSpec,
 }
 
 /// The paper's case (a): every section's default, one exciter at 2l/3 and the
@@ -161,6 +169,7 @@ impl Default for Scenario {
             phase_resonance: PhaseResonanceSpec::default(),
             force_control: ForceControlSpec::default(),
             response_control: ResponseControlSpec::default(),
+            test_plan: TestPlanSpec::default(),
         }
     }
 }
@@ -1033,8 +1042,9 @@ impl Scenario {
 
     fn validate_rest(&self) -> Result<(), ScenarioError> {
         self.phase_resonance.validate()?;
-        self.force_control.validate()?;
-        self.response_control.validate()?;
+        self.force_control.validate("force_control")?;
+        self.response_control.validate("response_control")?;
+        self.test_plan.validate()?;
         if self.exciter.is_empty() {
             return Err(bad("exciter", "expected at least one [[exciter]] table"));
         }
@@ -1734,10 +1744,28 @@ pub const MAX_RESPONSE_LEVELS: usize = 50;
 /// Most periods per step of a controlled stepped sine.
 pub const MAX_PERIODS_PER_STEP: usize = 1_000_000;
 
-/// The frequency steps, model and controller of a controlled stepped sine
-/// (the keys shared by `[force_control]` and `[response_control]`).
-#[derive(Debug, Clone, PartialEq)]
+/// Default set value of `[force_control] force_set_n` \[N\].
+pub const DEFAULT_FORCE_SET_N: f64 = 0.1;
+/// Default set values of `[response_control] response_levels_m` \[m\].
+pub const DEFAULT_RESPONSE_LEVELS_M: [f64; 3] = [1e-4, 3e-4, 6e-4];
+
+/// `[force_control]` (method `force-controlled`, the force-controlled stepped
+/// sine) and `[response_control]` (method `response-controlled`, one stepped
+/// sine per response level): the frequency steps, model and controller they
+/// share, and the set value of each (every key of both sections is read into
+/// this one table; [`SteppedSpec::validate`] rejects the other section's set
+/// value by name).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct SteppedSpec {
+    /// `[force_control]` only: set value of the force fundamental at the
+    /// structure \[N\] (default [`DEFAULT_FORCE_SET_N`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub force_set_n: Option<f64>,
+    /// `[response_control]` only: set values of the drive-point response
+    /// amplitude \[m\] (default [`DEFAULT_RESPONSE_LEVELS_M`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub response_levels_m: Option<Vec<f64>>,
     /// `reference` or `nlmode` (`cosim` is refused).
     pub model: PhaseResonanceModel,
     /// First and last frequency, in units of omega0 (defaults 0.9, 1.1).
@@ -1753,9 +1781,16 @@ pub struct SteppedSpec {
     pub control: nlmode::control::ForceControlOptions,
 }
 
+/// `[force_control]`: [`SteppedSpec`] with `force_set_n`.
+pub type ForceControlSpec = SteppedSpec;
+/// `[response_control]`: [`SteppedSpec`] with `response_levels_m`.
+pub type ResponseControlSpec = SteppedSpec;
+
 impl Default for SteppedSpec {
     fn default() -> Self {
         Self {
+            force_set_n: None,
+            response_levels_m: None,
             model: PhaseResonanceModel::Reference,
             eta_start: 0.9,
             eta_end: 1.1,
@@ -1767,8 +1802,55 @@ impl Default for SteppedSpec {
     }
 }
 
+/// The two sections of [`SteppedSpec`] and the set-value key each has.
+const STEPPED_SECTIONS: [(&str, &str); 2] = [
+    ("force_control", "force_set_n"),
+    ("response_control", "response_levels_m"),
+];
+
 impl SteppedSpec {
+    /// `[force_control] force_set_n` \[N\], or its default.
+    pub fn force_set_n(&self) -> f64 {
+        self.force_set_n.unwrap_or(DEFAULT_FORCE_SET_N)
+    }
+
+    /// `[response_control] response_levels_m` \[m\], or their default.
+    pub fn response_levels_m(&self) -> &[f64] {
+        self.response_levels_m
+            .as_deref()
+            .unwrap_or(&DEFAULT_RESPONSE_LEVELS_M)
+    }
+
+    /// Checks the section `section` (`force_control` or `response_control`):
+    /// its set value, no set value of the other section, and the shared keys.
     fn validate(&self, section: &str) -> Result<(), ScenarioError> {
+        let set_value = |name: &str| match name {
+            "force_set_n" => self.force_set_n.is_some(),
+            _ => self.response_levels_m.is_some(),
+        };
+        for (other, key) in STEPPED_SECTIONS {
+            if other != section && set_value(key) {
+                return Err(bad(
+                    &format!("{section}.{key}"),
+                    format!("not a key of [{section}] (it belongs to [{other}])"),
+                ));
+            }
+        }
+        if section == "force_control" {
+            positive("force_control.force_set_n", self.force_set_n())?;
+        } else {
+            let levels = self.response_levels_m();
+            let n = levels.len();
+            if n == 0 || n > MAX_RESPONSE_LEVELS {
+                return Err(bad(
+                    "response_control.response_levels_m",
+                    format!("expected 1 ..= {MAX_RESPONSE_LEVELS} response amplitudes, got {n}"),
+                ));
+            }
+            for (i, v) in levels.iter().enumerate() {
+                positive(&format!("response_control.response_levels_m[{i}]"), *v)?;
+            }
+        }
         positive(&format!("{section}.eta_start"), self.eta_start)?;
         positive(&format!("{section}.eta_end"), self.eta_end)?;
         if !(2..=MAX_CONTROL_STEPS).contains(&self.steps) {
@@ -1820,127 +1902,59 @@ impl SteppedSpec {
     }
 }
 
-/// `[force_control]`: the force-controlled stepped sine (method
-/// `force-controlled`).
+// ---- [test_plan] (method `test-plan`) ----
+
+/// Most target amplitudes of `[test_plan]`.
+pub const MAX_TEST_PLAN_TARGETS: usize = 200;
+
+/// `[test_plan]`: the voltage, current and stroke the shaker needs to hold
+/// the structure at phase resonance at each target amplitude, and the force
+/// drop of an open-loop sweep at that voltage (docs/scenario.md).
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct ForceControlSpec {
-    /// Set value of the force fundamental at the structure \[N\] (default 0.1).
-    pub force_set_n: f64,
-    /// `reference` or `nlmode` (`cosim` is refused).
-    pub model: PhaseResonanceModel,
-    /// First and last frequency, in units of omega0 (defaults 0.9, 1.1).
-    pub eta_start: f64,
-    pub eta_end: f64,
-    /// Number of frequency steps, uniform in `Omega` (default 21).
-    pub steps: usize,
-    /// Voltage amplitude of the first step \[V\] (default 0.5).
-    pub voltage_start_v: f64,
-    /// Samples per excitation period (default 40).
-    pub samples_per_period: usize,
-    /// Tolerances and limits ([`nlmode::control::ForceControlOptions`]).
-    pub control: nlmode::control::ForceControlOptions,
+pub struct TestPlanSpec {
+    /// Target fundamental amplitudes `|q_tip,1|` of the response point \[m\]
+    /// (default `[0.5e-3, 1e-3, 2e-3, 3e-3]`).
+    pub target_amplitudes_m: Vec<f64>,
+    /// Voltage amplitude the amplifier gives \[V\] (default 40).
+    pub voltage_limit_v: f64,
+    /// Coil current amplitude allowed \[A\] (default 10).
+    pub current_limit_a: f64,
+    /// Armature displacement amplitude allowed \[m\] (default 6.35e-3, half
+    /// of a 12.7 mm peak-to-peak stroke).
+    pub stroke_limit_m: f64,
+    /// Whether to run the open-loop sweep (the scenario's `[excitation]` at the
+    /// planned voltage) per target for its force drop (default true).
+    pub open_loop_sweep: bool,
 }
 
-impl Default for ForceControlSpec {
+impl Default for TestPlanSpec {
     fn default() -> Self {
-        let d = SteppedSpec::default();
         Self {
-            force_set_n: 0.1,
-            model: d.model,
-            eta_start: d.eta_start,
-            eta_end: d.eta_end,
-            steps: d.steps,
-            voltage_start_v: d.voltage_start_v,
-            samples_per_period: d.samples_per_period,
-            control: d.control,
+            target_amplitudes_m: vec![0.5e-3, 1e-3, 2e-3, 3e-3],
+            voltage_limit_v: 40.0,
+            current_limit_a: 10.0,
+            stroke_limit_m: 6.35e-3,
+            open_loop_sweep: true,
         }
     }
 }
 
-impl ForceControlSpec {
+impl TestPlanSpec {
     fn validate(&self) -> Result<(), ScenarioError> {
-        positive("force_control.force_set_n", self.force_set_n)?;
-        self.stepped().validate("force_control")
-    }
-    /// The frequency steps, model and controller.
-    pub fn stepped(&self) -> SteppedSpec {
-        SteppedSpec {
-            model: self.model,
-            eta_start: self.eta_start,
-            eta_end: self.eta_end,
-            steps: self.steps,
-            voltage_start_v: self.voltage_start_v,
-            samples_per_period: self.samples_per_period,
-            control: self.control.clone(),
-        }
-    }
-}
-
-/// `[response_control]`: the response-controlled stepped sine (method
-/// `response-controlled`), one sweep per response level.
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ResponseControlSpec {
-    /// Set values of the drive-point response amplitude \[m\] (default
-    /// `[1e-4, 3e-4, 6e-4]`).
-    pub response_levels_m: Vec<f64>,
-    /// `reference` or `nlmode` (`cosim` is refused).
-    pub model: PhaseResonanceModel,
-    /// First and last frequency, in units of omega0 (defaults 0.9, 1.1).
-    pub eta_start: f64,
-    pub eta_end: f64,
-    /// Number of frequency steps, uniform in `Omega` (default 21).
-    pub steps: usize,
-    /// Voltage amplitude of the first step \[V\] (default 0.5).
-    pub voltage_start_v: f64,
-    /// Samples per excitation period (default 40).
-    pub samples_per_period: usize,
-    /// Tolerances and limits ([`nlmode::control::ForceControlOptions`]).
-    pub control: nlmode::control::ForceControlOptions,
-}
-
-impl Default for ResponseControlSpec {
-    fn default() -> Self {
-        let d = SteppedSpec::default();
-        Self {
-            response_levels_m: vec![1e-4, 3e-4, 6e-4],
-            model: d.model,
-            eta_start: d.eta_start,
-            eta_end: d.eta_end,
-            steps: d.steps,
-            voltage_start_v: d.voltage_start_v,
-            samples_per_period: d.samples_per_period,
-            control: d.control,
-        }
-    }
-}
-
-impl ResponseControlSpec {
-    fn validate(&self) -> Result<(), ScenarioError> {
-        let n = self.response_levels_m.len();
-        if n == 0 || n > MAX_RESPONSE_LEVELS {
+        let n = self.target_amplitudes_m.len();
+        if n == 0 || n > MAX_TEST_PLAN_TARGETS {
             return Err(bad(
-                "response_control.response_levels_m",
-                format!("expected 1 ..= {MAX_RESPONSE_LEVELS} response amplitudes, got {n}"),
+                "test_plan.target_amplitudes_m",
+                format!("expected 1 ..= {MAX_TEST_PLAN_TARGETS} amplitudes, got {n}"),
             ));
         }
-        for (i, v) in self.response_levels_m.iter().enumerate() {
-            positive(&format!("response_control.response_levels_m[{i}]"), *v)?;
+        for (i, v) in self.target_amplitudes_m.iter().enumerate() {
+            positive(&format!("test_plan.target_amplitudes_m[{i}]"), *v)?;
         }
-        self.stepped().validate("response_control")
-    }
-    /// The frequency steps, model and controller.
-    pub fn stepped(&self) -> SteppedSpec {
-        SteppedSpec {
-            model: self.model,
-            eta_start: self.eta_start,
-            eta_end: self.eta_end,
-            steps: self.steps,
-            voltage_start_v: self.voltage_start_v,
-            samples_per_period: self.samples_per_period,
-            control: self.control.clone(),
-        }
+        positive("test_plan.voltage_limit_v", self.voltage_limit_v)?;
+        positive("test_plan.current_limit_a", self.current_limit_a)?;
+        positive("test_plan.stroke_limit_m", self.stroke_limit_m)
     }
 }
 

@@ -149,15 +149,15 @@ pub fn force_controlled(
     table: &ModalTable,
     out: &Path,
 ) -> Result<MethodResult> {
-    let spec = &sc.force_control;
-    let stepped = spec.stepped();
+    let stepped = &sc.force_control;
+    let force_set_n = stepped.force_set_n();
     let w0 = setup.omega0_rad_s;
     let t0 = Instant::now();
     let mut p = plant(setup, sc, table, stepped.model, stepped.samples_per_period)?;
     let res = force_controlled_stepped_sine(
         p.as_plant(),
-        &omegas(&stepped, w0),
-        spec.force_set_n,
+        &omegas(stepped, w0),
+        force_set_n,
         stepped.voltage_start_v,
         &stepped.control,
     )
@@ -170,15 +170,12 @@ pub fn force_controlled(
         let f: Vec<f64> = res
             .steps
             .iter()
-            .map(|s| s.harmonics.force_amplitude_n() / spec.force_set_n)
+            .map(|s| s.harmonics.force_amplitude_n() / force_set_n)
             .collect();
         let u: Vec<f64> = res.steps.iter().map(|s| s.voltage_v).collect();
         plot::xy_plot(
             &out.join("force_control.svg"),
-            &format!(
-                "Force control at {} N: force held, voltage needed",
-                spec.force_set_n
-            ),
+            &format!("Force control at {force_set_n} N: force held, voltage needed"),
             "Omega / omega0 [-]",
             "|F_1| / F_set [-], voltage [V]",
             &[
@@ -217,17 +214,16 @@ pub fn response_controlled(
     table: &ModalTable,
     out: &Path,
 ) -> Result<MethodResult> {
-    let spec = &sc.response_control;
-    let stepped = spec.stepped();
+    let stepped = &sc.response_control;
     let w0 = setup.omega0_rad_s;
     let t0 = Instant::now();
-    let mut results = Vec::with_capacity(spec.response_levels_m.len());
+    let mut results = Vec::with_capacity(stepped.response_levels_m().len());
     let mut warns = Vec::new();
-    for &x in &spec.response_levels_m {
+    for &x in stepped.response_levels_m() {
         let mut p = plant(setup, sc, table, stepped.model, stepped.samples_per_period)?;
         let res = response_controlled_stepped_sine(
             p.as_plant(),
-            &omegas(&stepped, w0),
+            &omegas(stepped, w0),
             x,
             stepped.voltage_start_v,
             &stepped.control,

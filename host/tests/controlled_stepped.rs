@@ -172,5 +172,5 @@ fn bad_controlled_keys_name_the_key() {
     }
     let sc = Scenario::parse("[run]\nmethods = [\"force-controlled\", \"response-controlled\"]\n")
         .unwrap();
-    assert_eq!(sc.response_control.response_levels_m.len(), 3);
+    assert_eq!(sc.response_control.response_levels_m().len(), 3);
 }

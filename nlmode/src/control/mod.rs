@@ -16,6 +16,10 @@
 //! - [`plant`]: the plant driven by the full-order reference assembly
 //!   (`eq:finalassembly1`-`eq:finalassembly2`), for the paper beam with its
 //!   shaker or a single-DOF Duffing oscillator with the paper's shaker.
+//! - [`ema`]: virtual experimental nonlinear modal analysis, the modal table
+//!   of a phase-resonance test (force appropriation at phase resonance).
+//! - [`plan`]: test planning, the voltage that holds the single-nonlinear-mode
+//!   model at phase resonance at a target amplitude (`eq:NM`).
 //! - [`reduced_plant`]: the plant on the single-nonlinear-mode model (`eq:NM`,
 //!   the slow flow with the attachments), with what its averaging implies for
 //!   the loop.
@@ -35,16 +39,23 @@
 //!
 //! exact for harmonics `h < N/2` of a periodic signal (the rectangle rule is
 //! exact on trigonometric polynomials over a full period).
+pub mod ema;
 pub mod force;
+pub mod plan;
 pub mod plant;
 pub mod pll;
 pub mod reduced_plant;
 pub mod response;
 pub mod streaming;
 
+pub use ema::{
+    modal_table_from_phase_resonance, EmaError, MeasuredModalPoint, MeasuredModalTable,
+    SkippedLevel,
+};
 pub use force::{
     force_controlled_stepped_sine, ForceControlOptions, ForceControlResult, ForceStep,
 };
+pub use plan::{attachment_states, phase_resonance_voltage, PhaseResonancePoint, PlanError};
 pub use plant::{DuffingOscillator, ReferencePlant};
 pub use pll::{
     phase_resonance, PhaseLockedLoop, PhaseMeasurement, PllLevel, PllOptions, PllResult,
