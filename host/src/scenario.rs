@@ -942,6 +942,16 @@ impl Scenario {
                 "expected at least 1 fixed-interface mode",
             ));
         }
+        let max_cb = nlmode::structure::sparse::MAX_SPARSE_MODES;
+        if st.reduction == Reduction::CraigBampton && st.cb_modes > max_cb {
+            return Err(bad(
+                "structure.cb_modes",
+                format!(
+                    "expected at most {max_cb} fixed-interface modes, got {}",
+                    st.cb_modes
+                ),
+            ));
+        }
         if let Some(m) = &st.cb_masters {
             for (i, p) in m.iter().enumerate() {
                 known(&format!("structure.cb_masters[{i}]"), p)?;
