@@ -2397,6 +2397,18 @@ mod tests {
         assert!(e.message.contains("mass_mtx"), "{e}");
         let e = Scenario::parse("[structure]\nreduction = \"guyan\"\n").unwrap_err();
         assert_eq!(e.key, "structure.reduction");
+        // more fixed-interface modes than the sparse eigensolver takes: the key named
+        let e = Scenario::parse(
+            "[structure]\nkind = \"matrices\"\nmass_mtx = \"M.mtx\"\nstiffness_mtx = \"K.mtx\"\n\
+             damping_ratio = 0.01\ncb_modes = 501\n[[structure.point]]\nname = \"a\"\ndof = 0\n\
+             [[exciter]]\npoint = \"a\"\n[output]\nresponse_point = \"a\"\n",
+        )
+        .unwrap_err();
+        assert_eq!(e.key, "structure.cb_modes", "{e}");
+        assert!(
+            e.message.contains("501") && e.message.contains("500"),
+            "{e}"
+        );
         let e = Scenario::parse("[[exciter]]\nlocation = \"x\"\n").unwrap_err();
         assert_eq!(e.key, "exciter[0].location");
         let e = Scenario::parse("[excitation]\nvoltage_v = -1.0\n").unwrap_err();
