@@ -500,5 +500,23 @@ fn imposed_force_with_two_exciters_reproduces_the_nlmode_flow() {
         err.contains("bare.csv") && err.contains("near_force_amplitude_N"),
         "{err}"
     );
+    // an attachment at the second exciter's point is refused, naming both
+    let mut tmd = sc.clone();
+    let att = scenario(
+        &dir,
+        &format!(
+            "{text}[[attachment]]\nname = \"tmd\"\ntype = \"tuned-mass-damper\"\npoint = \"b\"\n\
+             mass_kg = 0.1\nstiffness_n_per_m = 2e3\ndamping_ratio = 0.1\n"
+        ),
+    );
+    tmd.attachment = att.attachment;
+    let err = host::api::compute(&tmd, "test", &out, &host::api::Options::default())
+        .err()
+        .map(|e| format!("{e:#}"))
+        .unwrap();
+    assert!(
+        err.contains("'tmd'") && err.contains("'far'") && err.contains("imposed-force"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
