@@ -32,6 +32,68 @@ pub struct Variable {
 }
 
 impl Variable {
+    /// A Real variable; `start` `None` for none (calculated parameters, outputs).
+    pub const fn real(
+        name: &'static str,
+        vr: u32,
+        causality: Causality,
+        variability: Variability,
+        start: Option<f64>,
+        unit: &'static str,
+    ) -> Self {
+        Self {
+            name,
+            vr,
+            ty: VarType::Real,
+            causality,
+            variability,
+            start: match start {
+                Some(s) => Some(Start::Real(s)),
+                None => None,
+            },
+            unit,
+        }
+    }
+
+    /// A fixed Integer parameter with its start value.
+    pub const fn integer_parameter(name: &'static str, vr: u32, start: i32) -> Self {
+        Self {
+            name,
+            vr,
+            ty: VarType::Integer,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::Integer(start)),
+            unit: "",
+        }
+    }
+
+    /// A fixed Boolean parameter with its start value.
+    pub const fn boolean_parameter(name: &'static str, vr: u32, start: bool) -> Self {
+        Self {
+            name,
+            vr,
+            ty: VarType::Boolean,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::Boolean(start)),
+            unit: "",
+        }
+    }
+
+    /// A discrete output of type `ty` (Integer or Boolean), no start value.
+    pub const fn discrete_output(name: &'static str, vr: u32, ty: VarType) -> Self {
+        Self {
+            name,
+            vr,
+            ty,
+            causality: Causality::Output,
+            variability: Variability::Discrete,
+            start: None,
+            unit: "",
+        }
+    }
+
     /// May the importer set this variable in the given phase? (FMI 2.0 CS:
     /// before/while initializing, inputs and parameters; while stepping, inputs
     /// and tunable parameters.)

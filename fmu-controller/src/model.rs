@@ -1,8 +1,8 @@
 //! The controller FMU's variables, parameters and FMU state, mapped onto
 //! [`nlmode::control::StreamingPll`].
 use fmi2_export::{
-    Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, Start, StateReader,
-    StateWriter, VarType as T, Variability as V, Variable,
+    Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, StateReader, StateWriter,
+    VarType as T, Variability as V, Variable,
 };
 use nlmode::control::{PllLevel, PllOptions, StreamSample, StreamingPll};
 
@@ -61,68 +61,10 @@ pub const fn vr_harmonic(s: u32, h: u32) -> u32 {
     VR_HARMONICS_BASE + 12 * s + 2 * h
 }
 
-const fn real(
-    name: &'static str,
-    vr: u32,
-    causality: C,
-    variability: V,
-    start: Option<f64>,
-    unit: &'static str,
-) -> Variable {
-    Variable {
-        name,
-        vr,
-        ty: T::Real,
-        causality,
-        variability,
-        start: match start {
-            Some(s) => Some(Start::Real(s)),
-            None => None,
-        },
-        unit,
-    }
-}
-
-const fn int(name: &'static str, vr: u32, start: i32) -> Variable {
-    Variable {
-        name,
-        vr,
-        ty: T::Integer,
-        causality: C::Parameter,
-        variability: V::Fixed,
-        start: Some(Start::Integer(start)),
-        unit: "",
-    }
-}
-
-const fn boolean_output(name: &'static str, vr: u32) -> Variable {
-    Variable {
-        name,
-        vr,
-        ty: T::Boolean,
-        causality: C::Output,
-        variability: V::Discrete,
-        start: None,
-        unit: "",
-    }
-}
-
-const fn int_output(name: &'static str, vr: u32) -> Variable {
-    Variable {
-        name,
-        vr,
-        ty: T::Integer,
-        causality: C::Output,
-        variability: V::Discrete,
-        start: None,
-        unit: "",
-    }
-}
-
 /// All variables (the modelDescription.xml is tested against this table).
 pub const VARIABLES: &[Variable] = &[
-    real("u_hat", 0, C::Parameter, V::Tunable, Some(1.0), "V"),
-    real(
+    Variable::real("u_hat", 0, C::Parameter, V::Tunable, Some(1.0), "V"),
+    Variable::real(
         "omega_start",
         1,
         C::Parameter,
@@ -130,9 +72,9 @@ pub const VARIABLES: &[Variable] = &[
         Some(356.2),
         "rad/s",
     ),
-    real("kp", 2, C::Parameter, V::Fixed, Some(0.001), "1/rad"),
-    real("ki", 3, C::Parameter, V::Fixed, Some(0.001), "1/rad"),
-    real(
+    Variable::real("kp", 2, C::Parameter, V::Fixed, Some(0.001), "1/rad"),
+    Variable::real("ki", 3, C::Parameter, V::Fixed, Some(0.001), "1/rad"),
+    Variable::real(
         "max_step_ratio",
         4,
         C::Parameter,
@@ -140,7 +82,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(0.002),
         "1",
     ),
-    real(
+    Variable::real(
         "phase_tolerance",
         5,
         C::Parameter,
@@ -148,7 +90,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(0.001),
         "rad",
     ),
-    real(
+    Variable::real(
         "amplitude_tolerance",
         6,
         C::Parameter,
@@ -156,7 +98,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(0.0001),
         "1",
     ),
-    real(
+    Variable::real(
         "drive_modal_mass",
         7,
         C::Parameter,
@@ -164,64 +106,64 @@ pub const VARIABLES: &[Variable] = &[
         Some(1.0),
         "kg",
     ),
-    int("settle_periods", 8, 10),
-    int("max_periods_per_level", 9, 3000),
-    int("harmonics", 10, 5),
-    int("samples_per_period", 11, 40),
-    real("F_meas", 20, C::Input, V::Continuous, Some(0.0), "N"),
-    real("x_drive", 21, C::Input, V::Continuous, Some(0.0), "m"),
-    real("x_tip", 22, C::Input, V::Continuous, Some(0.0), "m"),
-    real("I_meas", 23, C::Input, V::Continuous, Some(0.0), "A"),
-    real("u_ext", 30, C::Output, V::Continuous, None, "V"),
-    real("Omega", 31, C::Output, V::Continuous, None, "rad/s"),
-    real("theta", 32, C::Output, V::Continuous, None, "rad"),
-    real("phase_error", 33, C::Output, V::Continuous, None, "rad"),
-    real("amplitude_change", 34, C::Output, V::Continuous, None, "1"),
-    real("damping_ratio", 35, C::Output, V::Continuous, None, "1"),
-    real("power", 36, C::Output, V::Continuous, None, "W"),
-    real("I_amplitude", 37, C::Output, V::Continuous, None, "A"),
-    real("record_voltage", 38, C::Output, V::Continuous, None, "V"),
-    real("record_Omega", 39, C::Output, V::Continuous, None, "rad/s"),
-    real("record_time", 40, C::Output, V::Continuous, None, "s"),
-    boolean_output("settled", 41),
-    boolean_output("level_done", 42),
-    int_output("periods", 43),
-    real("F_h0_re", 100, C::Output, V::Continuous, None, "N"),
-    real("F_h0_im", 101, C::Output, V::Continuous, None, "N"),
-    real("F_h1_re", 102, C::Output, V::Continuous, None, "N"),
-    real("F_h1_im", 103, C::Output, V::Continuous, None, "N"),
-    real("F_h2_re", 104, C::Output, V::Continuous, None, "N"),
-    real("F_h2_im", 105, C::Output, V::Continuous, None, "N"),
-    real("F_h3_re", 106, C::Output, V::Continuous, None, "N"),
-    real("F_h3_im", 107, C::Output, V::Continuous, None, "N"),
-    real("F_h4_re", 108, C::Output, V::Continuous, None, "N"),
-    real("F_h4_im", 109, C::Output, V::Continuous, None, "N"),
-    real("F_h5_re", 110, C::Output, V::Continuous, None, "N"),
-    real("F_h5_im", 111, C::Output, V::Continuous, None, "N"),
-    real("x_drive_h0_re", 112, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h0_im", 113, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h1_re", 114, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h1_im", 115, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h2_re", 116, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h2_im", 117, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h3_re", 118, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h3_im", 119, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h4_re", 120, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h4_im", 121, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h5_re", 122, C::Output, V::Continuous, None, "m"),
-    real("x_drive_h5_im", 123, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h0_re", 124, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h0_im", 125, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h1_re", 126, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h1_im", 127, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h2_re", 128, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h2_im", 129, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h3_re", 130, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h3_im", 131, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h4_re", 132, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h4_im", 133, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h5_re", 134, C::Output, V::Continuous, None, "m"),
-    real("x_tip_h5_im", 135, C::Output, V::Continuous, None, "m"),
+    Variable::integer_parameter("settle_periods", 8, 10),
+    Variable::integer_parameter("max_periods_per_level", 9, 3000),
+    Variable::integer_parameter("harmonics", 10, 5),
+    Variable::integer_parameter("samples_per_period", 11, 40),
+    Variable::real("F_meas", 20, C::Input, V::Continuous, Some(0.0), "N"),
+    Variable::real("x_drive", 21, C::Input, V::Continuous, Some(0.0), "m"),
+    Variable::real("x_tip", 22, C::Input, V::Continuous, Some(0.0), "m"),
+    Variable::real("I_meas", 23, C::Input, V::Continuous, Some(0.0), "A"),
+    Variable::real("u_ext", 30, C::Output, V::Continuous, None, "V"),
+    Variable::real("Omega", 31, C::Output, V::Continuous, None, "rad/s"),
+    Variable::real("theta", 32, C::Output, V::Continuous, None, "rad"),
+    Variable::real("phase_error", 33, C::Output, V::Continuous, None, "rad"),
+    Variable::real("amplitude_change", 34, C::Output, V::Continuous, None, "1"),
+    Variable::real("damping_ratio", 35, C::Output, V::Continuous, None, "1"),
+    Variable::real("power", 36, C::Output, V::Continuous, None, "W"),
+    Variable::real("I_amplitude", 37, C::Output, V::Continuous, None, "A"),
+    Variable::real("record_voltage", 38, C::Output, V::Continuous, None, "V"),
+    Variable::real("record_Omega", 39, C::Output, V::Continuous, None, "rad/s"),
+    Variable::real("record_time", 40, C::Output, V::Continuous, None, "s"),
+    Variable::discrete_output("settled", 41, T::Boolean),
+    Variable::discrete_output("level_done", 42, T::Boolean),
+    Variable::discrete_output("periods", 43, T::Integer),
+    Variable::real("F_h0_re", 100, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h0_im", 101, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h1_re", 102, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h1_im", 103, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h2_re", 104, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h2_im", 105, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h3_re", 106, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h3_im", 107, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h4_re", 108, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h4_im", 109, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h5_re", 110, C::Output, V::Continuous, None, "N"),
+    Variable::real("F_h5_im", 111, C::Output, V::Continuous, None, "N"),
+    Variable::real("x_drive_h0_re", 112, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h0_im", 113, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h1_re", 114, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h1_im", 115, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h2_re", 116, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h2_im", 117, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h3_re", 118, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h3_im", 119, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h4_re", 120, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h4_im", 121, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h5_re", 122, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_drive_h5_im", 123, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h0_re", 124, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h0_im", 125, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h1_re", 126, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h1_im", 127, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h2_re", 128, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h2_im", 129, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h3_re", 130, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h3_im", 131, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h4_re", 132, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h4_im", 133, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h5_re", 134, C::Output, V::Continuous, None, "m"),
+    Variable::real("x_tip_h5_im", 135, C::Output, V::Continuous, None, "m"),
 ];
 
 /// Range of each Real parameter, checked at `fmi2ExitInitializationMode`

@@ -3,8 +3,8 @@
 //! [`nlmode::excitation::LinearSweep`], the physics and its exact stepping
 //! are [`nlmode::attachment::ShakerStepper`].
 use fmi2_export::{
-    Causality as C, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError, Start,
-    StateReader, StateWriter, VarType as T, Variability as V, Variable,
+    Causality as C, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError,
+    StateReader, StateWriter, Variability as V, Variable,
 };
 use nalgebra::{Matrix3, Matrix3x2, Vector2, Vector3};
 pub use nlmode::attachment::MAX_PHASE_PER_SUBSTEP;
@@ -73,32 +73,10 @@ pub const DEFAULT_OMEGA_END: f64 = 641.0;
 pub const DEFAULT_OMEGA_RATE: f64 = 404.0;
 pub const DEFAULT_U_HAT: f64 = 10.0;
 
-const fn real(
-    name: &'static str,
-    vr: u32,
-    causality: C,
-    variability: V,
-    start: Option<f64>,
-    unit: &'static str,
-) -> Variable {
-    Variable {
-        name,
-        vr,
-        ty: T::Real,
-        causality,
-        variability,
-        start: match start {
-            Some(s) => Some(Start::Real(s)),
-            None => None,
-        },
-        unit,
-    }
-}
-
 /// All variables (the modelDescription.xml is tested against this table).
 pub const VARIABLES: &[Variable] = &[
-    real("L", VR_L, C::Parameter, V::Fixed, Some(bm::SHAKER_L_H), "H"),
-    real(
+    Variable::real("L", VR_L, C::Parameter, V::Fixed, Some(bm::SHAKER_L_H), "H"),
+    Variable::real(
         "R",
         VR_R,
         C::Parameter,
@@ -106,7 +84,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(bm::SHAKER_R_OHM),
         "Ohm",
     ),
-    real(
+    Variable::real(
         "G",
         VR_G,
         C::Parameter,
@@ -114,7 +92,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(bm::SHAKER_G_N_PER_A),
         "N/A",
     ),
-    real(
+    Variable::real(
         "m_a",
         VR_M_A,
         C::Parameter,
@@ -122,7 +100,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(bm::SHAKER_MA_KG),
         "kg",
     ),
-    real(
+    Variable::real(
         "k_a",
         VR_K_A,
         C::Parameter,
@@ -130,7 +108,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(bm::SHAKER_KA_N_PER_M),
         "N/m",
     ),
-    real(
+    Variable::real(
         "D_a",
         VR_D_A_RATIO,
         C::Parameter,
@@ -138,7 +116,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(bm::SHAKER_DA),
         "1",
     ),
-    real(
+    Variable::real(
         "k_s",
         VR_K_S,
         C::Parameter,
@@ -146,7 +124,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(bm::STINGER_KS_N_PER_M),
         "N/m",
     ),
-    real(
+    Variable::real(
         "u_hat",
         VR_U_HAT,
         C::Parameter,
@@ -154,7 +132,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(DEFAULT_U_HAT),
         "V",
     ),
-    real(
+    Variable::real(
         "Omega_start",
         VR_OMEGA_START,
         C::Parameter,
@@ -162,7 +140,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(DEFAULT_OMEGA_START),
         "rad/s",
     ),
-    real(
+    Variable::real(
         "Omega_end",
         VR_OMEGA_END,
         C::Parameter,
@@ -170,7 +148,7 @@ pub const VARIABLES: &[Variable] = &[
         Some(DEFAULT_OMEGA_END),
         "rad/s",
     ),
-    real(
+    Variable::real(
         "Omega_rate",
         VR_OMEGA_RATE,
         C::Parameter,
@@ -178,16 +156,8 @@ pub const VARIABLES: &[Variable] = &[
         Some(DEFAULT_OMEGA_RATE),
         "rad/s2",
     ),
-    Variable {
-        name: "use_external_voltage",
-        vr: VR_USE_EXTERNAL,
-        ty: T::Boolean,
-        causality: C::Parameter,
-        variability: V::Fixed,
-        start: Some(Start::Boolean(false)),
-        unit: "",
-    },
-    real(
+    Variable::boolean_parameter("use_external_voltage", VR_USE_EXTERNAL, false),
+    Variable::real(
         "d_a",
         VR_D_A,
         C::CalculatedParameter,
@@ -195,18 +165,18 @@ pub const VARIABLES: &[Variable] = &[
         None,
         "N.s/m",
     ),
-    real("x", VR_X, C::Input, V::Continuous, Some(0.0), "m"),
-    real("v", VR_V, C::Input, V::Continuous, Some(0.0), "m/s"),
-    real("u_ext", VR_U_EXT, C::Input, V::Continuous, Some(0.0), "V"),
-    real("F", VR_F, C::Output, V::Continuous, None, "N"),
-    real("I", VR_I, C::Output, V::Continuous, None, "A"),
-    real("q_a", VR_Q_A, C::Output, V::Continuous, None, "m"),
-    real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s"),
-    real("u", VR_U, C::Output, V::Continuous, None, "V"),
-    real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s"),
-    real("der(I)", VR_DER_I, C::Local, V::Continuous, None, "A/s"),
-    real("der(q_a)", VR_DER_Q_A, C::Local, V::Continuous, None, "m/s"),
-    real(
+    Variable::real("x", VR_X, C::Input, V::Continuous, Some(0.0), "m"),
+    Variable::real("v", VR_V, C::Input, V::Continuous, Some(0.0), "m/s"),
+    Variable::real("u_ext", VR_U_EXT, C::Input, V::Continuous, Some(0.0), "V"),
+    Variable::real("F", VR_F, C::Output, V::Continuous, None, "N"),
+    Variable::real("I", VR_I, C::Output, V::Continuous, None, "A"),
+    Variable::real("q_a", VR_Q_A, C::Output, V::Continuous, None, "m"),
+    Variable::real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s"),
+    Variable::real("u", VR_U, C::Output, V::Continuous, None, "V"),
+    Variable::real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s"),
+    Variable::real("der(I)", VR_DER_I, C::Local, V::Continuous, None, "A/s"),
+    Variable::real("der(q_a)", VR_DER_Q_A, C::Local, V::Continuous, None, "m/s"),
+    Variable::real(
         "der(v_a)",
         VR_DER_V_A,
         C::Local,

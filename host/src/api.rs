@@ -139,6 +139,11 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
     let has_error = error.eps != 0.0 || error.offset_rad_s != 0.0;
     let mut nlmode_flow = None;
     let mut reference_env = None;
+    // several exciters: the envelope columns of nlmode / reference, whose
+    // per-exciter forces imposed-force takes
+    let several = setup.shakers.len() > 1;
+    let mut nlmode_columns = None;
+    let mut reference_columns = None;
     // Dependencies first: imposed-force takes its force from nlmode or reference.
     let mut order: Vec<Method> = sc.run.methods.clone();
     order.sort_by_key(|m| usize::from(*m == Method::ImposedForce));
@@ -190,21 +195,27 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
                 let r = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
                 bar.finish();
                 reference_env = Some(r.envelope.clone());
+                if several {
+                    reference_columns = Some(results::envelope_columns(&r));
+                }
                 done.push(r);
             }
             Method::Nlmode => {
                 let model = methods::reduced_model(&setup, table(), None)?;
-                let (r, flow) = methods::slow_flow(
+                let (r, flow) = methods::exciter_slow_flow(
                     Method::Nlmode.name(),
                     &setup,
                     &model,
                     &sc.slowflow.options(Method::Nlmode),
                 )?;
+                if several {
+                    nlmode_columns = Some(results::envelope_columns(&r));
+                }
                 done.push(r);
                 nlmode_flow = Some(flow);
                 if has_error && sc.imposed_force.apply_to_nlmode {
                     let model = methods::reduced_model(&setup, table(), Some(error))?;
-                    let (r, _) = methods::slow_flow(
+                    let (r, _) = methods::exciter_slow_flow(
                         "nlmode-freq-error",
                         &setup,
                         &model,
@@ -215,22 +226,43 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
             }
             Method::LinearSlowflow => {
                 let model = methods::reduced_model(&setup, table(), None)?.linear()?;
-                done.push(
-                    methods::slow_flow(
-                        Method::LinearSlowflow.name(),
-                        &setup,
-                        &model,
-                        &sc.slowflow.options(Method::LinearSlowflow),
-                    )?
-                    .0,
-                );
+                let (r, _) = methods::exciter_slow_flow(
+                    Method::LinearSlowflow.name(),
+                    &setup,
+                    &model,
+                    &sc.slowflow.options(Method::LinearSlowflow),
+                )?;
+                done.push(r);
             }
             Method::LinearSteady => {
                 let model = methods::reduced_model(&setup, table(), None)?;
                 done.push(methods::linear_steady(&setup, &model, sc.run.frf_points)?);
             }
             Method::ImposedForce => {
-                let envelope = match &sc.imposed_force.source {
+                // one force per exciter, at its point: several exciters read the
+                // per-exciter columns, one exciter the drive-point force as ever
+                let columns = results::exciter_force_columns(&setup.exciter_names);
+                let envelopes: Vec<nlmode::reduced::ForceEnvelope> = match &sc.imposed_force.source
+                {
+                    ForceSource::Nlmode if several => {
+                        let cols = match nlmode_columns.take() {
+                            Some(c) => c,
+                            None => {
+                                let model = methods::reduced_model(&setup, table(), None)?;
+                                let (r, _) = methods::exciter_slow_flow(
+                                    Method::Nlmode.name(),
+                                    &setup,
+                                    &model,
+                                    &sc.slowflow.options(Method::Nlmode),
+                                )?;
+                                results::envelope_columns(&r)
+                            }
+                        };
+                        let picked = results::pick_columns(&cols, &columns)
+                            .context("imposed_force.source = nlmode")?;
+                        results::exciter_force_envelopes(&picked)
+                            .context("imposed_force.source = nlmode")?
+                    }
                     ForceSource::Nlmode => {
                         let flow = match &nlmode_flow {
                             Some(f) => f.clone(),
@@ -245,57 +277,102 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
                                 .1
                             }
                         };
-                        nlmode::envelope::Envelope::from(&flow).to_force_envelope()?
+                        vec![nlmode::envelope::Envelope::from(&flow).to_force_envelope()?]
                     }
                     ForceSource::Reference => {
-                        let env = match reference_env.take() {
-                            Some(e) => e,
-                            None => {
-                                let mut bar =
-                                    Progress::new("reference (for imposed-force)", opts.echo);
-                                let r = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
-                                bar.finish();
-                                r.envelope
-                            }
+                        let run_reference = || -> Result<MethodResult> {
+                            let mut bar = Progress::new("reference (for imposed-force)", opts.echo);
+                            let r = methods::reference(&setup, &sc, &mut |f| bar.set(f))?;
+                            bar.finish();
+                            Ok(r)
+                        };
+                        let envelopes = if several {
+                            let cols = match reference_columns.take() {
+                                Some(c) => c,
+                                None => results::envelope_columns(&run_reference()?),
+                            };
+                            let picked = results::pick_columns(&cols, &columns)
+                                .context("imposed_force.source = reference")?;
+                            results::exciter_force_envelopes(&picked)
+                                .context("imposed_force.source = reference")?
+                        } else {
+                            let env = match reference_env.take() {
+                                Some(e) => e,
+                                None => run_reference()?.envelope,
+                            };
+                            vec![env
+                                .to_force_envelope()
+                                .context("imposed_force.source = reference")?]
                         };
                         // the windowed envelope lacks half a period at each end
                         let s = &setup.sweep;
-                        env.to_force_envelope()
-                            .context("imposed_force.source = reference")?
-                            .with_held_ends(
-                                s.omega_start_rad_s.min(s.omega_end_rad_s),
-                                s.omega_start_rad_s.max(s.omega_end_rad_s),
-                            )
+                        envelopes
+                            .into_iter()
+                            .map(|e| {
+                                e.with_held_ends(
+                                    s.omega_start_rad_s.min(s.omega_end_rad_s),
+                                    s.omega_start_rad_s.max(s.omega_end_rad_s),
+                                )
+                            })
+                            .collect()
                     }
                     ForceSource::Csv(path) => {
-                        let read = || -> Result<nlmode::reduced::ForceEnvelope> {
-                            Ok(results::read_envelope(path)?.to_force_envelope()?)
+                        let read = || -> Result<Vec<nlmode::reduced::ForceEnvelope>> {
+                            if several {
+                                let picked = results::read_csv_columns(path, &columns)?;
+                                Ok(results::exciter_force_envelopes(&picked)?)
+                            } else {
+                                Ok(vec![results::read_envelope(path)?.to_force_envelope()?])
+                            }
                         };
                         read().with_context(|| {
                             format!("imposed_force.source: CSV file '{}'", path.display())
                         })?
                     }
                 };
-                let mut model = nlmode::reduced::ReducedModel::imposed_force(
+                let forces = setup
+                    .exciter_points
+                    .iter()
+                    .map(String::as_str)
+                    .zip(envelopes.iter().cloned())
+                    .collect();
+                let mut model = nlmode::reduced::ReducedModel::imposed_forces(
                     table(),
                     &setup.response_point,
                     &setup.exciter_points[0],
-                    envelope,
+                    forces,
                 )?;
                 // the passive attachments stay as impedances
-                for (att, u) in setup.attachments.iter().zip(&setup.inputs).skip(1) {
+                for (att, u) in setup
+                    .attachments
+                    .iter()
+                    .zip(&setup.inputs)
+                    .skip(setup.shakers.len())
+                {
                     model = model.with_linear_attachment(att, u)?;
                 }
                 let model = model.with_frequency_error(error)?;
-                done.push(
-                    methods::slow_flow(
-                        Method::ImposedForce.name(),
-                        &setup,
-                        &model,
-                        &sc.slowflow.options(Method::ImposedForce),
-                    )?
-                    .0,
-                );
+                let (mut r, res) = methods::slow_flow(
+                    Method::ImposedForce.name(),
+                    &setup,
+                    &model,
+                    &sc.slowflow.options(Method::ImposedForce),
+                )?;
+                // several exciters: the forces imposed, per exciter
+                if several {
+                    let forces = envelopes
+                        .iter()
+                        .map(|e| {
+                            res.samples
+                                .iter()
+                                .map(|x| e.eval(x.omega_rad_s))
+                                .collect::<Result<Vec<_>, _>>()
+                        })
+                        .collect::<Result<Vec<_>, _>>()
+                        .context("imposed-force")?;
+                    r.add_exciter_forces(&setup.exciter_names, &forces);
+                }
+                done.push(r);
             }
             Method::PhaseResonance => {
                 done.push(crate::controlled::phase_resonance(

@@ -102,12 +102,10 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
     let mut r = MethodResult::new(Method::LinearFrf.name(), wall, env, false);
     // several exciters: each one's force (attachments in order, one constraint each)
     if setup.shakers.len() > 1 {
-        for (i, name) in setup.exciter_names.iter().enumerate() {
-            r.extra_columns.push((
-                format!("{name}_force_amplitude_N"),
-                pts.iter().map(|p| p.force_n[i].norm()).collect(),
-            ));
-        }
+        let forces: Vec<Vec<Complex64>> = (0..setup.shakers.len())
+            .map(|i| pts.iter().map(|p| p.force_n[i]).collect())
+            .collect();
+        r.add_exciter_forces(&setup.exciter_names, &forces);
     }
     // harvested power of every piezo shunt: mean v^2/R = |v_hat|^2 / (2 R)
     for &(a, resistance) in &setup.harvesters {
@@ -436,6 +434,49 @@ pub fn slow_flow(
     Ok((r, res))
 }
 
+/// [`slow_flow`] of a model with the scenario's exciters as its first
+/// attachments (`nlmode`, `linear-slowflow`: [`reduced_model`]), with each
+/// exciter's force as envelope columns ([`add_slowflow_exciter_forces`]).
+pub fn exciter_slow_flow(
+    name: &str,
+    setup: &Setup,
+    model: &nlmode::reduced::ReducedModel,
+    options: &nlmode::reduced::SlowFlowOptions,
+) -> Result<(MethodResult, nlmode::reduced::SlowFlowResult)> {
+    let (mut r, res) = slow_flow(name, setup, model, options)?;
+    add_slowflow_exciter_forces(&mut r, setup, model, &res)?;
+    Ok((r, res))
+}
+
+/// With several exciters, each one's fundamental force on the structure along
+/// the slow flow `res` of `model` (whose first ports are the exciters'
+/// shakers, as [`reduced_model`] builds it: `eq:fc1`, `F = -Z_G u_G + T_G
+/// u_hat` at the sample's `Omega` and modal amplitude) as the envelope columns
+/// of [`MethodResult::add_exciter_forces`]; one exciter: nothing (its force is
+/// `force_amplitude_N`).
+pub fn add_slowflow_exciter_forces(
+    r: &mut MethodResult,
+    setup: &Setup,
+    model: &nlmode::reduced::ReducedModel,
+    res: &nlmode::reduced::SlowFlowResult,
+) -> Result<()> {
+    let n = setup.shakers.len();
+    if n < 2 {
+        return Ok(());
+    }
+    let mut forces = vec![Vec::with_capacity(res.samples.len()); n];
+    for x in &res.samples {
+        let f = model
+            .interface_forces(x.omega_rad_s, setup.sweep.amplitude, x.amplitude)
+            .with_context(|| format!("{}: exciter forces", r.name))?;
+        for (out, fi) in forces.iter_mut().zip(&f) {
+            out.push(fi[0]);
+        }
+    }
+    r.add_exciter_forces(&setup.exciter_names, &forces);
+    Ok(())
+}
+
 /// `linear-steady`: the paper's single-mode linear steady state.
 pub fn linear_steady(
     setup: &Setup,
@@ -507,6 +548,14 @@ pub fn reference(
             .map(|v| v * v / (2.0 * resistance))
             .collect();
         r.add_harvested_power(&series.name, power);
+    }
+    // several exciters: each one's force (the shakers are the first attachments)
+    if setup.shakers.len() > 1 {
+        let forces: Vec<Vec<Complex64>> = res.attachments[..setup.shakers.len()]
+            .iter()
+            .map(|a| a.force_envelopes[0].clone())
+            .collect();
+        r.add_exciter_forces(&setup.exciter_names, &forces);
     }
     r.time_series = Some(crate::results::TimeSeries {
         columns: vec![

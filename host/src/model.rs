@@ -473,27 +473,31 @@ impl Setup {
             .collect()
     }
 
-    /// `imposed-force` replaces the one exciter by the force it applied (taken
-    /// at its point from `nlmode`, `reference` or a CSV file) and keeps the other
-    /// attachments as impedances. Refused for several exciters (one prescribed
-    /// force point per model) and for an attachment at the exciter's point
-    /// (the `nlmode` force there would already contain it).
+    /// `imposed-force` replaces every exciter by the force it applied (taken
+    /// at its point from `nlmode`, `reference` or a CSV file, see
+    /// docs/scenario.md) and keeps the other attachments as impedances.
+    /// Refused for more exciters than the model takes
+    /// ([`nlmode::reduced::MAX_IMPOSED`]) and for an attachment at an exciter's
+    /// point (the force measured there would already contain it).
     pub fn check_imposed_force(&self) -> Result<()> {
-        if self.shakers.len() != 1 {
+        let max = nlmode::reduced::MAX_IMPOSED;
+        if self.shakers.len() > max {
             anyhow::bail!(
-                "imposed-force: the model takes one prescribed force, at the exciter's point; this scenario has {} exciters (remove `imposed-force` from run.methods)",
+                "imposed-force: the model takes at most {max} prescribed forces, one per exciter; this scenario has {} exciters (remove `imposed-force` from run.methods)",
                 self.shakers.len()
             );
         }
-        let drive = &self.exciter_points[0];
-        if let Some(a) = self.attachments[1..]
-            .iter()
-            .find(|a| a.interface_points.contains(drive))
-        {
-            anyhow::bail!(
-                "imposed-force: attachment '{}' sits at the exciter's point '{drive}', where the prescribed force is measured with every attachment there: move it, or remove `imposed-force` from run.methods",
-                a.name
-            );
+        for (i, drive) in self.exciter_points.iter().enumerate() {
+            if let Some(a) = self.attachments[self.shakers.len()..]
+                .iter()
+                .find(|a| a.interface_points.contains(drive))
+            {
+                anyhow::bail!(
+                    "imposed-force: attachment '{}' sits at the point '{drive}' of exciter '{}', where the prescribed force is measured with every attachment there: move it, or remove `imposed-force` from run.methods",
+                    a.name,
+                    self.exciter_names[i]
+                );
+            }
         }
         Ok(())
     }

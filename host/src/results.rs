@@ -202,6 +202,25 @@ impl MethodResult {
             .push((format!("{name}_harvested_power_W"), power_w));
     }
 
+    /// Each exciter's force on the structure per envelope sample, `forces[i][k]`
+    /// for exciter `i` named `names[i]` \[N\]: the columns
+    /// `<name>_force_amplitude_N` (each in turn) then `<name>_force_phase_rad`
+    /// (`F ~ |F| cos(Phi + phase)`, the convention of `force_phase_rad`).
+    pub fn add_exciter_forces(&mut self, names: &[String], forces: &[Vec<nlmode::Complex64>]) {
+        for (name, f) in names.iter().zip(forces) {
+            self.extra_columns.push((
+                format!("{name}_force_amplitude_N"),
+                f.iter().map(|z| z.norm()).collect(),
+            ));
+        }
+        for (name, f) in names.iter().zip(forces) {
+            self.extra_columns.push((
+                format!("{name}_force_phase_rad"),
+                f.iter().map(|z| z.arg()).collect(),
+            ));
+        }
+    }
+
     /// Wall time of the method [s].
     pub fn wall_time_s(&self) -> f64 {
         self.summary.wall_time_s
@@ -438,6 +457,105 @@ pub fn parse_envelope(text: &str) -> Result<Envelope, EnvelopeCsvError> {
         })?);
     }
     Ok(Envelope::from_rows(&rows)?)
+}
+
+/// The envelope columns that give each exciter's force with several exciters
+/// (as [`MethodResult::add_exciter_forces`] writes them): `omega_rad_s`, then
+/// per exciter name `<name>_force_amplitude_N` and `<name>_force_phase_rad`.
+pub fn exciter_force_columns(names: &[String]) -> Vec<String> {
+    let mut c = vec!["omega_rad_s".to_string()];
+    for n in names {
+        c.push(format!("{n}_force_amplitude_N"));
+        c.push(format!("{n}_force_phase_rad"));
+    }
+    c
+}
+
+/// The columns `wanted` (names matched case-insensitively) of named columns
+/// in memory (e.g. [`envelope_columns`]), in the order asked; a missing one is
+/// an error naming it and the columns there are.
+pub fn pick_columns(
+    cols: &[(String, Vec<f64>)],
+    wanted: &[String],
+) -> Result<Vec<Vec<f64>>, EnvelopeCsvError> {
+    wanted
+        .iter()
+        .map(|w| {
+            cols.iter()
+                .find(|(n, _)| n.eq_ignore_ascii_case(w))
+                .map(|(_, v)| v.clone())
+                .ok_or_else(|| missing_column(w, cols.iter().map(|(n, _)| n.as_str())))
+        })
+        .collect()
+}
+
+fn missing_column<'a>(name: &str, have: impl Iterator<Item = &'a str>) -> EnvelopeCsvError {
+    EnvelopeCsvError::Csv(format!(
+        "no column '{name}' (columns: {})",
+        have.collect::<Vec<_>>().join(", ")
+    ))
+}
+
+/// The numeric columns `wanted` of a CSV file (header names matched
+/// case-insensitively, columns in any order, other columns ignored, `#`
+/// comment lines skipped), in the order asked; a missing column or a value
+/// that is not a number is an error naming it (and the line). At most
+/// [`MAX_CSV_BYTES`] are read.
+pub fn read_csv_columns(path: &Path, wanted: &[String]) -> Result<Vec<Vec<f64>>, EnvelopeCsvError> {
+    let text = cosim::file::read_regular_to_string(path, MAX_CSV_BYTES).map_err(|e| {
+        EnvelopeCsvError::Io {
+            path: path.display().to_string(),
+            source: std::io::Error::other(format!("{e:#}")),
+        }
+    })?;
+    parse_csv_columns(&text, wanted)
+}
+
+/// Largest CSV file [`read_csv_columns`] reads [bytes].
+pub const MAX_CSV_BYTES: u64 = 1 << 30;
+
+/// [`read_csv_columns`] on CSV text.
+pub fn parse_csv_columns(text: &str, wanted: &[String]) -> Result<Vec<Vec<f64>>, EnvelopeCsvError> {
+    let mut rd = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let header = rd.headers()?.clone();
+    let idx = wanted
+        .iter()
+        .map(|w| {
+            header
+                .iter()
+                .position(|h| h.eq_ignore_ascii_case(w))
+                .ok_or_else(|| missing_column(w, header.iter()))
+        })
+        .collect::<Result<Vec<usize>, _>>()?;
+    let mut out = vec![Vec::new(); wanted.len()];
+    for rec in rd.records() {
+        let rec = rec?;
+        let line = rec.position().map_or(0, |p| p.line());
+        for ((col, &i), name) in out.iter_mut().zip(&idx).zip(wanted) {
+            let field = rec.get(i).unwrap_or("");
+            let v = field.parse::<f64>().map_err(|_| EnvelopeCsvError::Row {
+                line,
+                message: format!("column '{name}': '{field}' is not a number"),
+            })?;
+            col.push(v);
+        }
+    }
+    Ok(out)
+}
+
+/// Each exciter's force envelope from the columns of [`exciter_force_columns`]
+/// (in that order: `omega_rad_s`, then amplitude and phase per exciter).
+pub fn exciter_force_envelopes(
+    cols: &[Vec<f64>],
+) -> Result<Vec<nlmode::reduced::ForceEnvelope>, nlmode::reduced::ReducedError> {
+    let (omega, forces) = cols.split_first().expect("omega_rad_s column");
+    forces
+        .chunks_exact(2)
+        .map(|c| nlmode::reduced::ForceEnvelope::new(omega, &c[0], &c[1]))
+        .collect()
 }
 
 /// Write `<name>_timeseries.csv` if the method has one.

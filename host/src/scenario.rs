@@ -951,6 +951,16 @@ impl Scenario {
                 "expected at least 1 fixed-interface mode",
             ));
         }
+        let max_cb = nlmode::structure::sparse::MAX_SPARSE_MODES;
+        if st.reduction == Reduction::CraigBampton && st.cb_modes > max_cb {
+            return Err(bad(
+                "structure.cb_modes",
+                format!(
+                    "expected at most {max_cb} fixed-interface modes, got {}",
+                    st.cb_modes
+                ),
+            ));
+        }
         if let Some(m) = &st.cb_masters {
             for (i, p) in m.iter().enumerate() {
                 known(&format!("structure.cb_masters[{i}]"), p)?;
@@ -2401,6 +2411,18 @@ mod tests {
         assert!(e.message.contains("mass_mtx"), "{e}");
         let e = Scenario::parse("[structure]\nreduction = \"guyan\"\n").unwrap_err();
         assert_eq!(e.key, "structure.reduction");
+        // more fixed-interface modes than the sparse eigensolver takes: the key named
+        let e = Scenario::parse(
+            "[structure]\nkind = \"matrices\"\nmass_mtx = \"M.mtx\"\nstiffness_mtx = \"K.mtx\"\n\
+             damping_ratio = 0.01\ncb_modes = 501\n[[structure.point]]\nname = \"a\"\ndof = 0\n\
+             [[exciter]]\npoint = \"a\"\n[output]\nresponse_point = \"a\"\n",
+        )
+        .unwrap_err();
+        assert_eq!(e.key, "structure.cb_modes", "{e}");
+        assert!(
+            e.message.contains("501") && e.message.contains("500"),
+            "{e}"
+        );
         let e = Scenario::parse("[[exciter]]\nlocation = \"x\"\n").unwrap_err();
         assert_eq!(e.key, "exciter[0].location");
         let e = Scenario::parse("[excitation]\nvoltage_v = -1.0\n").unwrap_err();

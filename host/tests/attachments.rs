@@ -21,21 +21,9 @@ use host::scenario::Scenario;
 use nalgebra::{DMatrix, DVector};
 use nlmode::structure::matrices::write_matrix_market;
 use nlmode::Complex64;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-att-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn scenario(dir: &Path, text: &str) -> Scenario {
-    let mut sc = Scenario::parse(text).unwrap_or_else(|e| panic!("{e}\n{text}"));
-    sc.resolve_paths(dir);
-    sc
-}
+use std::path::Path;
+mod common;
+use common::{expect_failure, scenario, tmpdir};
 
 fn write(dir: &Path, name: &str, m: &DMatrix<f64>) {
     std::fs::write(dir.join(name), write_matrix_market(m)).unwrap();
@@ -201,12 +189,17 @@ fn two_shakers_in_phase_at_symmetric_points_excite_no_antisymmetric_mode() {
                 );
             }
         }
-        // the envelope reports each exciter's force
+        // the envelope reports each exciter's force (amplitude, then phase)
         let r = methods::linear_frf(&setup, 21).unwrap();
         let names: Vec<&str> = r.extra_columns.iter().map(|(n, _)| n.as_str()).collect();
         assert_eq!(
             names,
-            ["left_force_amplitude_N", "right_force_amplitude_N"],
+            [
+                "left_force_amplitude_N",
+                "right_force_amplitude_N",
+                "left_force_phase_rad",
+                "right_force_phase_rad"
+            ],
             "{names:?}"
         );
     }
@@ -261,19 +254,6 @@ fn piezo_shunt_harvested_power_matches_the_closed_form() {
     );
 }
 
-fn run_cli(dir: &Path, text: &str) -> (i32, String) {
-    let path = dir.join("s.toml");
-    std::fs::write(&path, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_host"))
-        .args(["run", path.to_str().unwrap(), "-o"])
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    (out.status.code().unwrap_or(-1), stderr)
-}
-
 #[test]
 fn bad_attachment_input_names_the_key() {
     let dir = tmpdir("bad");
@@ -306,20 +286,14 @@ fn bad_attachment_input_names_the_key() {
         ),
     ];
     for (extra, needles) in cases {
-        let (code, err) = run_cli(&dir, &format!("{base}{extra}"));
-        assert_eq!(code, 2, "{extra}: {err}");
-        for n in needles {
-            assert!(err.contains(n), "{extra}: expected '{n}' in: {err}");
-        }
+        expect_failure(&dir, "run", &format!("{base}{extra}"), needles);
     }
     // cosim with two exciters: refused, saying why
     let two = format!(
         "{ONE_DOF_STRUCTURE}[[exciter]]\nname = \"a\"\npoint = \"x\"\n[[exciter]]\nname = \"b\"\npoint = \"x\"\n\
          [run]\nmethods = [\"linear-frf\", \"cosim\"]\n"
     );
-    let (code, err) = run_cli(&dir, &two);
-    assert_eq!(code, 2, "{err}");
-    assert!(err.contains("cosim") && err.contains("2 exciters"), "{err}");
+    expect_failure(&dir, "run", &two, &["cosim", "2 exciters"]);
 }
 
 #[test]

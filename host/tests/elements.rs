@@ -53,9 +53,9 @@ use nalgebra::{DMatrix, DVector};
 use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions, NmaOptions};
 use nlmode::structure::{ElasticDryFriction, StructuralModel, UnilateralSpring};
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 mod common;
-use common::expect_nma_failure;
+use common::{expect_failure, scenario, tmpdir};
 
 fn one_dof(m: f64, k: f64, c: f64) -> StructuralModel {
     let mut s = StructuralModel::new(
@@ -220,13 +220,6 @@ fn unilateral_spring_gives_the_bilinear_frequency() {
     );
 }
 
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-elements-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 fn example() -> Scenario {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let text = std::fs::read_to_string(root.join("examples/jenkins_joint.toml")).unwrap();
@@ -388,11 +381,7 @@ fn matrices_elements_between_points_and_cb_masters() {
              [[exciter]]\npoint = \"a\"\n[output]\nresponse_point = \"c\"\n"
         )
     };
-    let parse = |text: &str| {
-        let mut s = Scenario::parse(text).unwrap();
-        s.resolve_paths(&dir);
-        s
-    };
+    let parse = |text: &str| scenario(&dir, text);
     let full = Setup::new(&parse(&sc("none", ""))).unwrap();
     assert_eq!(full.model.nonlinear.len(), 1);
     assert_eq!(
@@ -471,7 +460,7 @@ fn bad_nonlinearity_input_names_the_key_and_exits_2() {
         ),
     ];
     for (toml, needles) in cases {
-        expect_nma_failure(&dir, toml, needles);
+        expect_failure(&dir, "nma", toml, needles);
     }
     std::fs::remove_dir_all(&dir).ok();
 }

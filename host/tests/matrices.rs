@@ -15,16 +15,9 @@ use host::model::Setup;
 use host::scenario::{Method, Scenario};
 use nlmode::structure::matrices::write_matrix_market;
 use nlmode::structure::{paper_structure, PaperStructureOptions};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 mod common;
-use common::{expect_nma_failure, host};
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-mtx-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use common::{expect_failure, host, scenario, tmpdir};
 
 /// The paper beam as a matrices scenario in `dir` (files `M.mtx`, `K.mtx`).
 fn beam_as_matrices(dir: &Path) -> Scenario {
@@ -46,9 +39,7 @@ fn beam_as_matrices(dir: &Path) -> Scenario {
         dof(2.0 * l / 3.0),
         dof(l / 3.0)
     );
-    let mut sc = Scenario::parse(&text).unwrap();
-    sc.resolve_paths(dir);
-    sc
+    scenario(dir, &text)
 }
 
 fn assert_close(what: &str, a: &[f64], b: &[f64], rtol: f64) {
@@ -180,73 +171,87 @@ fn bad_matrices_input_names_the_key_and_exits_2() {
     let s = Setup::new(&good).unwrap();
     assert_eq!(s.model.ndof(), 2);
     assert!(s.omega0_rad_s > 0.0 && s.d0 > 0.0);
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &sc("missing.mtx", "K.mtx", "", 1),
         &["structure.mass_mtx", "missing.mtx", "cannot read"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &sc("M.mtx", "bad_line.mtx", "", 1),
         &["structure.stiffness_mtx", "bad_line.mtx", "line 4"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &sc("M.mtx", "K3.mtx", "", 1),
         &["structure.stiffness_mtx", "3x3", "mass_mtx is 2x2"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &sc("M.mtx", "Kasym.mtx", "", 1),
         &["structure.stiffness_mtx", "not symmetric"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &sc("Mindef.mtx", "K.mtx", "", 1),
         &["structure.mass_mtx", "not positive definite"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &sc("M.mtx", "K.mtx", "", 2),
         &["structure.point[1].dof", "out of range"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &ok.replace("name = \"b\"", "name = \"a\""),
         &["structure.point[1].name", "unique"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &ok.replace("response_point = \"b\"", "response_point = \"c\""),
         &["output.response_point", "unknown point 'c'"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &ok.replace("point = \"a\"\n[output]", "point = \"z\"\n[output]"),
         &["exciter[0].point", "unknown point 'z'"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &ok.replace("k3_n_per_m3 = 1e9", "k3_n_per_m3 = -1e9"),
         &["structure.k3_n_per_m3"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &ok.replace("rayleigh = [0.0, 1e-4]", "rayleigh = [0.0, -1e-4]"),
         &["structure.rayleigh[1]"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &ok.replace("rayleigh = [0.0, 1e-4]\n", ""),
         &["structure.damping_mtx", "exactly one"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &ok.replace("[output]", "location = \"l/3\"\n[output]"),
         &["exciter[0].location", "point"],
     );
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &ok.replace("reduction = \"none\"", "length_m = 1.0"),
         &["structure.length_m", "not a key of kind"],
     );
@@ -256,8 +261,9 @@ fn bad_matrices_input_names_the_key_and_exits_2() {
         "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 1e4\n2 1 -1e4\n2 2 1e4\n",
     )
     .unwrap();
-    expect_nma_failure(
+    expect_failure(
         &dir,
+        "nma",
         &sc("M.mtx", "Kfree.mtx", "", 1),
         &[
             "structure.stiffness_mtx",

@@ -19,7 +19,7 @@
 //!
 //! ```text
 //! Z_A(a, Omega)      = phi^H Z_q phi   = sum_att phi_G^H Z_G(Omega) phi_G,
-//! phi^H f_ex(Omega)  = sum_att phi_G^H T_G(Omega) u_hat  (+ conj(phi_p) F_p(Omega) for an imposed force),
+//! phi^H f_ex(Omega)  = sum_att phi_G^H T_G(Omega) u_hat  (+ sum_j conj(phi_j) F_j(Omega) over the imposed forces),
 //! ```
 //!
 //! where `Z_G`, `T_G` are the interface impedance and input-force map of
@@ -163,6 +163,12 @@ pub enum ReducedError {
     },
     #[error("the slow-flow result has no samples")]
     EmptyResult,
+    #[error("imposed force at '{point}': {found} imposed forces, at most {max} are supported")]
+    ImposedCount {
+        point: String,
+        found: usize,
+        max: usize,
+    },
 }
 
 /// A linear attachment as seen by the reduced model: its condensed interface
@@ -282,11 +288,31 @@ impl Port {
     }
 }
 
-/// An imposed force `F_p(Omega)` at a table point (`f_ex^(1)` of `eq:NM`).
+/// An imposed force `F_j(Omega)` at a table point (a term of `f_ex^(1)` of
+/// `eq:NM`: the modal force is `sum_j conj(phi_j(a)) F_j(Omega)`).
 #[derive(Debug, Clone)]
 pub(crate) struct Imposed {
     pub point: usize,
     pub envelope: ForceEnvelope,
+}
+
+/// Most imposed forces of one model (fixed-size buffer of the hot loop).
+pub const MAX_IMPOSED: usize = 8;
+
+/// The imposed forces of a model at one `Omega` \[N\], in the order they were
+/// added ([`ReducedModel::imposed_at`]; a stack buffer, no allocation).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ImposedForces {
+    f: [Complex64; MAX_IMPOSED],
+    n: usize,
+}
+
+impl ImposedForces {
+    /// The forces \[N\], one per imposed force of the model.
+    #[inline(always)]
+    pub(crate) fn forces(&self) -> &[Complex64] {
+        &self.f[..self.n]
+    }
 }
 
 /// The single-nonlinear-mode model with attachments (`eq:NM`).
@@ -300,7 +326,8 @@ pub struct ReducedModel {
     /// The table's point names in index order.
     pub(crate) point_names: Vec<String>,
     pub(crate) ports: Vec<Port>,
-    pub(crate) imposed: Option<Imposed>,
+    /// The imposed forces (`imposed-force`), empty for the shaker-driven model.
+    pub(crate) imposed: Vec<Imposed>,
     pub(crate) tip: usize,
     pub(crate) drive: usize,
     pub(crate) tip_name: String,
@@ -316,7 +343,7 @@ pub struct ReducedModel {
 /// heap allocation in the hot loop.
 pub(crate) const MAX_INTERFACE: usize = 8;
 /// Maximum number of interface points over all attachments plus the imposed
-/// force point (fixed-size buffers of the hot loop).
+/// force points (fixed-size buffers of the hot loop).
 pub(crate) const MAX_PHI: usize = 32;
 
 impl ReducedModel {
@@ -334,7 +361,7 @@ impl ReducedModel {
             grid: table.amplitude.clone(),
             point_names: table.points.iter().map(|p| p.name.clone()).collect(),
             ports: Vec::new(),
-            imposed: None,
+            imposed: Vec::new(),
             tip_name: tip.into(),
             drive_name: drive.into(),
             frequency_error: FrequencyError::default(),
@@ -371,8 +398,10 @@ impl ReducedModel {
                 expected: 1,
             });
         }
-        let total: usize =
-            self.ports.iter().map(|p| p.points.len()).sum::<usize>() + points.len() + 1;
+        // one slot is kept for an imposed force added later
+        let total: usize = self.ports.iter().map(|p| p.points.len()).sum::<usize>()
+            + points.len()
+            + self.imposed.len().max(1);
         if total > MAX_PHI {
             return Err(ReducedError::AttachmentSize {
                 attachment: model.name().into(),
@@ -393,14 +422,26 @@ impl ReducedModel {
     }
 
     /// Adds an imposed force with complex amplitude `F(Omega)` \[N\] at table
-    /// point `point` (`f_ex^(1)`, independent of the sweep amplitude).
+    /// point `point` (a term of `f_ex^(1)`, independent of the sweep
+    /// amplitude); each call adds one more (at most [`MAX_IMPOSED`]), the modal
+    /// force of `eq:NM` being the sum of `conj(phi_j) F_j(Omega)` over them.
     pub fn with_imposed_force(
         mut self,
         point: &str,
         envelope: ForceEnvelope,
     ) -> Result<Self, ReducedError> {
+        let name = point;
         let point = self.table.point_index(point)?;
-        self.imposed = Some(Imposed { point, envelope });
+        let ports: usize = self.ports.iter().map(|p| p.points.len()).sum();
+        let max = MAX_IMPOSED.min(MAX_PHI - ports);
+        if self.imposed.len() + 1 > max {
+            return Err(ReducedError::ImposedCount {
+                point: name.into(),
+                found: self.imposed.len() + 1,
+                max,
+            });
+        }
+        self.imposed.push(Imposed { point, envelope });
         Ok(self)
     }
 
@@ -413,6 +454,23 @@ impl ReducedModel {
         envelope: ForceEnvelope,
     ) -> Result<Self, ReducedError> {
         Self::new(table, tip, drive)?.with_imposed_force(drive, envelope)
+    }
+
+    /// The `imposed-force` model with several exciters: the prescribed force
+    /// `F_j(Omega)` of each at its table point (`(point, envelope)` in order;
+    /// one entry is [`Self::imposed_force`]), no exciter model; `drive` names
+    /// the point whose force is reported (the imposed forces there summed).
+    pub fn imposed_forces(
+        table: &ModalTable,
+        tip: &str,
+        drive: &str,
+        forces: Vec<(&str, ForceEnvelope)>,
+    ) -> Result<Self, ReducedError> {
+        let mut m = Self::new(table, tip, drive)?;
+        for (point, envelope) in forces {
+            m = m.with_imposed_force(point, envelope)?;
+        }
+        Ok(m)
     }
 
     /// Applies a natural-frequency error (see [`FrequencyError`]).
@@ -590,14 +648,14 @@ impl ReducedModel {
 
     /// The complex terms of `eq:NM` at amplitude `a` for given channels:
     /// `(K(a, Omega), phi^H f_ex, modal properties)`, with `Z_A` inside `K`.
-    /// `f_imposed` is the imposed force at its point (if any).
+    /// `f_imposed` are the imposed forces at their points ([`Self::imposed_at`]).
     #[inline(always)]
     pub(crate) fn nm_terms(
         &self,
         a: f64,
         omega: f64,
         ch: &[Complex64],
-        f_imposed: Complex64,
+        f_imposed: ImposedForces,
     ) -> Result<(Complex64, Complex64, Complex64, ModalProperties), ReducedError> {
         self.nm_terms_in(
             a,
@@ -616,7 +674,7 @@ impl ReducedModel {
         a: f64,
         omega: f64,
         ch: &[Complex64],
-        f_imposed: Complex64,
+        f_imposed: ImposedForces,
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<(Complex64, Complex64, Complex64, ModalProperties), ReducedError> {
         let p = self.gather(a, phi)?;
@@ -625,7 +683,7 @@ impl ReducedModel {
     }
 
     /// Modal properties at `a` and the fundamental shapes at all attachment
-    /// interface points (ports in order) followed by the imposed-force point.
+    /// interface points (ports in order) followed by the imposed-force points.
     #[inline(always)]
     pub(crate) fn gather(
         &self,
@@ -662,8 +720,8 @@ impl ReducedModel {
                 j += 1;
             }
         }
-        if let Some(imp) = &self.imposed {
-            phi[j] = self.phi1(loc, imp.point);
+        for (k, imp) in self.imposed.iter().enumerate() {
+            phi[j + k] = self.phi1(loc, imp.point);
         }
         Ok(p)
     }
@@ -676,7 +734,7 @@ impl ReducedModel {
         phi: &[Complex64; MAX_PHI],
         omega: f64,
         ch: &[Complex64],
-        f_imposed: Complex64,
+        f_imposed: ImposedForces,
     ) -> (Complex64, Complex64, Complex64) {
         let mut za = Complex64::new(0.0, 0.0);
         let mut fm = Complex64::new(0.0, 0.0);
@@ -695,8 +753,8 @@ impl ReducedModel {
             }
             j += nc;
         }
-        if self.imposed.is_some() {
-            fm += phi[j].conj() * f_imposed;
+        for (k, f) in f_imposed.forces().iter().enumerate() {
+            fm += phi[j + k].conj() * f;
         }
         let w = p.omega_rad_s;
         let k = Complex64::new(w * w - omega * omega, 2.0 * p.damping_ratio * w * omega) + za;
@@ -719,12 +777,47 @@ impl ReducedModel {
         Ok((za, fm))
     }
 
-    /// The imposed force at `Omega` (zero without one).
-    pub(crate) fn imposed_at(&self, omega: f64) -> Result<Complex64, ReducedError> {
-        match &self.imposed {
-            Some(imp) => imp.envelope.eval(omega),
-            None => Ok(Complex64::new(0.0, 0.0)),
+    /// The imposed forces at `Omega` (none without one; no allocation).
+    #[inline(always)]
+    pub(crate) fn imposed_at(&self, omega: f64) -> Result<ImposedForces, ReducedError> {
+        let mut out = ImposedForces {
+            f: [Complex64::new(0.0, 0.0); MAX_IMPOSED],
+            n: self.imposed.len(),
+        };
+        for (f, imp) in out.f.iter_mut().zip(&self.imposed) {
+            *f = imp.envelope.eval(omega)?;
         }
+        Ok(out)
+    }
+
+    /// Whether an imposed force acts at the drive point (the reported force
+    /// then includes it).
+    pub(crate) fn imposed_at_drive(&self) -> bool {
+        self.imposed.iter().any(|imp| imp.point == self.drive)
+    }
+
+    /// The imposed forces acting at the drive point, summed \[N\] (zero
+    /// without one there; one force there is returned as it is).
+    pub(crate) fn drive_imposed(&self, fi: &ImposedForces) -> Complex64 {
+        let mut sum: Option<Complex64> = None;
+        for (imp, f) in self.imposed.iter().zip(fi.forces()) {
+            if imp.point == self.drive {
+                sum = Some(sum.map_or(*f, |s| s + f));
+            }
+        }
+        sum.unwrap_or_default()
+    }
+
+    /// [`Self::drive_imposed`] at each `Omega` of `omega`: the output's
+    /// imposed force column (empty without an imposed force at the drive point).
+    pub(crate) fn drive_imposed_n(&self, omega: &[f64]) -> Result<Vec<Complex64>, ReducedError> {
+        if !self.imposed_at_drive() {
+            return Ok(Vec::new());
+        }
+        omega
+            .iter()
+            .map(|&w| Ok(self.drive_imposed(&self.imposed_at(w)?)))
+            .collect()
     }
 
     /// The slow-flow right-hand side: `A' = (phi^H f_ex - K A) / (2 i Omega)`;
@@ -735,7 +828,7 @@ impl ReducedModel {
         y: &[f64; 2],
         omega: f64,
         ch: &[Complex64],
-        f_imposed: Complex64,
+        f_imposed: ImposedForces,
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<[f64; 2], ReducedError> {
         let amp = Complex64::new(y[0], y[1]);
@@ -757,14 +850,13 @@ impl ReducedModel {
     ) -> Result<Complex64, ReducedError> {
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         self.fill_channels(omega_rad_s, amplitude, &mut ch)?;
-        let fi = self.imposed_at(omega_rad_s)?;
-        let fi = [fi];
+        let fi = self.drive_imposed_n(&[omega_rad_s])?;
         let s = self.output_samples(&output::OutputStates {
             t_s: &[f64::NAN],
             omega_rad_s: &[omega_rad_s],
             amplitude: &[Complex64::new(0.0, 0.0)],
             channels: &ch,
-            imposed_n: if self.imposed.is_some() { &fi } else { &[] },
+            imposed_n: &fi,
         })?;
         Ok(s[0].force_n)
     }

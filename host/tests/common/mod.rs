@@ -1,19 +1,38 @@
 //! Helpers shared by the host's integration tests (`mod common;` in each).
-use std::path::Path;
+use host::scenario::Scenario;
+use std::path::{Path, PathBuf};
 use std::process::Command;
+
+/// A fresh, empty scratch directory `host-test-<name>-<pid>` in the system's
+/// temporary directory (`name` unique within one test binary).
+pub fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("host-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The scenario `text` with its relative paths taken from `dir` (panics with
+/// the message and the text if it does not parse).
+pub fn scenario(dir: &Path, text: &str) -> Scenario {
+    let mut sc = Scenario::parse(text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    sc.resolve_paths(dir);
+    sc
+}
 
 /// The `host` binary of this build.
 pub fn host() -> Command {
     Command::new(env!("CARGO_BIN_EXE_host"))
 }
 
-/// `host nma` on `toml` (written to `dir`) fails with exit 2, without a panic
-/// or a NaN in its message, and the message holds every needle.
-pub fn expect_nma_failure(dir: &Path, toml: &str, needles: &[&str]) {
+/// `host <command>` (`run`, `nma`, ...) on `toml` (written to `dir`) fails
+/// with exit 2, without a panic or a NaN in its message, and the message holds
+/// every needle.
+pub fn expect_failure(dir: &Path, command: &str, toml: &str, needles: &[&str]) {
     let p = dir.join("bad.toml");
     std::fs::write(&p, toml).unwrap();
     let o = host()
-        .arg("nma")
+        .arg(command)
         .arg(&p)
         .arg("-o")
         .arg(dir.join("out"))

@@ -24,7 +24,8 @@ pub(crate) struct OutputStates<'a> {
     /// Attachment channels of each sample in turn (`nch` per sample: per port
     /// `Z_G` row major, then `T_G u_hat`).
     pub channels: &'a [Complex64],
-    /// Imposed force of each sample at its point \[N\]; empty without one.
+    /// Imposed force of each sample at the drive point \[N\] (the imposed
+    /// forces there summed); empty without one there.
     pub imposed_n: &'a [Complex64],
 }
 
@@ -114,9 +115,10 @@ impl ReducedModel {
             .map(|&pt| locs.iter().map(|&l| self.phi1(l, pt)).collect())
             .collect();
         // the force, term by term
-        let mut f: Vec<Complex64> = match &self.imposed {
-            Some(imp) if imp.point == self.drive && !s.imposed_n.is_empty() => s.imposed_n.to_vec(),
-            _ => vec![Complex64::new(0.0, 0.0); n],
+        let mut f: Vec<Complex64> = if s.imposed_n.is_empty() {
+            vec![Complex64::new(0.0, 0.0); n]
+        } else {
+            s.imposed_n.to_vec()
         };
         let mut z = vec![Complex64::new(0.0, 0.0); n];
         if nch > 0 {
@@ -283,7 +285,7 @@ mod tests {
             let mut ch = vec![c(0.0, 0.0); m.nch];
             m.fill_channels(w, u, &mut ch).unwrap();
             channels.extend(ch);
-            fi.push(m.imposed_at(w).unwrap());
+            fi.push(m.drive_imposed(&m.imposed_at(w).unwrap()));
         }
         let ts: Vec<f64> = (0..n).map(|i| i as f64).collect();
         let got = m

@@ -5,7 +5,7 @@
 //! `F_n = -Z_G(n Omega) u_G,n + delta_{n1} T_G(Omega) u_hat`), and time signals
 //! synthesized along a sweep for overlay with the reference.
 use super::sweep::OmegaCache;
-use super::{ReducedError, ReducedModel, SlowFlowResult, MAX_INTERFACE};
+use super::{ImposedForces, ReducedError, ReducedModel, SlowFlowResult, MAX_INTERFACE};
 use num_complex::Complex64;
 use serde::Serialize;
 
@@ -114,7 +114,7 @@ impl ReducedModel {
         &self,
         chs: &[Vec<Complex64>],
         amp: Complex64,
-        fi: Complex64,
+        fi: ImposedForces,
     ) -> Result<Vec<Complex64>, ReducedError> {
         let h = self.table.harmonics();
         let a = amp.norm();
@@ -152,10 +152,8 @@ impl ReducedModel {
                 }
             }
         }
-        if let Some(imp) = &self.imposed {
-            if imp.point == self.drive && h >= 1 {
-                out[1] += fi;
-            }
+        if self.imposed_at_drive() && h >= 1 {
+            out[1] += self.drive_imposed(&fi);
         }
         Ok(out)
     }

@@ -3,7 +3,7 @@
 //! stability from the slow-flow Jacobian, and the single-mode linear steady
 //! state (`linear-steady`, `eq:LMss`) with the force drop (`eq:forcedrop`).
 use super::output::OutputStates;
-use super::{ReducedError, ReducedModel, MAX_PHI};
+use super::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
 use crate::table::TableError;
 use num_complex::Complex64;
 use serde::Serialize;
@@ -258,7 +258,7 @@ impl ReducedModel {
         depth: usize,
         w: f64,
         ch: &[Complex64],
-        fi: Complex64,
+        fi: ImposedForces,
         push: &mut dyn FnMut(f64, Complex64, Complex64),
     ) -> Result<(), ReducedError> {
         let (a0, k0, f0) = p0;
@@ -281,9 +281,10 @@ impl ReducedModel {
     /// Output quantities and stability of collected fixed points.
     fn steady_points(&self, fixed: &FixedPoints) -> Result<Vec<SteadyPoint>, ReducedError> {
         let n = fixed.omega.len();
-        let imposed_n: &[Complex64] = match self.imposed {
-            Some(_) => &fixed.imposed_n,
-            None => &[],
+        let imposed_n: &[Complex64] = if self.imposed_at_drive() {
+            &fixed.imposed_n
+        } else {
+            &[]
         };
         let samples = self.output_samples(&OutputStates {
             t_s: &vec![f64::NAN; n],
@@ -317,7 +318,7 @@ impl ReducedModel {
         w: f64,
         amp: Complex64,
         ch: &[Complex64],
-        fi: Complex64,
+        fi: ImposedForces,
     ) -> Result<[Complex64; 2], ReducedError> {
         let y = [amp.re, amp.im];
         let h = 1e-7 * amp.norm().max(1e-6 * self.a_scale);
@@ -388,6 +389,7 @@ struct FixedPoints {
     amplitude: Vec<Complex64>,
     /// The channels of each point in turn (`nch` per point).
     channels: Vec<Complex64>,
+    /// The imposed force at the drive point of each point (output column).
     imposed_n: Vec<Complex64>,
     eigenvalues: Vec<[Complex64; 2]>,
 }
@@ -400,14 +402,14 @@ impl FixedPoints {
         w: f64,
         amp: Complex64,
         ch: &[Complex64],
-        fi: Complex64,
+        fi: ImposedForces,
     ) -> Result<(), ReducedError> {
         self.eigenvalues
             .push(model.jacobian_eigenvalues(w, amp, ch, fi)?);
         self.omega.push(w);
         self.amplitude.push(amp);
         self.channels.extend_from_slice(ch);
-        self.imposed_n.push(fi);
+        self.imposed_n.push(model.drive_imposed(&fi));
         Ok(())
     }
 }

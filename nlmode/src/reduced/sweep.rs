@@ -447,7 +447,7 @@ impl ReducedModel {
             let (s, e) = (sweep.omega_start_rad_s, sweep.omega_end_rad_s);
             (s.min(e), s.max(e))
         };
-        if let Some(imp) = &self.imposed {
+        for imp in &self.imposed {
             imp.envelope.check_covers(lo, hi)?;
         }
         let cache = OmegaCache::build(self, lo, hi, sweep.amplitude, opts.channel_tol)?;
@@ -606,13 +606,7 @@ impl OutputBatch {
         }
         let w: Vec<f64> = self.ts.iter().map(|&t| sweep.omega_rad_s(t)).collect();
         let channels = cache.eval_rows(&w);
-        let imposed_n = match &model.imposed {
-            Some(_) => w
-                .iter()
-                .map(|&w| model.imposed_at(w))
-                .collect::<Result<Vec<_>, _>>()?,
-            None => Vec::new(),
-        };
+        let imposed_n = model.drive_imposed_n(&w)?;
         let samples = model.output_samples(&OutputStates {
             t_s: &self.ts,
             omega_rad_s: &w,

@@ -340,6 +340,12 @@ pub struct AttachmentSeries {
     /// the envelope point `j` (the points of [`SweepResult::envelope`], same
     /// windows), e.g. a piezo shunt's electrode voltage amplitude \[V\].
     pub state_amplitudes: Vec<Vec<f64>>,
+    /// `force_envelopes[c][j]`: complex fundamental harmonic of the interface
+    /// force at point `c` at the envelope point `j` (same windows; `F ~ |F|
+    /// cos(Phi + arg F)`, the convention of [`Envelope::force_phase_rad`]) \[N\],
+    /// e.g. each exciter's force for `imposed-force`.
+    #[serde(default)]
+    pub force_envelopes: Vec<Vec<Complex64>>,
 }
 
 /// Result of [`simulate_sweep`].
@@ -648,6 +654,7 @@ pub fn simulate_phased_sweep_with_progress(
                     .map(|k| series(o.state_index + k))
                     .collect(),
                 state_amplitudes: Vec::new(),
+                force_envelopes: Vec::new(),
             }
         })
         .collect();
@@ -696,6 +703,24 @@ pub fn simulate_phased_sweep_with_progress(
                     options.envelope_periods,
                 );
                 kept.iter().map(|&j| a[j].unwrap_or(f64::NAN)).collect()
+            })
+            .collect();
+        // the first attachment's first force is the envelope's: not computed twice
+        let is_first = first.is_some_and(|f| std::ptr::eq(f, o));
+        out.force_envelopes = (0..o.interface_points.len())
+            .map(|c| {
+                let h = if is_first && c == 0 {
+                    force_env.clone()
+                } else {
+                    envelope::fundamental_harmonics(
+                        &phase,
+                        &full(o.force_index + c),
+                        &out_idx,
+                        options.envelope_periods,
+                    )
+                };
+                let nan = Complex64::new(f64::NAN, f64::NAN);
+                kept.iter().map(|&j| h[j].unwrap_or(nan)).collect()
             })
             .collect();
     }

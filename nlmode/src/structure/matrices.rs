@@ -325,6 +325,46 @@ pub struct MatrixStructureOptions<A = DMatrix<f64>> {
     pub allow_rigid_body_modes: bool,
 }
 
+impl<A> MatrixDamping<A> {
+    /// The same damping with the matrix (if any) converted by `f`.
+    pub fn map_matrix<B>(&self, f: impl Fn(&A) -> B) -> MatrixDamping<B> {
+        match self {
+            MatrixDamping::Matrix(c) => MatrixDamping::Matrix(f(c)),
+            MatrixDamping::Rayleigh {
+                alpha_per_s,
+                beta_s,
+            } => MatrixDamping::Rayleigh {
+                alpha_per_s: *alpha_per_s,
+                beta_s: *beta_s,
+            },
+            MatrixDamping::StiffnessProportional { ratio, mode_index } => {
+                MatrixDamping::StiffnessProportional {
+                    ratio: *ratio,
+                    mode_index: *mode_index,
+                }
+            }
+        }
+    }
+}
+
+impl<A> MatrixStructureOptions<A> {
+    /// The same options with every matrix converted by `f` (dense <-> sparse).
+    pub fn map_matrices<B>(&self, f: impl Fn(&A) -> B) -> MatrixStructureOptions<B> {
+        MatrixStructureOptions {
+            mass: f(&self.mass),
+            mass_path: self.mass_path.clone(),
+            stiffness: f(&self.stiffness),
+            stiffness_path: self.stiffness_path.clone(),
+            damping: self.damping.map_matrix(&f),
+            damping_path: self.damping_path.clone(),
+            points: self.points.clone(),
+            cubic_spring: self.cubic_spring.clone(),
+            craig_bampton: self.craig_bampton.clone(),
+            allow_rigid_body_modes: self.allow_rigid_body_modes,
+        }
+    }
+}
+
 /// The structure built from matrices: the model to simulate (reduced or full), the
 /// full model and `q_full = transform q`.
 #[derive(Debug, Clone)]
@@ -679,34 +719,7 @@ pub fn matrix_structure_sparse(
                 max: DENSE_MAX_DOF,
             });
         }
-        let dense = MatrixStructureOptions {
-            mass: sparse_to_dense(&opts.mass),
-            mass_path: opts.mass_path.clone(),
-            stiffness: sparse_to_dense(&opts.stiffness),
-            stiffness_path: opts.stiffness_path.clone(),
-            damping: match &opts.damping {
-                MatrixDamping::Matrix(c) => MatrixDamping::Matrix(sparse_to_dense(c)),
-                MatrixDamping::Rayleigh {
-                    alpha_per_s,
-                    beta_s,
-                } => MatrixDamping::Rayleigh {
-                    alpha_per_s: *alpha_per_s,
-                    beta_s: *beta_s,
-                },
-                MatrixDamping::StiffnessProportional { ratio, mode_index } => {
-                    MatrixDamping::StiffnessProportional {
-                        ratio: *ratio,
-                        mode_index: *mode_index,
-                    }
-                }
-            },
-            damping_path: opts.damping_path.clone(),
-            points: opts.points.clone(),
-            cubic_spring: opts.cubic_spring.clone(),
-            craig_bampton: opts.craig_bampton.clone(),
-            allow_rigid_body_modes: opts.allow_rigid_body_modes,
-        };
-        matrix_structure(&dense)
+        matrix_structure(&opts.map_matrices(sparse_to_dense))
     }
 }
 
@@ -855,33 +868,7 @@ mod tests {
     }
 
     fn to_sparse(o: &MatrixStructureOptions) -> MatrixStructureOptions<SparseMatrix> {
-        MatrixStructureOptions {
-            mass: sparse_from_dense(&o.mass),
-            mass_path: o.mass_path.clone(),
-            stiffness: sparse_from_dense(&o.stiffness),
-            stiffness_path: o.stiffness_path.clone(),
-            damping: match &o.damping {
-                MatrixDamping::Matrix(c) => MatrixDamping::Matrix(sparse_from_dense(c)),
-                MatrixDamping::Rayleigh {
-                    alpha_per_s,
-                    beta_s,
-                } => MatrixDamping::Rayleigh {
-                    alpha_per_s: *alpha_per_s,
-                    beta_s: *beta_s,
-                },
-                MatrixDamping::StiffnessProportional { ratio, mode_index } => {
-                    MatrixDamping::StiffnessProportional {
-                        ratio: *ratio,
-                        mode_index: *mode_index,
-                    }
-                }
-            },
-            damping_path: o.damping_path.clone(),
-            points: o.points.clone(),
-            cubic_spring: o.cubic_spring.clone(),
-            craig_bampton: o.craig_bampton.clone(),
-            allow_rigid_body_modes: o.allow_rigid_body_modes,
-        }
+        o.map_matrices(sparse_from_dense)
     }
 
     #[test]
