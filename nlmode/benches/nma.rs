@@ -44,8 +44,9 @@
 //! the modal basis, paper structure excluded): 589 M -> 352 M instructions;
 //! the same 30 branch points (68 Newton iterations) and 141 table points,
 //! 331 -> 255 midpoint HB solves, 256 factorisations and 483 chord iterations
-//! for them; accuracy omega 2.79e-6, D 4.24e-5, shapes 4.16e-5 (unchanged to
-//! 1e-9 relative). Medians not measured (machine load 14 on 2 cores); by
+//! for them; accuracy omega 2.79e-6, D 4.24e-5, shapes 4.16e-5 (as before);
+//! the table's values move by at most 2e-11 (omega), 2.3e-9 (D) and 8.5e-10
+//! (shapes) relative: the checks converge to the same tolerance. Medians not measured (machine load 14 on 2 cores); by
 //! instruction count about 30 ms on 2 threads, 47 ms on 1 (from 49.4 / 78 ms).
 //!
 //! The cost per point grows about linearly with the number of DOFs (x3 DOFs:
