@@ -46,8 +46,12 @@
 //! 331 -> 255 midpoint HB solves, 256 factorisations and 483 chord iterations
 //! for them; accuracy omega 2.79e-6, D 4.24e-5, shapes 4.16e-5 (as before);
 //! the table's values move by at most 2e-11 (omega), 2.3e-9 (D) and 8.5e-10
-//! (shapes) relative: the checks converge to the same tolerance. Medians not measured (machine load 14 on 2 cores); by
-//! instruction count about 30 ms on 2 threads, 47 ms on 1 (from 49.4 / 78 ms).
+//! (shapes) relative: the checks converge to the same tolerance. Criterion
+//! medians not measured (machine load 12-14 on 2 cores); continuation plus
+//! table, old and new release builds interleaved, 12 runs each under that
+//! load: 2 threads 255 -> 154 ms median, 1 thread 276 -> 184 ms (x0.60 and
+//! x0.67, as the instruction counts); scaled to the quiet-machine 49.4 / 78 ms
+//! that is about 30 ms on 2 threads and 47-52 ms on 1.
 //!
 //! The cost per point grows about linearly with the number of DOFs (x3 DOFs:
 //! x3.9, x3.3 DOFs: x7, the largest case leaving the caches); the one-off
