@@ -37,6 +37,22 @@
 //! points from 331 midpoint solves, 109 ms (90 .. 133 ms; one cold run 82 ms,
 //! 0.58 ms per table point), still above the 50 ms target.
 //!
+//! Chord Newton in the refinement checks (one factorisation of the condensed
+//! Jacobian per check, residual-only iterations; `HbJacobian` factors once and
+//! solves many) and re-checks against the stored midpoint solutions
+//! (2026-12-02, callgrind, one thread, continuation plus refined table incl.
+//! the modal basis, paper structure excluded): 589 M -> 352 M instructions;
+//! the same 30 branch points (68 Newton iterations) and 141 table points,
+//! 331 -> 255 midpoint HB solves, 256 factorisations and 483 chord iterations
+//! for them; accuracy omega 2.79e-6, D 4.24e-5, shapes 4.16e-5 (as before);
+//! the table's values move by at most 2e-11 (omega), 2.3e-9 (D) and 8.5e-10
+//! (shapes) relative: the checks converge to the same tolerance. Criterion
+//! medians not measured (machine load 12-14 on 2 cores); continuation plus
+//! table, old and new release builds interleaved, 12 runs each under that
+//! load: 2 threads 255 -> 154 ms median, 1 thread 276 -> 184 ms (x0.60 and
+//! x0.67, as the instruction counts); scaled to the quiet-machine 49.4 / 78 ms
+//! that is about 30 ms on 2 threads and 47-52 ms on 1.
+//!
 //! The cost per point grows about linearly with the number of DOFs (x3 DOFs:
 //! x3.9, x3.3 DOFs: x7, the largest case leaving the caches); the one-off
 //! dense eigen-decomposition (O(n^3)) dominates the unreduced analyses.

@@ -1,7 +1,9 @@
 //! Nonlinear modal analysis: Harmonic Balance (AFT), EPMC, continuation,
 //! forced responses and modal tables, against analytic results.
 use nalgebra::{DMatrix, DVector};
-use nlmode::nma::continuation::{solve_fixed_parameter, BorderedSolve, Residual};
+use nlmode::nma::continuation::{
+    solve_fixed_parameter, solve_fixed_parameter_chord, BorderedFactor, BorderedSolve, Residual,
+};
 use nlmode::nma::epmc::{EpmcResidual, ForcedResidual, ModalBasis};
 use nlmode::nma::problems::{
     chain, duffing, duffing_backbone_h1, duffing_exact_backbone, CubicLaw,
@@ -129,6 +131,33 @@ fn condensed_solve_equals_dense_solve() {
     let y1 = jac.solve_bordered(&row, &rhs).unwrap();
     let y2 = jac.solve_bordered_dense(&row, &rhs).unwrap();
     assert!((&y1 - &y2).amax() < 1e-9 * y2.amax());
+}
+
+/// One factorisation serves many right-hand sides; the residual alone is
+/// `eval`'s; chord Newton from a close guess converges to Newton's solution
+/// with a single factorisation.
+#[test]
+fn factored_jacobian_and_chord_newton_agree_with_newton() {
+    let model = test_chain(0.0);
+    let basis = Arc::new(ModalBasis::new(&model, false).unwrap());
+    let res = EpmcResidual::new(basis, 5, 21, 0);
+    let m = res.n_coeffs();
+    let opts = ContinuationOptions::default();
+    let x0 = res.linear_guess(-2.0);
+    assert_eq!(res.residual(&x0), res.eval(&x0).0);
+    let (x, jac, _) = solve_fixed_parameter(&res, x0, &opts).unwrap();
+    let row = pseudo_random(m + 3, 5);
+    let f = jac.factor_bordered(&row).unwrap();
+    for seed in [9, 10] {
+        let rhs = pseudo_random(m + 3, seed);
+        let y = jac.solve_bordered(&row, &rhs).unwrap();
+        assert_eq!(f.solve(&rhs).unwrap(), y);
+    }
+    let mut guess = &x + pseudo_random(m + 3, 3) * 1e-4;
+    guess[m + 2] = x[m + 2];
+    let (xc, it, factorisations) = solve_fixed_parameter_chord(&res, guess, &opts).unwrap();
+    assert!((&xc - &x).amax() < 1e-8 * x.amax(), "{}", (&xc - &x).amax());
+    assert!(it >= 1 && factorisations == 1, "{it} {factorisations}");
 }
 
 #[test]

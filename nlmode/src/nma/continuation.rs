@@ -27,12 +27,26 @@ use nalgebra::DVector;
 /// A Jacobian that can solve the square system obtained by appending one
 /// dense row: `[J; c^T] y = rhs`, where `J` is `(n-1) x n`.
 pub trait BorderedSolve {
+    /// A factorisation of one bordered matrix `[J; c^T]`, reusable for many
+    /// right-hand sides (the chord iterations of [`solve_fixed_parameter_chord`]).
+    type Factor: BorderedFactor;
+    /// Factor `[J; c^T]` with `c = row`, or `None` if it is (numerically) singular.
+    fn factor_bordered(&self, row: &DVector<f64>) -> Option<Self::Factor>;
     /// Solution `y`, or `None` if the bordered matrix is (numerically) singular.
-    fn solve_bordered(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>>;
+    fn solve_bordered(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        self.factor_bordered(row)?.solve(rhs)
+    }
+}
+
+/// A factored bordered matrix ([`BorderedSolve::factor_bordered`]).
+pub trait BorderedFactor {
+    /// Solution `y` of `[J; c^T] y = rhs`, or `None` if it is not finite.
+    fn solve(&self, rhs: &DVector<f64>) -> Option<DVector<f64>>;
 }
 
 impl BorderedSolve for nalgebra::DMatrix<f64> {
-    fn solve_bordered(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+    type Factor = nalgebra::linalg::LU<f64, nalgebra::Dyn, nalgebra::Dyn>;
+    fn factor_bordered(&self, row: &DVector<f64>) -> Option<Self::Factor> {
         let n = self.ncols();
         assert_eq!(
             self.nrows() + 1,
@@ -41,7 +55,14 @@ impl BorderedSolve for nalgebra::DMatrix<f64> {
         );
         let mut a = self.clone().insert_row(n - 1, 0.0);
         a.row_mut(n - 1).copy_from(&row.transpose());
-        let y = a.lu().solve(rhs)?;
+        let lu = a.lu();
+        lu.is_invertible().then_some(lu)
+    }
+}
+
+impl BorderedFactor for nalgebra::linalg::LU<f64, nalgebra::Dyn, nalgebra::Dyn> {
+    fn solve(&self, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        let y = nalgebra::linalg::LU::solve(self, rhs)?;
         y.iter().all(|v| v.is_finite()).then_some(y)
     }
 }
@@ -55,6 +76,11 @@ pub trait Residual {
     fn n_unknowns(&self) -> usize;
     /// Residual `R(X)` (length `n - 1`) and Jacobian `dR/dX`.
     fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, Self::Jacobian);
+    /// The residual alone (the chord iterations need no Jacobian); the same
+    /// numbers as `eval(x).0`. Override where the Jacobian is the dominant cost.
+    fn residual(&self, x: &DVector<f64>) -> DVector<f64> {
+        self.eval(x).0
+    }
 }
 
 /// Options of the continuation (defaults as in NLvib: `dsmin = ds/5`,
@@ -241,6 +267,72 @@ pub fn solve_fixed_parameter<R: Residual>(
     row[n - 1] = 1.0;
     let lambda = x0[n - 1];
     newton(res, x0, &row, lambda, opts)
+}
+
+/// Least residual contraction `|R_{k+1}| / |R_k|` a chord iteration of
+/// [`solve_fixed_parameter_chord`] must achieve to keep its factorisation;
+/// a weaker one refactors at the current iterate (a Newton step).
+pub const CHORD_CONTRACTION: f64 = 0.25;
+
+/// A converged chord solve: solution, iterations, factorisations.
+pub type ChordOk = (DVector<f64>, usize, usize);
+
+/// [`solve_fixed_parameter`] by simplified (chord) Newton: the bordered
+/// Jacobian is factored at `x0` and reused by the following iterations, which
+/// evaluate only the residual ([`Residual::residual`]), as long as each
+/// reduces the residual norm by at least [`CHORD_CONTRACTION`]; otherwise it
+/// is refactored at the current iterate. The convergence test is Newton's
+/// (`opts.tolerance` on the residual norm), so the result solves `R(X) = 0`
+/// as accurately; from a close guess it needs as many iterations as Newton
+/// and one factorisation. `opts.max_contraction` does not apply (a weak
+/// contraction refactors instead of failing).
+pub fn solve_fixed_parameter_chord<R: Residual>(
+    res: &R,
+    x0: DVector<f64>,
+    opts: &ContinuationOptions,
+) -> Result<ChordOk, NewtonErr> {
+    let n = res.n_unknowns();
+    let lambda = x0[n - 1];
+    let mut row = DVector::zeros(n);
+    row[n - 1] = 1.0;
+    let mut x = x0;
+    let (mut r, jac0) = res.eval(&x);
+    // the Jacobian at the current iterate, not yet factored
+    let mut jac = Some(jac0);
+    let mut factor: Option<<R::Jacobian as BorderedSolve>::Factor> = None;
+    let mut factorisations = 0;
+    let mut first_norm = None;
+    let mut prev_norm = f64::INFINITY;
+    for it in 0..=opts.max_iterations {
+        let extra = x[n - 1] - lambda;
+        let norm = (r.norm_squared() + extra * extra).sqrt();
+        if !norm.is_finite() {
+            return Err((norm, it));
+        }
+        if norm <= opts.tolerance {
+            return Ok((x, it, factorisations));
+        }
+        let f0 = *first_norm.get_or_insert(norm);
+        if it == opts.max_iterations || norm > 1e6 * f0.max(opts.tolerance) {
+            return Err((norm, it));
+        }
+        if factor.is_none() || norm > CHORD_CONTRACTION * prev_norm {
+            let j = jac.take().unwrap_or_else(|| res.eval(&x).1);
+            factor = Some(j.factor_bordered(&row).ok_or((norm, it))?);
+            factorisations += 1;
+        }
+        prev_norm = norm;
+        let mut rhs = -&r;
+        rhs = rhs.push(-extra);
+        let dx = factor
+            .as_ref()
+            .expect("factored above")
+            .solve(&rhs)
+            .ok_or((norm, it))?;
+        x += dx;
+        r = res.residual(&x);
+    }
+    unreachable!()
 }
 
 /// Unit tangent in scaled unknowns from `[J; c^T] t = [0; 1]`, `c` in scaled

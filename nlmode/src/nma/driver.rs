@@ -639,8 +639,13 @@ impl NmaResult {
     /// underestimates the largest error of an interval), or the table has
     /// `refine.max_points`, or an interval is too narrow to split in floating
     /// point (next to a fold; both end the refinement there with `capped`).
-    /// Intervals whose PCHIP slopes change by an insertion are checked again,
-    /// so [`ModalTable::accuracy`] holds the midpoint errors of the final table.
+    /// Intervals whose PCHIP slopes change by an insertion are checked again
+    /// (against their midpoint solution, which stays valid while the
+    /// interval's end points do), so [`ModalTable::accuracy`] holds the
+    /// midpoint errors of the final table. The midpoint solves are converged
+    /// HB solutions (tolerance of `opts.continuation`) by chord Newton
+    /// ([`super::continuation::solve_fixed_parameter_chord`]: one
+    /// factorisation per check from the close PCHIP guess).
     ///
     /// `model`, `basis` and `opts` are those of the analysis; the branch must
     /// have been computed with `store_coordinates` (the Newton guesses).
@@ -663,7 +668,10 @@ impl NmaResult {
             points: self.point_names.clone(),
             ..opts.clone()
         };
-        let solver = AmplitudeSolver::new(model, basis.clone(), &fixed)?;
+        let solver = AmplitudeSolver {
+            chord: true,
+            ..AmplitudeSolver::new(model, basis.clone(), &fixed)?
+        };
         // end a truncated primary branch a stated margin before the fold
         let mut range_end = None;
         if let (Some(a_f), TablePolicy::PrimaryBranch) = (truncated, policy) {
@@ -691,6 +699,10 @@ impl NmaResult {
         // per interval: checked against the current table, and its errors
         let mut checked = vec![false; n_int];
         let mut errors = vec![(0.0, 0.0, 0.0); n_int];
+        // per interval: its midpoint HB solution once solved (it stays valid
+        // while the interval's end points do; a re-check after a neighbour's
+        // insertion only measures the new interpolant against it)
+        let mut mids: Vec<Option<BranchPoint>> = vec![None; n_int];
         let mut checks = 0;
         let mut capped = false;
         loop {
@@ -702,10 +714,10 @@ impl NmaResult {
             // the unchecked intervals' HB solves are independent of each
             // other: solved in parallel, then taken in interval order (the
             // table is the same for any number of threads)
-            let unchecked: Vec<usize> = (0..pts.len().saturating_sub(1))
-                .filter(|&i| !checked[i])
+            let unsolved: Vec<usize> = (0..pts.len().saturating_sub(1))
+                .filter(|&i| !checked[i] && mids[i].is_none())
                 .collect();
-            let mut solved = unchecked
+            let mut solved = unsolved
                 .par_iter()
                 .map(|&i| check_interval(&solver, &interp, &pts[i], &pts[i + 1]))
                 .collect::<Vec<_>>()
@@ -713,17 +725,28 @@ impl NmaResult {
             let mut next: Vec<BranchPoint> = Vec::with_capacity(2 * pts.len());
             let mut next_checked = Vec::new();
             let mut next_errors = Vec::new();
+            let mut next_mids = Vec::new();
             let mut inserted = Vec::new();
             for i in 0..pts.len().saturating_sub(1) {
                 next.push(pts[i].clone());
                 if checked[i] {
                     next_checked.push(true);
                     next_errors.push(errors[i]);
+                    next_mids.push(mids[i].take());
                     continue;
                 }
                 let (p, q) = (&pts[i], &pts[i + 1]);
-                let (sol, err) = solved.next().expect("one solve per unchecked interval")?;
-                checks += 1;
+                let (sol, err) = match mids[i].take() {
+                    Some(sol) => {
+                        let err = table_errors(&interp, &sol)
+                            .map_err(|e| NmaError::Table(e.to_string()))?;
+                        (sol, err)
+                    }
+                    None => {
+                        checks += 1;
+                        solved.next().expect("one solve per unsolved interval")?
+                    }
+                };
                 // the midpoint error underestimates an interval's largest
                 // error (PCHIP's error is not symmetric): ask half the target
                 let good = err.0 <= 0.5 * refine.omega_rel
@@ -736,11 +759,13 @@ impl NmaResult {
                     capped |= !good;
                     next_checked.push(true);
                     next_errors.push(err);
+                    next_mids.push(Some(sol));
                 } else {
                     inserted.push(next.len());
                     next.push(sol);
                     next_checked.extend([false, false]);
                     next_errors.extend([err, err]);
+                    next_mids.extend([None, None]);
                 }
             }
             if let Some(last) = pts.last() {
@@ -763,6 +788,7 @@ impl NmaResult {
             pts = next;
             checked = next_checked;
             errors = next_errors;
+            mids = next_mids;
         }
         let refs: Vec<&BranchPoint> = pts.iter().collect();
         let mut table = self.table_of(&refs, truncated, policy);
@@ -1299,6 +1325,9 @@ struct AmplitudeSolver<'a> {
     point_modal: Vec<DVector<f64>>,
     pm: nalgebra::DMatrix<f64>,
     continuation: ContinuationOptions,
+    /// Chord (simplified) Newton ([`super::continuation::solve_fixed_parameter_chord`])
+    /// instead of Newton: the refinement's checks, started close to the solution.
+    chord: bool,
 }
 
 impl<'a> AmplitudeSolver<'a> {
@@ -1326,6 +1355,7 @@ impl<'a> AmplitudeSolver<'a> {
             point_modal,
             pm,
             continuation,
+            chord: false,
         })
     }
 
@@ -1355,8 +1385,14 @@ impl<'a> AmplitudeSolver<'a> {
         x0[m] = guess.omega_rad_s;
         x0[m + 1] = guess.damping_ratio;
         x0[m + 2] = amplitude.log10();
-        match super::continuation::solve_fixed_parameter(res, x0, &self.continuation) {
-            Ok((x, _, it)) => Ok(branch_point(
+        let solved = if self.chord {
+            super::continuation::solve_fixed_parameter_chord(res, x0, &self.continuation)
+        } else {
+            super::continuation::solve_fixed_parameter(res, x0, &self.continuation)
+                .map(|(x, _, it)| (x, it, it))
+        };
+        match solved {
+            Ok((x, it, _)) => Ok(branch_point(
                 res,
                 &x,
                 &self.point_modal,

@@ -37,6 +37,7 @@
 //! size `E(2H+1) + #near-resonant + #border`, independent of the model size;
 //! forming it costs `O(n H (E^2 + #border))`. Non-diagonal modal damping falls
 //! back to a dense solve of the full system.
+use super::continuation::{BorderedFactor, BorderedSolve};
 use super::hb::{cos_index, harmonic_of, sin_index, Aft};
 use super::NmaError;
 use crate::structure::{NonlinearLaw, StructuralModel};
@@ -412,7 +413,9 @@ impl HbJacobian {
         j
     }
 
-    fn solve_dense(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+    /// The dense bordered matrix `[J; border rows; row]` with unscaled harmonic
+    /// rows, factored (the fallback for non-diagonal modal damping).
+    fn factor_dense(&self, row: &DVector<f64>) -> Option<HbFactor> {
         let m = self.m();
         let (r, p) = (self.border_rows.nrows(), self.border_cols.ncols());
         let mut a = DMatrix::zeros(m + p, m + p);
@@ -420,16 +423,18 @@ impl HbJacobian {
             .copy_from(&self.dense_unscaled_harmonic_rows());
         a.view_mut((m, 0), (r, m + p)).copy_from(&self.border_rows);
         a.row_mut(m + r).copy_from(&row.transpose());
-        let mut b = rhs.clone();
-        for i in 0..m {
-            b[i] *= self.row_scale[i];
-        }
-        let y = a.lu().solve(&b)?;
-        y.iter().all(|v| v.is_finite()).then_some(y)
+        let lu = a.lu();
+        lu.is_invertible().then(|| HbFactor::Dense {
+            lu,
+            row_scale: self.row_scale.clone(),
+        })
     }
 
-    /// The condensed solve (diagonal modal damping).
-    fn solve_condensed(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+    /// The condensed factorisation (diagonal modal damping, see the module
+    /// doc): the modal blocks' inverses, `V_B = Lambda_II^-1 B_I` and the LU
+    /// of the reduced system in `[y_E; z; y_b]`; the right-hand side enters
+    /// only in [`CondensedFactor::solve`].
+    fn factor_condensed(&self, row: &DVector<f64>) -> Option<HbFactor> {
         let basis = &*self.basis;
         let n = basis.n_modes();
         let hmax = self.harmonics;
@@ -446,60 +451,48 @@ impl HbJacobian {
             .view_mut((0, 0), (r, m + p))
             .copy_from(&self.border_rows);
         cfull.row_mut(r).copy_from(&row.transpose());
-        let f: DVector<f64> = DVector::from_fn(m, |i, _| rhs[i] * self.row_scale[i]);
-        let fb = rhs.rows(m, p).clone_owned();
 
-        // classify modal blocks; explicit components in order
-        let mut is_explicit = vec![false; m];
+        // the modal blocks (A, B) by `nn n + k`; classify them, explicit
+        // components in order
+        let mut blocks = Vec::with_capacity((hmax + 1) * n);
+        let mut explicit_block = vec![false; (hmax + 1) * n];
         let mut e_list: Vec<usize> = Vec::new(); // global component indices
         for nn in 0..=hmax {
             for k in 0..n {
                 let (a, b) = self.block(k, nn);
+                blocks.push((a, b));
                 let scale = self.row_scale[cos_index(nn) * n + k];
                 let forced = self.explicit.contains(&(k, nn));
                 if forced || a.hypot(b) < EXPLICIT_THRESHOLD * scale {
-                    let comps: &[usize] = if nn == 0 {
-                        &[0]
-                    } else {
-                        &[cos_index(nn), sin_index(nn)]
-                    };
-                    for &h in comps {
-                        is_explicit[h * n + k] = true;
+                    explicit_block[nn * n + k] = true;
+                    for &h in components(nn).as_slice() {
                         e_list.push(h * n + k);
                     }
                 }
             }
         }
         let ne_e = e_list.len();
-        // V = Lambda_II^-1 [f_I, B_I]  (m x (1+p)), Q, CLP
-        let mut v: DMatrix<f64> = DMatrix::zeros(m, 1 + p);
+        // V_B = Lambda_II^-1 B_I  (m x p), Q, CLP
+        let mut v_b: DMatrix<f64> = DMatrix::zeros(m, p);
         let mut q: DMatrix<f64> = DMatrix::zeros(s, s);
         let mut clp: DMatrix<f64> = DMatrix::zeros(p, s);
-        let mut src = DMatrix::zeros(m, 1 + p);
-        src.set_column(0, &f);
-        src.view_mut((0, 1), (m, p)).copy_from(&self.border_cols);
+        let src = &self.border_cols;
         for nn in 0..=hmax {
             let comps = components(nn);
             let comps = comps.as_slice();
             for k in 0..n {
-                if is_explicit[comps[0] * n + k] {
+                if explicit_block[nn * n + k] {
                     continue;
                 }
-                let (a, b) = self.block(k, nn);
-                let linv: [[f64; 2]; 2] = if nn == 0 {
-                    [[1.0 / a, 0.0], [0.0, 0.0]]
-                } else {
-                    let det = a * a + b * b;
-                    [[a / det, -b / det], [b / det, a / det]]
-                };
+                let linv = block_inverse(blocks[nn * n + k], nn);
                 let nc = comps.len();
-                for col in 0..1 + p {
+                for col in 0..p {
                     for (ia, &ha) in comps.iter().enumerate() {
                         let mut acc = 0.0;
                         for (ib, &hb) in comps.iter().enumerate() {
                             acc += linv[ia][ib] * src[(hb * n + k, col)];
                         }
-                        v[(ha * n + k, col)] = acc;
+                        v_b[(ha * n + k, col)] = acc;
                     }
                 }
                 for ia in 0..nc {
@@ -523,25 +516,13 @@ impl HbJacobian {
                 }
             }
         }
-        // P^T V (s x (1+p)) and C V (p x (1+p)), V is zero on explicit rows
-        let mut ptv: DMatrix<f64> = DMatrix::zeros(s, 1 + p);
-        for e in 0..ne {
-            for h in 0..nh {
-                for col in 0..1 + p {
-                    let mut acc = 0.0;
-                    for k in 0..n {
-                        acc += w[(k, e)] * v[(h * n + k, col)];
-                    }
-                    ptv[(e * nh + h, col)] = acc;
-                }
-            }
-        }
-        let cv = cfull.columns(0, m) * &v;
+        // P^T V_B (s x p) and C V_B (p x p), V_B is zero on explicit rows
+        let ptv = p_transpose(w, &v_b, nh);
+        let cv = cfull.columns(0, m) * &v_b;
 
         // reduced system [y_E; z; y_b]
         let dim = ne_e + s + p;
         let mut a: DMatrix<f64> = DMatrix::zeros(dim, dim);
-        let mut b = DVector::zeros(dim);
         let mut e_pos = vec![usize::MAX; m];
         for (i, &gi) in e_list.iter().enumerate() {
             e_pos[gi] = i;
@@ -550,7 +531,7 @@ impl HbJacobian {
             let h = gi / n;
             let k = gi % n;
             let nn = harmonic_of(h);
-            let (la, lb) = self.block(k, nn);
+            let (la, lb) = blocks[nn * n + k];
             a[(i, i)] = la;
             if nn > 0 {
                 if h == cos_index(nn) {
@@ -565,7 +546,6 @@ impl HbJacobian {
             for c in 0..p {
                 a[(i, ne_e + s + c)] = self.border_cols[(gi, c)];
             }
-            b[i] = f[gi];
         }
         // the explicit components by harmonic component `h`, in `e_list` order:
         // `e_by_h[e_start[h]..e_start[h + 1]]` holds `(position in e_list, mode)`
@@ -593,14 +573,9 @@ impl HbJacobian {
                         continue;
                     }
                     // Q couples only the two components of one harmonic
-                    let nn2 = harmonic_of(h2);
-                    let comps2: &[usize] = if nn2 == 0 {
-                        &[0]
-                    } else {
-                        &[cos_index(nn2), sin_index(nn2)]
-                    };
+                    let comps2 = components(harmonic_of(h2));
                     for e2 in 0..ne {
-                        for &hz in comps2 {
+                        for &hz in comps2.as_slice() {
                             let cz = e2 * nh + hz;
                             a[(ri, ne_e + cz)] += gv * q[(e * nh + h2, cz)];
                         }
@@ -609,9 +584,8 @@ impl HbJacobian {
                         a[(ri, i)] -= gv * w[(k, e)];
                     }
                     for c in 0..p {
-                        a[(ri, ne_e + s + c)] += gv * ptv[(e * nh + h2, 1 + c)];
+                        a[(ri, ne_e + s + c)] += gv * ptv[(e * nh + h2, c)];
                     }
-                    b[ri] += gv * ptv[(e * nh + h2, 0)];
                 }
             }
         }
@@ -624,11 +598,155 @@ impl HbJacobian {
                 a[(ri, ne_e + cz)] = -clp[(rr, cz)];
             }
             for c in 0..p {
-                a[(ri, ne_e + s + c)] = cfull[(rr, m + c)] - cv[(rr, 1 + c)];
+                a[(ri, ne_e + s + c)] = cfull[(rr, m + c)] - cv[(rr, c)];
             }
-            b[ri] = fb[rr] - cv[(rr, 0)];
         }
-        let sol = a.lu().solve(&b)?;
+        let lu = a.lu();
+        if !lu.is_invertible() {
+            return None;
+        }
+        Some(HbFactor::Condensed(Box::new(CondensedFactor {
+            basis: self.basis.clone(),
+            harmonics: hmax,
+            g: self.g.clone(),
+            row_scale: self.row_scale.clone(),
+            blocks,
+            explicit_block,
+            e_list,
+            v_b,
+            cfull,
+            lu,
+        })))
+    }
+
+    /// Solve with the dense fallback even when the condensed solver applies
+    /// (for cross-checks and benchmarks).
+    pub fn solve_bordered_dense(
+        &self,
+        row: &DVector<f64>,
+        rhs: &DVector<f64>,
+    ) -> Option<DVector<f64>> {
+        self.factor_dense(row)?.solve(rhs)
+    }
+}
+
+/// The inverse of the modal block `[[A, B], [-B, A]]` of harmonic `nn >= 1`
+/// (`1/A` for the mean, `nn = 0`).
+fn block_inverse((a, b): (f64, f64), nn: usize) -> [[f64; 2]; 2] {
+    if nn == 0 {
+        [[1.0 / a, 0.0], [0.0, 0.0]]
+    } else {
+        let det = a * a + b * b;
+        [[a / det, -b / det], [b / det, a / det]]
+    }
+}
+
+/// `P^T V`: `(e nh + h, c)` = `sum_k W[k, e] V[h n + k, c]` (`nh x ncols` per element).
+fn p_transpose(w: &DMatrix<f64>, v: &DMatrix<f64>, nh: usize) -> DMatrix<f64> {
+    let (n, ne) = w.shape();
+    let mut ptv = DMatrix::zeros(ne * nh, v.ncols());
+    for e in 0..ne {
+        for h in 0..nh {
+            for col in 0..v.ncols() {
+                let mut acc = 0.0;
+                for k in 0..n {
+                    acc += w[(k, e)] * v[(h * n + k, col)];
+                }
+                ptv[(e * nh + h, col)] = acc;
+            }
+        }
+    }
+    ptv
+}
+
+/// A factored bordered [`HbJacobian`] ([`BorderedSolve::factor_bordered`]).
+#[derive(Debug, Clone)]
+pub enum HbFactor {
+    /// LU of the full system with unscaled harmonic rows (non-diagonal modal damping).
+    Dense {
+        lu: nalgebra::linalg::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+        row_scale: Arc<DVector<f64>>,
+    },
+    /// The condensed factorisation (diagonal modal damping).
+    Condensed(Box<CondensedFactor>),
+}
+
+/// The condensed factorisation of a bordered [`HbJacobian`] (module doc):
+/// for a right-hand side `[f; f_b]`, `V_f = Lambda_II^-1 f_I` and the reduced
+/// system's right-hand side cost `O(n H E)`, its solve `O(dim^2)`.
+#[derive(Debug, Clone)]
+pub struct CondensedFactor {
+    basis: Arc<ModalBasis>,
+    harmonics: usize,
+    /// `dF_e/dU_e` of each element.
+    g: Vec<DMatrix<f64>>,
+    row_scale: Arc<DVector<f64>>,
+    /// `(A, B)` of the modal block `(k, nn)` at `nn n + k`.
+    blocks: Vec<(f64, f64)>,
+    /// Whether the modal block `(k, nn)` (at `nn n + k`) is kept explicitly.
+    explicit_block: Vec<bool>,
+    /// Global indices of the explicit components, in the reduced system's order.
+    e_list: Vec<usize>,
+    /// `Lambda_II^-1 B_I`, `m x p` (zero on explicit rows).
+    v_b: DMatrix<f64>,
+    /// Border rows including the appended row, `p x (m + p)`.
+    cfull: DMatrix<f64>,
+    /// LU of the reduced system in `[y_E; z; y_b]`.
+    lu: nalgebra::linalg::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+}
+
+impl CondensedFactor {
+    fn solve(&self, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        let basis = &*self.basis;
+        let w = &basis.w;
+        let n = basis.n_modes();
+        let hmax = self.harmonics;
+        let nh = 2 * hmax + 1;
+        let m = n * nh;
+        let ne = w.ncols();
+        let s = ne * nh;
+        let p = self.cfull.nrows();
+        let ne_e = self.e_list.len();
+        let f: DVector<f64> = DVector::from_fn(m, |i, _| rhs[i] * self.row_scale[i]);
+        // V_f = Lambda_II^-1 f_I (zero on explicit rows)
+        let mut v_f = DMatrix::zeros(m, 1);
+        for nn in 0..=hmax {
+            let comps = components(nn);
+            let comps = comps.as_slice();
+            for k in 0..n {
+                if self.explicit_block[nn * n + k] {
+                    continue;
+                }
+                let linv = block_inverse(self.blocks[nn * n + k], nn);
+                for (ia, &ha) in comps.iter().enumerate() {
+                    let mut acc = 0.0;
+                    for (ib, &hb) in comps.iter().enumerate() {
+                        acc += linv[ia][ib] * f[hb * n + k];
+                    }
+                    v_f[ha * n + k] = acc;
+                }
+            }
+        }
+        let ptv = p_transpose(w, &v_f, nh);
+        let cv = self.cfull.columns(0, m) * &v_f;
+        let dim = ne_e + s + p;
+        let mut b = DVector::zeros(dim);
+        for (i, &gi) in self.e_list.iter().enumerate() {
+            b[i] = f[gi];
+        }
+        for (e, g) in self.g.iter().enumerate() {
+            for h in 0..nh {
+                let mut acc = 0.0;
+                for h2 in 0..nh {
+                    acc += g[(h, h2)] * ptv[e * nh + h2];
+                }
+                b[ne_e + e * nh + h] = acc;
+            }
+        }
+        for rr in 0..p {
+            b[ne_e + s + rr] = rhs[m + rr] - cv[rr];
+        }
+        let sol = self.lu.solve(&b)?;
         if !sol.iter().all(|x| x.is_finite()) {
             return None;
         }
@@ -636,18 +754,18 @@ impl HbJacobian {
         let yb = sol.rows(ne_e + s, p);
         // recover y_I = V_f - Lambda^-1 P_I z - V_B y_b
         let mut y = DVector::zeros(m + p);
-        let vb_yb = v.columns(1, p) * yb;
+        let vb_yb = &self.v_b * yb;
         for i in 0..m {
-            y[i] = v[(i, 0)] - vb_yb[i];
+            y[i] = v_f[i] - vb_yb[i];
         }
         for nn in 0..=hmax {
             let comps = components(nn);
             let comps = comps.as_slice();
             for k in 0..n {
-                if is_explicit[comps[0] * n + k] {
+                if self.explicit_block[nn * n + k] {
                     continue;
                 }
-                let (la, lb) = self.block(k, nn);
+                let (la, lb) = self.blocks[nn * n + k];
                 let mut pz = [0.0; 2];
                 for (pzi, &h) in pz.iter_mut().zip(comps) {
                     *pzi = (0..ne).map(|e| w[(k, e)] * z[e * nh + h]).sum::<f64>();
@@ -661,7 +779,7 @@ impl HbJacobian {
                 }
             }
         }
-        for (i, &gi) in e_list.iter().enumerate() {
+        for (i, &gi) in self.e_list.iter().enumerate() {
             y[gi] = sol[i];
         }
         for c in 0..p {
@@ -669,24 +787,31 @@ impl HbJacobian {
         }
         Some(y)
     }
+}
 
-    /// Solve with the dense fallback even when the condensed solver applies
-    /// (for cross-checks and benchmarks).
-    pub fn solve_bordered_dense(
-        &self,
-        row: &DVector<f64>,
-        rhs: &DVector<f64>,
-    ) -> Option<DVector<f64>> {
-        self.solve_dense(row, rhs)
+impl BorderedFactor for HbFactor {
+    fn solve(&self, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        match self {
+            HbFactor::Dense { lu, row_scale } => {
+                let mut b = rhs.clone();
+                for i in 0..row_scale.len() {
+                    b[i] *= row_scale[i];
+                }
+                let y = lu.solve(&b)?;
+                y.iter().all(|v| v.is_finite()).then_some(y)
+            }
+            HbFactor::Condensed(c) => c.solve(rhs),
+        }
     }
 }
 
-impl super::continuation::BorderedSolve for HbJacobian {
-    fn solve_bordered(&self, row: &DVector<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+impl BorderedSolve for HbJacobian {
+    type Factor = HbFactor;
+    fn factor_bordered(&self, row: &DVector<f64>) -> Option<HbFactor> {
         if self.basis.diagonal_damping {
-            self.solve_condensed(row, rhs)
+            self.factor_condensed(row)
         } else {
-            self.solve_dense(row, rhs)
+            self.factor_dense(row)
         }
     }
 }
@@ -955,11 +1080,90 @@ fn observe_harmonics(
         .collect()
 }
 
+impl EpmcResidual {
+    /// The amplitude and phase rows of [`Normalisation`] into `res[m..m + 2]`
+    /// and, if given, their derivatives into `border_rows` (`2 x (m + 3)`).
+    fn normalisation_rows(
+        &self,
+        psi: &[f64],
+        res: &mut DVector<f64>,
+        mut border_rows: Option<&mut DMatrix<f64>>,
+    ) {
+        let n = self.basis.n_modes();
+        let m = psi.len();
+        match self.normalisation {
+            Normalisation::Fundamental => {
+                let (ic, is) = (cos_index(1) * n, sin_index(1) * n);
+                res[m] = psi[is + self.mode];
+                res[m + 1] = (0..n)
+                    .map(|k| psi[ic + k].powi(2) + psi[is + k].powi(2))
+                    .sum::<f64>()
+                    - 1.0;
+                if let Some(br) = border_rows.as_deref_mut() {
+                    br[(0, is + self.mode)] = 1.0;
+                    for k in 0..n {
+                        br[(1, ic + k)] = 2.0 * psi[ic + k];
+                        br[(1, is + k)] = 2.0 * psi[is + k];
+                    }
+                }
+            }
+            Normalisation::HarmonicEnergy => {
+                let mut norm = -1.0;
+                for nn in 1..=self.harmonics() {
+                    let (w, nf) = (((nn * nn) as f64), nn as f64);
+                    let (ic, is) = (cos_index(nn) * n, sin_index(nn) * n);
+                    res[m] += nf * psi[is + self.mode];
+                    if let Some(br) = border_rows.as_deref_mut() {
+                        br[(0, is + self.mode)] = nf;
+                    }
+                    for k in 0..n {
+                        norm += w * (psi[ic + k].powi(2) + psi[is + k].powi(2));
+                        if let Some(br) = border_rows.as_deref_mut() {
+                            br[(1, ic + k)] = 2.0 * w * psi[ic + k];
+                            br[(1, is + k)] = 2.0 * w * psi[is + k];
+                        }
+                    }
+                }
+                res[m + 1] = norm;
+            }
+        }
+    }
+}
+
 impl super::continuation::Residual for EpmcResidual {
     type Jacobian = HbJacobian;
 
     fn n_unknowns(&self) -> usize {
         self.n_coeffs() + 3
+    }
+
+    /// The residual of [`Self::eval`] without the AFT Jacobians.
+    fn residual(&self, x: &DVector<f64>) -> DVector<f64> {
+        let basis = &*self.basis;
+        let n = basis.n_modes();
+        let nh = self.aft.n_coeffs();
+        let m = n * nh;
+        let (omega, d, lg) = (x[m], x[m + 1], x[m + 2]);
+        let amp = 10f64.powf(lg);
+        let psi = &x.as_slice()[..m];
+        let (mut r, _, _) = linear_rows(basis, self.harmonics(), omega, d, psi);
+        let u = basis.element_coeffs(psi, nh, amp);
+        for (e, ue) in u.iter().enumerate() {
+            let force = self.aft.force(&*basis.laws[e], ue, omega);
+            let we = basis.w.column(e);
+            for h in 0..nh {
+                let fh = force[h] / amp;
+                for k in 0..n {
+                    r[h * n + k] += we[k] * fh;
+                }
+            }
+        }
+        let mut res = DVector::zeros(m + 2);
+        for i in 0..m {
+            res[i] = r[i] / self.row_scale[i];
+        }
+        self.normalisation_rows(psi, &mut res, None);
+        res
     }
 
     fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, HbJacobian) {
@@ -1001,36 +1205,7 @@ impl super::continuation::Residual for EpmcResidual {
         border_cols.set_column(1, &dr_dd);
         border_cols.set_column(2, &dr_dlg);
         let mut border_rows = DMatrix::zeros(2, m + 3);
-        match self.normalisation {
-            Normalisation::Fundamental => {
-                let (ic, is) = (cos_index(1) * n, sin_index(1) * n);
-                res[m] = psi[is + self.mode];
-                res[m + 1] = (0..n)
-                    .map(|k| psi[ic + k].powi(2) + psi[is + k].powi(2))
-                    .sum::<f64>()
-                    - 1.0;
-                border_rows[(0, is + self.mode)] = 1.0;
-                for k in 0..n {
-                    border_rows[(1, ic + k)] = 2.0 * psi[ic + k];
-                    border_rows[(1, is + k)] = 2.0 * psi[is + k];
-                }
-            }
-            Normalisation::HarmonicEnergy => {
-                let mut norm = -1.0;
-                for nn in 1..=self.harmonics() {
-                    let (w, nf) = (((nn * nn) as f64), nn as f64);
-                    let (ic, is) = (cos_index(nn) * n, sin_index(nn) * n);
-                    res[m] += nf * psi[is + self.mode];
-                    border_rows[(0, is + self.mode)] = nf;
-                    for k in 0..n {
-                        norm += w * (psi[ic + k].powi(2) + psi[is + k].powi(2));
-                        border_rows[(1, ic + k)] = 2.0 * w * psi[ic + k];
-                        border_rows[(1, is + k)] = 2.0 * w * psi[is + k];
-                    }
-                }
-                res[m + 1] = norm;
-            }
-        }
+        self.normalisation_rows(psi, &mut res, Some(&mut border_rows));
         let jac = HbJacobian {
             basis: self.basis.clone(),
             harmonics: self.harmonics(),

@@ -194,6 +194,17 @@ impl Aft {
             jac_omega,
         }
     }
+    /// The force harmonics of [`Aft::eval`] alone (no Jacobians; the same numbers).
+    pub fn force(&self, law: &dyn NonlinearLaw, u: &DVector<f64>, omega: f64) -> DVector<f64> {
+        if let Some(h) = law.hysteresis() {
+            return self.eval_hysteretic(h, u).force;
+        }
+        let ut = &self.inv * u;
+        let dut = &self.dinv * u;
+        let f = DVector::from_fn(self.samples, |t, _| law.eval(ut[t], omega * dut[t]).0);
+        &self.fwd * &f
+    }
+
     /// Most periods marched by [`Aft::eval`] for a hysteretic law (two suffice
     /// for a play-type element; the cap only bounds exotic laws).
     pub const MAX_HYSTERESIS_PERIODS: usize = 4;

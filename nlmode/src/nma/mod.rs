@@ -101,7 +101,8 @@ pub struct TableAccuracy {
     pub target_omega_rel: f64,
     /// Target for `damping_rel` and `shape_rel`.
     pub target_rel: f64,
-    /// Midpoint solves made (including those that led to insertions).
+    /// Midpoint HB solves made (including those that led to insertions; a
+    /// re-check of an interval after a neighbour's insertion reuses its solve).
     pub checks: usize,
     /// `true` if the point cap stopped the refinement before all targets were met.
     pub capped: bool,
