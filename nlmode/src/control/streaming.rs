@@ -655,13 +655,15 @@ mod tests {
     /// `|F_1|`.
     #[test]
     fn streaming_loop_settles_where_the_period_based_loop_does() {
-        let volts = [2.0, 6.0];
+        // the third level starts at the frequency the first two predict
+        let volts = [2.0, 4.0, 6.0];
         let opts = PllOptions::default();
         let mut plant = Duffing::new();
         let reference = phase_resonance(&mut plant, W0, &volts, M, &opts).unwrap();
         assert!(reference.failure.is_none());
         // 1e-5 s, incommensurate with the period (about 1765 steps)
         let streamed = streamed(&volts, 1e-5, &opts);
+        assert_eq!(streamed.len(), 3);
         for (r, s) in reference.levels.iter().zip(&streamed) {
             assert!(r.settled && s.settled, "{r:?} {s:?}");
             let dw = s.omega_rad_s / r.omega_rad_s - 1.0;
