@@ -44,8 +44,8 @@ use num_complex::Complex64;
 /// The attachments' channels of `eq:fc1` (`Z_G(Omega)`, `T_G(Omega) u_hat`)
 /// are evaluated once per period (both slow-flow passes and the measured
 /// force take them at the period's `Omega`), the sampling phasors
-/// `e^{i theta_i}` once per plant: a period costs two table look-ups and one
-/// condensation of each attachment, and allocates nothing.
+/// `e^{i theta_i}` once per plant: a period costs three table look-ups and
+/// one condensation of each attachment, in buffers kept across periods.
 #[derive(Debug, Clone)]
 pub struct ReducedPlant {
     model: ReducedModel,
