@@ -152,15 +152,24 @@ impl PeriodHarmonics {
                 expected: "fewer than half the samples per period",
             });
         }
+        // one set of phasors for the signals of the period
+        let w = demodulation_phasors(samples.force_n.len());
+        let dem = |x: &[f64], h: usize| {
+            if x.len() == w.len() {
+                harmonics_with(x, h, &w)
+            } else {
+                period_harmonics(x, h)
+            }
+        };
         let current_amplitude_a = if samples.current_a.is_empty() {
             0.0
         } else {
-            period_harmonics(&samples.current_a, 1)[1].norm()
+            dem(&samples.current_a, 1)[1].norm()
         };
         Ok(Self {
-            force_n: period_harmonics(&samples.force_n, harmonics),
-            drive_m: period_harmonics(&samples.drive_m, harmonics),
-            tip_m: period_harmonics(&samples.tip_m, harmonics),
+            force_n: dem(&samples.force_n, harmonics),
+            drive_m: dem(&samples.drive_m, harmonics),
+            tip_m: dem(&samples.tip_m, harmonics),
             current_amplitude_a,
         })
     }
@@ -198,19 +207,34 @@ pub trait Plant {
 /// the module docs). Hand-written: a few bins of a short period, where the
 /// direct sum is exact and cheaper than an FFT plan.
 pub fn period_harmonics(samples: &[f64], harmonics: usize) -> Vec<Complex64> {
-    let n = samples.len();
+    harmonics_with(samples, harmonics, &demodulation_phasors(samples.len()))
+}
+
+/// `e^{-i 2 pi k / N}`, `k = 0..N-1`: the phasors of [`period_harmonics`]
+/// (harmonic `h` at sample `i` takes `k = h i mod N`).
+fn demodulation_phasors(n: usize) -> Vec<Complex64> {
     assert!(n > 0, "at least one sample per period");
+    (0..n)
+        .map(|k| Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI * k as f64 / n as f64))
+        .collect()
+}
+
+/// [`period_harmonics`] with the phasors of [`demodulation_phasors`].
+fn harmonics_with(samples: &[f64], harmonics: usize, phasors: &[Complex64]) -> Vec<Complex64> {
+    let n = samples.len();
+    assert!(n > 0 && phasors.len() == n, "one phasor per sample");
     (0..=harmonics)
         .map(|h| {
             let scale = if h == 0 { 1.0 } else { 2.0 } / n as f64;
-            let sum: Complex64 = samples
-                .iter()
-                .enumerate()
-                .map(|(i, &x)| {
-                    let th = 2.0 * std::f64::consts::PI * (h * i) as f64 / n as f64;
-                    x * Complex64::from_polar(1.0, -th)
-                })
-                .sum();
+            let hk = h % n;
+            let (mut k, mut sum) = (0, Complex64::new(0.0, 0.0));
+            for &x in samples {
+                sum += x * phasors[k];
+                k += hk;
+                if k >= n {
+                    k -= n;
+                }
+            }
             sum * scale
         })
         .collect()

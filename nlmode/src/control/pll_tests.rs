@@ -185,3 +185,54 @@ fn pll_on_a_jenkins_element_measures_the_friction_loop_power() {
     let e = super::ReferencePlant::new(&model, &[att], &dp).unwrap_err();
     assert!(matches!(e, super::ControlError::Hysteretic { .. }), "{e}");
 }
+
+/// The 20-level phase-resonance test of the `pll` bench (paper beam, exciter
+/// at 2l/3, 0.5-40 V geometric) on the reference and on the nlmode plant,
+/// per level: periods, settled frequency, `|q_tip,1|`, damping; and the wall
+/// time. A measurement, not a check (`cargo test -p nlmode --lib
+/// pll_20_levels -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn pll_20_levels_measurement() {
+    use crate::attachment::LinearAttachment;
+    use crate::control::{ReducedPlant, ReferencePlant};
+    use crate::reduced::problems::{benchmark_duffing_table, benchmark_points, BENCHMARK_OMEGA0};
+    use crate::reduced::ReducedModel;
+    use crate::structure::{paper_structure, PaperStructureOptions};
+    let levels: Vec<f64> = (0..20).map(|i| 0.5 * 80f64.powf(i as f64 / 19.0)).collect();
+    let pll = PllOptions::default();
+    let report = |name: &str, r: &super::PllResult, w0: f64, t: std::time::Duration| {
+        let periods: usize = r.levels.iter().map(|l| l.periods).sum();
+        eprintln!("{name}: {t:?}, {periods} periods");
+        for l in &r.levels {
+            eprintln!(
+                "  U = {:.4} V: periods {:4}, omega/omega0 = {:.9}, tip = {:.9e} m, D = {:.9}, F1 = {:.9e} N, settled {}",
+                l.voltage_v,
+                l.periods,
+                l.omega_rad_s / w0,
+                l.tip_amplitude_m(),
+                l.damping_ratio,
+                l.force_amplitude_n(),
+                l.settled
+            );
+        }
+    };
+    let table = benchmark_duffing_table(6e9);
+    let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
+    let m_d = 1.0 / benchmark_points()[1].1.norm_sqr();
+    let t0 = std::time::Instant::now();
+    let model = ReducedModel::new(&table, "tip", "2l3")
+        .unwrap()
+        .with_linear_attachment(&shaker, &[1.0.into()])
+        .unwrap();
+    let mut plant = ReducedPlant::new(model, 40).unwrap();
+    let r = phase_resonance(&mut plant, BENCHMARK_OMEGA0, &levels, m_d, &pll).unwrap();
+    report("nlmode", &r, BENCHMARK_OMEGA0, t0.elapsed());
+    let ps = paper_structure(&PaperStructureOptions::default()).unwrap();
+    let atts = [LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap()];
+    let t0 = std::time::Instant::now();
+    let mut plant = ReferencePlant::new(&ps.model, &atts, &ReferenceOptions::default()).unwrap();
+    let r = phase_resonance(&mut plant, ps.omega0_rad_s, &levels, 0.919, &pll).unwrap();
+    report("reference", &r, ps.omega0_rad_s, t0.elapsed());
+    eprintln!("{:?}", plant.stats());
+}

@@ -36,20 +36,29 @@
 //! - The coil current is not a state of the reduced model: it is not sampled
 //!   (reported as 0).
 use super::{ControlError, PeriodSamples, Plant};
-use crate::reduced::{ReducedError, ReducedModel};
+use crate::reduced::{ReducedError, ReducedModel, MAX_PHI};
 use num_complex::Complex64;
 
 /// The single-nonlinear-mode model as a [`Plant`], from rest (`A = 0`).
+///
+/// The attachments' channels of `eq:fc1` (`Z_G(Omega)`, `T_G(Omega) u_hat`)
+/// are evaluated once per period (both slow-flow passes and the measured
+/// force take them at the period's `Omega`), the sampling phasors
+/// `e^{i theta_i}` once per plant: a period costs three table look-ups and
+/// one condensation of each attachment, in buffers kept across periods.
 #[derive(Debug, Clone)]
 pub struct ReducedPlant {
     model: ReducedModel,
-    samples_per_period: usize,
     amp: Complex64,
     time_s: f64,
     voltage_v: f64,
     omega_rad_s: f64,
     periods: usize,
     samples: PeriodSamples,
+    /// `e^{i 2 pi i / N}`, `i = 0..N-1`.
+    phasors: Vec<Complex64>,
+    /// Channels at `(Omega, U)` of the key (`f64` bits), and the imposed force there.
+    channels: Option<((u64, u64), Vec<Complex64>, Complex64)>,
 }
 
 /// Errors of the reduced model inside the controlled tests.
@@ -68,15 +77,25 @@ impl ReducedPlant {
                 expected: "an integer >= 4",
             });
         }
+        let n = samples_per_period;
+        let phasors = (0..n)
+            .map(|i| Complex64::from_polar(1.0, 2.0 * std::f64::consts::PI * i as f64 / n as f64))
+            .collect();
         Ok(Self {
             model,
-            samples_per_period,
             amp: Complex64::new(0.0, 0.0),
             time_s: 0.0,
             voltage_v: 0.0,
             omega_rad_s: 0.0,
             periods: 0,
-            samples: PeriodSamples::default(),
+            samples: PeriodSamples {
+                force_n: Vec::with_capacity(n),
+                drive_m: Vec::with_capacity(n),
+                tip_m: Vec::with_capacity(n),
+                ..Default::default()
+            },
+            phasors,
+            channels: None,
         })
     }
 
@@ -95,30 +114,85 @@ impl ReducedPlant {
         &self.model
     }
 
-    /// `A` after one period from `a0` with `K` and the modal force frozen at
-    /// the amplitude `a`.
+    /// The channels and the imposed force at `(omega, u)`, evaluated when the
+    /// key changes.
+    fn channels_at(&mut self, omega: f64, u: f64) -> Result<(), ControlError> {
+        let key = (omega.to_bits(), u.to_bits());
+        if self.channels.as_ref().is_some_and(|(k, _, _)| *k == key) {
+            return Ok(());
+        }
+        let m = &self.model;
+        let mut ch = match self.channels.take() {
+            Some((_, ch, _)) => ch,
+            None => vec![Complex64::new(0.0, 0.0); m.nch],
+        };
+        m.fill_channels(omega, u, &mut ch).map_err(reduced)?;
+        let fi = m.imposed_at(omega).map_err(reduced)?;
+        self.channels = Some((key, ch, fi));
+        Ok(())
+    }
+
+    /// `A` after one period from `a0` with `K` and the modal force of
+    /// `eq:NM` frozen at the amplitude `a` (channels `ch`, imposed force `fi`
+    /// at `omega`).
     fn frozen_step(
-        &self,
+        model: &ReducedModel,
+        (ch, fi): (&[Complex64], Complex64),
         a0: Complex64,
         a: f64,
         omega: f64,
-        u: f64,
     ) -> Result<Complex64, ControlError> {
-        let (za, fm) = self
-            .model
-            .modal_impedance_and_force(a, omega, u)
-            .map_err(reduced)?;
-        let p = self.model.modal_properties(a).map_err(reduced)?;
-        let w = p.omega_rad_s;
-        let k = Complex64::new(w * w - omega * omega, 2.0 * p.damping_ratio * w * omega) + za;
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        let p = model.gather(a, &mut phi).map_err(reduced)?;
+        let (k, fm, _) = model.terms_with(&p, &phi, omega, ch, fi);
         let t = 2.0 * std::f64::consts::PI / omega;
-        let decay = (Complex64::new(0.0, 1.0) * k * (t / (2.0 * omega))).exp();
         if k.norm() == 0.0 {
             // undamped and tuned: A grows linearly, A' = -i fm / (2 Omega)
             return Ok(a0 + Complex64::new(0.0, -t / (2.0 * omega)) * fm);
         }
+        let decay = (Complex64::new(0.0, 1.0) * k * (t / (2.0 * omega))).exp();
         let a_s = fm / k;
         Ok(a_s + (a0 - a_s) * decay)
+    }
+
+    /// Fundamentals `(drive, tip, force at the drive point)` for the modal
+    /// amplitude `amp`: `phi_1(a) A` at the points (`eq:ansatz`) and the
+    /// interface forces `F_G = -Z_G u_G + T_G u_hat` of `eq:fc1` acting at
+    /// the drive point plus the imposed force there (the fundamental of
+    /// [`ReducedModel::force_harmonics`], from the channels of the period).
+    fn fundamentals(
+        model: &ReducedModel,
+        (ch, fi): (&[Complex64], Complex64),
+        amp: Complex64,
+    ) -> Result<(Complex64, Complex64, Complex64), ControlError> {
+        let loc = model
+            .fast
+            .locate(amp.norm())
+            .map_err(|e| reduced(e.into()))?;
+        let drive = model.phi1(loc, model.drive) * amp;
+        let tip = model.phi1(loc, model.tip) * amp;
+        let mut force = Complex64::new(0.0, 0.0);
+        for port in &model.ports {
+            let nc = port.points.len();
+            let o = port.offset;
+            for (r, &pr) in port.points.iter().enumerate() {
+                if pr != model.drive {
+                    continue;
+                }
+                force += ch[o + nc * nc + r];
+                for (c, &pc) in port.points.iter().enumerate() {
+                    force -= ch[o + r * nc + c] * model.phi1(loc, pc) * amp;
+                }
+            }
+        }
+        if model
+            .imposed
+            .as_ref()
+            .is_some_and(|imp| imp.point == model.drive)
+        {
+            force += fi;
+        }
+        Ok((drive, tip, force))
     }
 }
 
@@ -137,25 +211,23 @@ impl Plant for ReducedPlant {
                 expected: "a positive excitation frequency",
             });
         }
+        self.channels_at(omega, u)?;
+        let Some((_, ch, fi)) = &self.channels else {
+            unreachable!("channels_at fills the cache")
+        };
+        let c = (ch.as_slice(), *fi);
+        let m = &self.model;
         let a0 = self.amp;
-        let pred = self.frozen_step(a0, a0.norm(), omega, u)?;
-        let next = self.frozen_step(a0, (0.5 * (a0 + pred)).norm(), omega, u)?;
+        let pred = Self::frozen_step(m, c, a0, a0.norm(), omega)?;
+        let next = Self::frozen_step(m, c, a0, (0.5 * (a0 + pred)).norm(), omega)?;
         if !(next.re.is_finite() && next.im.is_finite()) {
             return Err(ControlError::Reduced(format!(
                 "the modal amplitude is not finite after the period at t = {} s",
                 self.time_s
             )));
         }
+        let (drive, tip, force) = Self::fundamentals(m, c, next)?;
         self.amp = next;
-        let m = &self.model;
-        let drive = m
-            .displacement_harmonics(m.drive_name(), next)
-            .map_err(reduced)?[1];
-        let tip = m
-            .displacement_harmonics(m.tip_name(), next)
-            .map_err(reduced)?[1];
-        let force = m.force_harmonics(omega, u, next).map_err(reduced)?[1];
-        let n = self.samples_per_period;
         let s = &mut self.samples;
         s.omega_rad_s = omega;
         s.voltage_v = u;
@@ -166,10 +238,7 @@ impl Plant for ReducedPlant {
             (&mut s.tip_m, tip),
         ] {
             v.clear();
-            v.extend((0..n).map(|i| {
-                let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
-                (x * Complex64::from_polar(1.0, th)).re
-            }));
+            v.extend(self.phasors.iter().map(|w| (x * w).re));
         }
         self.time_s += 2.0 * std::f64::consts::PI / omega;
         self.periods += 1;

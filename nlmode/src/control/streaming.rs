@@ -38,7 +38,10 @@
 //! when settled or after `max_periods_per_level` periods. The loop keeps
 //! tracking after that; [`StreamingPll::last_period`] is the record of the
 //! last completed period (a [`PllLevel`] with the power-balance damping of
-//! [`super::pll`]).
+//! [`super::pll`]). A new level starts at the frequency the settled levels
+//! before it predict, as in [`super::phase_resonance`] (module docs of
+//! [`super::pll`], "Level start").
+use super::pll::{predicted_level_start_rad_s, LEVEL_START_FIT, LEVEL_START_JUMP_PERIODS};
 use super::{
     mean_power_w, ControlError, PeriodHarmonics, PeriodSamples, PhaseLockedLoop, PhaseMeasurement,
     Plant, PllLevel, PllOptions,
@@ -121,6 +124,15 @@ pub struct StreamingPll {
     last_amplitude_m: Option<f64>,
     level_done: bool,
     completed: Option<Completed>,
+    /// The loop's start frequency \[rad/s\] (0 in a state saved before the
+    /// level-start prediction: no prediction).
+    #[serde(default)]
+    omega_start_rad_s: f64,
+    /// `(voltage, frequency)` of the last settled levels (at most
+    /// [`LEVEL_START_FIT`]), for the next level's start
+    /// ([`predicted_level_start_rad_s`]).
+    #[serde(default)]
+    settled_levels: Vec<(f64, f64)>,
     /// [`Self::last_period`], rebuilt from `completed` (not serialized).
     #[serde(skip)]
     record: Option<PllLevel>,
@@ -198,6 +210,8 @@ impl StreamingPll {
             last_amplitude_m: None,
             level_done: false,
             completed: None,
+            omega_start_rad_s,
+            settled_levels: Vec::with_capacity(LEVEL_START_FIT),
             record: None,
         })
     }
@@ -355,9 +369,23 @@ impl StreamingPll {
             && !self.level_done
             && (c.settled || self.periods >= o.max_periods_per_level);
         self.level_done |= finished;
+        if finished && c.settled {
+            if self.settled_levels.len() >= LEVEL_START_FIT {
+                self.settled_levels.remove(0);
+            }
+            self.settled_levels.push((c.voltage_v, c.omega_rad_s));
+        }
         self.record = Some(self.level_record(&c, m));
         self.completed = Some(c);
         if let Some(v) = self.pending_voltage_v.take() {
+            if let Some(w) = predicted_level_start_rad_s(
+                self.omega_start_rad_s,
+                &self.settled_levels,
+                v,
+                LEVEL_START_JUMP_PERIODS * self.options.max_step_ratio,
+            ) {
+                self.omega_rad_s = w;
+            }
             self.voltage_v = v;
             self.periods = 0;
             self.inside = 0;
@@ -468,6 +496,13 @@ impl StreamingPll {
             && self.prev.map_or(true, |(t, s)| {
                 t.is_finite() && s.values().iter().all(|x| x.is_finite())
             })
+            && self.omega_start_rad_s.is_finite()
+            && self.omega_start_rad_s >= 0.0
+            && self.settled_levels.len() <= LEVEL_START_FIT
+            && self
+                .settled_levels
+                .iter()
+                .all(|&(u, w)| u.is_finite() && w.is_finite())
             && self.completed.as_ref().map_or(true, |c| {
                 c.grid
                     .iter()
@@ -620,13 +655,15 @@ mod tests {
     /// `|F_1|`.
     #[test]
     fn streaming_loop_settles_where_the_period_based_loop_does() {
-        let volts = [2.0, 6.0];
+        // the third level starts at the frequency the first two predict
+        let volts = [2.0, 4.0, 6.0];
         let opts = PllOptions::default();
         let mut plant = Duffing::new();
         let reference = phase_resonance(&mut plant, W0, &volts, M, &opts).unwrap();
         assert!(reference.failure.is_none());
         // 1e-5 s, incommensurate with the period (about 1765 steps)
         let streamed = streamed(&volts, 1e-5, &opts);
+        assert_eq!(streamed.len(), 3);
         for (r, s) in reference.levels.iter().zip(&streamed) {
             assert!(r.settled && s.settled, "{r:?} {s:?}");
             let dw = s.omega_rad_s / r.omega_rad_s - 1.0;

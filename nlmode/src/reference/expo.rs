@@ -606,13 +606,14 @@ impl Level {
 /// `phi_{k-1} = x phi_k + 1/(k-1)!`; otherwise the upward recurrence
 /// `phi_k = (phi_{k-1} - 1/(k-1)!)/x` (each stable in its range).
 fn phi_functions(x: Complex64, kmax: usize, out: &mut [Complex64]) {
-    if x.norm() < 2.0 {
+    // squared moduli: the same tests without a `hypot` per series term
+    if x.norm_sqr() < 4.0 {
         let mut term = Complex64::new(1.0 / factorial(kmax), 0.0);
         let mut sum = term;
         for j in 1..60 {
             term *= x / (j + kmax) as f64;
             sum += term;
-            if term.norm() <= 1e-17 * sum.norm() {
+            if term.norm_sqr() <= 1e-34 * sum.norm_sqr() {
                 break;
             }
         }
