@@ -631,8 +631,8 @@ fn run_sample_with(
             _ => {
                 let plan = cache.plan(group, sc, method)?;
                 // the sample's own sweep (the rest of its setup is the group's)
-                let sweep = crate::model::sweep_of(sc, plan.omega0_rad_s)
-                    .map_err(|e| format!("{e:#}"))?;
+                let sweep =
+                    crate::model::sweep_of(sc, plan.omega0_rad_s).map_err(|e| format!("{e:#}"))?;
                 let model = &plan.model;
                 let opts = sc.slowflow.options(method);
                 let stored = || {
