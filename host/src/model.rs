@@ -654,15 +654,7 @@ impl Setup {
             inputs.push(vec![Complex64::new(1.0, 0.0); att.ninput()]);
             attachments.push(att);
         }
-        let e = &sc.excitation;
-        let sweep = LinearSweep::per_pseudo_period(
-            omega0,
-            e.eta_start,
-            e.eta_end,
-            e.rate_per_pseudo_period,
-            e.voltage_v,
-        )
-        .context("excitation")?;
+        let sweep = sweep_of(sc, omega0)?;
         let modes = modal_analysis(&model, mode_index + 1).context("structure: modal analysis")?;
         let modal_masses = exciter_points
             .iter()
@@ -689,6 +681,20 @@ impl Setup {
             modal_masses,
         })
     }
+}
+
+/// The sweep of `sc`'s `[excitation]` on a structure of first natural
+/// frequency `omega0` \[rad/s\] (the `sweep` of [`Setup::with_scenario`]).
+pub fn sweep_of(sc: &Scenario, omega0: f64) -> Result<LinearSweep> {
+    let e = &sc.excitation;
+    LinearSweep::per_pseudo_period(
+        omega0,
+        e.eta_start,
+        e.eta_end,
+        e.rate_per_pseudo_period,
+        e.voltage_v,
+    )
+    .context("excitation")
 }
 
 /// Separation factor of the quasi-steady check: every fixed-interface pole of

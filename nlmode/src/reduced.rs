@@ -98,6 +98,7 @@ mod sweep;
 
 pub use crate::dopri::IntegratorStats;
 pub use imposed::ForceEnvelope;
+pub use output::SampleFields;
 pub use post::TimeSignals;
 pub use steady::{LinearSteady, SteadyFrequency, SteadyPoint};
 pub use sweep::{

@@ -193,6 +193,11 @@ impl nlmode::reduced::SweepSink for Fold {
         }
         Ok(())
     }
+
+    /// The figures read the frequency, tip and force amplitudes only.
+    fn fields(&self) -> nlmode::reduced::SampleFields {
+        nlmode::reduced::SampleFields::Envelope
+    }
 }
 
 #[cfg(test)]

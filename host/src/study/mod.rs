@@ -15,8 +15,12 @@
 //! `[[nonlinearity]]` and `[nma]` sections, the exciters' and attachments'
 //! points and the response point, which is everything they depend on
 //! ([`structure_key`]); so is the
-//! table's interpolant (the reduced model without attachments), cloned per
-//! sample. The figures of merit are folded as the sweep integrates: the
+//! table's interpolant (the reduced model without attachments). Samples
+//! that differ only in the sweep's voltage and rate ([`SWEEP_KEYS`]) form a
+//! group ([`Study::groups`]) sharing one setup and one slow-flow model with
+//! its attachments, whose condensation `Z_G`, `T_G` is remembered by
+//! frequency ([`memo::Memo`]): per sample only the sweep is built,
+//! integrated and folded. The figures of merit are folded as the sweep integrates: the
 //! slow flow hands its output samples to a [`fom::Fold`] in batches of
 //! [`nlmode::reduced::SWEEP_BATCH`]
 //! ([`nlmode::reduced::ReducedModel::simulate_sweep_into`], the one sweep
@@ -36,6 +40,7 @@
 pub mod bench;
 pub mod design;
 pub mod fom;
+pub mod memo;
 pub mod output;
 
 use crate::methods;
@@ -45,7 +50,7 @@ use anyhow::{Context, Result};
 use design::{DesignKind, ParameterSpec};
 use fom::Figures;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -111,6 +116,33 @@ pub struct Study {
     pub reference_samples: Vec<usize>,
     /// The text identifying this study (`study_fingerprint.json`).
     pub fingerprint: String,
+    /// `groups[sample]`: samples of one group differ only in the sweep's
+    /// voltage and rate ([`SWEEP_KEYS`]), so they share the structure's
+    /// setup and the slow-flow model with its attachments ([`group_key`]).
+    pub groups: Vec<usize>,
+}
+
+/// Parameters that change only the sweep (`LinearSweep`) of a sample: its
+/// setup and its model with attachments are those of any other sample with
+/// the same other values ([`Study::groups`]), as long as no exciter has its
+/// own `voltage_v` (its input is then the ratio to `excitation.voltage_v`).
+pub const SWEEP_KEYS: [&str; 2] = ["excitation.voltage_v", "excitation.rate_per_pseudo_period"];
+
+/// The values of a sample that its setup and slow-flow model depend on:
+/// every parameter except [`SWEEP_KEYS`] (the voltage too when an exciter
+/// has its own), as text.
+fn group_key(keys: &[String], values: &[toml::Value], sc: &Scenario) -> String {
+    let exciter_voltage = sc.exciter.iter().any(|e| e.voltage_v.is_some());
+    let mut k = String::new();
+    for (key, v) in keys.iter().zip(values) {
+        let free = SWEEP_KEYS.contains(&key.as_str())
+            && !(exciter_voltage && key == "excitation.voltage_v");
+        if !free {
+            k.push_str(&v.to_string());
+        }
+        k.push('\u{1f}');
+    }
+    k
 }
 
 impl Study {
@@ -211,6 +243,17 @@ impl Study {
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };
+        let groups = {
+            let mut index: HashMap<String, usize> = HashMap::new();
+            values
+                .iter()
+                .zip(&scenarios)
+                .map(|(v, sc)| {
+                    let next = index.len();
+                    *index.entry(group_key(&keys, v, sc)).or_insert(next)
+                })
+                .collect()
+        };
         let fingerprint = serde_json::to_string_pretty(&serde_json::json!({
             "format": "nlmode-study",
             "version": 1,
@@ -225,6 +268,7 @@ impl Study {
             scenarios,
             reference_samples,
             fingerprint,
+            groups,
         })
     }
 
@@ -305,7 +349,8 @@ pub fn set_path(root: &mut toml::Value, key: &str, value: toml::Value) -> Result
     unreachable!("the loop returns at the last part")
 }
 
-/// The scenario of one sample: parameters set in the base tree, read by [`Scenario::parse`].
+/// The scenario of one sample: parameters set in the base tree, read and
+/// checked as [`Scenario::parse`] reads a file.
 fn sample_scenario(
     base: &toml::Value,
     keys: &[String],
@@ -316,11 +361,19 @@ fn sample_scenario(
     for (k, v) in keys.iter().zip(values) {
         set_path(&mut tree, k, v.clone())?;
     }
-    let text = toml::to_string(&tree).map_err(|e| e.to_string())?;
-    let mut sc = Scenario::parse(&text).map_err(|e| {
-        // the parser's line refers to the generated text, not a file: drop it
-        crate::scenario::ScenarioError { line: None, ..e }.to_string()
+    // Deserialized from the tree itself, then checked as [`Scenario::parse`]
+    // does: writing the tree out as TOML text and parsing that again cost
+    // ~550 k instructions per sample, most of loading a large study.
+    let mut sc: Scenario = serde_path_to_error::deserialize(tree).map_err(|e| {
+        let path = e.path().to_string();
+        crate::scenario::ScenarioError {
+            key: if path == "." { "scenario".into() } else { path },
+            message: e.into_inner().message().trim().to_string(),
+            line: None,
+        }
+        .to_string()
     })?;
+    sc.validate().map_err(|e| e.to_string())?;
     if let Some(d) = scenario_dir {
         sc.resolve_paths(d);
     }
@@ -396,9 +449,101 @@ impl Prepared {
 #[derive(Default)]
 struct Cache {
     map: Mutex<HashMap<String, Arc<Mutex<Option<Arc<Prepared>>>>>>,
+    /// The slow-flow plans by ([`Study::groups`] index, method).
+    plans: Mutex<HashMap<(usize, Method), Arc<Mutex<Option<Arc<Plan>>>>>>,
+}
+
+/// What the samples of one group ([`Study::groups`]) share for a slow-flow
+/// method: from the setup of the first of them (the others differ only in
+/// the sweep, [`crate::model::sweep_of`]) the single-mode model with its
+/// attachments (their condensation remembered, [`memo::Memo`]), the
+/// frequency error and, for `linear-slowflow`, linearized: per sample only
+/// the sweep is built and integrated. Every number is the one the sample
+/// would get from its own setup and model.
+struct Plan {
+    /// `omega0` of the structure \[rad/s\] (the sweep's reference).
+    omega0_rad_s: f64,
+    model: nlmode::reduced::ReducedModel,
+}
+
+/// Plans a [`Cache`] keeps (a study of more groups builds the others per
+/// sample): each holds a model with its table interpolant (~100 kB).
+const MAX_PLANS: usize = 256;
+
+impl Plan {
+    fn new(prepared: &Prepared, sc: &Scenario, method: Method) -> Result<Self, String> {
+        let setup = prepared
+            .setup
+            .with_scenario(sc)
+            .map_err(|e| format!("{e:#}"))?;
+        let base = prepared.base_model(sc)?.clone();
+        let f = &sc.imposed_force;
+        let error = nlmode::reduced::FrequencyError {
+            eps: f.frequency_error,
+            offset_rad_s: f.frequency_offset_rad_s + f.frequency_offset_omega0 * setup.omega0_rad_s,
+        };
+        // as `host run`: `nlmode-freq-error` when the scenario detunes nlmode
+        let detuned = method == Method::Nlmode
+            && f.apply_to_nlmode
+            && (error.eps != 0.0 || error.offset_rad_s != 0.0);
+        // methods::with_attachments, the attachments' condensation remembered
+        let model = (|| -> Result<nlmode::reduced::ReducedModel> {
+            let mut m = base;
+            for (att, u) in setup.attachments.iter().zip(&setup.inputs) {
+                let prepared =
+                    nlmode::reduced::PreparedAttachment::new(att.clone()).map_err(|e| {
+                        nlmode::reduced::ReducedError::Attachment {
+                            attachment: att.name.clone(),
+                            omega_rad_s: f64::NAN,
+                            source: Box::new(e),
+                        }
+                    })?;
+                m = m.with_attachment(Arc::new(memo::Memo::new(prepared)), u)?;
+            }
+            if detuned {
+                m = m.with_frequency_error(error)?;
+            }
+            Ok(m)
+        })()
+        .map_err(|e| format!("{e:#}"))?;
+        let model = if method == Method::LinearSlowflow {
+            model.linear().map_err(|e| format!("{e}"))?
+        } else {
+            model
+        };
+        Ok(Self {
+            omega0_rad_s: setup.omega0_rad_s,
+            model,
+        })
+    }
 }
 
 impl Cache {
+    /// The plan of `group` for `method` (`sc`: a sample of the group), built
+    /// once; a failed build is not kept (as [`Cache::get`]).
+    fn plan(&self, group: usize, sc: &Scenario, method: Method) -> Result<Arc<Plan>, String> {
+        let cell = {
+            let mut m = self.plans.lock().unwrap_or_else(|e| e.into_inner());
+            if m.len() >= MAX_PLANS && !m.contains_key(&(group, method)) {
+                None
+            } else {
+                Some(m.entry((group, method)).or_default().clone())
+            }
+        };
+        let Some(cell) = cell else {
+            // not kept (bounded memory)
+            return Ok(Arc::new(Plan::new(&*self.get(sc)?, sc, method)?));
+        };
+        let mut slot = cell.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = slot.as_ref() {
+            return Ok(p.clone());
+        }
+        let prepared = self.get(sc)?;
+        let p = Arc::new(Plan::new(&prepared, sc, method)?);
+        *slot = Some(p.clone());
+        Ok(p)
+    }
+
     fn get(&self, sc: &Scenario) -> Result<Arc<Prepared>, String> {
         let cell = {
             let mut m = self.map.lock().unwrap_or_else(|e| e.into_inner());
@@ -446,9 +591,9 @@ pub(crate) enum SweepPath {
     Stored,
 }
 
-/// Run `method` on one sample's scenario.
-fn run_sample(cache: &Cache, sample: usize, sc: &Scenario, method: Method) -> Row {
-    run_sample_with(cache, sample, sc, method, SweepPath::Fold)
+/// Run `method` on one sample's scenario (`group`: its [`Study::groups`] entry).
+fn run_sample(cache: &Cache, sample: usize, group: usize, sc: &Scenario, method: Method) -> Row {
+    run_sample_with(cache, sample, group, sc, method, SweepPath::Fold)
 }
 
 /// [`run_sample`] by either [`SweepPath`]: the rows are identical, bit for
@@ -456,6 +601,7 @@ fn run_sample(cache: &Cache, sample: usize, sc: &Scenario, method: Method) -> Ro
 fn run_sample_with(
     cache: &Cache,
     sample: usize,
+    group: usize,
     sc: &Scenario,
     method: Method,
     path: SweepPath,
@@ -467,13 +613,13 @@ fn run_sample_with(
         status,
     };
     let result = (|| -> Result<Row, String> {
-        let prepared = cache.get(sc)?;
-        let setup = prepared
-            .setup
-            .with_scenario(sc)
-            .map_err(|e| format!("{e:#}"))?;
         match method {
             Method::Reference => {
+                let prepared = cache.get(sc)?;
+                let setup = prepared
+                    .setup
+                    .with_scenario(sc)
+                    .map_err(|e| format!("{e:#}"))?;
                 let r =
                     methods::reference(&setup, sc, &mut |_| {}).map_err(|e| format!("{e:#}"))?;
                 Ok(row(
@@ -483,26 +629,15 @@ fn run_sample_with(
                 ))
             }
             _ => {
-                let base = prepared.base_model(sc)?.clone();
-                let f = &sc.imposed_force;
-                let error = nlmode::reduced::FrequencyError {
-                    eps: f.frequency_error,
-                    offset_rad_s: f.frequency_offset_rad_s
-                        + f.frequency_offset_omega0 * setup.omega0_rad_s,
-                };
-                // as `host run`: `nlmode-freq-error` when the scenario detunes nlmode
-                let detuned = method == Method::Nlmode
-                    && f.apply_to_nlmode
-                    && (error.eps != 0.0 || error.offset_rad_s != 0.0);
-                let mut model = methods::with_attachments(base, &setup, detuned.then_some(error))
-                    .map_err(|e| format!("{e:#}"))?;
-                if method == Method::LinearSlowflow {
-                    model = model.linear().map_err(|e| format!("{e}"))?;
-                }
+                let plan = cache.plan(group, sc, method)?;
+                // the sample's own sweep (the rest of its setup is the group's)
+                let sweep =
+                    crate::model::sweep_of(sc, plan.omega0_rad_s).map_err(|e| format!("{e:#}"))?;
+                let model = &plan.model;
                 let opts = sc.slowflow.options(method);
                 let stored = || {
                     model
-                        .simulate_sweep(&setup.sweep, &opts)
+                        .simulate_sweep(&sweep, &opts)
                         .map(|res| (Figures::of_slow_flow(&res), res.status))
                 };
                 let (figures, status) = match path {
@@ -511,7 +646,7 @@ fn run_sample_with(
                         let mut fold = fom::Fold::new(opts.output_samples);
                         let zero = num_complex::Complex64::new(0.0, 0.0);
                         model
-                            .simulate_sweep_into(&setup.sweep, &opts, zero, &mut fold)
+                            .simulate_sweep_into(&sweep, &opts, zero, &mut fold)
                             .and_then(|run| {
                                 if fold.is_exact() {
                                     Ok((fold.finish(true), run.status))
@@ -618,10 +753,11 @@ pub(crate) fn run_study_with(
         // the distinct structures (and modal tables) first, in parallel; a
         // failure is left to the samples to record
         let t1 = std::time::Instant::now();
+        // (a group has one structure: the first sample of each group is enough)
         let mut firsts: Vec<usize> = Vec::new();
-        let mut seen = std::collections::HashSet::new();
+        let (mut groups, mut structures) = (HashSet::new(), HashSet::new());
         for &i in &todo {
-            if seen.insert(structure_key(&st.scenarios[i])) {
+            if groups.insert(st.groups[i]) && structures.insert(structure_key(&st.scenarios[i])) {
                 firsts.push(i);
             }
         }
@@ -642,8 +778,12 @@ pub(crate) fn run_study_with(
         let failed: Result<()> = pool.install(|| {
             todo.par_iter().try_for_each(|&i| {
                 let r = match path {
-                    SweepPath::Fold => run_sample(&cache, i, &st.scenarios[i], method),
-                    other => run_sample_with(&cache, i, &st.scenarios[i], method, other),
+                    SweepPath::Fold => {
+                        run_sample(&cache, i, st.groups[i], &st.scenarios[i], method)
+                    }
+                    other => {
+                        run_sample_with(&cache, i, st.groups[i], &st.scenarios[i], method, other)
+                    }
                 };
                 writer.append(st, &r)?;
                 bar.inc(1);
@@ -720,7 +860,25 @@ pub fn evaluate_samples(
     cache: &StructureCache,
     samples: &[usize],
 ) -> Result<Vec<Row>, StudyError> {
+    evaluate_samples_by(st, cache, samples, st.method)
+}
+
+/// [`evaluate_samples`] by `method`: the study's own, or
+/// [`Method::Reference`] for the rows of `results_reference.csv` (the
+/// `reference_subset`, [`Study::reference_samples`]; any sample may be asked).
+pub fn evaluate_samples_by(
+    st: &Study,
+    cache: &StructureCache,
+    samples: &[usize],
+    method: Method,
+) -> Result<Vec<Row>, StudyError> {
     use rayon::prelude::*;
+    if !STUDY_METHODS.contains(&method) {
+        return Err(StudyError::Study {
+            key: "method".into(),
+            message: format!("\"{method}\" is not a study method"),
+        });
+    }
     if let Some(&i) = samples.iter().find(|&&i| i >= st.len()) {
         return Err(StudyError::Study {
             key: "samples".into(),
@@ -729,7 +887,7 @@ pub fn evaluate_samples(
     }
     Ok(samples
         .par_iter()
-        .map(|&i| run_sample(&cache.0, i, &st.scenarios[i], st.method))
+        .map(|&i| run_sample(&cache.0, i, st.groups[i], &st.scenarios[i], method))
         .collect())
 }
 

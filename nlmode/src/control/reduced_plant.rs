@@ -36,7 +36,7 @@
 //! - The coil current is not a state of the reduced model: it is not sampled
 //!   (reported as 0).
 use super::{ControlError, PeriodSamples, Plant};
-use crate::reduced::{ReducedError, ReducedModel, MAX_PHI};
+use crate::reduced::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
 use num_complex::Complex64;
 
 /// The single-nonlinear-mode model as a [`Plant`], from rest (`A = 0`).
@@ -58,7 +58,7 @@ pub struct ReducedPlant {
     /// `e^{i 2 pi i / N}`, `i = 0..N-1`.
     phasors: Vec<Complex64>,
     /// Channels at `(Omega, U)` of the key (`f64` bits), and the imposed force there.
-    channels: Option<((u64, u64), Vec<Complex64>, Complex64)>,
+    channels: Option<((u64, u64), Vec<Complex64>, ImposedForces)>,
 }
 
 /// Errors of the reduced model inside the controlled tests.
@@ -137,7 +137,7 @@ impl ReducedPlant {
     /// at `omega`).
     fn frozen_step(
         model: &ReducedModel,
-        (ch, fi): (&[Complex64], Complex64),
+        (ch, fi): (&[Complex64], ImposedForces),
         a0: Complex64,
         a: f64,
         omega: f64,
@@ -162,7 +162,7 @@ impl ReducedPlant {
     /// [`ReducedModel::force_harmonics`], from the channels of the period).
     fn fundamentals(
         model: &ReducedModel,
-        (ch, fi): (&[Complex64], Complex64),
+        (ch, fi): (&[Complex64], ImposedForces),
         amp: Complex64,
     ) -> Result<(Complex64, Complex64, Complex64), ControlError> {
         let loc = model
@@ -185,13 +185,7 @@ impl ReducedPlant {
                 }
             }
         }
-        if model
-            .imposed
-            .as_ref()
-            .is_some_and(|imp| imp.point == model.drive)
-        {
-            force += fi;
-        }
+        force += model.drive_imposed(&fi);
         Ok((drive, tip, force))
     }
 }

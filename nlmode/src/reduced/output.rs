@@ -35,6 +35,21 @@ impl OutputStates<'_> {
     }
 }
 
+/// Which quantities of a [`SlowFlowSample`] are computed (a sink's
+/// [`super::SweepSink::fields`]): the others are `NaN`. Each computed one is
+/// the same number either way (the same expressions, element-wise).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SampleFields {
+    /// Every quantity.
+    #[default]
+    All,
+    /// The envelope only: `t_s`, `omega_rad_s`, `a`, `amplitude`,
+    /// `tip_amplitude_m`, `force_amplitude_n`, `force_n`; no
+    /// `modal_frequency_rad_s`, no `drive_amplitude_m` (figures of merit of a
+    /// sweep read the tip and force amplitudes only).
+    Envelope,
+}
+
 /// `eq:fc1` at the drive point as flat term lists: `F = sum_t ch[t] - A sum_z
 /// ch[z] phi[p]` over the rows of all attachments acting at the drive point.
 #[derive(Debug)]
@@ -78,11 +93,22 @@ impl ReducedModel {
         }
     }
 
-    /// The output samples at the states of `s`.
+    /// The output samples at the states of `s` (every quantity).
     pub(crate) fn output_samples(
         &self,
         s: &OutputStates,
     ) -> Result<Vec<SlowFlowSample>, ReducedError> {
+        self.output_fields(s, SampleFields::All)
+    }
+
+    /// The output samples at the states of `s`, the quantities of `fields`
+    /// computed (the others `NaN`).
+    pub(crate) fn output_fields(
+        &self,
+        s: &OutputStates,
+        fields: SampleFields,
+    ) -> Result<Vec<SlowFlowSample>, ReducedError> {
+        let all = fields == SampleFields::All;
         let n = s.len();
         let nch = self.nch;
         debug_assert!(
@@ -102,9 +128,13 @@ impl ReducedModel {
         for &a in &a {
             locs.push(self.fast.locate(a)?);
         }
-        let mut omega: Vec<f64> = locs.iter().map(|&l| self.fast.value(l, 0)).collect();
+        let mut omega: Vec<f64> = if all {
+            locs.iter().map(|&l| self.fast.value(l, 0)).collect()
+        } else {
+            vec![f64::NAN; n]
+        };
         let fe = self.frequency_error;
-        if fe.eps != 0.0 || fe.offset_rad_s != 0.0 {
+        if all && (fe.eps != 0.0 || fe.offset_rad_s != 0.0) {
             for (w, &a) in omega.iter_mut().zip(&a) {
                 *w = self.detuned_omega(*w, a)?;
             }
@@ -140,7 +170,12 @@ impl ReducedModel {
         let amplitude_m = |phi: &[Complex64]| -> Vec<f64> {
             phi.iter().zip(&a).map(|(p, a)| a * modulus(p)).collect()
         };
-        let (tip, drive) = (amplitude_m(&phi[0]), amplitude_m(&phi[1]));
+        let tip = amplitude_m(&phi[0]);
+        let drive = if all {
+            amplitude_m(&phi[1])
+        } else {
+            vec![f64::NAN; n]
+        };
         let force: Vec<f64> = f.iter().map(modulus).collect();
         let out = (0..n)
             .map(|i| SlowFlowSample {

@@ -1,7 +1,7 @@
 //! Slow-flow integration of `eq:NM` along a sine sweep (`nlmode`,
 //! `linear-slowflow`, `imposed-force`).
 use super::fast::Breaks;
-use super::output::OutputStates;
+use super::output::{OutputStates, SampleFields};
 use super::{ReducedError, ReducedModel, MAX_PHI};
 use crate::dopri::{integrate, Controller, ErrorScale, IntegratorStats, Stop, Tolerances};
 use crate::excitation::LinearSweep;
@@ -555,6 +555,12 @@ pub const SWEEP_BATCH: usize = 1024;
 pub trait SweepSink {
     /// The next samples of the sweep (at most [`SWEEP_BATCH`], at least one).
     fn samples(&mut self, batch: &[SlowFlowSample]) -> Result<(), ReducedError>;
+
+    /// The quantities this sink reads (the sweep computes only those; the
+    /// others are `NaN`). Default: all.
+    fn fields(&self) -> SampleFields {
+        SampleFields::All
+    }
 }
 
 /// The envelope-storing sink: every sample kept.
@@ -607,13 +613,16 @@ impl OutputBatch {
         let w: Vec<f64> = self.ts.iter().map(|&t| sweep.omega_rad_s(t)).collect();
         let channels = cache.eval_rows(&w);
         let imposed_n = model.drive_imposed_n(&w)?;
-        let samples = model.output_samples(&OutputStates {
-            t_s: &self.ts,
-            omega_rad_s: &w,
-            amplitude: &self.amps,
-            channels: &channels,
-            imposed_n: &imposed_n,
-        })?;
+        let samples = model.output_fields(
+            &OutputStates {
+                t_s: &self.ts,
+                omega_rad_s: &w,
+                amplitude: &self.amps,
+                channels: &channels,
+                imposed_n: &imposed_n,
+            },
+            sink.fields(),
+        )?;
         sink.samples(&samples)?;
         self.emitted += self.ts.len();
         self.ts.clear();
@@ -710,6 +719,32 @@ mod tests {
                 .simulate_sweep_into(&sweep, &opts, zero, &mut sink)
                 .unwrap();
             assert_eq!(sink.0, stored.samples, "{volts} V");
+            // an envelope-only sink: the same envelope, bit for bit
+            struct EnvelopeOnly(Vec<SlowFlowSample>);
+            impl SweepSink for EnvelopeOnly {
+                fn samples(&mut self, b: &[SlowFlowSample]) -> Result<(), ReducedError> {
+                    self.0.extend_from_slice(b);
+                    Ok(())
+                }
+                fn fields(&self) -> SampleFields {
+                    SampleFields::Envelope
+                }
+            }
+            let mut env = EnvelopeOnly(Vec::new());
+            m.simulate_sweep_into(&sweep, &opts, zero, &mut env)
+                .unwrap();
+            assert_eq!(env.0.len(), stored.samples.len());
+            for (e, s) in env.0.iter().zip(&stored.samples) {
+                assert_eq!(
+                    (e.t_s, e.omega_rad_s, e.a, e.amplitude),
+                    (s.t_s, s.omega_rad_s, s.a, s.amplitude)
+                );
+                assert_eq!(
+                    (e.tip_amplitude_m, e.force_amplitude_n, e.force_n),
+                    (s.tip_amplitude_m, s.force_amplitude_n, s.force_n)
+                );
+                assert!(e.modal_frequency_rad_s.is_nan() && e.drive_amplitude_m.is_nan());
+            }
             assert_eq!(run.samples, stored.samples.len());
             assert_eq!(run.status, stored.status);
             assert!(sink.1 >= stored.samples.len().div_ceil(SWEEP_BATCH));
