@@ -36,7 +36,7 @@ esac
 # native module's dependencies compiled too (if they differ, it recompiles
 # the PyO3 crates: slower, same result).
 PY_ABS="$ROOT/.venv/bin/python"
-PYO3_ENVIRONMENT_SIGNATURE="$("$PY_ABS" -c 'import platform, struct, sys; print(f"{platform.python_implementation().lower()}-{sys.version_info[0]}.{sys.version_info[1]}-{struct.calcsize("P") * 8}bit")')" \
+PYO3_ENVIRONMENT_SIGNATURE="$("$PY_ABS" -c 'import platform, struct, sys; v = sys.version_info; print("%s-%d.%d-%dbit" % (platform.python_implementation().lower(), v[0], v[1], struct.calcsize("P") * 8))')" \
 PYO3_BUILD_EXTENSION_MODULE=1 PYO3_PYTHON="$PY_ABS" PYTHON_SYS_EXECUTABLE="$PY_ABS" \
   cargo build --quiet --profile "$NLMODE_CARGO_PROFILE" --workspace
 echo "tests/run.sh: workspace built after ${SECONDS} s"
