@@ -37,6 +37,19 @@ def test_200_samples_on_two_workers_equal_the_local_study_and_host_study(client,
     pd.testing.assert_frame_equal(nlmode.study(STUDY, client=client), local, check_exact=True)
 
 
+def test_reference_subset_rows_on_the_workers_equal_the_local_ones(client):
+    study = {
+        "design": "grid",
+        "reference_subset": 2,
+        "parameter": [{"key": "excitation.voltage_v", "values": [2.0, 5.0, 10.0]}],
+    }
+    local = nlmode.study(study)
+    dask = nlmode.study(study, client=client, batch_size=1)
+    pd.testing.assert_frame_equal(dask, local, check_exact=True)
+    assert len(local.attrs["reference"]) == 2
+    pd.testing.assert_frame_equal(dask.attrs["reference"], local.attrs["reference"], check_exact=True)
+
+
 def test_bad_batch_size_is_refused(client):
     with pytest.raises(nlmode.ScenarioError, match="batch_size"):
         nlmode.study(STUDY, client=client, batch_size=0)

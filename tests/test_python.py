@@ -211,6 +211,26 @@ def test_study_equals_host_study(tmp_path):
         nlmode.study({"design": "grid", "parameter": [{"key": "excitation.voltage_vv", "values": [1.0]}]})
 
 
+def test_study_reference_subset_rows_equal_host_study(tmp_path):
+    import pandas as pd
+
+    st = tmp_path / "study.toml"
+    st.write_text(
+        'design = "grid"\nreference_subset = 2\n'
+        '[[parameter]]\nkey = "excitation.voltage_v"\nvalues = [2.0, 5.0, 10.0]\n'
+    )
+    host("study", st, "-o", tmp_path / "out")
+    df = nlmode.study(st)
+    pd.testing.assert_frame_equal(df, nlmode.read_results(tmp_path / "out" / "results.csv"), check_exact=True)
+    ref = df.attrs["reference"]
+    expected = nlmode.read_results(tmp_path / "out" / "results_reference.csv")
+    assert list(ref.columns) == list(df.columns) and list(ref["sample"]) == [0, 1]
+    pd.testing.assert_frame_equal(ref, expected, check_exact=True)
+    assert ref["status"].eq("ok").all()
+    # no reference subset: no reference rows
+    assert "reference" not in nlmode.study(GRID, threads=1).attrs
+
+
 def test_example_case_a_plot(tmp_path):
     import os
     import sys

@@ -211,11 +211,25 @@ def study(
     thread) and each worker process loads the study and builds each
     structure and modal table once for all its batches. ``None``: the local
     cores (``threads``, default all).
+
+    A study with a ``reference_subset`` also runs those samples by
+    ``reference``: their rows (``host study``'s ``results_reference.csv``, the
+    same columns) are the DataFrame ``df.attrs["reference"]``.
     """
     text, base_dir = _study_source(study)
     st = _native.Study(text, base_dir)
     if client is None:
-        return read_results(st.evaluate(None, threads))
-    from ._dask import evaluate_on_client
+        df = read_results(st.evaluate(None, threads))
+        ref = st.evaluate(None, threads, True, True) if st.reference_samples else None
+    else:
+        from ._dask import evaluate_on_client
 
-    return read_results(evaluate_on_client(client, st, text, base_dir, batch_size))
+        df = read_results(evaluate_on_client(client, st, text, base_dir, batch_size))
+        ref = (
+            evaluate_on_client(client, st, text, base_dir, batch_size, reference=True)
+            if st.reference_samples
+            else None
+        )
+    if ref is not None:
+        df.attrs["reference"] = read_results(ref)
+    return df

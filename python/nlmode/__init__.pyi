@@ -64,4 +64,6 @@ def study(
     threads: Optional[int] = None,
 ) -> Any:
     """A parameter study as a pandas DataFrame with ``results.csv``'s columns;
-    on a ``dask.distributed.Client`` if given."""
+    on a ``dask.distributed.Client`` if given. ``df.attrs["reference"]`` (a study
+    with a ``reference_subset``): those rows by ``reference``
+    (``results_reference.csv``'s columns)."""

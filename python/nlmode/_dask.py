@@ -1,10 +1,12 @@
 """A study on a Dask cluster: ``nlmode.study(..., client=...)``.
 
-The samples are split into batches of indices, one Dask task each
-(``client.map``); a task runs :func:`run_batch` on a worker, which finds the
-study in its process-global registry (keyed by the study fingerprint) or loads
-it once, so the structures and their modal tables are built once per worker
-process and kept for all the batches it runs. Each task returns its rows as
+The samples are split into contiguous batches, one Dask task each
+(``client.map``) carrying only its index range; the study (fingerprint, text,
+base folder) is scattered to every worker once per call. A task runs
+:func:`run_batch` on a worker, which finds the study in its process-global
+registry (keyed by the study fingerprint) or loads it once, so the study is
+parsed and checked, and the structures and their modal tables are built, once
+per worker process and kept for all the batches it runs. Each task returns its rows as
 ``results.csv`` text; they are gathered and sorted by sample. Dask does the
 scheduling, transport and retries: there is nothing else here.
 """
@@ -21,35 +23,56 @@ MAX_BATCH = 100_000
 BATCHES_PER_THREAD = 4
 
 
-def run_batch(samples: List[int], text: str, base_dir: str, fingerprint: str, threads: int = 1) -> str:
-    """The rows of ``samples`` (``results.csv`` text without header), on a worker."""
+def run_batch(
+    start: int,
+    stop: int,
+    study,
+    threads: int = 1,
+    reference: bool = False,
+) -> str:
+    """The rows of the samples ``start..stop`` of the study (``results.csv``
+    text without header), on a worker; ``study``: ``(fingerprint, text,
+    base_dir)``, scattered to the workers once per call; the study is loaded
+    once per worker process (:meth:`_native.Study.cached`). ``reference``:
+    the ``start..stop`` entries of the ``reference_subset`` by ``reference``."""
+    fingerprint, text, base_dir = study
     st = _native.Study.cached(fingerprint, text, base_dir)
-    return st.evaluate(list(samples), threads, False)
+    samples = st.reference_samples[start:stop] if reference else list(range(start, stop))
+    return st.evaluate(samples, threads, False, reference)
 
 
 def default_batch_size(n: int, worker_threads: int) -> int:
     return max(1, min(MAX_BATCH, -(-n // max(1, BATCHES_PER_THREAD * worker_threads))))
 
 
-def evaluate_on_client(client, st, text: str, base_dir: str, batch_size: Optional[int] = None) -> str:
+def evaluate_on_client(
+    client, st, text: str, base_dir: str, batch_size: Optional[int] = None, reference: bool = False
+) -> str:
     """``results.csv`` text (header, rows sorted by sample) of the study ``st``
-    computed by the workers of ``client``."""
-    n = len(st)
+    computed by the workers of ``client`` (``reference``: the rows of
+    ``results_reference.csv``, the ``reference_subset`` by ``reference``).
+
+    The tasks carry sample index ranges only; the study's text goes to each
+    worker once (``client.scatter(..., broadcast=True)``)."""
+    n = len(st.reference_samples) if reference else len(st)
     if batch_size is None:
         threads = sum(client.nthreads().values()) or 1
         batch_size = default_batch_size(n, threads)
     if not isinstance(batch_size, int) or not 1 <= batch_size <= MAX_BATCH:
         raise _native.ScenarioError(f"batch_size: {batch_size!r} is not an integer between 1 and {MAX_BATCH}")
-    batches = [list(range(i, min(n, i + batch_size))) for i in range(0, n, batch_size)]
+    header = st.evaluate([], None, True, reference)
+    if n == 0:
+        return header
+    study = client.scatter((st.fingerprint, text, base_dir), broadcast=True, hash=False)
+    starts = list(range(0, n, batch_size))
     futures = client.map(
         run_batch,
-        batches,
-        text=text,
-        base_dir=base_dir,
-        fingerprint=st.fingerprint,
+        starts,
+        [min(n, i + batch_size) for i in starts],
+        study=study,
+        reference=reference,
         pure=False,
     )
     parts = client.gather(futures)
-    header = st.evaluate([], None, True)
     # batches are contiguous and in order: the rows are sorted by sample
     return header + "".join(parts)

@@ -62,7 +62,13 @@ class Study:
         """Structures built so far in this process."""
     def __len__(self) -> int: ...
     def evaluate(
-        self, samples: Optional[List[int]] = None, threads: Optional[int] = None, header: bool = True
+        self,
+        samples: Optional[List[int]] = None,
+        threads: Optional[int] = None,
+        header: bool = True,
+        reference: bool = False,
     ) -> str:
         """``results.csv`` text of these samples (all if None) in their order,
-        on ``threads`` threads (None: all cores)."""
+        on ``threads`` threads (None: all cores); ``reference``: the rows of
+        ``results_reference.csv`` by ``reference`` instead (None: the
+        ``reference_subset``)."""

@@ -369,16 +369,19 @@ impl Study {
         self.entry.study.len()
     }
 
-    /// `evaluate(samples=None, threads=None, header=True) -> str`: the rows of
-    /// `results.csv` for these samples (all if None), in their order, computed
-    /// on `threads` threads (None: all cores).
-    #[pyo3(signature = (samples=None, threads=None, header=true))]
+    /// `evaluate(samples=None, threads=None, header=True, reference=False) -> str`:
+    /// the rows of `results.csv` for these samples (all if None), in their
+    /// order, computed on `threads` threads (None: all cores); `reference`:
+    /// the rows of `results_reference.csv` instead, by `reference` (samples
+    /// None: the `reference_subset`).
+    #[pyo3(signature = (samples=None, threads=None, header=true, reference=false))]
     fn evaluate(
         &self,
         py: Python<'_>,
         samples: Option<Vec<usize>>,
         threads: Option<usize>,
         header: bool,
+        reference: bool,
     ) -> PyResult<String> {
         if let Some(t) = threads {
             if t == 0 || t > MAX_THREADS {
@@ -393,12 +396,18 @@ impl Study {
             let all: Vec<usize>;
             let samples = match &samples {
                 Some(s) => s.as_slice(),
+                None if reference => st.reference_samples.as_slice(),
                 None => {
                     all = (0..st.len()).collect();
                     &all
                 }
             };
-            let go = || host::study::evaluate_samples(st, &entry.cache, samples);
+            let method = if reference {
+                host::scenario::Method::Reference
+            } else {
+                st.method
+            };
+            let go = || host::study::evaluate_samples_by(st, &entry.cache, samples, method);
             let rows = match threads {
                 None => go()?,
                 Some(t) => rayon::ThreadPoolBuilder::new()
