@@ -883,6 +883,17 @@ pub enum Normalisation {
     HarmonicEnergy,
 }
 
+/// [`EpmcResidual`]'s unknowns, split (see [`EpmcResidual::unknowns`]).
+struct Unknowns<'x> {
+    n: usize,
+    nh: usize,
+    m: usize,
+    omega: f64,
+    d: f64,
+    amp: f64,
+    psi: &'x [f64],
+}
+
 /// The EPMC residual (`eq:EPMC`) in modal Harmonic Balance form; unknowns
 /// `X = [Psi; omega; D; log10 A]` (see module doc and [`Normalisation`]).
 #[derive(Debug, Clone)]
@@ -1081,6 +1092,23 @@ fn observe_harmonics(
 }
 
 impl EpmcResidual {
+    /// The unknowns `x = [psi (n modes x nh coefficients), omega, D, log10 a]`
+    /// split into their parts (`a` = 10^lg), for the residual and its Jacobian.
+    fn unknowns<'x>(&self, x: &'x DVector<f64>) -> Unknowns<'x> {
+        let n = self.basis.n_modes();
+        let nh = self.aft.n_coeffs();
+        let m = n * nh;
+        Unknowns {
+            n,
+            nh,
+            m,
+            omega: x[m],
+            d: x[m + 1],
+            amp: 10f64.powf(x[m + 2]),
+            psi: &x.as_slice()[..m],
+        }
+    }
+
     /// The amplitude and phase rows of [`Normalisation`] into `res[m..m + 2]`
     /// and, if given, their derivatives into `border_rows` (`2 x (m + 3)`).
     fn normalisation_rows(
@@ -1140,12 +1168,15 @@ impl super::continuation::Residual for EpmcResidual {
     /// The residual of [`Self::eval`] without the AFT Jacobians.
     fn residual(&self, x: &DVector<f64>) -> DVector<f64> {
         let basis = &*self.basis;
-        let n = basis.n_modes();
-        let nh = self.aft.n_coeffs();
-        let m = n * nh;
-        let (omega, d, lg) = (x[m], x[m + 1], x[m + 2]);
-        let amp = 10f64.powf(lg);
-        let psi = &x.as_slice()[..m];
+        let Unknowns {
+            n,
+            nh,
+            m,
+            omega,
+            d,
+            amp,
+            psi,
+        } = self.unknowns(x);
         let (mut r, _, _) = linear_rows(basis, self.harmonics(), omega, d, psi);
         let u = basis.element_coeffs(psi, nh, amp);
         for (e, ue) in u.iter().enumerate() {
@@ -1168,12 +1199,15 @@ impl super::continuation::Residual for EpmcResidual {
 
     fn eval(&self, x: &DVector<f64>) -> (DVector<f64>, HbJacobian) {
         let basis = &*self.basis;
-        let n = basis.n_modes();
-        let nh = self.aft.n_coeffs();
-        let m = n * nh;
-        let (omega, d, lg) = (x[m], x[m + 1], x[m + 2]);
-        let amp = 10f64.powf(lg);
-        let psi = &x.as_slice()[..m];
+        let Unknowns {
+            n,
+            nh,
+            m,
+            omega,
+            d,
+            amp,
+            psi,
+        } = self.unknowns(x);
         let (mut r, mut dr_dom, dr_dd) = linear_rows(basis, self.harmonics(), omega, d, psi);
         let mut dr_dlg = DVector::zeros(m);
         let u = basis.element_coeffs(psi, nh, amp);
