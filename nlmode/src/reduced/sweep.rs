@@ -691,21 +691,7 @@ mod tests {
                 Ok(())
             }
         }
-        let table = ModalTable::linear(
-            356.2,
-            0.004,
-            &[
-                ("tip", Complex64::new(1.5, 0.0)),
-                ("2l3", Complex64::new(1.0, 0.0)),
-            ],
-            1e-6,
-            1e-2,
-        );
-        let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
-        let m = ReducedModel::new(&table, "tip", "2l3")
-            .unwrap()
-            .with_linear_attachment(&shaker, &[Complex64::new(1.0, 0.0)])
-            .unwrap();
+        let m = linear_model_with_the_paper_shaker();
         let opts = SlowFlowOptions {
             output_samples: 2501,
             ..Default::default()
@@ -758,10 +744,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn channel_cache_matches_the_attachment_model() {
-        // the paper's shaker at 2l/3 (a linear table: the channels depend on
-        // Omega only); its quantities vary by orders of magnitude over the range
+    /// A linear mode (omega0 = 356.2 rad/s, D = 0.4 %, tip and 2l/3 shapes)
+    /// driven by the paper's shaker at 2l/3 (the channels depend on Omega only).
+    fn linear_model_with_the_paper_shaker() -> ReducedModel {
         let table = ModalTable::linear(
             356.2,
             0.004,
@@ -773,10 +758,17 @@ mod tests {
             1e-2,
         );
         let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
-        let m = ReducedModel::new(&table, "tip", "2l3")
+        ReducedModel::new(&table, "tip", "2l3")
             .unwrap()
             .with_linear_attachment(&shaker, &[Complex64::new(1.0, 0.0)])
-            .unwrap();
+            .unwrap()
+    }
+
+    #[test]
+    fn channel_cache_matches_the_attachment_model() {
+        // the paper's shaker at 2l/3 (a linear table: the channels depend on
+        // Omega only); its quantities vary by orders of magnitude over the range
+        let m = linear_model_with_the_paper_shaker();
         let (lo, hi, u) = (100.0, 900.0, 7.0);
         let tol = 1e-9;
         let cache = OmegaCache::build(&m, lo, hi, u, tol).unwrap();
