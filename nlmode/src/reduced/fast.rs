@@ -27,7 +27,10 @@ pub(crate) struct Breaks {
     /// `1 / (x[k+1] - x[k])`.
     inv_h: Vec<f64>,
     /// Segment of the previous lookup (relaxed atomic: only a hint, any value
-    /// is safe, and the model stays `Sync`).
+    /// is safe, and the model stays `Sync`). Threads sweeping one shared
+    /// model at once overwrite it for each other at every lookup (and move
+    /// its cache line between cores): give each thread its own clone (a clone
+    /// starts with its own hint), as `host study` does.
     hint: AtomicUsize,
 }
 
