@@ -189,17 +189,7 @@ pub(crate) fn stepped_sine(
     options: &ForceControlOptions,
 ) -> Result<ForceControlResult, ControlError> {
     options.validate()?;
-    let positive = |name: &'static str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(ControlError::BadOption {
-                name,
-                value: v.to_string(),
-                expected: "a positive number",
-            })
-        }
-    };
+    let positive = super::positive_option;
     positive(quantity.set_name(), set)?;
     positive("voltage_start_v", voltage_start_v)?;
     for &w in omegas_rad_s {

@@ -109,6 +109,20 @@ pub enum ControlError {
     Attachment(#[from] crate::attachment::AttachmentError),
 }
 
+/// `Ok` for a finite positive `v`, else [`ControlError::BadOption`] naming
+/// the option.
+pub(crate) fn positive_option(name: &'static str, v: f64) -> Result<(), ControlError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ControlError::BadOption {
+            name,
+            value: v.to_string(),
+            expected: "a positive number",
+        })
+    }
+}
+
 /// Samples of one excitation period at the phases `2 pi i / N`, `i = 0..N-1`.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PeriodSamples {

@@ -135,17 +135,7 @@ impl Default for PllOptions {
 impl PllOptions {
     /// Checks every option; the error names the first bad one.
     pub fn validate(&self) -> Result<(), ControlError> {
-        let pos = |name: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(ControlError::BadOption {
-                    name,
-                    value: v.to_string(),
-                    expected: "a positive number",
-                })
-            }
-        };
+        let pos = super::positive_option;
         if !(self.kp.is_finite() && self.kp >= 0.0) {
             return Err(ControlError::BadOption {
                 name: "kp",

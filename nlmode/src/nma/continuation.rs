@@ -211,6 +211,47 @@ pub type NewtonOk<J> = (DVector<f64>, J, usize);
 /// A failed Newton solve: last residual norm, iterations.
 pub type NewtonErr = (f64, usize);
 
+/// The stopping rules both Newton variants ([`newton`] and
+/// [`solve_fixed_parameter_chord`]) apply to the bordered residual
+/// `[R(X); extra]` at each iterate: converged at `opts.tolerance`; failed on a
+/// non-finite norm, at the last iteration, or when the norm grew beyond 1e6
+/// times the first one.
+struct Stopping<'a> {
+    opts: &'a ContinuationOptions,
+    first_norm: Option<f64>,
+}
+
+/// What [`Stopping::check`] found at an iterate.
+enum Verdict {
+    Converged,
+    /// Iterate on; the residual norm.
+    Continue(f64),
+}
+
+impl<'a> Stopping<'a> {
+    fn new(opts: &'a ContinuationOptions) -> Self {
+        Self {
+            opts,
+            first_norm: None,
+        }
+    }
+
+    fn check(&mut self, r: &DVector<f64>, extra: f64, it: usize) -> Result<Verdict, NewtonErr> {
+        let norm = (r.norm_squared() + extra * extra).sqrt();
+        if !norm.is_finite() {
+            return Err((norm, it));
+        }
+        if norm <= self.opts.tolerance {
+            return Ok(Verdict::Converged);
+        }
+        let f0 = *self.first_norm.get_or_insert(norm);
+        if it == self.opts.max_iterations || norm > 1e6 * f0.max(self.opts.tolerance) {
+            return Err((norm, it));
+        }
+        Ok(Verdict::Continue(norm))
+    }
+}
+
 /// Newton iterations on `[R(X); c.X - target] = 0`. Returns the solution, the
 /// Jacobian at it and the iteration count, or the last residual norm.
 fn newton<R: Residual>(
@@ -220,22 +261,15 @@ fn newton<R: Residual>(
     target: f64,
     opts: &ContinuationOptions,
 ) -> Result<NewtonOk<R::Jacobian>, NewtonErr> {
-    let mut first_norm = None;
+    let mut stopping = Stopping::new(opts);
     let mut prev_norm = f64::INFINITY;
     for it in 0..=opts.max_iterations {
         let (r, jac) = res.eval(&x);
         let extra = row.dot(&x) - target;
-        let norm = (r.norm_squared() + extra * extra).sqrt();
-        if !norm.is_finite() {
-            return Err((norm, it));
-        }
-        if norm <= opts.tolerance {
-            return Ok((x, jac, it));
-        }
-        let f0 = *first_norm.get_or_insert(norm);
-        if it == opts.max_iterations || norm > 1e6 * f0.max(opts.tolerance) {
-            return Err((norm, it));
-        }
+        let norm = match stopping.check(&r, extra, it)? {
+            Verdict::Converged => return Ok((x, jac, it)),
+            Verdict::Continue(norm) => norm,
+        };
         // corrector contraction: Newton near a solution contracts (at least)
         // linearly; a residual that shrinks by less than `max_contraction`
         // signals a predictor far from the branch
@@ -301,21 +335,14 @@ pub fn solve_fixed_parameter_chord<R: Residual>(
     let mut jac = Some(jac0);
     let mut factor: Option<<R::Jacobian as BorderedSolve>::Factor> = None;
     let mut factorisations = 0;
-    let mut first_norm = None;
+    let mut stopping = Stopping::new(opts);
     let mut prev_norm = f64::INFINITY;
     for it in 0..=opts.max_iterations {
         let extra = x[n - 1] - lambda;
-        let norm = (r.norm_squared() + extra * extra).sqrt();
-        if !norm.is_finite() {
-            return Err((norm, it));
-        }
-        if norm <= opts.tolerance {
-            return Ok((x, it, factorisations));
-        }
-        let f0 = *first_norm.get_or_insert(norm);
-        if it == opts.max_iterations || norm > 1e6 * f0.max(opts.tolerance) {
-            return Err((norm, it));
-        }
+        let norm = match stopping.check(&r, extra, it)? {
+            Verdict::Converged => return Ok((x, it, factorisations)),
+            Verdict::Continue(norm) => norm,
+        };
         if factor.is_none() || norm > CHORD_CONTRACTION * prev_norm {
             let j = jac.take().unwrap_or_else(|| res.eval(&x).1);
             factor = Some(j.factor_bordered(&row).ok_or((norm, it))?);
