@@ -25,6 +25,16 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 
+/// The module's own allocator. Dask's worker processes start with
+/// `MALLOC_TRIM_THRESHOLD_=65536` (its `distributed.nanny.pre-spawn-environ`):
+/// glibc then hands memory back to the kernel whenever a sweep frees its
+/// output buffers and faults it in again for the next one, which halved the
+/// study's samples/s on a worker (2,600 against 4,400 per thread, measured
+/// with `python/bench/dask_throughput.py`). mimalloc keeps its pages
+/// whatever the environment says.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 create_exception!(
     _native,
     ScenarioError,
