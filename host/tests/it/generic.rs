@@ -30,6 +30,7 @@
 //!   condensed impedance): `linear-steady` and `host frf` (single mode, exact on
 //!   one DOF) to 1e-9, the slow `reference` sweep's largest power within 0.5 %
 //!   of the closed form's (measured +0.15 %: the sweep's quasi-steady error).
+use crate::common::{expect_failure, scenario, tmpdir};
 use host::methods;
 use host::model::Setup;
 use host::scenario::Scenario;
@@ -37,8 +38,6 @@ use nalgebra::DMatrix;
 use nlmode::structure::matrices::write_matrix_market;
 use nlmode::Complex64;
 use std::path::Path;
-mod common;
-use common::{expect_failure, scenario, tmpdir};
 
 fn write(dir: &Path, name: &str, m: &DMatrix<f64>) {
     std::fs::write(dir.join(name), write_matrix_market(m)).unwrap();

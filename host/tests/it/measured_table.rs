@@ -30,19 +30,12 @@
 //! widened by the measured-vs-NMA-table difference (1 %): 4 %; against the
 //! NMA table the modal-mass difference at the peak's amplitude (1.5 %) and
 //! the backbone's appropriation error: peak 1 %, jump-down 0.5 %, RMS 1.5 %.
+use crate::common::tmpdir;
 use host::controlled::{phase_resonance, MEASURED_TABLE_FILE};
 use host::methods;
 use host::model::Setup;
 use host::scenario::{Method, Scenario};
 use nlmode::nma::ModalTable;
-use std::path::PathBuf;
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-ema-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 #[test]
 fn measured_table_predicts_the_uncontrolled_sweep() {

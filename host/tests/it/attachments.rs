@@ -15,6 +15,7 @@
 //! * Bad input through the CLI: unknown type, missing key, `Z_22` singular in
 //!   the sweep band, `cosim` with two exciters: one message naming the key,
 //!   exit 2, no panic.
+use crate::common::{expect_failure, scenario, tmpdir};
 use host::methods;
 use host::model::Setup;
 use host::scenario::Scenario;
@@ -22,8 +23,6 @@ use nalgebra::{DMatrix, DVector};
 use nlmode::structure::matrices::write_matrix_market;
 use nlmode::Complex64;
 use std::path::Path;
-mod common;
-use common::{expect_failure, scenario, tmpdir};
 
 fn write(dir: &Path, name: &str, m: &DMatrix<f64>) {
     std::fs::write(dir.join(name), write_matrix_market(m)).unwrap();
