@@ -4,7 +4,7 @@
 use controller::model::*;
 use fmi2_export::{CoSimModel, InstantiateContext, Logger};
 
-const XML: &str = include_str!("../../modelDescription/controller/modelDescription.xml");
+const XML: &str = include_str!("../../../modelDescription/controller/modelDescription.xml");
 
 fn fresh() -> Controller {
     let log = Logger::silent();
