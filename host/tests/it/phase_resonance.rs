@@ -187,7 +187,7 @@ fn measured_backbone_follows_the_nma() {
         assert!(num("force_h3_ratio") < 1e-9);
     }
 
-    // model = "cosim": host/tests/phase_resonance_cosim.rs
+    // model = "cosim": host/tests/it/phase_resonance_cosim.rs
 }
 
 #[test]
