@@ -1,5 +1,7 @@
 //! Helpers shared by the host's integration tests (`crate::common::...`).
 use host::scenario::Scenario;
+use nalgebra::DMatrix;
+use nlmode::structure::matrices::write_matrix_market;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -24,6 +26,11 @@ pub fn scenario(dir: &Path, text: &str) -> Scenario {
     let mut sc = Scenario::parse(text).unwrap_or_else(|e| panic!("{e}\n{text}"));
     sc.resolve_paths(dir);
     sc
+}
+
+/// Writes `m` as the Matrix Market file `dir/name`.
+pub fn write_mtx(dir: &Path, name: &str, m: &DMatrix<f64>) {
+    std::fs::write(dir.join(name), write_matrix_market(m)).unwrap();
 }
 
 /// The `host` binary of this build.
