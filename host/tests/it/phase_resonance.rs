@@ -32,19 +32,12 @@
 //! `D` is that of the autonomous mode; its tolerance is 1 % plus the share of
 //! the input power carried by the harmonics `h >= 2` (measured in the test:
 //! 2.5 % at 5 V with a damping difference of -1.0 %, 40 % at 20 V with -5.9 %).
+use crate::common::tmpdir;
 use host::controlled::{nma_at_tip_amplitude, phase_resonance, PHASE_RESONANCE_COLUMNS};
 use host::methods;
 use host::model::Setup;
 use host::scenario::{PhaseResonanceModel, Scenario};
 use nlmode::Complex64;
-use std::path::PathBuf;
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-pll-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// Power `1/2 Re(F conj(i h Omega X))` of harmonic `h`.
 fn power(f: Complex64, x: Complex64, h: usize, omega: f64) -> f64 {
@@ -194,7 +187,7 @@ fn measured_backbone_follows_the_nma() {
         assert!(num("force_h3_ratio") < 1e-9);
     }
 
-    // model = "cosim": host/tests/phase_resonance_cosim.rs
+    // model = "cosim": host/tests/it/phase_resonance_cosim.rs
 }
 
 #[test]

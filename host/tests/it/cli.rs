@@ -1,19 +1,8 @@
 //! The `host` command line as a user runs it: the default run writes the
 //! output contract (DESIGN.md section 7), bad scenarios give one clear message
 //! and a non-zero exit, never a panic.
+use crate::common::{host, tmpdir};
 use std::path::Path;
-use std::process::Command;
-
-fn host() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host"))
-}
-
-fn tmpdir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("host-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn read_json(p: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()

@@ -6,7 +6,7 @@
 use fmi2_export::{CoSimModel, InstantiateContext, Logger};
 use shaker::model::{Shaker, VR_USE_EXTERNAL, VR_X};
 
-const XML: &str = include_str!("../../modelDescription/shaker/modelDescription.xml");
+const XML: &str = include_str!("../../../modelDescription/shaker/modelDescription.xml");
 
 #[test]
 fn shaker_model_structure_dependencies_match_the_code() {

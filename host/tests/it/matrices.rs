@@ -10,14 +10,13 @@
 //! * Bad matrices input through the CLI: one message naming the key (and the file,
 //!   the line), exit 2, no panic.
 //! * The example `examples/matrices_frame.toml` runs with `host run`.
+use crate::common::{expect_failure, host, scenario, tmpdir};
 use host::methods;
 use host::model::Setup;
 use host::scenario::{Method, Scenario};
 use nlmode::structure::matrices::write_matrix_market;
 use nlmode::structure::{paper_structure, PaperStructureOptions};
 use std::path::Path;
-mod common;
-use common::{expect_failure, host, scenario, tmpdir};
 
 /// The paper beam as a matrices scenario in `dir` (files `M.mtx`, `K.mtx`).
 fn beam_as_matrices(dir: &Path) -> Scenario {

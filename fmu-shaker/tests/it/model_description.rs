@@ -4,7 +4,7 @@
 use fmi2_export::{CoSimModel, InstantiateContext, Logger};
 use shaker::model::*;
 
-const XML: &str = include_str!("../../modelDescription/shaker/modelDescription.xml");
+const XML: &str = include_str!("../../../modelDescription/shaker/modelDescription.xml");
 
 #[test]
 fn model_exchange_part_matches_the_code() {

@@ -13,18 +13,11 @@
 //! within 2.1e-6 of the targets and the frequency within 1.2e-6 of the plan
 //! (0.5, 1, 2 mm: 1.8, 3.7, 8.5 V); asserted: 2e-5 and 1e-5. The open-loop
 //! sweeps (case (a)'s 2 % sweep at those voltages) drop the force by 93-95 %.
+use crate::common::tmpdir;
 use host::methods;
 use host::model::Setup;
 use host::scenario::Scenario;
 use host::test_plan::{test_plan, TEST_PLAN_COLUMNS};
-use std::path::PathBuf;
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-plan-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 #[test]
 fn planned_voltage_holds_the_target_at_phase_resonance() {

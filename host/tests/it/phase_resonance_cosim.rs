@@ -23,19 +23,12 @@
 //! is 3 % at 5 V and 1 % at 1 V. The default test runs the linear range (0.5
 //! and 1 V) at 2e-5 s to stay short; the 1 and 5 V comparison at 1e-5 s is
 //! the ignored test.
+use crate::common::tmpdir;
 use host::controlled::{phase_resonance, PHASE_RESONANCE_COLUMNS};
 use host::methods;
 use host::model::Setup;
 use host::scenario::{PhaseResonanceModel, Scenario};
-use std::path::PathBuf;
 use std::time::Instant;
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-pll-cosim-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn compare(algorithm: &str, macro_step_s: f64, levels: [f64; 2], force_tol: [f64; 2]) {
     let text = format!(

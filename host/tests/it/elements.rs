@@ -46,6 +46,7 @@
 //! peak, force 1.4 % of the largest force; peak -2.8 %. The softening friction
 //! resonance has no hardening jump: the "jump-down" is the steep flank after
 //! the peak, where the sweep leaves the resonance.
+use crate::common::{expect_failure, scenario, tmpdir};
 use host::methods;
 use host::model::Setup;
 use host::scenario::{Method, Scenario};
@@ -54,8 +55,6 @@ use nlmode::nma::{nonlinear_modal_analysis, AmplitudeRange, ContinuationOptions,
 use nlmode::structure::{ElasticDryFriction, StructuralModel, UnilateralSpring};
 use std::f64::consts::PI;
 use std::path::Path;
-mod common;
-use common::{expect_failure, scenario, tmpdir};
 
 fn one_dof(m: f64, k: f64, c: f64) -> StructuralModel {
     let mut s = StructuralModel::new(

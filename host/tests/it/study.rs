@@ -2,20 +2,10 @@
 //! run`s, a seeded study is reproducible, survives a kill (`--resume`), records
 //! a failing sample, and bad input is one clear error with exit status 2 and
 //! nothing written.
+use crate::common::{host, tmpdir};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn host() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host"))
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-study-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use std::path::Path;
+use std::process::Output;
 
 fn ok(o: &Output) {
     assert!(

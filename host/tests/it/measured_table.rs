@@ -17,7 +17,7 @@
 //! Its `D` is the fundamental's (`eq:NMpre`), not the power balance's (which
 //! counts the work of the stinger force's large third harmonic). The backbone
 //! differs from the NMA by the single-point appropriation (up to 2.5e-4 at
-//! 10 V, `host/tests/phase_resonance.rs`).
+//! 10 V, `host/tests/it/phase_resonance.rs`).
 //!
 //! Measured (test profile, 7 levels 0.3-14 V, PLL 1.5 s): case (a) peak
 //! `|q_tip,1|` measured table 2.2643 mm, NMA table 2.2714 mm, reference
@@ -26,23 +26,16 @@
 //! 3.3 %, force 2.2 % of the peaks (the NMA table vs reference: -1.07 %,
 //! -0.12 %, 2.9 %, 1.8 %); measured vs NMA table: -0.31 %, -0.14 %, 0.69 %,
 //! 0.80 %. Tolerances: against the reference those of `nlmode` on case (a)
-//! (`nlmode/tests/reduced.rs`: peak 2 %, jump-down 1 %, RMS 3 %) with the RMS
+//! (`nlmode/tests/it/reduced.rs`: peak 2 %, jump-down 1 %, RMS 3 %) with the RMS
 //! widened by the measured-vs-NMA-table difference (1 %): 4 %; against the
 //! NMA table the modal-mass difference at the peak's amplitude (1.5 %) and
 //! the backbone's appropriation error: peak 1 %, jump-down 0.5 %, RMS 1.5 %.
+use crate::common::tmpdir;
 use host::controlled::{phase_resonance, MEASURED_TABLE_FILE};
 use host::methods;
 use host::model::Setup;
 use host::scenario::{Method, Scenario};
 use nlmode::nma::ModalTable;
-use std::path::PathBuf;
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-ema-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 #[test]
 fn measured_table_predicts_the_uncontrolled_sweep() {

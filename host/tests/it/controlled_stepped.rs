@@ -3,20 +3,13 @@
 //! the resonance where the open loop drops, the response equal to the
 //! steady state under the imposed force; constant-response peaks on the NMA
 //! backbone; bad keys named.
+use crate::common::tmpdir;
 use host::controlled::nma_at_tip_amplitude;
 use host::methods;
 use host::model::Setup;
 use host::scenario::Scenario;
 use host::stepped::{force_controlled, response_controlled, STEP_COLUMNS};
 use nlmode::reduced::{ForceEnvelope, ReducedModel};
-use std::path::PathBuf;
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-stepped-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
     let text = std::fs::read_to_string(path).unwrap();

@@ -15,19 +15,13 @@
 //! * Bad input through the CLI: unknown type, missing key, `Z_22` singular in
 //!   the sweep band, `cosim` with two exciters: one message naming the key,
 //!   exit 2, no panic.
+use crate::common::{expect_failure, scenario, tmpdir, write_mtx};
 use host::methods;
 use host::model::Setup;
 use host::scenario::Scenario;
 use nalgebra::{DMatrix, DVector};
-use nlmode::structure::matrices::write_matrix_market;
 use nlmode::Complex64;
 use std::path::Path;
-mod common;
-use common::{expect_failure, scenario, tmpdir};
-
-fn write(dir: &Path, name: &str, m: &DMatrix<f64>) {
-    std::fs::write(dir.join(name), write_matrix_market(m)).unwrap();
-}
 
 fn c(re: f64, im: f64) -> Complex64 {
     Complex64::new(re, im)
@@ -39,9 +33,9 @@ const K1: f64 = 2.0e5;
 const C1: f64 = 8.0;
 
 fn one_dof(dir: &Path) {
-    write(dir, "M.mtx", &DMatrix::from_element(1, 1, M1));
-    write(dir, "K.mtx", &DMatrix::from_element(1, 1, K1));
-    write(dir, "C.mtx", &DMatrix::from_element(1, 1, C1));
+    write_mtx(dir, "M.mtx", &DMatrix::from_element(1, 1, M1));
+    write_mtx(dir, "K.mtx", &DMatrix::from_element(1, 1, K1));
+    write_mtx(dir, "C.mtx", &DMatrix::from_element(1, 1, C1));
 }
 
 const ONE_DOF_STRUCTURE: &str = "[structure]\nkind = \"matrices\"\nmass_mtx = \"M.mtx\"\n\
@@ -121,8 +115,8 @@ fn symmetric_chain(dir: &Path, phase: f64) -> (Scenario, DMatrix<f64>) {
             kk[(i + 1, i)] = -k;
         }
     }
-    write(dir, "M.mtx", &mm);
-    write(dir, "K.mtx", &kk);
+    write_mtx(dir, "M.mtx", &mm);
+    write_mtx(dir, "K.mtx", &kk);
     let mut text = String::from(
         "[structure]\nkind = \"matrices\"\nmass_mtx = \"M.mtx\"\nstiffness_mtx = \"K.mtx\"\n\
          rayleigh = [2.0, 1e-5]\nreduction = \"none\"\n",

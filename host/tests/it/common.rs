@@ -1,12 +1,20 @@
-//! Helpers shared by the host's integration tests (`mod common;` in each).
+//! Helpers shared by the host's integration tests (`crate::common::...`).
 use host::scenario::Scenario;
+use nalgebra::DMatrix;
+use nlmode::structure::matrices::write_matrix_market;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// A fresh, empty scratch directory `host-test-<name>-<pid>` in the system's
-/// temporary directory (`name` unique within one test binary).
+/// A fresh, empty scratch directory `host-test-<file>-<name>-<pid>` in the
+/// system's temporary directory, `<file>` the stem of the calling test file
+/// (`name` unique within that file: every file's tests share this process).
+#[track_caller]
 pub fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-test-{name}-{}", std::process::id()));
+    let file = Path::new(std::panic::Location::caller().file())
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("test");
+    let d = std::env::temp_dir().join(format!("host-test-{file}-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -18,6 +26,11 @@ pub fn scenario(dir: &Path, text: &str) -> Scenario {
     let mut sc = Scenario::parse(text).unwrap_or_else(|e| panic!("{e}\n{text}"));
     sc.resolve_paths(dir);
     sc
+}
+
+/// Writes `m` as the Matrix Market file `dir/name`.
+pub fn write_mtx(dir: &Path, name: &str, m: &DMatrix<f64>) {
+    std::fs::write(dir.join(name), write_matrix_market(m)).unwrap();
 }
 
 /// The `host` binary of this build.

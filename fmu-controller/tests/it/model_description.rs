@@ -1,20 +1,11 @@
 //! The modelDescription.xml and the code cannot drift: names, value
 //! references, types, causality, variability, start values, units and the
 //! ModelStructure (checked by perturbation) against `controller::model::VARIABLES`.
+use crate::model::fresh;
 use controller::model::*;
-use fmi2_export::{CoSimModel, InstantiateContext, Logger};
+use fmi2_export::CoSimModel;
 
-const XML: &str = include_str!("../../modelDescription/controller/modelDescription.xml");
-
-fn fresh() -> Controller {
-    let log = Logger::silent();
-    Controller::instantiate(&InstantiateContext {
-        instance_name: "c",
-        resource_dir: None,
-        logger: &log,
-    })
-    .unwrap()
-}
+const XML: &str = include_str!("../../../modelDescription/controller/modelDescription.xml");
 
 #[test]
 fn xml_matches_the_code() {

@@ -309,7 +309,7 @@ fn bad_frf_inputs_are_rejected() {
 }
 
 /// Timing (not a pass/fail performance test): `cargo test --release -p nlmode
-/// --test frf -- --ignored --nocapture frf_timing`.
+/// --test it -- --ignored --nocapture frf::frf_timing`.
 #[test]
 #[ignore]
 fn frf_timing() {

@@ -3,7 +3,8 @@
 use controller::model::*;
 use fmi2_export::{CoSimModel, InstantiateContext, Logger, StateReader, StateWriter};
 
-fn fresh() -> Controller {
+/// A freshly instantiated controller (shared with `model_description`).
+pub(crate) fn fresh() -> Controller {
     let log = Logger::silent();
     Controller::instantiate(&InstantiateContext {
         instance_name: "c",

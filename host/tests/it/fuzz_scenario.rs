@@ -6,7 +6,7 @@
 //! SplitMix64 is hand-rolled for a fixed, dependency-free sequence.
 use std::time::{Duration, Instant};
 
-const BASE: &str = include_str!("../../sweep.toml");
+const BASE: &str = include_str!("../../../sweep.toml");
 
 fn next(s: &mut u64) -> u64 {
     *s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);

@@ -30,29 +30,23 @@
 //!   condensed impedance): `linear-steady` and `host frf` (single mode, exact on
 //!   one DOF) to 1e-9, the slow `reference` sweep's largest power within 0.5 %
 //!   of the closed form's (measured +0.15 %: the sweep's quasi-steady error).
+use crate::common::{expect_failure, scenario, tmpdir, write_mtx};
 use host::methods;
 use host::model::Setup;
 use host::scenario::Scenario;
 use nalgebra::DMatrix;
-use nlmode::structure::matrices::write_matrix_market;
 use nlmode::Complex64;
 use std::path::Path;
-mod common;
-use common::{expect_failure, scenario, tmpdir};
-
-fn write(dir: &Path, name: &str, m: &DMatrix<f64>) {
-    std::fs::write(dir.join(name), write_matrix_market(m)).unwrap();
-}
 
 /// 2-DOF chain: M = diag(2, 1) kg, K = [3e5 -1e5; -1e5 1e5] N/m (omega =
 /// 223.6, 447.2 rad/s), C = 20 M + 3e-4 K (damping ratios 7.8 %, 8.9 %).
 fn two_dof(dir: &Path) -> &'static str {
-    write(
+    write_mtx(
         dir,
         "M.mtx",
         &DMatrix::from_row_slice(2, 2, &[2.0, 0.0, 0.0, 1.0]),
     );
-    write(
+    write_mtx(
         dir,
         "K.mtx",
         &DMatrix::from_row_slice(2, 2, &[3e5, -1e5, -1e5, 1e5]),
@@ -181,9 +175,9 @@ const KP: f64 = 1.0e4;
 const F: f64 = 3.0;
 
 fn piezo_scenario(dir: &Path) -> String {
-    write(dir, "M.mtx", &DMatrix::from_element(1, 1, M1));
-    write(dir, "K.mtx", &DMatrix::from_element(1, 1, K1));
-    write(dir, "C.mtx", &DMatrix::from_element(1, 1, C1));
+    write_mtx(dir, "M.mtx", &DMatrix::from_element(1, 1, M1));
+    write_mtx(dir, "K.mtx", &DMatrix::from_element(1, 1, K1));
+    write_mtx(dir, "C.mtx", &DMatrix::from_element(1, 1, C1));
     format!(
         "[structure]\nkind = \"matrices\"\nmass_mtx = \"M.mtx\"\nstiffness_mtx = \"K.mtx\"\n\
          damping_mtx = \"C.mtx\"\nreduction = \"none\"\n\

@@ -1,0 +1,5 @@
+//! fmu-shaker's integration tests, one test binary (one link of the dependency
+//! graph instead of one per file): `cargo test -p fmu-shaker --test it [module::]`.
+mod cosim_damping;
+mod model_description;
+mod physics;

@@ -1,0 +1,9 @@
+//! nlmode's integration tests, one test binary (one link of the dependency
+//! graph instead of one per file): `cargo test -p nlmode --test it [module::]`.
+mod attachment;
+mod frf;
+mod matrices;
+mod nma;
+mod reduced;
+mod reference;
+mod structure;
