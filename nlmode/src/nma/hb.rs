@@ -330,7 +330,7 @@ mod tests {
     }
 
     /// First harmonic of the Jenkins loop for `u = x cos(theta)`, `x > F_s/k_t`
-    /// (derived in `host/tests/elements.rs`): with `cos(theta*) = 1 - 2 F_s/(k_t x)`,
+    /// (derived in `host/tests/it/elements.rs`): with `cos(theta*) = 1 - 2 F_s/(k_t x)`,
     /// `F_c = k_t x (theta* - sin(2 theta*)/2) / pi`, `F_s = -4 F_s (1 - F_s/(k_t x)) / pi`.
     fn jenkins_first_harmonic(kt: f64, fs: f64, x: f64) -> (f64, f64) {
         let th = (1.0 - 2.0 * fs / (kt * x)).acos();

@@ -834,7 +834,7 @@ pub fn matrix_structure_sparse_cb(
 mod tests {
     use super::*;
 
-    /// The 3-DOF chain of `tests/matrices.rs` and a 30-node beam (58 DOFs),
+    /// The 3-DOF chain of `tests/it/matrices.rs` and a 30-node beam (58 DOFs),
     /// through the dense and the sparse Craig-Bampton paths.
     fn chain() -> (DMatrix<f64>, DMatrix<f64>) {
         let m = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 2.0, 3.0]));
