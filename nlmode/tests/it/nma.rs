@@ -331,22 +331,28 @@ fn cubic_damper_gives_the_equivalent_linearization_damping() {
     }
 }
 
-#[test]
-fn forced_duffing_h1_satisfies_the_amplitude_frequency_relation() {
-    let (omega0, c, k3, f) = (1.0, 0.02, 0.5, 0.05);
-    let model = duffing(1.0, c, omega0 * omega0, k3);
-    let opts = ForcedResponseOptions {
-        harmonics: 1,
+/// Forced response options of the single-DOF tests: `harmonics`, force
+/// amplitude `f` on the DOF, from `omega_start` up to 2 rad/s, arc-length step 0.02.
+fn forced_to_2(harmonics: usize, f: f64, omega_start: f64) -> ForcedResponseOptions {
+    ForcedResponseOptions {
+        harmonics,
         samples: None,
         force: DVector::from_element(1, f),
-        omega_start: 0.5,
+        omega_start,
         omega_end: 2.0,
         continuation: ContinuationOptions {
             ds: 0.02,
             ..Default::default()
         },
         points: vec![],
-    };
+    }
+}
+
+#[test]
+fn forced_duffing_h1_satisfies_the_amplitude_frequency_relation() {
+    let (omega0, c, k3, f) = (1.0, 0.02, 0.5, 0.05);
+    let model = duffing(1.0, c, omega0 * omega0, k3);
+    let opts = forced_to_2(1, f, 0.5);
     let r = forced_response(&model, &opts).unwrap();
     assert_eq!(r.stop, Some(StopReason::ReachedEnd));
     let mut amax: f64 = 0.0;
@@ -378,18 +384,7 @@ fn forced_response_higher_harmonics_match_epmc_backbone_at_the_peak() {
     // backbone: at phase resonance the EPMC force balance is the forced one.
     let (omega0, c, k3, f) = (1.0, 0.01, 1.0, 0.02);
     let model = duffing(1.0, c, omega0 * omega0, k3);
-    let opts = ForcedResponseOptions {
-        harmonics: 5,
-        samples: None,
-        force: DVector::from_element(1, f),
-        omega_start: 0.8,
-        omega_end: 2.0,
-        continuation: ContinuationOptions {
-            ds: 0.02,
-            ..Default::default()
-        },
-        points: vec![],
-    };
+    let opts = forced_to_2(5, f, 0.8);
     let r = forced_response(&model, &opts).unwrap();
     let peak = r
         .points
