@@ -9,9 +9,8 @@
 //! generic co-simulation file; `host study` runs a parameter study.
 #![forbid(unsafe_code)]
 pub mod api;
-pub mod controlled;
-pub mod controlled_cosim;
 pub mod cosim_cmd;
+pub mod figures;
 pub mod methods;
 pub mod model;
 pub mod nma_cmd;
@@ -20,6 +19,9 @@ pub mod plot;
 pub mod results;
 pub mod run;
 pub mod scenario;
-pub mod stepped;
 pub mod study;
-pub mod test_plan;
+
+/// The controlled tests' modules under their former paths.
+pub use methods::phase_resonance as controlled;
+pub use methods::phase_resonance::cosim as controlled_cosim;
+pub use methods::{stepped, test_plan};

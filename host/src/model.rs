@@ -3,8 +3,8 @@
 //! by `nlmode::structure::matrices`), the shakers as generic linear
 //! attachments, the sweep. Thin mapping onto `nlmode`.
 use crate::scenario::{
-    AttachmentSpec, AttachmentType, ExciterSpec, MatricesStructureSpec, MatrixSpec, Reduction,
-    Scenario, StingerKind, StructureSpec,
+    AttachmentOutput, AttachmentType, ExciterSpec, MatricesStructureSpec, Reduction, Scenario,
+    StingerKind, StructureSpec,
 };
 use anyhow::{Context, Result};
 use nlmode::attachment::{ArmatureDamping, LinearAttachment, ShakerParams, Stinger};
@@ -34,9 +34,9 @@ pub struct Setup {
     /// `voltage_v / [excitation] voltage_v * e^{i phase_rad}` (exactly 1 by
     /// default), for an `lti` attachment 1, none for the passive ones.
     pub inputs: Vec<Vec<Complex64>>,
-    /// The piezo shunts: (index into `attachments`, shunt resistance [Ohm]); the
-    /// electrode voltage is attachment state 1 ([`LinearAttachment::piezo_shunt`]).
-    pub harvesters: Vec<(usize, f64)>,
+    /// The outputs the attachments declare ([`AttachmentSpec::outputs`]), each
+    /// with the index of its attachment in `attachments`.
+    pub outputs: Vec<(usize, AttachmentOutput)>,
     /// Name of each exciter (`exciter[i].name`).
     pub exciter_names: Vec<String>,
     /// Structure point of each exciter.
@@ -354,110 +354,6 @@ fn undamped_pole_in_band(
     Ok(())
 }
 
-/// A matrix of an `lti` attachment: inline rows or a Matrix Market file.
-fn lti_matrix(m: &MatrixSpec, key: &str) -> Result<nalgebra::DMatrix<f64>> {
-    use nlmode::structure::{read_matrix_market, MatrixRole};
-    match m {
-        MatrixSpec::Rows(rows) => {
-            let nr = rows.len();
-            let nc = rows.first().map(|r| r.len()).unwrap_or(0);
-            anyhow::ensure!(nr > 0 && nc > 0, "{key}: empty matrix");
-            if let Some(i) = rows.iter().position(|r| r.len() != nc) {
-                anyhow::bail!(
-                    "{key}: row {i} has {} entries, row 0 has {nc}",
-                    rows[i].len()
-                );
-            }
-            Ok(nalgebra::DMatrix::from_fn(nr, nc, |i, j| rows[i][j]))
-        }
-        // read as a general (possibly non-symmetric) matrix; the role only labels messages
-        MatrixSpec::File(p) => {
-            read_matrix_market(MatrixRole::Stiffness, p).map_err(|e| anyhow::anyhow!("{key}: {e}"))
-        }
-    }
-}
-
-/// The `nlmode` attachment of `[[attachment]]` `i` at structure point `point`
-/// (beam: the point name of its location). Errors name the key.
-pub fn build_attachment(spec: &AttachmentSpec, i: usize, point: &str) -> Result<LinearAttachment> {
-    let name = spec.name_or(i);
-    let key = |f: &str| format!("attachment[{i}].{f}");
-    let get = |v: Option<f64>| v.unwrap_or(f64::NAN);
-    let att = match spec.kind {
-        AttachmentType::TunedMassDamper => {
-            let (m, k) = (get(spec.mass_kg), get(spec.stiffness_n_per_m));
-            let c = match (spec.damping_n_s_per_m, spec.damping_ratio) {
-                (Some(c), _) => c,
-                (None, Some(z)) => 2.0 * z * (k * m).sqrt(),
-                (None, None) => 0.0,
-            };
-            LinearAttachment::tuned_mass_damper(&name, point, m, k, c)
-        }
-        AttachmentType::Mass => LinearAttachment::rigid_mass(&name, point, get(spec.mass_kg)),
-        AttachmentType::PiezoShunt => LinearAttachment::piezo_shunt(
-            &name,
-            point,
-            get(spec.capacitance_f),
-            get(spec.resistance_ohm),
-            get(spec.coupling_n_per_v),
-            spec.stiffness_n_per_m.unwrap_or(0.0),
-        ),
-        AttachmentType::Lti => {
-            let coefficients = spec
-                .a_k
-                .iter()
-                .flatten()
-                .enumerate()
-                .map(|(k, m)| lti_matrix(m, &key(&format!("a_k[{k}]"))))
-                .collect::<Result<Vec<_>>>()?;
-            let b2 = lti_matrix(spec.b2.as_ref().context("b2")?, &key("b2"))?;
-            let n = coefficients[0].nrows();
-            let input_map = match &spec.input {
-                Some(b) => {
-                    anyhow::ensure!(
-                        b.len() == n,
-                        "{}: {} entries, the attachment has {n} states (rows of a_k[0])",
-                        key("input"),
-                        b.len()
-                    );
-                    nalgebra::DMatrix::from_column_slice(n, 1, b)
-                }
-                None => nalgebra::DMatrix::zeros(n, 0),
-            };
-            let state_names = match &spec.state_names {
-                Some(s) => s.clone(),
-                None => (0..n).map(|j| format!("x{j}")).collect(),
-            };
-            let att = LinearAttachment {
-                name: name.clone(),
-                coefficients,
-                b2,
-                interface_points: spec.points.clone().unwrap_or_default(),
-                input_names: (0..input_map.ncols()).map(|_| "u".to_string()).collect(),
-                input_map,
-                state_names,
-            };
-            // dimensions and rank of B2, named by the keys
-            att.localization().map(|_| att)
-        }
-    };
-    att.map_err(|e| {
-        use nlmode::attachment::AttachmentError as E;
-        let k = match &e {
-            E::NonPositive { name, .. } | E::Negative { name, .. } => key(name),
-            E::DimensionMismatch { what, .. } if what.starts_with("A_") => key("a_k"),
-            E::DimensionMismatch { what, .. } if what == "interface_points" => key("points"),
-            E::DimensionMismatch { what, .. } if what == "state_names" => key("state_names"),
-            E::DimensionMismatch { .. }
-            | E::TooManyConstraints { .. }
-            | E::RankDeficientB2 { .. } => key("b2"),
-            E::NotFinite { .. } => key("a_k"),
-            _ => format!("attachment[{i}]"),
-        };
-        anyhow::anyhow!("{k}: {e}")
-    })
-}
-
 impl Setup {
     /// The complex input amplitudes `u_hat` of every attachment at the sweep's
     /// amplitude (`inputs[a]` times it).
@@ -638,7 +534,7 @@ impl Setup {
                 }])
             })
             .collect::<Result<_>>()?;
-        let mut harvesters = Vec::new();
+        let mut outputs = Vec::new();
         for (i, spec) in sc.attachment.iter().enumerate() {
             let point = match &sc.structure {
                 StructureSpec::Beam(b) if spec.kind != AttachmentType::Lti => {
@@ -646,10 +542,10 @@ impl Setup {
                 }
                 _ => spec.point.clone().unwrap_or_default(),
             };
-            let att = build_attachment(spec, i, &point)?;
+            let att = spec.build(i, &point)?;
             undamped_pole_in_band(&att, &format!("attachment[{i}]"), sc, omega0)?;
-            if spec.kind == AttachmentType::PiezoShunt {
-                harvesters.push((attachments.len(), spec.resistance_ohm.unwrap_or(f64::NAN)));
+            for o in spec.outputs() {
+                outputs.push((attachments.len(), o));
             }
             inputs.push(vec![Complex64::new(1.0, 0.0); att.ninput()]);
             attachments.push(att);
@@ -671,7 +567,7 @@ impl Setup {
             shakers,
             attachments,
             inputs,
-            harvesters,
+            outputs,
             exciter_names: sc.exciter.iter().map(|e| e.name.clone()).collect(),
             exciter_points,
             response_point,

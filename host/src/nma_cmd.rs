@@ -263,7 +263,23 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         &curves_d,
         plot::Style::LinesLogX,
     )?;
-    // harmonic energy shares along the first branch (conservative if computed)
+    energy_share_plot(out, &setup, &branches, h)?;
+    println!(
+        "wrote {}, backbone.svg, damping.svg, energy_shares.svg, *_branch.csv to {}",
+        table_path.display(),
+        out.display()
+    );
+    Ok(())
+}
+
+/// The kinetic-energy share of each harmonic along the first branch
+/// (conservative if computed): `energy_shares.svg`.
+fn energy_share_plot(
+    out: &Path,
+    setup: &Setup,
+    branches: &[(&str, NmaResult)],
+    h: usize,
+) -> Result<()> {
     let (label, r) = &branches[0];
     let w: Vec<f64> = r
         .branch
@@ -298,11 +314,6 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         &curves_e,
         plot::Style::Dots,
     )?;
-    println!(
-        "wrote {}, backbone.svg, damping.svg, energy_shares.svg, *_branch.csv to {}",
-        table_path.display(),
-        out.display()
-    );
     Ok(())
 }
 

@@ -1,12 +1,16 @@
 //! Method results and the machine-readable output contract (DESIGN.md section 7):
 //! `summary.json`, `<method>_envelope.csv`, `<method>_timeseries.csv`.
-use crate::scenario::CosimAlgorithm;
+pub use crate::figures::{jump_down, Figures};
+use crate::scenario::{CosimAlgorithm, OutputKind};
 use anyhow::{Context, Result};
 pub use nlmode::envelope::Envelope;
 use nlmode::envelope::{EnvelopeError, EnvelopeRow};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
+
+/// Methods of a `host run` that could not run: (method, reason).
+pub type FailedMethods = Vec<(String, String)>;
 
 /// Named columns of equal length.
 #[derive(Debug, Clone, Default)]
@@ -100,7 +104,7 @@ pub struct Summary {
     pub omega0_rad_s: f64,
     /// Wall time of `reference` over that of `nlmode` (null unless both ran).
     pub speedup_nlmode_over_reference: Option<f64>,
-    pub sweep: SweepSummary,
+    pub sweep: SweepSettings,
     pub title: String,
     /// Validity checks of the single-mode theory with attachments (quasi-steady
     /// attachment dynamics, internal resonance, mode-shape distortion;
@@ -120,7 +124,7 @@ pub struct ExciterSummary {
 
 /// The sweep's entry of [`Summary`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SweepSummary {
+pub struct SweepSettings {
     pub duration_s: f64,
     pub omega_end_rad_s: f64,
     pub omega_start_rad_s: f64,
@@ -150,31 +154,14 @@ impl MethodResult {
     /// `is_sweep`: the envelope comes from a sweep (transient) rather than a
     /// steady state, so it has a jump-down.
     pub fn new(name: &str, wall_time_s: f64, envelope: Envelope, is_sweep: bool) -> Self {
-        let finite = |v: f64| v.is_finite().then_some(v);
-        let (peak, peak_w) = peak(&envelope);
-        let f = &envelope.force_amplitude_n;
-        let fmin = f
-            .iter()
-            .cloned()
-            .filter(|v| v.is_finite())
-            .fold(f64::INFINITY, f64::min);
-        let fmax = f
-            .iter()
-            .cloned()
-            .filter(|v| v.is_finite())
-            .fold(f64::NEG_INFINITY, f64::max);
-        let jump = if is_sweep {
-            jump_down(&envelope.omega_rad_s, &envelope.tip_amplitude_m)
-        } else {
-            None
-        };
+        let f = Figures::of_envelope(&envelope, is_sweep);
         let summary = MethodSummary {
             wall_time_s,
-            peak_tip_amplitude_m: finite(peak),
-            peak_omega_rad_s: finite(peak_w),
-            min_force_amplitude_n: finite(fmin),
-            max_force_amplitude_n: finite(fmax),
-            jump_down_omega_rad_s: jump,
+            peak_tip_amplitude_m: f.peak_tip_amplitude_m,
+            peak_omega_rad_s: f.peak_omega_rad_s,
+            min_force_amplitude_n: f.min_force_amplitude_n,
+            max_force_amplitude_n: f.max_force_amplitude_n,
+            jump_down_omega_rad_s: f.jump_down_omega_rad_s,
             points: envelope.len(),
             ..Default::default()
         };
@@ -202,6 +189,14 @@ impl MethodResult {
             .push((format!("{name}_harvested_power_W"), power_w));
     }
 
+    /// Adds an output an attachment declares ([`crate::scenario::AttachmentOutput`])
+    /// per envelope sample: its column and summary entry by its kind.
+    pub fn add_output(&mut self, name: &str, kind: OutputKind, values: Vec<f64>) {
+        match kind {
+            OutputKind::HarvestedPower => self.add_harvested_power(name, values),
+        }
+    }
+
     /// Each exciter's force on the structure per envelope sample, `forces[i][k]`
     /// for exciter `i` named `names[i]` \[N\]: the columns
     /// `<name>_force_amplitude_N` (each in turn) then `<name>_force_phase_rad`
@@ -225,42 +220,6 @@ impl MethodResult {
     pub fn wall_time_s(&self) -> f64 {
         self.summary.wall_time_s
     }
-}
-
-/// Peak tip amplitude [m] and the excitation frequency there [rad/s].
-fn peak(e: &Envelope) -> (f64, f64) {
-    let mut best = (f64::NAN, f64::NAN);
-    for (i, &t) in e.tip_amplitude_m.iter().enumerate() {
-        if t.is_finite() && !(t <= best.0) {
-            best = (t, e.omega_rad_s[i]);
-        }
-    }
-    best
-}
-
-/// Steepest drop of `y(x)` after its maximum, smoothed over a few samples so that
-/// the fundamental-harmonic ripple of a transient envelope does not count.
-pub fn jump_down(x: &[f64], y: &[f64]) -> Option<f64> {
-    let n = x.len();
-    if n < 8 {
-        return None;
-    }
-    let ipk = (0..n)
-        .filter(|&i| y[i].is_finite())
-        .max_by(|&a, &b| y[a].total_cmp(&y[b]))?;
-    let w = (n / 400).max(1);
-    let mut best: Option<(f64, f64)> = None;
-    for i in ipk..n.saturating_sub(w) {
-        let dx = x[i + w] - x[i];
-        if dx == 0.0 {
-            continue;
-        }
-        let slope = (y[i + w] - y[i]) / dx.abs();
-        if best.map_or(true, |(s, _)| slope < s) {
-            best = Some((slope, 0.5 * (x[i] + x[i + w])));
-        }
-    }
-    best.map(|(_, xm)| xm)
 }
 
 /// Write `<name>_envelope.csv`: the columns `omega_rad_s`, `force_amplitude_N`,

@@ -2,37 +2,25 @@
 use crate::model::Setup;
 use crate::plot;
 use crate::results::{self, MethodResult, Summary};
-use crate::scenario::{Method, Scenario};
+use crate::scenario::{Method, Scenario, ScenarioSource};
 use anyhow::{Context, Result};
 use std::path::Path;
 
-/// Largest scenario file read [bytes] (a real one is a few kB): `host run
-/// /dev/zero` or a huge file fails at once instead of reading without bound.
-pub const MAX_SCENARIO_BYTES: u64 = 1 << 20;
+pub use crate::results::FailedMethods;
+pub use crate::scenario::MAX_SCENARIO_BYTES;
 
 /// Read a scenario file (a regular file of at most [`MAX_SCENARIO_BYTES`]: a
 /// named pipe or device is refused without blocking) or take the embedded
-/// default.
+/// default: [`crate::scenario::load_scenario`].
 pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
-    match path {
-        None => Ok((
-            Scenario::default_scenario(),
-            "embedded default (sweep.toml)".into(),
-        )),
-        Some(p) => {
-            let text = cosim::file::read_regular_to_string(p, MAX_SCENARIO_BYTES)
-                .with_context(|| format!("cannot read scenario file {}", p.display()))?;
-            let mut sc = Scenario::parse(&text)
-                .map_err(|e| anyhow::anyhow!("scenario {}: {e}", p.display()))?;
-            // paths in the scenario (the Matrix Market files) are relative to its folder
-            sc.resolve_paths(p.parent().unwrap_or(Path::new("")));
-            Ok((sc, p.display().to_string()))
-        }
-    }
+    crate::scenario::load_scenario(
+        match path {
+            None => ScenarioSource::Default,
+            Some(p) => ScenarioSource::File(p),
+        },
+        None,
+    )
 }
-
-/// Methods of a `host run` that could not run: (method, reason).
-pub type FailedMethods = Vec<(String, String)>;
 
 /// `host run`: every method the scenario lists that can run is run and its
 /// outputs written. A method that cannot run for want of something outside

@@ -100,8 +100,11 @@ fn default_method() -> String {
     Method::Nlmode.name().into()
 }
 
-/// Methods a study runs per sample.
-const STUDY_METHODS: [Method; 3] = [Method::Nlmode, Method::LinearSlowflow, Method::Reference];
+/// Whether a study can run `method` per sample (the registry's
+/// [`methods::Method::in_studies`]).
+fn study_method(method: Method) -> bool {
+    methods::get(method).in_studies()
+}
 
 /// A study ready to run: every sample's scenario parsed and checked.
 pub struct Study {
@@ -148,7 +151,7 @@ fn group_key(keys: &[String], values: &[toml::Value], sc: &Scenario) -> String {
 impl Study {
     /// Read STUDY.toml and check it and every sample.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = cosim::file::read_regular_to_string(path, crate::run::MAX_SCENARIO_BYTES)
+        let text = cosim::file::read_regular_to_string(path, crate::scenario::MAX_SCENARIO_BYTES)
             .with_context(|| format!("cannot read study file {}", path.display()))?;
         let base_dir = path.parent().unwrap_or(Path::new(""));
         Ok(Self::from_text(&text, base_dir)?)
@@ -164,10 +167,9 @@ impl Study {
                     message: e.into_inner().message().trim().to_string(),
                 }
             })?;
-        let method = STUDY_METHODS
-            .iter()
-            .copied()
-            .find(|m| m.name() == spec.method)
+        let method = methods::by_name(&spec.method)
+            .map(|m| m.id())
+            .filter(|&m| study_method(m))
             .ok_or_else(|| StudyError::Study {
                 key: "method".into(),
                 message: format!(
@@ -197,8 +199,9 @@ impl Study {
             None => (DEFAULT_SCENARIO.to_string(), None),
             Some(rel) => {
                 let p = base_dir.join(rel);
-                let t = cosim::file::read_regular_to_string(&p, crate::run::MAX_SCENARIO_BYTES)
-                    .with_context(|| format!("study: scenario: cannot read {}", p.display()))?;
+                let t =
+                    cosim::file::read_regular_to_string(&p, crate::scenario::MAX_SCENARIO_BYTES)
+                        .with_context(|| format!("study: scenario: cannot read {}", p.display()))?;
                 (t, Some(p.parent().unwrap_or(Path::new("")).to_path_buf()))
             }
         };
@@ -290,64 +293,7 @@ fn describe(keys: &[String], v: &[toml::Value]) -> String {
         .join(", ")
 }
 
-/// Set `value` at the dotted `key` of a TOML tree: tables are entered (a
-/// missing table or key is created: the scenario parser then accepts or
-/// rejects it by name), arrays by index (`exciter.0`), which must exist.
-pub fn set_path(root: &mut toml::Value, key: &str, value: toml::Value) -> Result<(), String> {
-    let parts: Vec<&str> = key.split('.').collect();
-    if parts.iter().any(|p| p.is_empty()) {
-        return Err(format!("{key}: not a dotted key (empty part)"));
-    }
-    let mut node = root;
-    for (depth, part) in parts.iter().enumerate() {
-        let last = depth + 1 == parts.len();
-        let here = parts[..=depth].join(".");
-        node = match node {
-            toml::Value::Table(t) => {
-                if last {
-                    t.insert(part.to_string(), value);
-                    return Ok(());
-                }
-                let next_is_index = parts[depth + 1].parse::<usize>().is_ok();
-                if next_is_index && !t.contains_key(*part) {
-                    return Err(format!(
-                        "{key}: the base scenario has no `{here}` entries to index: write them \
-                         out in it (e.g. the [[exciter]] tables)"
-                    ));
-                }
-                t.entry(part.to_string())
-                    .or_insert_with(|| toml::Value::Table(Default::default()))
-            }
-            toml::Value::Array(a) => {
-                let i: usize = part.parse().map_err(|_| {
-                    format!(
-                        "{here}: `{part}` must be an index into the array {}",
-                        parts[..depth].join(".")
-                    )
-                })?;
-                let len = a.len();
-                let slot = a.get_mut(i).ok_or_else(|| {
-                    format!(
-                        "{here}: index {i} out of range (the scenario has {len} entries of {})",
-                        parts[..depth].join(".")
-                    )
-                })?;
-                if last {
-                    *slot = value;
-                    return Ok(());
-                }
-                slot
-            }
-            _ => {
-                return Err(format!(
-                    "{here}: {} is a value, not a table or an array",
-                    parts[..depth].join(".")
-                ))
-            }
-        };
-    }
-    unreachable!("the loop returns at the last part")
-}
+pub use crate::scenario::set_path;
 
 /// The scenario of one sample: parameters set in the base tree, read and
 /// checked as [`Scenario::parse`] reads a file.
@@ -779,7 +725,7 @@ pub(crate) fn run_study_with(
             firsts.par_iter().for_each(|&i| {
                 let sc = &st.scenarios[i];
                 if let Ok(p) = cache.get(sc) {
-                    if method.needs_mode() {
+                    if methods::get(method).needs_mode(sc) {
                         let _ = p.base_model(sc);
                     }
                 }
@@ -887,7 +833,7 @@ pub fn evaluate_samples_by(
     method: Method,
 ) -> Result<Vec<Row>, StudyError> {
     use rayon::prelude::*;
-    if !STUDY_METHODS.contains(&method) {
+    if !study_method(method) {
         return Err(StudyError::Study {
             key: "method".into(),
             message: format!("\"{method}\" is not a study method"),

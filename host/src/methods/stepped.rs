@@ -10,7 +10,7 @@
 //! `response_set_m` first), `force_control.svg` (force and voltage against
 //! `Omega/omega0`) and `response_control.svg` (the constant-response FRFs
 //! `|x_drive,1| / |F_1|` against `Omega/omega0`, one curve per level).
-use crate::controlled::plant;
+use super::phase_resonance::plant;
 use crate::model::Setup;
 use crate::plot;
 use crate::results::{Envelope, MethodResult};

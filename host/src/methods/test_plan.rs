@@ -9,7 +9,8 @@
 //! there, `eq:forcedrop`'s reference). Each limit of `[test_plan]` exceeded is
 //! flagged in `test_plan.csv` and warned about with the numbers; a target
 //! beyond the modal table is warned about and left out.
-use crate::controlled::amplitude_at_tip;
+use super::phase_resonance::amplitude_at_tip;
+use super::{MethodId, MethodOutput, RunContext};
 use crate::model::Setup;
 use crate::results::{Envelope, MethodResult};
 use crate::scenario::{Method, Scenario};
@@ -67,7 +68,7 @@ pub fn plan(
     table: &ModalTable,
 ) -> Result<(Vec<PlannedTarget>, Vec<String>)> {
     let spec = &sc.test_plan;
-    let model = crate::methods::reduced_model(setup, table, None).context("test-plan")?;
+    let model = super::reduced_model(setup, table, None).context("test-plan")?;
     let att = &setup.attachments[0];
     let inputs = &setup.inputs[0];
     let (a_lo, a_hi) = model.table().amplitude_range();
@@ -288,4 +289,30 @@ fn write_csv(path: &Path, targets: &[PlannedTarget], omega0: f64) -> Result<()> 
         Ok(())
     };
     write().with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// `test-plan` (options: `[test_plan]`).
+pub struct TestPlan;
+
+impl super::Method for TestPlan {
+    fn id(&self) -> MethodId {
+        MethodId::TestPlan
+    }
+
+    fn section(&self) -> Option<&'static str> {
+        Some("test_plan")
+    }
+
+    fn needs_mode(&self, _sc: &crate::scenario::Scenario) -> bool {
+        true
+    }
+
+    fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
+        Ok(MethodOutput::one(test_plan(
+            ctx.setup,
+            ctx.sc,
+            ctx.table(),
+            ctx.out,
+        )?))
+    }
 }

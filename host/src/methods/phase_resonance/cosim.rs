@@ -21,7 +21,7 @@
 //! built libraries (beside the executable or in `NLMODE_FMU_DIR`) into
 //! `DIR/phase_resonance_fmus/`, with the scenario's modal table in the
 //! structure FMU. `phase_resonance.csv` and the plots are those of
-//! [`crate::controlled`].
+//! [`super`].
 use crate::model::Setup;
 use crate::results::MethodResult;
 use crate::scenario::{CosimAlgorithm, Scenario};
@@ -92,7 +92,7 @@ pub fn phase_resonance(
     out: &Path,
 ) -> Result<MethodResult> {
     let run = run_levels(setup, sc, table, out).context("phase-resonance (model = \"cosim\")")?;
-    let mut r = crate::controlled::measured_levels_result(
+    let mut r = super::levels::measured_levels_result(
         setup,
         sc,
         table,
@@ -152,45 +152,9 @@ pub fn run_levels(
         &loop_connections(),
         opts,
     )?;
-    let mut p = CosimParams::new(setup.shakers[0], setup.sweep);
-    p.drive_point = setup.exciter_points[0].clone();
-    let mut params = parameters(&p)?;
-    params.retain(|(n, _)| n != "shaker.use_external_voltage");
-    params.push((
-        "shaker.use_external_voltage".into(),
-        ParamValue::Boolean(true),
-    ));
+    set_parameters(&mut m, setup, sc)?;
     let o = &spec.pll;
-    let u0 = spec.voltage_levels_v[0];
     let omega_start = spec.eta_start * setup.omega0_rad_s;
-    for (n, v) in [
-        ("u_hat", u0),
-        ("omega_start", omega_start),
-        ("kp", o.kp),
-        ("ki", o.ki),
-        ("max_step_ratio", o.max_step_ratio),
-        ("phase_tolerance", o.phase_tolerance_rad),
-        ("amplitude_tolerance", o.amplitude_tolerance),
-        ("drive_modal_mass", setup.modal_masses[0].0),
-    ] {
-        params.push((format!("controller.{n}"), ParamValue::Real(v)));
-    }
-    let int = |name: &str, v: usize| -> Result<(String, ParamValue)> {
-        let v = i32::try_from(v).map_err(|_| {
-            anyhow!("phase_resonance: {name} = {v} exceeds the controller FMU's Integer")
-        })?;
-        Ok((format!("controller.{name}"), ParamValue::Integer(v)))
-    };
-    params.push(int("settle_periods", o.settle_periods)?);
-    params.push(int("max_periods_per_level", o.max_periods_per_level)?);
-    params.push(int("harmonics", o.harmonics)?);
-    params.push(int("samples_per_period", spec.samples_per_period)?);
-    for (ep, v) in &params {
-        let (u, name) = ep.split_once('.').expect("unit.variable");
-        let ui = m.unit_index(u).expect("the three units");
-        m.set_parameter(ui, name, v)
-            .with_context(|| format!("setting {ep}"))?;
-    }
     m.initialize(0.0, None)?;
 
     let c = m.unit_index("controller").expect("controller unit");
@@ -291,6 +255,52 @@ pub fn run_levels(
         macro_steps: steps,
         wall_time_s: wall.elapsed().as_secs_f64(),
     })
+}
+
+/// The parameters of the three units: the paper's pairing with the shaker
+/// on the external voltage and the controller's loop settings.
+fn set_parameters(m: &mut Master, setup: &Setup, sc: &Scenario) -> Result<()> {
+    let spec = &sc.phase_resonance;
+    let mut p = CosimParams::new(setup.shakers[0], setup.sweep);
+    p.drive_point = setup.exciter_points[0].clone();
+    let mut params = parameters(&p)?;
+    params.retain(|(n, _)| n != "shaker.use_external_voltage");
+    params.push((
+        "shaker.use_external_voltage".into(),
+        ParamValue::Boolean(true),
+    ));
+    let o = &spec.pll;
+    let u0 = spec.voltage_levels_v[0];
+    let omega_start = spec.eta_start * setup.omega0_rad_s;
+    for (n, v) in [
+        ("u_hat", u0),
+        ("omega_start", omega_start),
+        ("kp", o.kp),
+        ("ki", o.ki),
+        ("max_step_ratio", o.max_step_ratio),
+        ("phase_tolerance", o.phase_tolerance_rad),
+        ("amplitude_tolerance", o.amplitude_tolerance),
+        ("drive_modal_mass", setup.modal_masses[0].0),
+    ] {
+        params.push((format!("controller.{n}"), ParamValue::Real(v)));
+    }
+    let int = |name: &str, v: usize| -> Result<(String, ParamValue)> {
+        let v = i32::try_from(v).map_err(|_| {
+            anyhow!("phase_resonance: {name} = {v} exceeds the controller FMU's Integer")
+        })?;
+        Ok((format!("controller.{name}"), ParamValue::Integer(v)))
+    };
+    params.push(int("settle_periods", o.settle_periods)?);
+    params.push(int("max_periods_per_level", o.max_periods_per_level)?);
+    params.push(int("harmonics", o.harmonics)?);
+    params.push(int("samples_per_period", spec.samples_per_period)?);
+    for (ep, v) in &params {
+        let (u, name) = ep.split_once('.').expect("unit.variable");
+        let ui = m.unit_index(u).expect("the three units");
+        m.set_parameter(ui, name, v)
+            .with_context(|| format!("setting {ep}"))?;
+    }
+    Ok(())
 }
 
 /// The master algorithm of `[cosim] algorithm`.

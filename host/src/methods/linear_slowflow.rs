@@ -1,0 +1,37 @@
+//! `linear-slowflow`: the slow flow of `eq:NM` with constant linear modal
+//! properties (to separate nonlinear from transient effects).
+use super::common::{exciter_slow_flow, reduced_model};
+use super::{MethodId, MethodOutput, RunContext};
+use anyhow::Result;
+
+/// `linear-slowflow` (options: `[slowflow]`).
+pub struct LinearSlowflow;
+
+impl super::Method for LinearSlowflow {
+    fn id(&self) -> MethodId {
+        MethodId::LinearSlowflow
+    }
+
+    fn section(&self) -> Option<&'static str> {
+        Some("slowflow")
+    }
+
+    fn needs_mode(&self, _sc: &crate::scenario::Scenario) -> bool {
+        true
+    }
+
+    fn in_studies(&self) -> bool {
+        true
+    }
+
+    fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
+        let id = MethodId::LinearSlowflow;
+        let model = reduced_model(ctx.setup, ctx.table(), None)?.linear()?;
+        let (r, flow) =
+            exciter_slow_flow(id.name(), ctx.setup, &model, &ctx.sc.slowflow.options(id))?;
+        Ok(MethodOutput {
+            results: vec![r],
+            flow: Some(flow),
+        })
+    }
+}

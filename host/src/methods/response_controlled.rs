@@ -1,0 +1,29 @@
+//! `response-controlled`: response-controlled stepped sine (`response_control.csv`).
+use super::{MethodId, MethodOutput, RunContext};
+use anyhow::Result;
+
+/// `response-controlled` (options: `[response_control]`).
+pub struct ResponseControlled;
+
+impl super::Method for ResponseControlled {
+    fn id(&self) -> MethodId {
+        MethodId::ResponseControlled
+    }
+
+    fn section(&self) -> Option<&'static str> {
+        Some("response_control")
+    }
+
+    fn needs_mode(&self, _sc: &crate::scenario::Scenario) -> bool {
+        true
+    }
+
+    fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
+        Ok(MethodOutput::one(super::stepped::response_controlled(
+            ctx.setup,
+            ctx.sc,
+            ctx.table(),
+            ctx.out,
+        )?))
+    }
+}

@@ -1,0 +1,135 @@
+//! Reading a scenario: the one loader of `host run`, `host nma`, `host frf`,
+//! the study's base scenario and the Python package.
+use super::{Scenario, ScenarioError, DEFAULT_SCENARIO};
+use anyhow::{Context, Result};
+use std::path::Path;
+
+/// Largest scenario file read [bytes] (a real one is a few kB): `host run
+/// /dev/zero` or a huge file fails at once instead of reading without bound.
+pub const MAX_SCENARIO_BYTES: u64 = 1 << 20;
+
+/// Where a scenario comes from (the library's counterpart of `host run`'s
+/// argument).
+#[derive(Debug, Clone, Copy)]
+pub enum ScenarioSource<'a> {
+    /// The embedded default ([`crate::scenario::DEFAULT_SCENARIO`]).
+    Default,
+    /// TOML text; relative paths in it are taken from the working directory.
+    Text(&'a str),
+    /// A scenario file, read as `host run` reads it ([`load_scenario`]).
+    File(&'a Path),
+}
+
+/// Read a scenario (a file as [`load_scenario`] reads it, with
+/// the same messages), optionally with `[run] methods` replaced by `methods`
+/// (checked by the scenario's own rules: an unknown method is named as
+/// `run.methods[i]`). Returns the scenario and its name in messages. The
+/// errors read as `host run`'s (`scenario NAME: key: message`), with the
+/// [`crate::scenario::ScenarioError`] in their chain.
+pub fn load_scenario(
+    src: ScenarioSource,
+    methods: Option<&[String]>,
+) -> Result<(Scenario, String)> {
+    let (text, name, dir) = match src {
+        ScenarioSource::Default => (
+            DEFAULT_SCENARIO.to_string(),
+            "embedded default (sweep.toml)".to_string(),
+            None,
+        ),
+        ScenarioSource::Text(t) => (t.to_string(), "(text)".to_string(), None),
+        ScenarioSource::File(p) => (
+            cosim::file::read_regular_to_string(p, MAX_SCENARIO_BYTES)
+                .with_context(|| format!("cannot read scenario file {}", p.display()))?,
+            p.display().to_string(),
+            p.parent().map(Path::to_path_buf),
+        ),
+    };
+    let text = match methods {
+        None => text,
+        Some(m) => {
+            let bad = |message: String| {
+                anyhow::Error::new(ScenarioError {
+                    key: "scenario".into(),
+                    message,
+                    line: None,
+                })
+                .context(format!("scenario {name}"))
+            };
+            let mut tree: toml::Value =
+                toml::from_str(&text).map_err(|e| bad(e.message().to_string()))?;
+            let list = toml::Value::Array(m.iter().cloned().map(toml::Value::String).collect());
+            set_path(&mut tree, "run.methods", list).map_err(bad)?;
+            toml::to_string(&tree).map_err(|e| bad(e.to_string()))?
+        }
+    };
+    let mut sc = Scenario::parse(&text).map_err(|e| {
+        // with `methods` the text is regenerated: its line numbers mean nothing
+        let e = if methods.is_some() {
+            ScenarioError { line: None, ..e }
+        } else {
+            e
+        };
+        anyhow::Error::new(e).context(format!("scenario {name}"))
+    })?;
+    sc.resolve_paths(dir.as_deref().unwrap_or(Path::new("")));
+    Ok((sc, name))
+}
+
+/// Set `value` at the dotted `key` of a TOML tree: tables are entered (a
+/// missing table or key is created: the scenario parser then accepts or
+/// rejects it by name), arrays by index (`exciter.0`), which must exist.
+pub fn set_path(root: &mut toml::Value, key: &str, value: toml::Value) -> Result<(), String> {
+    let parts: Vec<&str> = key.split('.').collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err(format!("{key}: not a dotted key (empty part)"));
+    }
+    let mut node = root;
+    for (depth, part) in parts.iter().enumerate() {
+        let last = depth + 1 == parts.len();
+        let here = parts[..=depth].join(".");
+        node = match node {
+            toml::Value::Table(t) => {
+                if last {
+                    t.insert(part.to_string(), value);
+                    return Ok(());
+                }
+                let next_is_index = parts[depth + 1].parse::<usize>().is_ok();
+                if next_is_index && !t.contains_key(*part) {
+                    return Err(format!(
+                        "{key}: the base scenario has no `{here}` entries to index: write them \
+                         out in it (e.g. the [[exciter]] tables)"
+                    ));
+                }
+                t.entry(part.to_string())
+                    .or_insert_with(|| toml::Value::Table(Default::default()))
+            }
+            toml::Value::Array(a) => {
+                let i: usize = part.parse().map_err(|_| {
+                    format!(
+                        "{here}: `{part}` must be an index into the array {}",
+                        parts[..depth].join(".")
+                    )
+                })?;
+                let len = a.len();
+                let slot = a.get_mut(i).ok_or_else(|| {
+                    format!(
+                        "{here}: index {i} out of range (the scenario has {len} entries of {})",
+                        parts[..depth].join(".")
+                    )
+                })?;
+                if last {
+                    *slot = value;
+                    return Ok(());
+                }
+                slot
+            }
+            _ => {
+                return Err(format!(
+                    "{here}: {} is a value, not a table or an array",
+                    parts[..depth].join(".")
+                ))
+            }
+        };
+    }
+    unreachable!("the loop returns at the last part")
+}
