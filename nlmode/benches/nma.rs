@@ -253,5 +253,40 @@ fn loops(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, paper_cb, scaling, loops);
+/// A single-DOF Jenkins oscillator (m = 1, k = 1, k_t = 9, F_s = 0.9, c =
+/// 0.002) from stick (x = 1e-3 m) through full slip to x = 10 m = 100 x_s,
+/// where the damping ratio passes its maximum of about 40 % (H = 7, 256 AFT
+/// samples): issue 22's speed target is < 2 s.
+fn jenkins_full_slip(c: &mut Criterion) {
+    let model = nlmode::nma::problems::nlvib::jenkins_oscillator(1.0, 0.002, 1.0, 9.0, 0.9)
+        .expect("Jenkins oscillator");
+    let opts = NmaOptions {
+        harmonics: 7,
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -3.0,
+            log10_end: 1.0,
+        },
+        ..Default::default()
+    };
+    let t0 = Instant::now();
+    let r = nonlinear_modal_analysis(&model, &opts).expect("Jenkins backbone");
+    eprintln!(
+        "Jenkins full slip, H = 7: {} points, {} Newton iterations, {} rejected, D max {:.3}, {:.3} s",
+        r.n_points(),
+        r.newton_iterations,
+        r.rejected_steps,
+        r.branch.iter().map(|b| b.damping_ratio).fold(0.0, f64::max),
+        t0.elapsed().as_secs_f64()
+    );
+    let mut group = c.benchmark_group("nma_jenkins");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(4));
+    group.bench_function("full_slip_H7", |b| {
+        b.iter(|| nonlinear_modal_analysis(&model, &opts).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, paper_cb, scaling, loops, jenkins_full_slip);
 criterion_main!(benches);

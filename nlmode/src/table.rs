@@ -17,9 +17,182 @@
 //! their first values (the linear limit `a -> 0`); above the last one
 //! [`TableInterpolator::eval`] returns [`TableError::AboveRange`] so that callers
 //! report it instead of extrapolating silently.
-use crate::nma::{ModalTable, PointShape, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION};
 use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// Identifier written into every modal-table file.
+pub const MODAL_TABLE_FORMAT: &str = "nlmode-modal-table";
+/// Current modal-table format version.
+pub const MODAL_TABLE_VERSION: u32 = 1;
+
+/// The harmonics of the mode shape at one named physical point along the branch:
+/// `phi_n(a)` for `n = 0..=H`, so that the point's displacement is
+/// `u(t) = Re( a sum_n phi_n(a) e^{i n psi} )` (`eq:ansatz`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointShape {
+    pub name: String,
+    /// `re[j][n]`: real part of `phi_n` at amplitude `amplitude[j]` [m / (sqrt(kg) m)].
+    pub re: Vec<Vec<f64>>,
+    /// `im[j][n]`: imaginary part of `phi_n`.
+    pub im: Vec<Vec<f64>>,
+}
+
+/// A nonlinear modal table (file format `nlmode-modal-table`, version 1; JSON).
+///
+/// Modal amplitude `a = sqrt(q1^H M q1)` (paper Section 3.1), so the fundamental
+/// harmonic of the shape is mass-normalized. `amplitude` is strictly increasing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModalTable {
+    pub format: String,
+    pub version: u32,
+    /// Free text: model, harmonics, how the table was made.
+    pub description: String,
+    /// Harmonic truncation order `H` of the stored shapes.
+    pub harmonics: usize,
+    /// Modal amplitude `a` [sqrt(kg) m], strictly increasing.
+    pub amplitude: Vec<f64>,
+    /// Modal frequency `omega(a)` [rad/s].
+    pub omega_rad_s: Vec<f64>,
+    /// Modal damping ratio `D(a)` [-].
+    pub damping_ratio: Vec<f64>,
+    /// Shape harmonics at named physical points (`tip`, exciter locations, DOFs).
+    pub points: Vec<PointShape>,
+    /// Shape harmonics of all generalized (reduced) coordinates, if stored;
+    /// `coordinates[i]` is coordinate `i` (named `q<i>`).
+    #[serde(default)]
+    pub coordinates: Vec<PointShape>,
+    /// Amplitude at which the primary branch was truncated (first fold of `a`),
+    /// if any [sqrt(kg) m].
+    #[serde(default)]
+    pub truncated_at_fold: Option<f64>,
+    /// Measured interpolation accuracy of the table (set by
+    /// [`crate::nma::NmaResult::refined_table`]; `None` for unrefined or measured tables
+    /// and for files written before this field existed).
+    #[serde(default)]
+    pub accuracy: Option<TableAccuracy>,
+}
+
+/// Interpolation accuracy of a refined [`ModalTable`]: the largest PCHIP
+/// errors against fresh Harmonic Balance solves at the midpoints of all table
+/// intervals, and the targets of the refinement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TableAccuracy {
+    /// Largest relative error of `omega` [-].
+    pub omega_rel: f64,
+    /// Largest relative error of `D` [-] (against `max(|D|, 1e-10)`).
+    pub damping_rel: f64,
+    /// Largest error of the point shapes relative to each point's largest harmonic [-].
+    pub shape_rel: f64,
+    /// Target for `omega_rel`.
+    pub target_omega_rel: f64,
+    /// Target for `damping_rel` and `shape_rel`.
+    pub target_rel: f64,
+    /// Midpoint HB solves made (including those that led to insertions; a
+    /// re-check of an interval after a neighbour's insertion reuses its solve).
+    pub checks: usize,
+    /// `true` if the point cap stopped the refinement before all targets were met.
+    pub capped: bool,
+    /// Set if the table ends before the first fold `a_f` of a truncated
+    /// primary branch: its last amplitude is `(1 - fold_margin) a_f` [-].
+    #[serde(default)]
+    pub fold_margin: Option<f64>,
+    /// Where the worst `omega` error occurs (interval midpoint `a` [sqrt(kg) m]);
+    /// set (and written) only where the target is missed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega_worst_amplitude: Option<f64>,
+    /// Where the worst `D` error occurs; set only where the target is missed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping_worst_amplitude: Option<f64>,
+    /// Where the worst shape error occurs; set only where the target is missed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape_worst_amplitude: Option<f64>,
+    /// Set if the table ends at a discontinuity of the branch (a stepped-over
+    /// internal-resonance loop) instead of following it: the table stops before
+    /// it, so interpolation never crosses it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub discontinuity: Option<TableDiscontinuity>,
+    /// Largest kinetic-energy share of the highest harmonic `H` along the
+    /// table, set only where it exceeds [`HIGHEST_HARMONIC_SHARE_WARNING`]
+    /// (the truncation may be too low). Not written to the file (the paper
+    /// beam's H = 7 table reaches 1.5e-3 at a = 3.92e-3, above the sweeps'
+    /// range, and its file must stay as it was): [`Self::warnings`] reports it.
+    #[serde(default, skip_serializing)]
+    pub highest_harmonic_share: Option<f64>,
+    /// Amplitude at which [`Self::highest_harmonic_share`] occurs (not written).
+    #[serde(default, skip_serializing)]
+    pub highest_harmonic_share_amplitude: Option<f64>,
+}
+
+/// Kinetic-energy share of the highest harmonic `H` above which the harmonic
+/// truncation is flagged: the `H`-th harmonic then carries a displacement of
+/// `sqrt(1e-4) / H = 1 % / H` of the fundamental or more, more than the default
+/// table targets (1e-4 relative) tolerate for the neglected `H+1`-th harmonic,
+/// which is of the same order.
+pub const HIGHEST_HARMONIC_SHARE_WARNING: f64 = 1e-4;
+
+/// A discontinuity of the computed branch that ended a table
+/// ([`TableAccuracy::discontinuity`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TableDiscontinuity {
+    /// Amplitude of the last point before the jump [sqrt(kg) m].
+    pub amplitude: f64,
+    /// Amplitude of the first point after it [sqrt(kg) m].
+    pub amplitude_after: f64,
+    /// Relative jump of `omega` across it [-].
+    pub omega_jump_rel: f64,
+    /// How it was found.
+    pub reason: String,
+}
+
+impl TableAccuracy {
+    /// Human-readable warnings: missed targets with the worst value and the
+    /// amplitude where it occurs, a discontinuity that ended the table, a
+    /// harmonic truncation that may be too low. Empty when all is well.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        let miss = |name: &str, value: f64, target: f64, at: Option<f64>| {
+            at.map(|a| {
+                format!(
+                    "modal table: {name} interpolation error {value:.2e} exceeds the target {target:.1e} (worst at a = {a:.4e}); raise the refinement's max_points or lower the amplitude range"
+                )
+            })
+        };
+        w.extend(miss(
+            "omega",
+            self.omega_rel,
+            self.target_omega_rel,
+            self.omega_worst_amplitude,
+        ));
+        w.extend(miss(
+            "damping ratio",
+            self.damping_rel,
+            self.target_rel,
+            self.damping_worst_amplitude,
+        ));
+        w.extend(miss(
+            "shape",
+            self.shape_rel,
+            self.target_rel,
+            self.shape_worst_amplitude,
+        ));
+        if let Some(d) = &self.discontinuity {
+            w.push(format!(
+                "modal table: ends at a = {:.4e} before a discontinuity of the branch (omega jumps by {:.2e} relative up to a = {:.4e}: {}); the table is not interpolated across it",
+                d.amplitude, d.omega_jump_rel, d.amplitude_after, d.reason
+            ));
+        }
+        if let (Some(s), Some(a)) = (
+            self.highest_harmonic_share,
+            self.highest_harmonic_share_amplitude,
+        ) {
+            w.push(format!(
+                "modal table: the highest harmonic carries {s:.2e} of the kinetic energy at a = {a:.4e} (above {HIGHEST_HARMONIC_SHARE_WARNING:.0e}); raise the harmonics"
+            ));
+        }
+        w
+    }
+}
 
 /// Errors of modal tables; each names the field or value at fault.
 #[derive(Debug, thiserror::Error)]

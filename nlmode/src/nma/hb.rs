@@ -219,7 +219,7 @@ impl Aft {
         let mut f = DVector::zeros(n);
         // column t: d f_t / dU (the transposed sample Jacobian)
         let mut dft_t = DMatrix::zeros(nh, n);
-        let (mut s, ds0) = law.relaxed_state(u[0]);
+        let (mut s, ds0) = law.initial_state(u[0]);
         // d s / dU, a row of length 2H+1 (the mean U[0] only, at the start)
         let mut ds = vec![0.0; nh];
         ds[0] = ds0;

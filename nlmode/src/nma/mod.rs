@@ -32,92 +32,43 @@
 //! solve of size `~ E (2H+1)` for `E` nonlinear elements; the one-off modal
 //! decomposition is `O(n^3)`. Measured times: the README's performance table
 //! (`cargo bench -p nlmode --bench nma`).
-use serde::{Deserialize, Serialize};
-
-/// Identifier written into every modal-table file.
-pub const MODAL_TABLE_FORMAT: &str = "nlmode-modal-table";
-/// Current modal-table format version.
-pub const MODAL_TABLE_VERSION: u32 = 1;
-
-/// The harmonics of the mode shape at one named physical point along the branch:
-/// `phi_n(a)` for `n = 0..=H`, so that the point's displacement is
-/// `u(t) = Re( a sum_n phi_n(a) e^{i n psi} )` (`eq:ansatz`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PointShape {
-    pub name: String,
-    /// `re[j][n]`: real part of `phi_n` at amplitude `amplitude[j]` [m / (sqrt(kg) m)].
-    pub re: Vec<Vec<f64>>,
-    /// `im[j][n]`: imaginary part of `phi_n`.
-    pub im: Vec<Vec<f64>>,
-}
-
-/// A nonlinear modal table (file format `nlmode-modal-table`, version 1; JSON).
-///
-/// Modal amplitude `a = sqrt(q1^H M q1)` (paper Section 3.1), so the fundamental
-/// harmonic of the shape is mass-normalized. `amplitude` is strictly increasing.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ModalTable {
-    pub format: String,
-    pub version: u32,
-    /// Free text: model, harmonics, how the table was made.
-    pub description: String,
-    /// Harmonic truncation order `H` of the stored shapes.
-    pub harmonics: usize,
-    /// Modal amplitude `a` [sqrt(kg) m], strictly increasing.
-    pub amplitude: Vec<f64>,
-    /// Modal frequency `omega(a)` [rad/s].
-    pub omega_rad_s: Vec<f64>,
-    /// Modal damping ratio `D(a)` [-].
-    pub damping_ratio: Vec<f64>,
-    /// Shape harmonics at named physical points (`tip`, exciter locations, DOFs).
-    pub points: Vec<PointShape>,
-    /// Shape harmonics of all generalized (reduced) coordinates, if stored;
-    /// `coordinates[i]` is coordinate `i` (named `q<i>`).
-    #[serde(default)]
-    pub coordinates: Vec<PointShape>,
-    /// Amplitude at which the primary branch was truncated (first fold of `a`),
-    /// if any [sqrt(kg) m].
-    #[serde(default)]
-    pub truncated_at_fold: Option<f64>,
-    /// Measured interpolation accuracy of the table (set by
-    /// [`NmaResult::refined_table`]; `None` for unrefined or measured tables
-    /// and for files written before this field existed).
-    #[serde(default)]
-    pub accuracy: Option<TableAccuracy>,
-}
-
-/// Interpolation accuracy of a refined [`ModalTable`]: the largest PCHIP
-/// errors against fresh Harmonic Balance solves at the midpoints of all table
-/// intervals, and the targets of the refinement.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TableAccuracy {
-    /// Largest relative error of `omega` [-].
-    pub omega_rel: f64,
-    /// Largest relative error of `D` [-] (against `max(|D|, 1e-10)`).
-    pub damping_rel: f64,
-    /// Largest error of the point shapes relative to each point's largest harmonic [-].
-    pub shape_rel: f64,
-    /// Target for `omega_rel`.
-    pub target_omega_rel: f64,
-    /// Target for `damping_rel` and `shape_rel`.
-    pub target_rel: f64,
-    /// Midpoint HB solves made (including those that led to insertions; a
-    /// re-check of an interval after a neighbour's insertion reuses its solve).
-    pub checks: usize,
-    /// `true` if the point cap stopped the refinement before all targets were met.
-    pub capped: bool,
-    /// Set if the table ends before the first fold `a_f` of a truncated
-    /// primary branch: its last amplitude is `(1 - fold_margin) a_f` [-].
-    #[serde(default)]
-    pub fold_margin: Option<f64>,
-}
+mod driver;
+mod errors;
+mod folds;
+mod forced;
+mod harmonics;
+mod measured;
+mod options;
+mod refine;
+mod results;
 
 pub mod continuation;
-mod driver;
 pub mod epmc;
 pub mod hb;
 pub mod problems;
 
+pub use crate::table::{
+    ModalTable, PointShape, TableAccuracy, TableDiscontinuity, HIGHEST_HARMONIC_SHARE_WARNING,
+    MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION,
+};
 pub use continuation::{ContinuationOptions, StopReason};
-pub use driver::*;
+pub use driver::{
+    nonlinear_modal_analysis, nonlinear_modal_analysis_with_basis, solve_at_amplitude,
+};
 pub use epmc::Normalisation;
+pub use errors::{NmaError, NmaWarning};
+pub use folds::INTERNAL_RESONANCE_MISMATCH;
+pub use forced::{forced_response, ForcedResponse, ForcedResponseOptions, ForcedResponsePoint};
+pub use harmonics::{
+    auto_harmonics, table_agreement, AutoHarmonics, AUTO_HARMONICS_MAX, AUTO_HARMONICS_STEP,
+};
+pub use measured::table_from_measured_csv;
+pub use options::{
+    AmplitudeRange, BackboneOptions, NmaOptions, HYSTERETIC_DEFAULT_SAMPLES, MAX_AFT_SAMPLES,
+    SWEEP_TABLE_HARMONICS, SWEEP_TABLE_MAX_AMPLITUDE,
+};
+pub use refine::{table_errors, RefineOptions, JUMP_WIDTH};
+pub use results::{
+    BranchPoint, EnergyComponent, Fold, FoldKind, InternalResonance, NmaResult, TablePolicy,
+    JUMP_SLOPE_RATIO,
+};

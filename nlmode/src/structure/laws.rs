@@ -218,6 +218,50 @@ pub struct ElasticDryFriction {
     pub tangential_stiffness_n_per_m: f64,
     /// Slip force `F_s` [N] (>= 0).
     pub slip_force_n: f64,
+    /// Slider position at the start of a periodic march (Harmonic Balance
+    /// AFT): [`InitialSlider::Mean`] (default) or [`InitialSlider::Zero`].
+    #[serde(default)]
+    pub initial_slider: InitialSlider,
+}
+
+/// Where the slider of an [`ElasticDryFriction`] element sits at the start of
+/// the periodic march of the Harmonic Balance AFT. Both are valid initial
+/// states of a hysteretic element; they differ only where the element sticks
+/// throughout the period (then the slider stays where it started):
+/// - `Mean` (default): at the mean displacement `u_0` of the period, so a
+///   stuck element carries no static force (`f = k_t (u - u_0)`);
+/// - `Zero`: at `w = 0` (NLvib's convention), so a stuck element with a
+///   nonzero mean displacement (e.g. next to a contact) carries the static
+///   force `k_t u_0` (`f = k_t u` while `|k_t u| <= F_s`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InitialSlider {
+    #[default]
+    Mean,
+    Zero,
+}
+
+impl InitialSlider {
+    /// The scenario spelling (`"mean"`, `"zero"`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            InitialSlider::Mean => "mean",
+            InitialSlider::Zero => "zero",
+        }
+    }
+}
+
+impl std::str::FromStr for InitialSlider {
+    type Err = StructureError;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "mean" => Ok(InitialSlider::Mean),
+            "zero" => Ok(InitialSlider::Zero),
+            _ => Err(StructureError::UnknownInitialSlider {
+                name: s.to_string(),
+            }),
+        }
+    }
 }
 
 impl ElasticDryFriction {
@@ -239,7 +283,16 @@ impl ElasticDryFriction {
         Ok(Self {
             tangential_stiffness_n_per_m,
             slip_force_n,
+            initial_slider: InitialSlider::Mean,
         })
+    }
+
+    /// The same element with the slider starting at `initial` in the AFT march.
+    pub fn with_initial_slider(self, initial: InitialSlider) -> Self {
+        Self {
+            initial_slider: initial,
+            ..self
+        }
     }
 }
 
@@ -259,6 +312,12 @@ impl NonlinearLaw for ElasticDryFriction {
 impl Hysteresis for ElasticDryFriction {
     fn relaxed_state(&self, u: f64) -> (f64, f64) {
         (u, 1.0)
+    }
+    fn initial_state(&self, u: f64) -> (f64, f64) {
+        match self.initial_slider {
+            InitialSlider::Mean => (u, 1.0),
+            InitialSlider::Zero => (0.0, 0.0),
+        }
     }
     fn step(&self, w: f64, u: f64) -> HystereticStep {
         let kt = self.tangential_stiffness_n_per_m;

@@ -54,6 +54,14 @@ pub trait Hysteresis: std::fmt::Debug + Send + Sync {
     /// The relaxed state at displacement `u` (zero force, e.g. a stuck slider at
     /// `u`) and its derivative `ds/du`.
     fn relaxed_state(&self, u: f64) -> (f64, f64);
+    /// The state a periodic AFT march ([`crate::nma::hb::Aft`]) starts from at
+    /// the mean displacement `u` of the period, and its derivative `ds/du`
+    /// (default: [`Hysteresis::relaxed_state`]; the Jenkins element can start
+    /// its slider at zero instead, [`laws::InitialSlider`]). It matters only
+    /// where the element never slips: a stuck element keeps this state.
+    fn initial_state(&self, u: f64) -> (f64, f64) {
+        self.relaxed_state(u)
+    }
     /// Move from state `s` to displacement `u`.
     fn step(&self, s: f64, u: f64) -> HystereticStep;
 }
@@ -119,7 +127,8 @@ pub use damping::{
     stiffness_proportional_damping_from_modes,
 };
 pub use laws::{
-    ElasticDryFriction, PolynomialSpring, QuadraticDamper, RegularizedFriction, UnilateralSpring,
+    ElasticDryFriction, InitialSlider, PolynomialSpring, QuadraticDamper, RegularizedFriction,
+    UnilateralSpring,
 };
 pub use matrices::{
     matrix_structure, matrix_structure_sparse, matrix_structure_sparse_cb, read_matrix_market,
@@ -150,6 +159,9 @@ pub enum StructureError {
     /// An unknown boundary-condition name.
     #[error("unknown boundary condition `{name}`; expected one of {expected}")]
     UnknownBoundaryCondition { name: String, expected: String },
+    /// An initial slider state other than `mean` or `zero`.
+    #[error("unknown initial slider state '{name}' (expected: mean, zero)")]
+    UnknownInitialSlider { name: String },
     /// A location outside `[0, l]`.
     #[error("location x = {x_m} m lies outside the beam [0, {length_m}] m")]
     LocationOutsideBeam { x_m: f64, length_m: f64 },

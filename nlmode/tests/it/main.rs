@@ -4,6 +4,7 @@ mod attachment;
 mod frf;
 mod matrices;
 mod nma;
+mod nma_nonsmooth;
 mod reduced;
 mod reference;
 mod structure;

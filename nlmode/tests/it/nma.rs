@@ -1421,3 +1421,21 @@ fn stopping_at_the_first_fold_gives_the_same_refined_table() {
         serde_json::to_string(&tw).unwrap()
     );
 }
+
+#[test]
+fn paper_table_h7_writes_no_new_accuracy_fields() {
+    // the default scenario's modal_table.json stays byte for byte: the
+    // accuracy fields added for issue 22 are written only when set
+    let (_, t) = host_like_refined_table(SWEEP_TABLE_HARMONICS);
+    let acc = t.accuracy.clone().unwrap();
+    eprintln!("paper H7 table: {} points, {:?}", t.amplitude.len(), acc);
+    // no missed target, no discontinuity; the highest harmonic's share near
+    // the fold (above the sweeps' range) is reported but not written
+    assert!(acc.omega_worst_amplitude.is_none() && acc.discontinuity.is_none());
+    assert!(acc.highest_harmonic_share.unwrap() < 3e-3);
+    assert!(acc.highest_harmonic_share_amplitude.unwrap() > SWEEP_TABLE_MAX_AMPLITUDE);
+    let json = t.to_json();
+    for key in ["worst_amplitude", "discontinuity", "highest_harmonic_share"] {
+        assert!(!json.contains(key), "{key}");
+    }
+}

@@ -3,6 +3,8 @@ use crate::structure::{NamedPoint, NonlinearElement, NonlinearLaw, StructuralMod
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
+pub mod nlvib;
+
 /// Polynomial force law `f(u, v) = k3 u^3 + c3 v^3` [N].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CubicLaw {
