@@ -26,10 +26,16 @@
 //! **Sorting.** The Hill matrix has `nz (2H+1)` eigenvalues: each Floquet
 //! exponent appears with copies shifted by `i k Omega`, and truncation adds
 //! spurious ones near the ends of the harmonic range. The `nz` kept ones are
-//! those whose eigenvectors are *most periodic*: written over the complex
-//! harmonics `n = -H..H`, the energy centroid `n_bar = sum n |Y_n|^2 / sum
-//! |Y_n|^2` of the eigenvector is closest to zero (the copy `s + i k Omega`
-//! has its centroid shifted by `-k`). The solution is **stable** when every
+//! those with the smallest `|n_bar| + |Im s| / Omega`, where `n_bar = sum n
+//! |Y_n|^2 / sum |Y_n|^2` is the energy centroid of the eigenvector over the
+//! complex harmonics `n = -H..H` (the copy `s + i k Omega` has its centroid
+//! shifted by `-k`, so the key is the same for every accurate copy, ties going
+//! to the smaller centroid, i.e. the most periodic eigenvector), while a
+//! spurious eigenvalue (an edge copy mixed by the truncation) has either a
+//! centred eigenvector far from the real axis or a far centroid. Both terms
+//! alone fail: the centroid keeps the spurious centred pairs of `H = 1`
+//! Duffing middle branches, the imaginary part alone keeps spurious copies of
+//! modes above `H Omega`. The solution is **stable** when every
 //! kept exponent has `Re s < 0` (a margin of `1e-9` times the largest kept
 //! `|s|` absorbs the eigensolver's rounding at a fold, where one exponent is
 //! exactly zero).
@@ -134,6 +140,7 @@ pub(crate) fn floquet(res: &HbResidual, x: &DVector<f64>) -> Option<Floquet> {
     let fo = res.sys.first_order.as_ref().ok()?;
     let nz = fo.a.nrows();
     let h = res.harmonics();
+    let omega = x[x.len() - 1];
     let dim = hill.nrows();
     let m = Mat::<f64>::from_fn(dim, dim, |i, j| hill[(i, j)]);
     let eig = m.eigen().ok()?;
@@ -161,8 +168,9 @@ pub(crate) fn floquet(res: &HbResidual, x: &DVector<f64>) -> Option<Floquet> {
                 den += wp + wm;
             }
             let lam = s.get(k);
+            let centroid = (num / den.max(f64::MIN_POSITIVE)).abs();
             (
-                (num / den.max(f64::MIN_POSITIVE)).abs(),
+                1.001 * centroid + lam.im.abs() / omega,
                 Complex64::new(lam.re, lam.im),
             )
         })
