@@ -383,6 +383,11 @@ fn refine(
     best
 }
 
+/// Number of kept Floquet exponents with a non-zero imaginary part.
+fn n_complex(p: &HbPoint) -> Option<usize> {
+    p.floquet.as_ref().map(|f| f.n_complex)
+}
+
 /// Per-point outputs, stability, bifurcations (refined and inserted).
 fn finish(
     res: &HbResidual,
@@ -432,8 +437,10 @@ fn finish(
                     found.push((Bifurcation::BranchPoint, x));
                 }
             }
+            // a complex pair that becomes real (at a fold) is no Neimark-Sacker
+            // point: test only where the complex exponents stay complex
             if let (Some(ga), Some(gb)) = (ns(&pts[i - 1]), ns(p)) {
-                if ga * gb < 0.0 {
+                if ga * gb < 0.0 && n_complex(&pts[i - 1]) == n_complex(p) {
                     let test = |x: &DVector<f64>, _: &DVector<f64>| {
                         floquet(res, x)
                             .map(|f| f.max_re_complex)

@@ -83,6 +83,8 @@ pub struct Floquet {
     /// Largest real part among the kept exponents with a non-zero imaginary
     /// part (complex pairs; the Neimark-Sacker test function).
     pub max_re_complex: f64,
+    /// Number of kept exponents with a non-zero imaginary part.
+    pub n_complex: usize,
     pub stable: bool,
 }
 
@@ -189,15 +191,14 @@ pub(crate) fn floquet(res: &HbResidual, x: &DVector<f64>) -> Option<Floquet> {
         .map(|e| e.re)
         .fold(f64::NEG_INFINITY, f64::max);
     let im_tol = 1e-9 * scale.max(1.0);
-    let max_re_complex = exponents
-        .iter()
-        .filter(|e| e.im.abs() > im_tol)
-        .map(|e| e.re)
-        .fold(f64::NEG_INFINITY, f64::max);
+    let complex = || exponents.iter().filter(|e| e.im.abs() > im_tol);
+    let max_re_complex = complex().map(|e| e.re).fold(f64::NEG_INFINITY, f64::max);
+    let n_complex = complex().count();
     Some(Floquet {
         stable: max_re <= 1e-9 * scale,
         exponents,
         max_re,
         max_re_complex,
+        n_complex,
     })
 }

@@ -61,7 +61,6 @@ pub(crate) struct HarmonicLinear {
 /// The linear part at one `Omega`, all harmonics `0..=H`.
 #[derive(Debug, Clone)]
 pub(crate) struct Linear {
-    pub omega: f64,
     pub harmonics: Vec<HarmonicLinear>,
     /// Receptance at the elements `R_n = W^T D_n^{-1} W` and `dR_n/dOmega`.
     pub r: Vec<DMatrix<Complex64>>,
@@ -250,7 +249,6 @@ impl HbSystem {
             ),
         };
         Ok(Linear {
-            omega,
             harmonics,
             r,
             dr,

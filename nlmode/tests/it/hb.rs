@@ -470,3 +470,54 @@ fn bad_options_are_named() {
         Err(HbError::UnknownPoint { .. })
     ));
 }
+
+#[test]
+fn paper_beam_10v_middle_branch_unstable_by_hill() {
+    // case (a), H = 3: between the jump-down and jump-up folds the branch is
+    // unstable, elsewhere stable (the shaker's states are part of the Hill matrix)
+    let p = paper(nlmode::benchmark::K3_N_PER_M3);
+    let sp = ShakerParams::paper();
+    let shaker = LinearAttachment::shaker("shaker", &sp, "2l3").unwrap();
+    let u = DVector::from_element(1, Complex64::new(10.0, 0.0));
+    let sys = HbSystem::new(&p.model, &[shaker], &[u], &[], "tip").unwrap();
+    let w0 = p.omega0_rad_s;
+    let opts = HbOptions {
+        harmonics: 3,
+        omega_start_rad_s: 0.8 * w0,
+        omega_end_rad_s: 1.8 * w0,
+        ..HbOptions::default()
+    };
+    let t = std::time::Instant::now();
+    let r = frequency_response(&sys, &opts, &[]).unwrap();
+    let b = &r.branches[0];
+    let folds: Vec<usize> = b
+        .points
+        .iter()
+        .enumerate()
+        .filter(|(_, q)| q.bifurcation == Bifurcation::Fold)
+        .map(|(i, _)| i)
+        .collect();
+    let unstable: Vec<f64> = b
+        .points
+        .iter()
+        .filter(|q| q.stable() == Some(false))
+        .map(|q| q.omega_rad_s)
+        .collect();
+    println!(
+        "paper beam 10 V, H = 3: {} points in {:.2} s, folds at {:?}, unstable at {unstable:?}, other labels {:?}",
+        b.points.len(),
+        t.elapsed().as_secs_f64(),
+        folds.iter().map(|&i| b.points[i].omega_rad_s).collect::<Vec<_>>(),
+        r.bifurcations().iter().map(|(_, q)| (q.bifurcation.label(), q.omega_rad_s)).collect::<Vec<_>>()
+    );
+    assert_eq!(folds.len(), 2);
+    assert_eq!(r.bifurcations().len(), 2, "only the two folds");
+    for (i, q) in b.points.iter().enumerate() {
+        let s = q.stable().unwrap();
+        if i + 1 < folds[0] || i > folds[1] + 1 {
+            assert!(s, "point {i} at {} should be stable", q.omega_rad_s);
+        } else if i > folds[0] + 1 && i + 1 < folds[1] {
+            assert!(!s, "point {i} at {} should be unstable", q.omega_rad_s);
+        }
+    }
+}
