@@ -22,6 +22,7 @@ mod dopri;
 pub mod envelope;
 pub mod excitation;
 pub mod frf;
+pub mod hb;
 pub mod lti;
 pub mod nma;
 pub mod oscillator;

@@ -2,6 +2,7 @@
 //! graph instead of one per file): `cargo test -p nlmode --test it [module::]`.
 mod attachment;
 mod frf;
+mod hb;
 mod matrices;
 mod nma;
 mod nma_nonsmooth;

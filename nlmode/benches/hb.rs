@@ -1,0 +1,72 @@
+//! Harmonic balance of the full model (issue 24, speed item): the 10 V curve
+//! of the paper's case (a) (shaker at 2l/3, Craig-Bampton beam with the cubic
+//! spring), 0.8 to 1.8 omega0 through both folds, H = 7, with Hill stability
+//! and bifurcation location, on one core. Target: at most 0.5 s.
+//!
+//! Also timed: the same curve without stability (the HB continuation alone),
+//! and the Hill eigenvalue problem of one point.
+//!
+//! Measured: see the report in docs/hb.md.
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::DVector;
+use nlmode::attachment::{LinearAttachment, ShakerParams};
+use nlmode::hb::{frequency_response, HbOptions, HbSystem};
+use nlmode::structure::{paper_structure, PaperStructureOptions};
+use nlmode::Complex64;
+use std::time::{Duration, Instant};
+
+fn case_a() -> (HbSystem, f64) {
+    let p = paper_structure(&PaperStructureOptions::default()).unwrap();
+    let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
+    let u = DVector::from_element(1, Complex64::new(10.0, 0.0));
+    let sys = HbSystem::new(&p.model, &[shaker], &[u], &[], "tip").unwrap();
+    (sys, p.omega0_rad_s)
+}
+
+fn options(w0: f64, stability: bool) -> HbOptions {
+    HbOptions {
+        harmonics: 7,
+        omega_start_rad_s: 0.8 * w0,
+        omega_end_rad_s: 1.8 * w0,
+        stability,
+        ..HbOptions::default()
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let (sys, w0) = case_a();
+    // one timed run with its figures
+    for stability in [false, true] {
+        let t = Instant::now();
+        let r = frequency_response(&sys, &options(w0, stability), &[]).unwrap();
+        let dt = t.elapsed().as_secs_f64();
+        let b = &r.branches[0];
+        let folds: Vec<String> = r
+            .bifurcations()
+            .iter()
+            .map(|(_, p)| format!("{} at {:.3} rad/s", p.bifurcation.label(), p.omega_rad_s))
+            .collect();
+        let unstable = b
+            .points
+            .iter()
+            .filter(|p| p.stable() == Some(false))
+            .count();
+        println!(
+            "case (a) 10 V, H = 7, stability {stability}: {dt:.3} s, {} points, {unstable} unstable, {folds:?}, status {:?}",
+            b.points.len(),
+            b.status
+        );
+    }
+    let mut g = c.benchmark_group("hb");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    g.bench_function("case_a_10V_H7_with_stability", |bch| {
+        bch.iter(|| frequency_response(&sys, &options(w0, true), &[]).unwrap())
+    });
+    g.bench_function("case_a_10V_H7_without_stability", |bch| {
+        bch.iter(|| frequency_response(&sys, &options(w0, false), &[]).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

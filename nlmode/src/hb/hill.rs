@@ -1,0 +1,204 @@
+//! Stability of a harmonic-balance solution by Hill's method.
+//!
+//! The perturbation of the periodic solution obeys the linearised assembled
+//! system in its explicit first-order form (structure and every attachment
+//! state, [`crate::reference::assembly::FirstOrderSystem`]),
+//!
+//! ```text
+//! dz' = A dz + sum_e g_e (k_e(t) c_e^T + d_e(t) d_e^T) dz,
+//! k_e(t) = df_e/du (u_e(t), v_e(t)),   d_e(t) = df_e/dv,
+//! ```
+//!
+//! with `u_e(t)` the HB solution at element `e`. With the Floquet ansatz
+//! `dz = e^{s t} sum_h Y_h phi_h(Omega t)` on the same `2H+1` real Fourier
+//! functions as the HB, `s Y = Hill Y` with the real Hill matrix
+//!
+//! ```text
+//! Hill = I (x) A - Omega (D (x) I) + sum_e T[k_e] (x) g_e c_e^T + T[d_e] (x) g_e d_e^T,
+//! ```
+//!
+//! `D` the derivative of the Fourier functions and `T[k]` the harmonic
+//! (Toeplitz) matrix of multiplication by `k(t)` - the AFT's `dF/dU` of the
+//! law with only its `u`-derivative (respectively its `v`-derivative) kept, so
+//! the same AFT and samples as the HB. For a hysteretic law the HB
+//! Jacobian `dF/dU` itself is used for `T[k]` and `T[d] = 0`.
+//!
+//! **Sorting.** The Hill matrix has `nz (2H+1)` eigenvalues: each Floquet
+//! exponent appears with copies shifted by `i k Omega`, and truncation adds
+//! spurious ones near the ends of the harmonic range. The `nz` kept ones are
+//! those with the smallest `|n_bar| + |Im s| / Omega`, where `n_bar = sum n
+//! |Y_n|^2 / sum |Y_n|^2` is the energy centroid of the eigenvector over the
+//! complex harmonics `n = -H..H` (the copy `s + i k Omega` has its centroid
+//! shifted by `-k`, so the key is the same for every accurate copy, ties going
+//! to the smaller centroid, i.e. the most periodic eigenvector), while a
+//! spurious eigenvalue (an edge copy mixed by the truncation) has either a
+//! centred eigenvector far from the real axis or a far centroid. Both terms
+//! alone fail: the centroid keeps the spurious centred pairs of `H = 1`
+//! Duffing middle branches, the imaginary part alone keeps spurious copies of
+//! modes above `H Omega`. The solution is **stable** when every
+//! kept exponent has `Re s < 0` (a margin of `1e-9` times the largest kept
+//! `|s|` absorbs the eigensolver's rounding at a fold, where one exponent is
+//! exactly zero).
+use super::residual::HbResidual;
+use crate::nma::hb::{cos_index, sin_index};
+use crate::structure::NonlinearLaw;
+use faer::Mat;
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
+
+/// The law with only `df/du` kept (as `df/du`): `dF/dU` of the AFT is `T[k]`.
+#[derive(Debug)]
+struct StiffnessPart<'a>(&'a dyn NonlinearLaw);
+/// The law's `df/dv` reported as `df/du`: `dF/dU` of the AFT is `T[d]`.
+#[derive(Debug)]
+struct DampingPart<'a>(&'a dyn NonlinearLaw);
+
+impl NonlinearLaw for StiffnessPart<'_> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn eval(&self, u: f64, v: f64) -> (f64, f64, f64) {
+        let (f, fu, _) = self.0.eval(u, v);
+        (f, fu, 0.0)
+    }
+}
+
+impl NonlinearLaw for DampingPart<'_> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn eval(&self, u: f64, v: f64) -> (f64, f64, f64) {
+        let (f, _, fv) = self.0.eval(u, v);
+        (f, fv, 0.0)
+    }
+}
+
+/// Floquet exponents of one solution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Floquet {
+    /// The kept exponents `s` \[1/s\] (`nz` of them).
+    pub exponents: Vec<Complex64>,
+    /// Largest real part of the kept exponents.
+    pub max_re: f64,
+    /// Largest real part among the kept exponents with a non-zero imaginary
+    /// part (complex pairs; the Neimark-Sacker test function).
+    pub max_re_complex: f64,
+    /// Number of kept exponents with a non-zero imaginary part.
+    pub n_complex: usize,
+    pub stable: bool,
+}
+
+/// The real Hill matrix at `x` (module docs).
+pub(crate) fn hill_matrix(res: &HbResidual, x: &DVector<f64>) -> Option<DMatrix<f64>> {
+    let fo = res.sys.first_order.as_ref().ok()?;
+    let nz = fo.a.nrows();
+    let h = res.harmonics();
+    let nh = 2 * h + 1;
+    let omega = x[x.len() - 1];
+    let ne = res.sys.n_elements();
+    let mut hill = DMatrix::zeros(nz * nh, nz * nh);
+    for b in 0..nh {
+        hill.view_mut((b * nz, b * nz), (nz, nz)).copy_from(&fo.a);
+    }
+    for n in 1..=h {
+        let (c, s) = (cos_index(n), sin_index(n));
+        let w = n as f64 * omega;
+        for i in 0..nz {
+            hill[(c * nz + i, s * nz + i)] -= w;
+            hill[(s * nz + i, c * nz + i)] += w;
+        }
+    }
+    let coeffs = res.element_coeffs(x);
+    for (e, (u, law)) in coeffs.iter().zip(&res.sys.laws).enumerate() {
+        let (tk, td) = if law.hysteresis().is_some() {
+            (res.aft.eval(law.as_ref(), u, omega).jac_u, None)
+        } else {
+            let tk = res.aft.eval(&StiffnessPart(law.as_ref()), u, omega).jac_u;
+            let td = res.aft.eval(&DampingPart(law.as_ref()), u, omega).jac_u;
+            (tk, Some(td))
+        };
+        let g = fo.g.column(e);
+        let gc = g * fo.proj.row(e);
+        let gd = g * fo.proj.row(ne + e);
+        for b in 0..nh {
+            for b2 in 0..nh {
+                let k = tk[(b, b2)];
+                let d = td.as_ref().map_or(0.0, |t| t[(b, b2)]);
+                if k == 0.0 && d == 0.0 {
+                    continue;
+                }
+                let mut blk = hill.view_mut((b * nz, b2 * nz), (nz, nz));
+                blk += &gc * k + &gd * d;
+            }
+        }
+    }
+    Some(hill)
+}
+
+/// Floquet exponents of the solution `x` (module docs), `None` if the
+/// eigenvalue problem failed or the assembly has no first-order form.
+pub(crate) fn floquet(res: &HbResidual, x: &DVector<f64>) -> Option<Floquet> {
+    let hill = hill_matrix(res, x)?;
+    let fo = res.sys.first_order.as_ref().ok()?;
+    let nz = fo.a.nrows();
+    let h = res.harmonics();
+    let omega = x[x.len() - 1];
+    let dim = hill.nrows();
+    let m = Mat::<f64>::from_fn(dim, dim, |i, j| hill[(i, j)]);
+    let eig = m.eigen().ok()?;
+    let (s, u) = (eig.S().column_vector(), eig.U());
+    let mut ranked: Vec<(f64, Complex64)> = (0..dim)
+        .map(|k| {
+            let at = |i: usize| {
+                let v = u.get(i, k);
+                Complex64::new(v.re, v.im)
+            };
+            let (mut num, mut den) = (0.0, 0.0);
+            for i in 0..nz {
+                den += at(i).norm_sqr();
+            }
+            for n in 1..=h {
+                let (c, sn) = (cos_index(n), sin_index(n));
+                let (mut wp, mut wm) = (0.0, 0.0);
+                for i in 0..nz {
+                    let (yc, ys) = (at(c * nz + i), at(sn * nz + i));
+                    let j = Complex64::i();
+                    wp += (yc - j * ys).norm_sqr();
+                    wm += (yc + j * ys).norm_sqr();
+                }
+                num += n as f64 * (wp - wm);
+                den += wp + wm;
+            }
+            let lam = s.get(k);
+            let centroid = (num / den.max(f64::MIN_POSITIVE)).abs();
+            (
+                1.001 * centroid + lam.im.abs() / omega,
+                Complex64::new(lam.re, lam.im),
+            )
+        })
+        .collect();
+    ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let exponents: Vec<Complex64> = ranked.iter().take(nz).map(|r| r.1).collect();
+    if exponents
+        .iter()
+        .any(|e| !(e.re.is_finite() && e.im.is_finite()))
+    {
+        return None;
+    }
+    let scale = exponents.iter().map(|e| e.norm()).fold(0.0, f64::max);
+    let max_re = exponents
+        .iter()
+        .map(|e| e.re)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let im_tol = 1e-9 * scale.max(1.0);
+    let complex = || exponents.iter().filter(|e| e.im.abs() > im_tol);
+    let max_re_complex = complex().map(|e| e.re).fold(f64::NEG_INFINITY, f64::max);
+    let n_complex = complex().count();
+    Some(Floquet {
+        stable: max_re <= 1e-9 * scale,
+        exponents,
+        max_re,
+        max_re_complex,
+        n_complex,
+    })
+}
