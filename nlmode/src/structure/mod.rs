@@ -15,8 +15,9 @@
 //! * [`mod@craig_bampton`]: Craig-Bampton reduction with chosen master DOFs and fixed-interface modes.
 //! * [`paper`]: the benchmark structure of the paper (Section 5).
 //! * [`matrices`]: the user's structure from FE matrices (Matrix Market files).
-//! * [`sparse`]: sparse FE matrices (faer): sparse Cholesky and the shift-invert
-//!   block Lanczos eigensolver of the large-model Craig-Bampton path.
+//! * [`sparse`]: sparse FE matrices (faer): sparse Cholesky with its memory
+//!   estimate; [`lanczos`]: the shift-invert block Lanczos eigensolver of the
+//!   large-model Craig-Bampton path; [`solid`]: a hexahedral plate test model.
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
@@ -114,10 +115,12 @@ pub struct StructuralModel {
 pub mod beam;
 pub mod craig_bampton;
 pub mod damping;
+pub mod lanczos;
 pub mod laws;
 pub mod matrices;
 pub mod modal;
 pub mod paper;
+pub mod solid;
 pub mod sparse;
 
 pub use beam::{Beam, BeamSpec, BoundaryCondition};
@@ -255,6 +258,21 @@ pub enum StructureError {
     /// Non-finite entries (NaN or infinity).
     #[error("`{name}` contains non-finite entries")]
     NonFinite { name: String },
+    /// The large-model path would need more memory than allowed (estimated from
+    /// the symbolic factorisation, before any numeric work).
+    #[error(
+        "the {ndof}-DOF model needs about {:.2} GB for the sparse reduction (its Cholesky \
+         factor has {factor_nnz} non-zeros, {:.2} GB), above the memory limit of {:.2} GB: \
+         use a coarser mesh, free memory or raise the limit",
+        *needed_bytes as f64 / 1e9, *factor_bytes as f64 / 1e9, *limit_bytes as f64 / 1e9
+    )]
+    MemoryLimit {
+        ndof: usize,
+        factor_nnz: usize,
+        needed_bytes: u64,
+        factor_bytes: u64,
+        limit_bytes: u64,
+    },
     /// Inconsistent matrix sizes.
     #[error("`{name}` is {rows}x{cols}, expected {expected}x{expected}")]
     WrongShape {

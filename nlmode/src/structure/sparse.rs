@@ -1,54 +1,43 @@
 //! Sparse FE matrices for large models (the `craig-bampton` path of a matrices
 //! structure, [`super::matrices::matrix_structure_sparse`]): compressed-column
-//! storage and sparse Cholesky factorisation by the `faer` crate, products with
-//! dense blocks, and the lowest eigenpairs of `K phi = lambda M phi`
-//! (`eq:component1` without damping and nonlinearity) by a shift-invert block
-//! Lanczos iteration on the sparse factorisation.
+//! storage (faer), products with dense blocks, and the sparse Cholesky
+//! factorisation `A = L L^T` (faer's supernodal factorisation after a
+//! fill-reducing ordering, with its parallelism) with a memory estimate from the
+//! symbolic factorisation taken before any numeric work
+//! ([`MemoryEstimate`], [`SparseOptions::memory_limit_bytes`]).
 //!
-//! The eigensolver is hand-rolled on purpose: faer has no sparse eigensolver, and
-//! the iteration is a few dense block operations around faer's sparse solves.
+//! The eigensolver on top of the factorisation is [`super::lanczos`].
 //!
-//! Shift-invert: with `K - sigma M = L L^T` (sparse Cholesky), the operator
-//! `Op = (K - sigma M)^{-1} M` is self-adjoint in the `M` inner product and has the
-//! eigenvalues `mu = 1 / (lambda - sigma)`: the lowest `lambda` are its largest,
-//! well-separated `mu`. The block Lanczos basis `V` is kept `M`-orthonormal by full
-//! re-orthogonalisation (two classical Gram-Schmidt passes), so that
-//! `Op V_m = V_m T_m + V_next R E^T`; the Ritz pairs of the small `T_m` converge
-//! when their residual `||R y_last|| <= LANCZOS_RTOL mu`. Each converged pair is
-//! then verified on the residual of the original problem, `K x - lambda M x`,
-//! measured in the norm of `(K - sigma M)^{-1}` relative to `||x||_M`:
-//! `||x - (lambda - sigma) Op x||_M <= RESIDUAL_RTOL` (one more solve). The plain
-//! `||K x - lambda M x|| / ||K x||` is reported too ([`SparseModes::residual`]) but
-//! not tested: on a stiff FE model (`cond(K) ~ 1e10` and more) rounding-size
-//! high-frequency content of an accurate `x` dominates it (`1e-4` on a 100-element
-//! beam whose frequencies are exact to `1e-13`). The basis size is bounded (error
-//! with the numbers when the iteration does not converge within it).
+//! Memory of the large-model path (`n` DOFs, `nnz(A)` stored entries of the
+//! full symmetric matrices, `nnz(L)` of the factor, `m` the Lanczos basis,
+//! `r` the reduced size): `M`, `K` (and a `C` file) `16 nnz(A)` bytes each, the
+//! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m`, dense blocks
+//! `8 n r` a few times. Nothing of size `n x n` is formed; one factorisation is
+//! alive at a time.
 use super::{Result, StructureError};
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::Llt;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymbolicCholeskyRaw, SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, Triplet};
-use faer::{Accum, MatMut, MatRef, Par, Side};
-use nalgebra::{DMatrix, SymmetricEigen};
+use faer::{Accum, Conj, MatMut, MatRef, Par, Side};
+use nalgebra::DMatrix;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 /// A sparse square matrix in compressed-column storage (faer).
 pub type SparseMatrix = SparseColMat<usize, f64>;
-
-/// Convergence of a Ritz pair of the shift-inverted problem:
-/// `||Op x - mu x||_M <= LANCZOS_RTOL mu`.
-pub const LANCZOS_RTOL: f64 = 1e-12;
-
-/// Verification of a converged pair on the original problem (module docs):
-/// `||x - (lambda - sigma) Op x||_M <= RESIDUAL_RTOL` (shift 0), or the shifted
-/// factorisation's rounding floor `64 eps lambda_scale / |sigma|` if larger.
-pub const RESIDUAL_RTOL: f64 = 1e-10;
 
 /// A factorisation that reproduces `z` from `A z` worse than this (relative, max
 /// norm) counts as singular: a regular FE stiffness with `cond(K) ~ 1e10` does it
 /// to about `1e-8`, a singular one that passed by rounding misses by `O(1)` or more.
 pub const SINGULAR_PROBE_RTOL: f64 = 1e-3;
 
-/// Most eigenpairs one sparse eigen-analysis computes (the basis grows with them).
-pub const MAX_SPARSE_MODES: usize = 500;
+pub use super::lanczos::{
+    lambda_scale, lanczos, sparse_modal, SparseModes, LANCZOS_RTOL, MAX_SPARSE_MODES, RESIDUAL_RTOL,
+};
 
 /// `n x n` sparse matrix from `(row, col, value)` triplets, duplicates summed;
 /// `None` if an index is out of range.
@@ -188,33 +177,252 @@ pub fn dense_block(
     d
 }
 
-/// `A X` of a sparse `A` and a dense block `X`.
+/// `A X` of a sparse `A` and a dense block `X` (faer's kernel).
 pub fn sparse_mul(a: &SparseMatrix, x: &DMatrix<f64>) -> DMatrix<f64> {
+    sparse_mul_par(a, x, Par::Seq)
+}
+
+/// As [`sparse_mul`], the columns of `X` shared among the threads of `par`
+/// (faer's sparse-dense kernel itself is sequential).
+pub fn sparse_mul_par(a: &SparseMatrix, x: &DMatrix<f64>, par: Par) -> DMatrix<f64> {
     assert_eq!(a.ncols(), x.nrows(), "sparse_mul: sizes");
-    let mut y = DMatrix::zeros(a.nrows(), x.ncols());
     let (nr, nc) = (a.nrows(), x.ncols());
-    let xr = MatRef::from_column_major_slice(x.as_slice(), x.nrows(), nc);
-    let yr = MatMut::from_column_major_slice_mut(y.as_mut_slice(), nr, nc);
-    faer::sparse::linalg::matmul::sparse_dense_matmul(
-        yr,
-        Accum::Replace,
-        a.as_ref(),
-        xr,
-        1.0,
-        Par::Seq,
-    );
+    let mut y = DMatrix::zeros(nr, nc);
+    mul_into(a, x.as_slice(), y.as_mut_slice(), nc, par.degree());
     y
 }
 
+fn mul_into(a: &SparseMatrix, x: &[f64], y: &mut [f64], nc: usize, threads: usize) {
+    let (nr, nx) = (a.nrows(), a.ncols());
+    if threads > 1 && nc > 1 {
+        let h = nc / 2;
+        let (x0, x1) = x.split_at(nx * h);
+        let (y0, y1) = y.split_at_mut(nr * h);
+        let t0 = threads / 2;
+        rayon::join(
+            || mul_into(a, x0, y0, h, t0),
+            || mul_into(a, x1, y1, nc - h, threads - t0),
+        );
+        return;
+    }
+    faer::sparse::linalg::matmul::sparse_dense_matmul(
+        MatMut::from_column_major_slice_mut(y, nr, nc),
+        Accum::Replace,
+        a.as_ref(),
+        MatRef::from_column_major_slice(x, nx, nc),
+        1.0,
+        Par::Seq,
+    );
+}
+
+/// Deterministic pseudo-random numbers in `(-1, 1)` (xorshift64*), for start
+/// blocks, deflated directions and the singularity probe: reproducible results.
+pub(crate) struct Xorshift(pub(crate) u64);
+
+impl Xorshift {
+    pub(crate) fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let u = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
+        2.0 * (u as f64 / (1u64 << 53) as f64) - 1.0
+    }
+    pub(crate) fn block(&mut self, n: usize, b: usize) -> DMatrix<f64> {
+        DMatrix::from_fn(n, b, |_, _| self.next())
+    }
+}
+
+/// A stage of the large-model path, for progress reports and [`StageTimings`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Symmetry, diagonals, `M` positive definite.
+    Check,
+    /// Fill-reducing ordering and symbolic factorisation (and the memory estimate).
+    Order,
+    /// Numeric factorisation of `K` (or `K - sigma M`).
+    Factor,
+    /// Shift-invert Lanczos: the full model's lowest modes and the
+    /// fixed-interface modes.
+    Eigen,
+    /// Craig-Bampton constraint modes by sparse solves.
+    ConstraintModes,
+    /// The reduced matrices `T^T A T`.
+    Project,
+}
+
+impl Stage {
+    /// The stage's name as in [`StageTimings`]' keys (`order` for `order_s`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Check => "check",
+            Stage::Order => "order",
+            Stage::Factor => "factor",
+            Stage::Eigen => "eigen",
+            Stage::ConstraintModes => "constraint_modes",
+            Stage::Project => "project",
+        }
+    }
+}
+
+/// Called at the end of each stage with the stage and its wall time.
+pub type Progress = Arc<dyn Fn(Stage, Duration) + Send + Sync>;
+
+/// Options of the large-model (sparse) path.
+#[derive(Clone, Default)]
+pub struct SparseOptions {
+    /// Refuse, before any numeric factorisation, a model whose
+    /// [`MemoryEstimate::total_bytes`] exceeds this ([`StructureError::MemoryLimit`]);
+    /// `None`: no limit (the caller, e.g. the host, passes 75 % of the
+    /// available memory).
+    pub memory_limit_bytes: Option<u64>,
+    /// Threads of the factorisation, the solves and the products: 0 = rayon's
+    /// pool, 1 = sequential.
+    pub threads: usize,
+    /// Called after each stage (e.g. a progress bar).
+    pub progress: Option<Progress>,
+}
+
+impl std::fmt::Debug for SparseOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SparseOptions")
+            .field("memory_limit_bytes", &self.memory_limit_bytes)
+            .field("threads", &self.threads)
+            .field("progress", &self.progress.is_some())
+            .finish()
+    }
+}
+
+impl SparseOptions {
+    /// faer's parallelism of these options.
+    pub fn par(&self) -> Par {
+        match self.threads {
+            1 => Par::Seq,
+            t => Par::rayon(t),
+        }
+    }
+}
+
+/// Wall times [s] of the stages of the large-model path ([`Stage`]; `read` is
+/// the caller's), the factor's size and the memory estimate.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StageTimings {
+    pub check_s: f64,
+    pub order_s: f64,
+    pub factor_s: f64,
+    pub eigen_s: f64,
+    pub constraint_modes_s: f64,
+    pub project_s: f64,
+    /// Non-zeros of the Cholesky factor (after the ordering).
+    pub factor_nnz: usize,
+    /// [`MemoryEstimate::total_bytes`] of the model.
+    pub memory_estimate_bytes: u64,
+    /// Lanczos basis sizes at convergence: full model, fixed-interface modes.
+    pub lanczos_basis: Vec<usize>,
+}
+
+impl StageTimings {
+    /// Adds `dt` to the stage's time and reports it to `progress`.
+    pub fn add(&mut self, stage: Stage, dt: Duration, progress: &Option<Progress>) {
+        let s = dt.as_secs_f64();
+        match stage {
+            Stage::Check => self.check_s += s,
+            Stage::Order => self.order_s += s,
+            Stage::Factor => self.factor_s += s,
+            Stage::Eigen => self.eigen_s += s,
+            Stage::ConstraintModes => self.constraint_modes_s += s,
+            Stage::Project => self.project_s += s,
+        }
+        if let Some(p) = progress {
+            p(stage, dt);
+        }
+    }
+
+    /// Runs `f` as the stage `stage` (timed, reported).
+    pub fn time<T>(&mut self, stage: Stage, opts: &SparseOptions, f: impl FnOnce() -> T) -> T {
+        let t0 = Instant::now();
+        let out = f();
+        self.add(stage, t0.elapsed(), &opts.progress);
+        out
+    }
+}
+
+/// The symbolic Cholesky factorisation of a sparsity pattern (lower triangle
+/// read): faer's approximate minimum degree ordering, the elimination tree and
+/// the supernodal structure. Shared by every matrix of that pattern.
+#[derive(Debug, Clone)]
+pub struct SymbolicFactor {
+    inner: Arc<SymbolicCholesky<usize>>,
+}
+
+impl SymbolicFactor {
+    /// The symbolic factorisation of `a`'s pattern; `None` when faer runs out
+    /// of memory or index range.
+    pub fn new(a: &SparseMatrix) -> Option<Self> {
+        let params = CholeskySymbolicParams {
+            // supernodal unless the factor is very sparse (faer's own choice)
+            supernodal_flop_ratio_threshold: SupernodalThreshold::AUTO,
+            ..Default::default()
+        };
+        let inner =
+            factorize_symbolic_cholesky(a.symbolic(), Side::Lower, SymmetricOrdering::Amd, params)
+                .ok()?;
+        Some(Self {
+            inner: Arc::new(inner),
+        })
+    }
+
+    /// Non-zeros of the factor `L` (supernodal: with the dense supernode blocks).
+    pub fn nnz(&self) -> usize {
+        self.inner.len_val()
+    }
+
+    /// Bytes of the factor: values, row indices and the permutation.
+    pub fn factor_bytes(&self) -> u64 {
+        let idx = match self.inner.raw() {
+            SymbolicCholeskyRaw::Simplicial(s) => s.row_idx().len() + s.col_ptr().len(),
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                s.row_idx().len() + s.col_ptr_for_row_idx().len() + s.col_ptr_for_val().len()
+            }
+        };
+        8 * (self.nnz() + idx + 2 * self.inner.nrows()) as u64
+    }
+
+    /// Bytes of faer's workspace of the numeric factorisation (a permuted copy
+    /// of the matrix and the supernodal update blocks).
+    pub fn workspace_bytes(&self, par: Par) -> u64 {
+        self.inner
+            .factorize_numeric_llt_scratch::<f64>(par, Default::default())
+            .size_bytes() as u64
+    }
+}
+
+/// Whether `a` and `b` store the same pattern (then one [`SymbolicFactor`] serves both).
+pub fn same_pattern(a: &SparseMatrix, b: &SparseMatrix) -> bool {
+    let (sa, sb) = (a.symbolic(), b.symbolic());
+    sa.nrows() == sb.nrows()
+        && sa.col_ptr() == sb.col_ptr()
+        && sa.col_nnz() == sb.col_nnz()
+        && sa.row_idx() == sb.row_idx()
+}
+
+/// Whether `a` is diagonal (a lumped mass matrix).
+pub fn is_diagonal(a: &SparseMatrix) -> bool {
+    let mut diag = true;
+    for_each_entry(a, |r, c, v| diag &= r == c || v == 0.0);
+    diag
+}
+
 /// Sparse Cholesky factorisation `A = L L^T` of a symmetric positive definite
-/// matrix (faer, fill-reducing ordering; the lower triangle is read).
+/// matrix (faer; the lower triangle is read).
 pub struct SparseCholesky {
-    llt: Llt<usize, f64>,
+    symbolic: SymbolicFactor,
+    values: Vec<f64>,
+    par: Par,
 }
 
 impl std::fmt::Debug for SparseCholesky {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("SparseCholesky")
+        write!(f, "SparseCholesky(nnz(L) = {})", self.values.len())
     }
 }
 
@@ -224,8 +432,36 @@ impl SparseCholesky {
     /// [`SINGULAR_PROBE_RTOL`] (a singular `A`, e.g. a stiffness with rigid-body
     /// modes, can pass the factorisation with rounding-size pivots).
     pub fn new(a: &SparseMatrix) -> Option<Self> {
+        Self::with_symbolic(&SymbolicFactor::new(a)?, a, Par::Seq)
+    }
+
+    /// As [`SparseCholesky::new`] with the symbolic factorisation of `a`'s
+    /// pattern and the parallelism `par` (of the factorisation and the solves).
+    pub fn with_symbolic(symbolic: &SymbolicFactor, a: &SparseMatrix, par: Par) -> Option<Self> {
+        let sym = &symbolic.inner;
+        if sym.nrows() != a.nrows() {
+            return None;
+        }
+        let mut values = Vec::new();
+        values.try_reserve_exact(sym.len_val()).ok()?;
+        values.resize(sym.len_val(), 0.0);
+        let req = sym.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        let mut mem = MemBuffer::try_new(req).ok()?;
+        sym.factorize_numeric_llt(
+            &mut values,
+            a.as_ref(),
+            Side::Lower,
+            Default::default(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .ok()?;
+        drop(mem);
         let f = Self {
-            llt: a.sp_cholesky(Side::Lower).ok()?,
+            symbolic: symbolic.clone(),
+            values,
+            par,
         };
         let z = Xorshift(0x2545_f491_4f6c_dd1d).block(a.nrows(), 1);
         let mut x = sparse_mul(a, &z);
@@ -237,386 +473,84 @@ impl SparseCholesky {
     /// Solves `A X = B` in place (`B` overwritten by `X`).
     pub fn solve_in_place(&self, b: &mut DMatrix<f64>) {
         let (nr, nc) = b.shape();
+        let sym = &self.symbolic.inner;
+        let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(nc, self.par));
         let view = MatMut::from_column_major_slice_mut(b.as_mut_slice(), nr, nc);
-        self.llt.solve_in_place(view);
+        LltRef::new(sym, &self.values).solve_in_place_with_conj(
+            Conj::No,
+            view,
+            self.par,
+            MemStack::new(&mut mem),
+        );
+    }
+
+    /// The symbolic factorisation (shared with other matrices of the pattern).
+    pub fn symbolic(&self) -> &SymbolicFactor {
+        &self.symbolic
     }
 }
 
-/// Eigenpairs of `K phi = lambda M phi` from [`lanczos`]: `lambda` ascending,
-/// mass-normalised shapes (sign as [`super::modal`]: the first largest entry
-/// positive), the verified shift-inverted residuals and the plain ones.
-#[derive(Debug, Clone)]
-pub struct SparseModes {
-    pub lambda: Vec<f64>,
-    pub shapes: DMatrix<f64>,
-    /// `||x - (lambda - sigma) Op x||_M` (tested against [`RESIDUAL_RTOL`]).
-    pub inverse_residual: Vec<f64>,
-    /// `||K x - lambda M x|| / ||K x||` (0 for a rigid-body mode), reported only.
-    pub residual: Vec<f64>,
-    /// Size of the Lanczos basis at convergence.
-    pub basis: usize,
+/// The memory of the large-model path of one model, from its symbolic
+/// factorisation (module docs), in bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemoryEstimate {
+    pub ndof: usize,
+    /// The sparse matrices held (`M`, `K`, a `C` file).
+    pub matrices_bytes: u64,
+    pub factor_nnz: usize,
+    pub factor_bytes: u64,
+    /// faer's workspace of the numeric factorisation.
+    pub workspace_bytes: u64,
+    /// The Lanczos basis at its bound and the dense `n x r` blocks.
+    pub eigen_bytes: u64,
+    pub total_bytes: u64,
 }
 
-/// `lambda_scale = max_i K_ii / M_ii` (a lower bound of the largest eigenvalue).
-pub fn lambda_scale(m: &SparseMatrix, k: &SparseMatrix) -> f64 {
-    diagonal(k)
-        .iter()
-        .zip(diagonal(m))
-        .map(|(kk, mm)| kk / mm)
-        .fold(0.0, f64::max)
+/// Bytes of a sparse matrix (values and row indices, column pointers).
+pub fn matrix_bytes(a: &SparseMatrix) -> u64 {
+    (16 * a.compute_nnz() + 8 * (a.ncols() + 1)) as u64
 }
 
-/// Deterministic pseudo-random numbers in `(-1, 1)` (xorshift64*), for the start
-/// block and for replacing deflated directions: reproducible results.
-struct Xorshift(u64);
-
-impl Xorshift {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let u = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
-        2.0 * (u as f64 / (1u64 << 53) as f64) - 1.0
-    }
-    fn block(&mut self, n: usize, b: usize) -> DMatrix<f64> {
-        DMatrix::from_fn(n, b, |_, _| self.next())
-    }
-}
-
-/// The `n_modes` eigenpairs of `K phi = lambda M phi` with the lowest `lambda`
-/// above the shift `sigma`, given `factor` of `K - sigma M` (module docs).
-/// `name` names the mode count in errors.
-pub fn lanczos(
-    m: &SparseMatrix,
-    k: &SparseMatrix,
-    factor: &SparseCholesky,
-    sigma: f64,
-    n_modes: usize,
-    name: &'static str,
-) -> Result<SparseModes> {
-    let n = m.nrows();
-    if n_modes == 0 || n_modes > n || n_modes > MAX_SPARSE_MODES {
-        return Err(StructureError::ModeCount {
-            name,
-            requested: n_modes,
-            available: n.min(MAX_SPARSE_MODES),
-        });
-    }
-    let b = n_modes.min(3);
-    let m_max = (8 * n_modes + 40).min(n);
-    let op = |x: &DMatrix<f64>| {
-        let mut w = sparse_mul(m, x);
-        factor.solve_in_place(&mut w);
-        w
-    };
-    let mut rng = Xorshift(0x9e37_79b9_7f4a_7c15);
-    let mut v = DMatrix::<f64>::zeros(n, m_max);
-    let mut mv = DMatrix::<f64>::zeros(n, m_max);
-    let mut t = DMatrix::<f64>::zeros(m_max + b, m_max + b);
-    // start block: Op applied to a random block, M-orthonormalised
-    let w0 = op(&rng.block(n, b));
-    let (q, mq, _) = orthonormalize(m, &v, &mv, 0, w0, b, &mut rng);
-    let mut m_cur = q.ncols();
-    v.columns_mut(0, m_cur).copy_from(&q);
-    mv.columns_mut(0, m_cur).copy_from(&mq);
-    let mut m0 = 0;
-    let mut last_residual = f64::INFINITY;
-    let mut check = 0usize;
-    loop {
-        let bl = m_cur - m0;
-        let w = op(&v.columns(m0, bl).into_owned());
-        let (w, mw, coef) = reorthogonalize(m, &v, &mv, m_cur, w);
-        t.view_mut((0, m0), (m_cur, bl)).copy_from(&coef);
-        let exact = m_cur == n;
-        let keep = bl.min(n - m_cur);
-        let (q, mq, r) = if exact {
-            (
-                DMatrix::zeros(n, 0),
-                DMatrix::zeros(n, 0),
-                DMatrix::zeros(0, bl),
-            )
-        } else {
-            orthonormalize_block(m, &v, &mv, m_cur, w, mw, keep, &mut rng)
-        };
-        t.view_mut((m_cur, m0), (r.nrows(), bl)).copy_from(&r);
-        check += 1;
-        let full = exact || m_cur + q.ncols() > m_max;
-        // a truncated last block (keep < bl) has an incomplete R: wait for the
-        // exact step that follows it
-        if m_cur >= n_modes && (exact || keep == bl) && (check % 2 == 0 || full) {
-            // the upper triangle of T_m holds the Gram-Schmidt coefficients
-            // V^T M Op V (complete); the lower one only the R factors
-            let sym = DMatrix::from_fn(m_cur, m_cur, |i, j| t[(i.min(j), i.max(j))]);
-            let eig = SymmetricEigen::new(sym);
-            let mut order: Vec<usize> = (0..m_cur).collect();
-            order.sort_by(|&i, &j| eig.eigenvalues[j].total_cmp(&eig.eigenvalues[i]));
-            let mut worst = 0.0f64;
-            for &i in order.iter().take(n_modes) {
-                let mu = eig.eigenvalues[i];
-                let y_last = eig.eigenvectors.view((m0, i), (bl, 1));
-                let res = if r.nrows() == 0 {
-                    0.0
-                } else {
-                    (&r * y_last).norm()
-                };
-                worst = worst.max(if mu > 0.0 { res / mu } else { f64::INFINITY });
-            }
-            last_residual = worst;
-            if worst <= LANCZOS_RTOL {
-                let mut y = DMatrix::zeros(m_cur, n_modes);
-                let mut mus = Vec::with_capacity(n_modes);
-                for (c, &i) in order.iter().take(n_modes).enumerate() {
-                    y.set_column(c, &eig.eigenvectors.column(i));
-                    mus.push(eig.eigenvalues[i]);
-                }
-                let x = v.columns(0, m_cur) * y;
-                return finish(m, k, factor, sigma, &mus, x, m_cur, name);
-            }
-        }
-        if full {
-            return Err(StructureError::EigenNotConverged {
-                name,
-                requested: n_modes,
-                basis: m_cur,
-                residual: last_residual,
-            });
-        }
-        let nq = q.ncols();
-        v.columns_mut(m_cur, nq).copy_from(&q);
-        mv.columns_mut(m_cur, nq).copy_from(&mq);
-        m0 = m_cur;
-        m_cur += nq;
-    }
-}
-
-/// Two classical Gram-Schmidt passes of `w` against the first `m_cur` columns
-/// of the `M`-orthonormal `v` (`mv = M v`): the orthogonalised `w`, `M w` and the
-/// summed coefficients `V^T M w`.
-fn reorthogonalize(
-    m: &SparseMatrix,
-    v: &DMatrix<f64>,
-    mv: &DMatrix<f64>,
-    m_cur: usize,
-    mut w: DMatrix<f64>,
-) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let vv = v.columns(0, m_cur);
-    let mvv = mv.columns(0, m_cur);
-    let mut coef = DMatrix::zeros(m_cur, w.ncols());
-    for _ in 0..2 {
-        // M w afresh each pass: updating it as M w - (M V) c would lose the small
-        // remainder to cancellation once the Krylov space has converged
-        let c = mvv.tr_mul(&w);
-        w -= &vv * &c;
-        coef += c;
-    }
-    let mw = sparse_mul(m, &w);
-    (w, mw, coef)
-}
-
-/// `M`-orthonormalises `w` (already orthogonal to `v[.., ..m_cur]`) by modified
-/// Gram-Schmidt into at most `keep` columns, `w[.., ..keep] = Q R` (`R` is
-/// `keep x w.ncols()`); a direction that vanishes (relative `1e-10`) is replaced
-/// by a random one orthogonal to the basis, with a zero factor.
-#[allow(clippy::too_many_arguments)]
-fn orthonormalize_block(
-    m: &SparseMatrix,
-    v: &DMatrix<f64>,
-    mv: &DMatrix<f64>,
-    m_cur: usize,
-    mut w: DMatrix<f64>,
-    mut mw: DMatrix<f64>,
-    keep: usize,
-    rng: &mut Xorshift,
-) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let bl = w.ncols();
-    let mut r = DMatrix::zeros(keep, bl);
-    for c in 0..keep {
-        let before = w.column(c).dot(&mw.column(c)).max(0.0).sqrt();
-        for _ in 0..2 {
-            // coefficients against the normalised columns, M w_d known exactly
-            let s = mw.columns(0, c).tr_mul(&w.column(c));
-            let upd = w.columns(0, c) * &s;
-            w.column_mut(c).axpy(-1.0, &upd, 1.0);
-            for d in 0..c {
-                r[(d, c)] += s[d];
-            }
-        }
-        let wc = w.column(c).into_owned();
-        let mwc = sparse_mul(m, &DMatrix::from_column_slice(wc.len(), 1, wc.as_slice()));
-        let norm = wc.dot(&mwc.column(0)).max(0.0).sqrt();
-        if norm > 1e-10 * before && norm > 0.0 {
-            w.column_mut(c).scale_mut(1.0 / norm);
-            mw.set_column(c, &(mwc.column(0) / norm));
-            r[(c, c)] = norm;
-        } else {
-            // an invariant subspace: continue with a fresh direction
-            let fresh = rng.block(w.nrows(), 1);
-            let (f, _, _) = reorthogonalize(m, v, mv, m_cur, fresh);
-            let (f, mf) = reorthogonalize_local(m, &w, c, f);
-            let norm = f.column(0).dot(&mf.column(0)).max(0.0).sqrt();
-            w.set_column(c, &(f.column(0) / norm));
-            mw.set_column(c, &(mf.column(0) / norm));
+impl MemoryEstimate {
+    /// The estimate for the matrices `held`, the factorisation `symbolic`, a
+    /// Lanczos basis of `basis` vectors and dense blocks of `reduced` columns.
+    pub fn new(
+        held: &[&SparseMatrix],
+        symbolic: &SymbolicFactor,
+        par: Par,
+        basis: usize,
+        reduced: usize,
+    ) -> Self {
+        let ndof = symbolic.inner.nrows();
+        let matrices_bytes = held.iter().map(|a| matrix_bytes(a)).sum();
+        let factor_bytes = symbolic.factor_bytes();
+        let workspace_bytes = symbolic.workspace_bytes(par);
+        // V and M V, the block products and solves, T and three n x r blocks
+        let eigen_bytes = 8 * (ndof * (2 * basis + 12 + 4 * reduced)) as u64;
+        Self {
+            ndof,
+            matrices_bytes,
+            factor_nnz: symbolic.nnz(),
+            factor_bytes,
+            workspace_bytes,
+            eigen_bytes,
+            total_bytes: matrices_bytes + factor_bytes + workspace_bytes + eigen_bytes,
         }
     }
-    (
-        w.columns(0, keep).into_owned(),
-        mw.columns(0, keep).into_owned(),
-        r,
-    )
-}
 
-/// Two Gram-Schmidt passes of the column `f` against the first `c` columns of
-/// the `M`-orthonormal block `w`.
-fn reorthogonalize_local(
-    m: &SparseMatrix,
-    w: &DMatrix<f64>,
-    c: usize,
-    mut f: DMatrix<f64>,
-) -> (DMatrix<f64>, DMatrix<f64>) {
-    for _ in 0..2 {
-        let mf = sparse_mul(m, &f);
-        let s = w.columns(0, c).tr_mul(&mf);
-        f -= w.columns(0, c) * s;
-    }
-    let mf = sparse_mul(m, &f);
-    (f, mf)
-}
-
-/// The first block of the basis: `w` orthogonalised against `v[.., ..m_cur]` and
-/// `M`-orthonormalised (`b` columns).
-fn orthonormalize(
-    m: &SparseMatrix,
-    v: &DMatrix<f64>,
-    mv: &DMatrix<f64>,
-    m_cur: usize,
-    w: DMatrix<f64>,
-    b: usize,
-    rng: &mut Xorshift,
-) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let (w, mw, _) = reorthogonalize(m, v, mv, m_cur, w);
-    orthonormalize_block(m, v, mv, m_cur, w, mw, b, rng)
-}
-
-/// Ritz vectors to eigenpairs: `lambda = sigma + 1/mu`, sign convention, the
-/// verified residuals (module docs).
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    m: &SparseMatrix,
-    k: &SparseMatrix,
-    factor: &SparseCholesky,
-    sigma: f64,
-    mus: &[f64],
-    mut x: DMatrix<f64>,
-    basis: usize,
-    name: &'static str,
-) -> Result<SparseModes> {
-    let scale = lambda_scale(m, k);
-    let lambda: Vec<f64> = mus.iter().map(|mu| sigma + 1.0 / mu).collect();
-    if lambda.iter().any(|l| !l.is_finite()) {
-        return Err(StructureError::NonFinite {
-            name: "stiffness".into(),
-        });
-    }
-    for mut col in x.column_iter_mut() {
-        let amax = col.amax();
-        if let Some(first) = col.iter().position(|v| v.abs() >= (1.0 - 1e-6) * amax) {
-            if col[first] < 0.0 {
-                col.neg_mut();
-            }
+    /// [`StructureError::MemoryLimit`] when the total exceeds `limit_bytes`.
+    pub fn check(&self, limit_bytes: Option<u64>) -> Result<()> {
+        match limit_bytes {
+            Some(limit) if self.total_bytes > limit => Err(StructureError::MemoryLimit {
+                ndof: self.ndof,
+                factor_nnz: self.factor_nnz,
+                needed_bytes: self.total_bytes,
+                factor_bytes: self.factor_bytes,
+                limit_bytes: limit,
+            }),
+            _ => Ok(()),
         }
     }
-    let (kx, mx) = (sparse_mul(k, &x), sparse_mul(m, &x));
-    let mut opx = mx.clone();
-    factor.solve_in_place(&mut opx);
-    let mut inverse_residual = Vec::with_capacity(lambda.len());
-    let mut residual = Vec::with_capacity(lambda.len());
-    for (j, &l) in lambda.iter().enumerate() {
-        let r = x.column(j) - opx.column(j) * (l - sigma);
-        let mr = sparse_mul(m, &DMatrix::from_column_slice(r.len(), 1, r.as_slice()));
-        let inv = r.dot(&mr.column(0)).max(0.0).sqrt();
-        // a zero eigenvalue (|lambda| <= 1e-12 lambda_scale: a rigid-body mode, or
-        // with sigma = 0 a singular K that passed the factorisation by rounding)
-        // is left to the caller; its residual is rounding-dominated
-        let zero = l.abs() <= 1e-12 * scale;
-        // a shifted factorisation (rigid-body modes) is as ill-conditioned as
-        // lambda_scale / |sigma|: its rounding floor
-        let bound = if sigma == 0.0 {
-            RESIDUAL_RTOL
-        } else {
-            RESIDUAL_RTOL.max(64.0 * f64::EPSILON * scale / sigma.abs())
-        };
-        if !(inv <= bound || zero) {
-            return Err(StructureError::EigenNotConverged {
-                name,
-                requested: mus.len(),
-                basis,
-                residual: inv,
-            });
-        }
-        inverse_residual.push(inv);
-        let kn = kx.column(j).norm();
-        residual.push(if zero || kn == 0.0 {
-            0.0
-        } else {
-            (kx.column(j) - mx.column(j) * l).norm() / kn
-        });
-    }
-    Ok(SparseModes {
-        lambda,
-        shapes: x,
-        inverse_residual,
-        residual,
-        basis,
-    })
-}
-
-/// The `n_modes` lowest modes of `K phi = omega^2 M phi` of a sparse model
-/// (`M` SPD, `K` positive semi-definite), as [`super::modal::modal_analysis`]:
-/// `omega` ascending [rad/s], rigid-body modes (`|lambda| <= 1e-12 lambda_scale`)
-/// exactly zero, mass-normalised shapes. `K` itself is factorised when it is
-/// positive definite (shift 0, the most accurate form); otherwise the shift
-/// `sigma = -s`, `s = 1e-8 lambda_scale * 10^j`, `j = 0..12`, is the first with
-/// `K + s M` positive definite. A clearly negative eigenvalue is
-/// [`StructureError::NegativeEigenvalue`]; no positive definite `K + s M` at all
-/// reports the bound `lambda < -s_max`.
-pub fn sparse_modal(
-    m: &SparseMatrix,
-    k: &SparseMatrix,
-    n_modes: usize,
-    name: &'static str,
-) -> Result<(Vec<f64>, DMatrix<f64>)> {
-    let scale = lambda_scale(m, k);
-    let mut shift = 0.0;
-    let mut factor = SparseCholesky::new(k);
-    let mut j = 0;
-    while factor.is_none() {
-        if j > 12 || !(scale > 0.0) {
-            return Err(StructureError::NegativeEigenvalue {
-                index: 0,
-                lambda: -shift,
-            });
-        }
-        shift = 1e-8 * scale * 10f64.powi(j);
-        factor = SparseCholesky::new(&sparse_add(1.0, k, shift, m));
-        j += 1;
-    }
-    let factor = factor.expect("factorised");
-    let modes = lanczos(m, k, &factor, -shift, n_modes, name)?;
-    let mut omega = Vec::with_capacity(n_modes);
-    for (c, &l) in modes.lambda.iter().enumerate() {
-        if l < -1e-12 * scale {
-            return Err(StructureError::NegativeEigenvalue {
-                index: c,
-                lambda: l,
-            });
-        }
-        omega.push(if l.abs() <= 1e-12 * scale {
-            0.0
-        } else {
-            l.sqrt()
-        });
-    }
-    Ok((omega, modes.shapes))
 }
 
 #[cfg(test)]
