@@ -16,8 +16,14 @@ pub enum NmaError {
         harmonics: usize,
         minimum: usize,
     },
-    #[error("{samples} AFT samples are more than the supported {maximum} per period")]
-    TooManySamples { samples: usize, maximum: usize },
+    #[error(
+        "{samples} AFT samples are more than the {maximum} per period supported at H = {harmonics}"
+    )]
+    TooManySamples {
+        samples: usize,
+        harmonics: usize,
+        maximum: usize,
+    },
     #[error("harmonics = \"auto\": no H up to {max_harmonics} agrees with H + 4 within the table accuracy (at H = {max_harmonics}: omega {omega_rel:.1e}, D {damping_rel:.1e}, shapes {shape_rel:.1e}); set harmonics explicitly or lower the amplitude range")]
     AutoHarmonicsNotFound {
         max_harmonics: usize,

@@ -64,8 +64,8 @@ pub use harmonics::{
 };
 pub use measured::table_from_measured_csv;
 pub use options::{
-    AmplitudeRange, BackboneOptions, NmaOptions, HYSTERETIC_DEFAULT_SAMPLES, MAX_AFT_SAMPLES,
-    SWEEP_TABLE_HARMONICS, SWEEP_TABLE_MAX_AMPLITUDE,
+    max_aft_samples, AmplitudeRange, BackboneOptions, NmaOptions, HYSTERETIC_DEFAULT_SAMPLES,
+    MAX_AFT_SAMPLES, MAX_AFT_TABLE_ENTRIES, SWEEP_TABLE_HARMONICS, SWEEP_TABLE_MAX_AMPLITUDE,
 };
 pub use refine::{table_errors, RefineOptions, JUMP_WIDTH};
 pub use results::{

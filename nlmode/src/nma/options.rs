@@ -220,9 +220,19 @@ pub(super) fn has_hysteresis(model: &StructuralModel) -> bool {
 }
 
 /// Largest number of AFT samples per period accepted ([`NmaOptions::samples`]):
-/// the AFT's DFT matrices hold `3 N (2H+1)` numbers (H = 50: 39 MB), and
-/// 16384 samples resolve a `tanh` transition of 4e-4 of the period.
-pub const MAX_AFT_SAMPLES: usize = 16384;
+/// 65536 resolve a `tanh` transition of 1e-4 of the period, and the
+/// describing-function limit of a Jenkins element at H = 1 to 1e-8.
+pub const MAX_AFT_SAMPLES: usize = 1 << 16;
+
+/// Largest `N (2H+1)` accepted: the AFT's DFT matrices hold `3 N (2H+1)`
+/// numbers, at most 40 MB (16384 samples at H = 50).
+pub const MAX_AFT_TABLE_ENTRIES: usize = 16384 * 101;
+
+/// The largest sample count accepted at `harmonics`: [`MAX_AFT_SAMPLES`],
+/// lowered so that the DFT tables stay within [`MAX_AFT_TABLE_ENTRIES`].
+pub fn max_aft_samples(harmonics: usize) -> usize {
+    MAX_AFT_SAMPLES.min(MAX_AFT_TABLE_ENTRIES / (2 * harmonics + 1).max(1))
+}
 
 /// The AFT samples: `samples`, by default `4H+1`, and at least
 /// [`HYSTERETIC_DEFAULT_SAMPLES`] for a model with a hysteretic element.
@@ -240,10 +250,12 @@ pub(super) fn check_harmonics(
     } else {
         minimum
     });
-    if samples > MAX_AFT_SAMPLES {
+    let maximum = max_aft_samples(harmonics);
+    if samples > maximum {
         return Err(NmaError::TooManySamples {
             samples,
-            maximum: MAX_AFT_SAMPLES,
+            harmonics,
+            maximum,
         });
     }
     if samples < minimum {
