@@ -54,6 +54,9 @@ macro_rules! say {
 /// listed in [`Computed::failed`] rather than failing the run.
 pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Result<Computed> {
     let setup = Setup::new(sc).with_context(|| format!("scenario {source}"))?;
+    setup
+        .check_driven()
+        .with_context(|| format!("scenario {source}"))?;
     echo_setup(sc, &setup, source, opts);
     let listed: Vec<&dyn methods::Method> = methods::REGISTRY
         .iter()
@@ -76,9 +79,22 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
             w.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
         )
     });
-    let validity = setup.validity_warnings(sc.nma.harmonics, table_omega);
+    let harmonics = ctx
+        .nma
+        .as_ref()
+        .map(|n| n.table.harmonics)
+        .unwrap_or(sc.nma.harmonics_or_min());
+    let mut validity = setup.validity_warnings(harmonics, table_omega);
     for w in &validity {
         say!(opts, "warning: {w}");
+    }
+    // the modal table's own warnings (accuracy missed, gap, truncation) are
+    // printed with its note and listed with the validity warnings
+    if let Some(n) = &ctx.nma {
+        for w in &n.warnings {
+            say!(opts, "warning: {w}");
+        }
+        validity.extend(n.warnings.iter().cloned());
     }
     let mut failed = FailedMethods::new();
     ctx.fmus = fmus(sc, out, opts, &mut failed);
@@ -279,6 +295,7 @@ pub struct Frf {
 /// the single-mode model with the attachments and its steady state over
 /// `[run] frf_points` frequencies.
 pub fn frf(setup: &Setup, sc: &Scenario) -> Result<(methods::Nma, Frf)> {
+    setup.check_driven()?;
     let (nma, _) = methods::nma_table(setup, sc, false)?;
     let model = methods::reduced_model(setup, &nma.table, None)?;
     let omegas = methods::frf_omegas(setup, sc.run.frf_points);

@@ -462,7 +462,25 @@ impl Setup {
                 )
             }
         };
+        // `[nma] mode`: the followed mode counted from the lowest elastic one
+        let mode_index = mode_index + sc.nma.mode - 1;
+        let (omega0, d0) = if sc.nma.mode == 1 {
+            (omega0, d0)
+        } else {
+            followed_mode(&model, mode_index, sc.nma.mode)?
+        };
         Self::assemble(sc, model, omega0, full_ndof, mode_index, &pts, d0)
+    }
+
+    /// Refuses a scenario without exciters for what drives the structure
+    /// through them (`host run`, `host frf`; only `host nma` runs without).
+    pub fn check_driven(&self) -> Result<()> {
+        if self.shakers.is_empty() {
+            anyhow::bail!(
+                "exciter: the scenario has no [[exciter]] table; everything but `host nma` drives the structure through its exciters: add one with point = \"name\""
+            );
+        }
+        Ok(())
     }
 
     /// This setup's structure (model, `omega0`, points, followed mode) with
@@ -577,6 +595,24 @@ impl Setup {
             modal_masses,
         })
     }
+}
+
+/// `omega0` [rad/s] and `D0` (`phi^T C phi / (2 omega0)`, mass-normalised
+/// `phi`) of mode `mode_index` of `model` (`[nma] mode` above 1). Errors name
+/// `nma.mode` when the model has fewer modes.
+fn followed_mode(model: &StructuralModel, mode_index: usize, mode: usize) -> Result<(f64, f64)> {
+    let n = model.ndof();
+    if mode_index >= n {
+        anyhow::bail!(
+            "nma.mode: mode {mode} does not exist: the model has {n} modes ({} elastic)",
+            n + mode - 1 - mode_index
+        );
+    }
+    let modes = modal_analysis(model, mode_index + 1).context("structure: modal analysis")?;
+    let omega = modes.omega_rad_s[mode_index];
+    let phi = modes.shape(mode_index);
+    let d0 = (phi.transpose() * &model.damping * &phi)[(0, 0)] / (2.0 * omega);
+    Ok((omega, d0))
 }
 
 /// The sweep of `sc`'s `[excitation]` on a structure of first natural

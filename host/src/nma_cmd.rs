@@ -165,7 +165,6 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         setup.model.ndof(),
         setup.omega0_rad_s
     );
-    let h = sc.nma.harmonics;
     let points: Vec<String> = setup.model.points.iter().map(|p| p.name.clone()).collect();
     // the modal table: damped primary branch, refined (as `host run` makes it)
     let table_sc = crate::scenario::Scenario {
@@ -177,7 +176,12 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
     };
     let (nma, _) = methods::nma_table(&setup, &table_sc, false)?;
     println!("modal table: {}", nma.note);
+    for w in &nma.warnings {
+        println!("  warning: {w}");
+    }
     let table = nma.table;
+    // the backbones at the table's order (`harmonics = "auto"`: the chosen one)
+    let h = table.harmonics;
     let basis_d =
         Arc::new(ModalBasis::new(&setup.model, false).map_err(|e| anyhow::anyhow!("nma: {e}"))?);
     let table_path = out.join("modal_table.json");
@@ -202,6 +206,8 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         let opts = NmaOptions {
             points: points.clone(),
             store_coordinates: false,
+            mode_index: setup.mode_index,
+            samples: sc.nma.samples,
             ..bb.nma_options(conservative)
         };
         let t0 = Instant::now();

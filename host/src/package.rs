@@ -21,7 +21,7 @@ pub const FMU_TABLE_HARMONICS: usize = 13;
 pub fn package(out: &Path, fmu_dir: Option<&Path>) -> Result<Vec<PathBuf>> {
     let libs = cosim::repo::locate_libraries(fmu_dir)?;
     let mut sc = Scenario::default_scenario();
-    sc.nma.harmonics = FMU_TABLE_HARMONICS;
+    sc.nma.harmonics = crate::scenario::Harmonics::Fixed(FMU_TABLE_HARMONICS);
     let setup = Setup::new(&sc).context("paper beam for the FMU's modal table")?;
     let (nma, _) = methods::nma_table(&setup, &sc, false)?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;

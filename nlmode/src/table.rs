@@ -122,6 +122,11 @@ pub struct TableAccuracy {
     /// Amplitude at which [`Self::highest_harmonic_share`] occurs (not written).
     #[serde(default, skip_serializing)]
     pub highest_harmonic_share_amplitude: Option<f64>,
+    /// Smallest table amplitude from which the highest harmonic's share
+    /// exceeds [`HIGHEST_HARMONIC_SHARE_WARNING`] (not written): below it the
+    /// truncation is not in question.
+    #[serde(default, skip_serializing)]
+    pub highest_harmonic_share_from_amplitude: Option<f64>,
 }
 
 /// Kinetic-energy share of the highest harmonic `H` above which the harmonic
@@ -186,8 +191,12 @@ impl TableAccuracy {
             self.highest_harmonic_share,
             self.highest_harmonic_share_amplitude,
         ) {
+            let from = self
+                .highest_harmonic_share_from_amplitude
+                .map(|f| format!("from a = {f:.4e} on, "))
+                .unwrap_or_default();
             w.push(format!(
-                "modal table: the highest harmonic carries {s:.2e} of the kinetic energy at a = {a:.4e} (above {HIGHEST_HARMONIC_SHARE_WARNING:.0e}); raise the harmonics"
+                "modal table: the highest harmonic carries more than {HIGHEST_HARMONIC_SHARE_WARNING:.0e} of the kinetic energy {from}up to {s:.2e} at a = {a:.4e}; where a response reaches these amplitudes, raise [nma] harmonics"
             ));
         }
         w

@@ -10,47 +10,31 @@ pub struct Nma {
     pub wall_time_s: f64,
     /// One line describing how the table was obtained.
     pub note: String,
+    /// What the user must know about the table: missed accuracy targets with
+    /// the worst value and where, a gap it ends at, a truncation to raise, the
+    /// continuation's warnings, a stop before the requested amplitude
+    /// (`summary.json` `warnings`, printed by `host run` and `host nma`).
+    pub warnings: Vec<String>,
 }
 
-/// NMA of the scenario's structure (or the table file it names) on the mode
-/// `setup.mode_index`, amplitude range at the response point, every named point
-/// of the model (response point, exciter points) in the table; the primary
-/// branch refined to [`RefineOptions`]' default accuracy and ended its
-/// `fold_margin` before the first fold ([`nlmode::nma::NmaResult::refined_table`]).
-///
-/// [`RefineOptions`]: nlmode::nma::RefineOptions
-pub fn nma_table(
+/// The [`NmaOptions`](nlmode::nma::NmaOptions) of the scenario's `[nma]` on
+/// `setup`'s structure: mode `setup.mode_index`, amplitude range
+/// `[nma] start_amplitude_m ..= max_tip_amplitude_m` at the response point,
+/// every named point of the model (response point, exciter points) stored.
+/// `harmonics` is `H` (the fixed order, or the candidate of `"auto"`).
+pub fn nma_options(
     setup: &Setup,
     sc: &crate::scenario::Scenario,
+    harmonics: usize,
     conservative: bool,
-) -> Result<(Nma, Option<nlmode::nma::NmaResult>)> {
-    use nlmode::nma::epmc::ModalBasis;
-    use nlmode::nma::{
-        nonlinear_modal_analysis_with_basis, AmplitudeRange, NmaOptions, RefineOptions, TablePolicy,
-    };
-    let t0 = Instant::now();
-    if let Some(path) = &sc.nma.table {
-        let table = nlmode::nma::ModalTable::read(std::path::Path::new(path))
-            .with_context(|| "nma.table".to_string())?;
-        let note = format!(
-            "modal table read from {path} ({} points)",
-            table.amplitude.len()
-        );
-        return Ok((
-            Nma {
-                table,
-                wall_time_s: t0.elapsed().as_secs_f64(),
-                note,
-            },
-            None,
-        ));
-    }
-    let opts = NmaOptions {
-        harmonics: sc.nma.harmonics,
+) -> nlmode::nma::NmaOptions {
+    nlmode::nma::NmaOptions {
+        harmonics,
+        samples: sc.nma.samples,
         mode_index: setup.mode_index,
-        amplitude: AmplitudeRange::Point {
+        amplitude: nlmode::nma::AmplitudeRange::Point {
             name: setup.response_point.clone(),
-            start_m: crate::scenario::NMA_START_TIP_AMPLITUDE_M,
+            start_m: sc.nma.start_amplitude_m,
             end_m: sc.nma.max_tip_amplitude_m,
         },
         conservative,
@@ -60,10 +44,109 @@ pub fn nma_table(
         // the table is the primary branch: the loops beyond its fold are not computed
         stop_at_first_fold: true,
         ..Default::default()
+    }
+}
+
+/// An NMA error as the scenario key it comes from (`nma.mode`, `nma.samples`,
+/// `nma.start_amplitude_m`, `nma.harmonics`), or `nma` for the others.
+pub fn nma_error(e: nlmode::nma::NmaError) -> anyhow::Error {
+    use nlmode::nma::NmaError as E;
+    let key = match &e {
+        E::ModeIndexOutOfRange { .. } => "nma.mode",
+        E::TooFewSamples { .. } | E::TooManySamples { .. } => "nma.samples",
+        E::InvalidAmplitudeRange { .. } => "nma.start_amplitude_m",
+        E::NoHarmonics { .. } | E::AutoHarmonicsNotFound { .. } => "nma.harmonics",
+        _ => "nma",
     };
+    anyhow::anyhow!("{key}: {e}")
+}
+
+/// How each `elastic-dry-friction` element's slider starts the AFT's periodic
+/// march (`initial_slider`), for the notes of `host nma` and `host run`.
+pub fn initial_slider_note(sc: &crate::scenario::Scenario) -> Option<String> {
+    let v: Vec<String> = sc
+        .nonlinearity
+        .iter()
+        .enumerate()
+        .filter(|(_, nl)| nl.kind == crate::scenario::NonlinearityKind::ElasticDryFriction)
+        .map(|(i, nl)| {
+            format!(
+                "'{}' initial_slider = \"{}\"",
+                nl.element_name(i),
+                nl.initial_slider.unwrap_or_default().as_str()
+            )
+        })
+        .collect();
+    (!v.is_empty()).then(|| format!("elastic-dry-friction: {}", v.join(", ")))
+}
+
+/// NMA of the scenario's structure (or the table file it names) on the mode
+/// `setup.mode_index` ([`nma_options`]); the primary branch refined to
+/// [`RefineOptions`]' default accuracy and ended its `fold_margin` before the
+/// first fold ([`nlmode::nma::NmaResult::refined_table`]). With `harmonics =
+/// "auto"` the order is chosen by [`nlmode::nma::auto_harmonics`].
+///
+/// [`RefineOptions`]: nlmode::nma::RefineOptions
+pub fn nma_table(
+    setup: &Setup,
+    sc: &crate::scenario::Scenario,
+    conservative: bool,
+) -> Result<(Nma, Option<nlmode::nma::NmaResult>)> {
+    use nlmode::nma::epmc::ModalBasis;
+    use nlmode::nma::{
+        auto_harmonics, nonlinear_modal_analysis_with_basis, RefineOptions, TablePolicy,
+    };
+    let t0 = Instant::now();
+    if let Some(path) = &sc.nma.table {
+        let table = nlmode::nma::ModalTable::read(std::path::Path::new(path))
+            .with_context(|| "nma.table".to_string())?;
+        let note = format!(
+            "modal table read from {path} ({} points)",
+            table.amplitude.len()
+        );
+        let warnings = table
+            .accuracy
+            .as_ref()
+            .map(|a| a.warnings())
+            .unwrap_or_default();
+        return Ok((
+            Nma {
+                table,
+                wall_time_s: t0.elapsed().as_secs_f64(),
+                note,
+                warnings,
+            },
+            None,
+        ));
+    }
     let basis = std::sync::Arc::new(
         ModalBasis::new(&setup.model, conservative).map_err(|e| anyhow::anyhow!("nma: {e}"))?,
     );
+    let mut auto_note = String::new();
+    let harmonics = match sc.nma.harmonics.fixed() {
+        Some(h) => h,
+        None => {
+            let opts = nma_options(setup, sc, 1, conservative);
+            let a = auto_harmonics(
+                &setup.model,
+                basis.clone(),
+                &opts,
+                TablePolicy::PrimaryBranch,
+                &RefineOptions::default(),
+                1,
+            )
+            .map_err(nma_error)?;
+            let (_, dw, dd, ds) = a.tried.last().copied().unwrap_or_default();
+            auto_note = format!(
+                ", harmonics = \"auto\": H = {} agrees with H = {} within omega {dw:.1e}, D {dd:.1e}, shapes {ds:.1e}",
+                a.harmonics,
+                a.harmonics + nlmode::nma::AUTO_HARMONICS_STEP
+            );
+            a.harmonics
+        }
+    };
+    let opts = nma_options(setup, sc, harmonics, conservative);
+    let mut warnings = Vec::new();
     // a continuation failure keeps the branch computed so far (the note says so)
     let (res, failure) = match nonlinear_modal_analysis_with_basis(
         &setup.model,
@@ -75,14 +158,16 @@ pub fn nma_table(
             Some(p) if p.branch.len() >= 2 => {
                 let b = p.branch.last().expect("non-empty");
                 let w = format!(
-                    "; warning: {e}; table from the branch computed so far (last point a = {:.4e}, omega = {:.2} rad/s)",
+                    "nma: {e}; the modal table ends at the branch computed so far (last point a = {:.4e}, omega = {:.2} rad/s)",
                     b.amplitude, b.omega_rad_s
                 );
-                (p.clone(), w)
+                warnings.push(w.clone());
+                (p.clone(), format!("; warning: {w}"))
             }
-            _ => return Err(anyhow::anyhow!("nma: {e}")),
+            _ => return Err(nma_error(e)),
         },
     };
+    warnings.extend(res.warnings.iter().map(|w| format!("nma: {w}")));
     let table = res
         .refined_table(
             &setup.model,
@@ -91,7 +176,10 @@ pub fn nma_table(
             TablePolicy::PrimaryBranch,
             &RefineOptions::default(),
         )
-        .map_err(|e| anyhow::anyhow!("nma: {e}"))?;
+        .map_err(nma_error)?;
+    if let Some(acc) = &table.accuracy {
+        warnings.extend(acc.warnings());
+    }
     let wall = t0.elapsed().as_secs_f64();
     let fold = match table.truncated_at_fold {
         Some(a) => format!(
@@ -111,9 +199,14 @@ pub fn nma_table(
         ),
         None => String::new(),
     };
+    let slider = initial_slider_note(sc)
+        .map(|n| format!(", {n}"))
+        .unwrap_or_default();
     let note = format!(
-        "NMA (H = {}, {}): {} branch points, {} in the refined table{acc}, {} Newton iterations, {:.1} ms{fold}",
+        "NMA (H = {}, {} AFT samples, mode {}, {}): {} branch points, {} in the refined table{acc}, {} Newton iterations, {:.1} ms{fold}{auto_note}{slider}",
         res.harmonics,
+        res.samples,
+        sc.nma.mode,
         if conservative { "conservative" } else { "damped" },
         res.branch.len(),
         table.amplitude.len(),
@@ -125,6 +218,7 @@ pub fn nma_table(
             table,
             wall_time_s: wall,
             note,
+            warnings,
         },
         Some(res),
     ))

@@ -157,9 +157,6 @@ pub(crate) fn parse_fraction(s: &str) -> Option<f64> {
 impl Scenario {
     /// Check every `[[exciter]]` (its location is checked with the structure).
     pub(crate) fn validate_exciters(&self) -> Result<(), ScenarioError> {
-        if self.exciter.is_empty() {
-            return Err(bad("exciter", "expected at least one [[exciter]] table"));
-        }
         for (i, ex) in self.exciter.iter().enumerate() {
             let k = |f: &str| format!("exciter[{i}].{f}");
             positive(&k("inductance_h"), ex.inductance_h)?;

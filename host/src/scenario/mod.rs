@@ -182,6 +182,14 @@ impl Scenario {
                     line,
                 }
             })?;
+        let mut s = s;
+        // a matrices structure has no default exciter (the paper's sits at 2l/3
+        // of the beam): without [[exciter]] tables it has none (`host nma`)
+        if matches!(s.structure, StructureSpec::Matrices(_))
+            && !toml::from_str::<toml::Table>(text).is_ok_and(|t| t.contains_key("exciter"))
+        {
+            s.exciter.clear();
+        }
         s.validate()?;
         Ok(s)
     }

@@ -85,6 +85,11 @@ pub struct NonlinearitySpec {
     pub tangential_stiffness_n_per_m: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub c2_n_s2_per_m2: Option<f64>,
+    /// `elastic-dry-friction` only: where the slider starts the AFT's
+    /// periodic march, `"mean"` (default) or `"zero"`
+    /// ([`nlmode::structure::InitialSlider`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_slider: Option<nlmode::structure::InitialSlider>,
 }
 
 impl NonlinearitySpec {
@@ -151,6 +156,15 @@ impl NonlinearitySpec {
                     ),
                 ));
             }
+        }
+        if self.initial_slider.is_some() && self.kind != NonlinearityKind::ElasticDryFriction {
+            return Err(bad(
+                &key("initial_slider"),
+                format!(
+                    "not a parameter of type = \"{}\" (only elastic-dry-friction has a slider)",
+                    self.kind.name()
+                ),
+            ));
         }
         if let Some(k) = keys.iter().find(|k| !self.given(k)) {
             return Err(bad(
@@ -227,13 +241,14 @@ impl NonlinearitySpec {
                 )
                 .map_err(err)?,
             ),
-            NonlinearityKind::ElasticDryFriction => Arc::new(
-                ElasticDryFriction::new(
+            NonlinearityKind::ElasticDryFriction => Arc::new(ElasticDryFriction {
+                initial_slider: self.initial_slider.unwrap_or_default(),
+                ..ElasticDryFriction::new(
                     num(self.tangential_stiffness_n_per_m),
                     num(self.slip_force_n),
                 )
-                .map_err(err)?,
-            ),
+                .map_err(err)?
+            }),
             NonlinearityKind::QuadraticDamper => {
                 Arc::new(QuadraticDamper::new(num(self.c2_n_s2_per_m2)).map_err(err)?)
             }

@@ -362,7 +362,7 @@ impl Scenario {
                 return Err(bad(
                     &format!("exciter[{i}].location"),
                     "a structure of kind = \"matrices\" takes point = \"name\", not location \
-                     (without [[exciter]] tables the default exciter at 2l/3 applies: add one with point = \"name\")",
+                     (the exciter is attached at a [[structure.point]]: point = \"name\")",
                 ));
             }
             match &ex.point {

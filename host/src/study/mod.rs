@@ -514,6 +514,7 @@ impl Cache {
             return Ok(p.clone());
         }
         let setup = Setup::new(sc).map_err(|e| format!("{e:#}"))?;
+        setup.check_driven().map_err(|e| format!("{e:#}"))?;
         let p = Arc::new(Prepared {
             setup,
             table: OnceLock::new(),

@@ -92,7 +92,7 @@ fn tmd_and_shaker_match_the_closed_form_of_the_coupled_system() {
     // 12.5 rad/s off the axis) is reported, the shaker's poles are not; the two
     // split modes lie outside each other's 1:1 window (the impedance captures
     // the TMD exactly in steady state)
-    let w = setup.validity_warnings(sc.nma.harmonics, None);
+    let w = setup.validity_warnings(sc.nma.harmonics_or_min(), None);
     assert!(
         w.iter()
             .any(|s| s.contains("'tmd'") && s.contains("quasi-steady")),
@@ -296,7 +296,7 @@ fn one_exciter_input_factor_is_exactly_one() {
     let s = Setup::new(&sc).unwrap();
     assert_eq!(s.inputs, vec![vec![Complex64::new(1.0, 0.0)]]);
     // the paper's case (a): the shaker passes the validity checks
-    let w = s.validity_warnings(sc.nma.harmonics, None);
+    let w = s.validity_warnings(sc.nma.harmonics_or_min(), None);
     assert!(w.is_empty(), "{w:?}");
 }
 

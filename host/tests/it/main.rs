@@ -15,6 +15,7 @@ mod generic;
 mod install;
 mod matrices;
 mod measured_table;
+mod nma_keys;
 mod phase_resonance;
 mod phase_resonance_cosim;
 mod study;

@@ -303,6 +303,7 @@ impl NmaResult {
             discontinuity,
             highest_harmonic_share: None,
             highest_harmonic_share_amplitude: None,
+            highest_harmonic_share_from_amplitude: None,
         });
         if let Some(acc) = table.accuracy.as_mut() {
             worst_locations(acc, &pts, &errors, refine);
@@ -411,5 +412,13 @@ fn highest_harmonic(acc: &mut TableAccuracy, pts: &[BranchPoint]) {
     if share > HIGHEST_HARMONIC_SHARE_WARNING {
         acc.highest_harmonic_share = Some(share);
         acc.highest_harmonic_share_amplitude = Some(a);
+        acc.highest_harmonic_share_from_amplitude = pts
+            .iter()
+            .find(|b| {
+                b.harmonic_energy_shares
+                    .last()
+                    .is_some_and(|&s| s > HIGHEST_HARMONIC_SHARE_WARNING)
+            })
+            .map(|b| b.amplitude);
     }
 }
