@@ -33,6 +33,9 @@ pub struct MethodSummary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub force_drop_closed_form: Option<f64>,
     /// `reference`: integrator used.
+    /// `hb`: the folds of every branch (`{omega_rad_s, tip_amplitude_m}`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub folds: Option<Vec<FoldSummary>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub integrator: Option<String>,
     /// Excitation frequency of the jump-down [rad/s] (sweeps).
@@ -77,6 +80,10 @@ pub struct MethodSummary {
     /// `cosim`: time at which the co-simulation stopped early [s].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stopped_at_s: Option<f64>,
+    /// `hb`: the `[from, to]` Omega ranges of consecutive unstable points of
+    /// every branch [rad/s].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unstable_ranges_rad_s: Option<Vec<[f64; 2]>>,
     /// Wall time of the method [s].
     pub wall_time_s: f64,
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -91,6 +98,13 @@ pub struct MethodSummary {
 }
 
 /// `summary.json` (DESIGN.md section 7); fields in the alphabetical order of the keys.
+/// A fold (limit point) of a steady-state branch (`methods.hb.folds`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FoldSummary {
+    pub omega_rad_s: f64,
+    pub tip_amplitude_m: f64,
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
     pub damping_ratio: f64,

@@ -14,6 +14,7 @@
 mod common;
 mod cosim;
 mod force_controlled;
+mod hb;
 mod imposed_force;
 mod linear_frf;
 mod linear_slowflow;
@@ -28,6 +29,7 @@ pub mod stepped;
 pub mod test_plan;
 
 pub use self::cosim::cosim;
+pub use self::hb::{hb_response, hb_result, single_mode_seeds, write_hb_csv};
 pub use self::nma::{nma_table, Nma};
 pub use common::{
     add_slowflow_exciter_forces, attachment_output, exciter_slow_flow, frf_omegas,
@@ -99,6 +101,7 @@ pub static REGISTRY: &[&dyn Method] = &[
     &force_controlled::ForceControlled,
     &response_controlled::ResponseControlled,
     &test_plan::TestPlan,
+    &hb::Hb,
 ];
 
 /// The registry's entry of `id`.

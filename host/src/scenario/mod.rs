@@ -23,6 +23,8 @@ mod excitation;
 pub use self::excitation::*;
 mod nma;
 pub use self::nma::*;
+mod hb;
+pub use self::hb::*;
 mod imposed_force;
 pub use self::imposed_force::*;
 mod slowflow;
@@ -74,6 +76,8 @@ pub struct Scenario {
     #[serde(default)]
     pub nma: NmaSpec,
     #[serde(default)]
+    pub hb: HbSpec,
+    #[serde(default)]
     pub run: RunSpec,
     #[serde(default)]
     pub imposed_force: ImposedForceSpec,
@@ -107,6 +111,7 @@ impl Default for Scenario {
             attachment: Vec::new(),
             excitation: ExcitationSpec::default(),
             nma: NmaSpec::default(),
+            hb: HbSpec::default(),
             run: RunSpec::default(),
             imposed_force: ImposedForceSpec::default(),
             slowflow: SlowFlowSpec::default(),
@@ -217,6 +222,7 @@ impl Scenario {
         self.validate_exciters()?;
         self.excitation.validate()?;
         self.nma.validate()?;
+        self.hb.validate()?;
         self.run.validate()?;
         self.imposed_force.validate()?;
         self.slowflow.validate()?;

@@ -30,11 +30,14 @@ pub enum Method {
     /// Test planning on the single-nonlinear-mode model (`[test_plan]`,
     /// `test_plan.csv`).
     TestPlan,
+    /// Harmonic balance of the full model with every attachment, stability
+    /// and bifurcations (`[hb]`, `hb_frc.csv`).
+    Hb,
 }
 
 impl Method {
     /// Every method, in the order of the docs.
-    pub const ALL: [Method; 11] = [
+    pub const ALL: [Method; 12] = [
         Method::Reference,
         Method::LinearFrf,
         Method::Nlmode,
@@ -46,6 +49,7 @@ impl Method {
         Method::ForceControlled,
         Method::ResponseControlled,
         Method::TestPlan,
+        Method::Hb,
     ];
 
     /// The name in scenarios and output files (`linear-frf`).
@@ -62,6 +66,7 @@ impl Method {
             Method::ForceControlled => "force-controlled",
             Method::ResponseControlled => "response-controlled",
             Method::TestPlan => "test-plan",
+            Method::Hb => "hb",
         }
     }
 }

@@ -12,6 +12,7 @@ mod controlled_stepped;
 mod elements;
 mod fuzz_scenario;
 mod generic;
+mod hb_method;
 mod install;
 mod matrices;
 mod measured_table;

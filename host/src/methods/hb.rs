@@ -1,0 +1,252 @@
+//! `hb`: the periodic steady state of the full model (every nonlinearity,
+//! exciter and attachment, condensed exactly per harmonic) by harmonic
+//! balance with arc-length continuation in Omega, its stability (Hill's
+//! method) and bifurcations (`nlmode::hb`, docs/hb.md). Writes `hb_frc.csv`.
+use super::common::{frf_omegas, reduced_model};
+use super::{MethodOutput, RunContext};
+use crate::model::Setup;
+use crate::results::{Envelope, FoldSummary, MethodResult};
+use crate::scenario::{Method, Scenario};
+use anyhow::{Context, Result};
+use nlmode::hb::{frequency_response, Bifurcation, BranchStatus, HbResult, HbSystem, Seed};
+use std::path::Path;
+use std::time::Instant;
+
+/// Largest number of seeds taken from the single-mode steady state.
+pub const MAX_HB_SEEDS: usize = 60;
+
+/// Frequencies of the single-mode steady state searched for seeds.
+const SEED_FREQUENCIES: usize = 120;
+
+/// Seeds for isolated branches: every solution of the single-mode steady
+/// state (`eq:NM`, as `host frf`) at the frequencies where it has several
+/// (evenly thinned to [`MAX_HB_SEEDS`]); the response point's fundamental
+/// `a phi_tip,1(a) e^{-i theta}`.
+pub fn single_mode_seeds(setup: &Setup, table: &nlmode::nma::ModalTable) -> Result<Vec<Seed>> {
+    let model = reduced_model(setup, table, None)?;
+    let omegas = frf_omegas(setup, SEED_FREQUENCIES);
+    let ss = model
+        .steady_state(&omegas, setup.sweep.amplitude)
+        .context("hb: seeds from the single-mode steady state")?;
+    let tip = table
+        .points
+        .iter()
+        .find(|p| p.name == setup.response_point)
+        .context("hb: the modal table has no response point")?;
+    // the sign of the linear mode at the response point
+    let sign = tip
+        .re
+        .first()
+        .and_then(|r| r.get(1))
+        .map_or(1.0, |v| v.signum());
+    let mut seeds: Vec<Seed> = ss
+        .iter()
+        .filter(|p| p.solutions.len() > 1)
+        .flat_map(|p| {
+            p.solutions.iter().map(move |s| Seed {
+                omega_rad_s: p.omega_rad_s,
+                amplitude_m: s.tip_amplitude_m,
+                phase_rad: -s.theta_rad
+                    + if sign < 0.0 {
+                        std::f64::consts::PI
+                    } else {
+                        0.0
+                    },
+            })
+        })
+        .filter(|s| s.amplitude_m > 0.0 && s.amplitude_m.is_finite())
+        .collect();
+    if seeds.len() > MAX_HB_SEEDS {
+        let n = seeds.len();
+        seeds = (0..MAX_HB_SEEDS)
+            .map(|i| seeds[i * n / MAX_HB_SEEDS])
+            .collect();
+    }
+    Ok(seeds)
+}
+
+/// The HB frequency response of `setup` over the sweep's band with `[hb]`'s
+/// options, seeded with `seeds`.
+pub fn hb_response(setup: &Setup, sc: &Scenario, seeds: &[Seed]) -> Result<HbResult> {
+    let sys = HbSystem::new(
+        &setup.model,
+        &setup.attachments,
+        &setup.input_amplitudes(),
+        &[],
+        &setup.response_point,
+    )
+    .context("hb")?;
+    let opts = sc
+        .hb
+        .options(setup.sweep.omega_start_rad_s, setup.sweep.omega_end_rad_s);
+    frequency_response(&sys, &opts, seeds).context("hb")
+}
+
+/// `hb_frc.csv`: one row per point of every branch (a contract: `branch`,
+/// `omega_rad_s`, `tip_amplitude_m`, `force_amplitude_N`, `stable`,
+/// `bifurcation`, `<name>_force_amplitude_N` per force column,
+/// `tip_h<n>_amplitude_m` per harmonic `n = 0..=H`).
+pub fn write_hb_csv(path: &Path, r: &HbResult) -> Result<()> {
+    let mut w = csv::Writer::from_path(path)
+        .with_context(|| format!("cannot create {}", path.display()))?;
+    let mut header: Vec<String> = [
+        "branch",
+        "omega_rad_s",
+        "tip_amplitude_m",
+        "force_amplitude_N",
+        "stable",
+        "bifurcation",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    header.extend(
+        r.force_names
+            .iter()
+            .map(|n| format!("{n}_force_amplitude_N")),
+    );
+    header.extend((0..=r.harmonics).map(|n| format!("tip_h{n}_amplitude_m")));
+    let write = |w: &mut csv::Writer<std::fs::File>| -> Result<(), csv::Error> {
+        w.write_record(&header)?;
+        for (b, br) in r.branches.iter().enumerate() {
+            for p in &br.points {
+                let f = p.force_amplitudes_n();
+                let mut row = vec![
+                    b.to_string(),
+                    p.omega_rad_s.to_string(),
+                    p.tip_amplitude_m().to_string(),
+                    f.first().copied().unwrap_or(f64::NAN).to_string(),
+                    p.stable().map_or(String::new(), |s| s.to_string()),
+                    p.bifurcation.label().to_string(),
+                ];
+                row.extend(f.iter().map(|v| v.to_string()));
+                row.extend(p.harmonic_amplitudes_m().iter().map(|v| v.to_string()));
+                w.write_record(&row)?;
+            }
+        }
+        w.flush()?;
+        Ok(())
+    };
+    write(&mut w).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The main branch as an envelope (for the figures of merit and the plot),
+/// the folds and unstable ranges of every branch, warnings for branches that
+/// stopped.
+pub fn hb_result(r: &HbResult, wall_time_s: f64) -> MethodResult {
+    let main = r.branches.first();
+    let pts = main.map(|b| b.points.as_slice()).unwrap_or_default();
+    let env = Envelope {
+        omega_rad_s: pts.iter().map(|p| p.omega_rad_s).collect(),
+        force_amplitude_n: pts
+            .iter()
+            .map(|p| p.force_amplitudes_n().first().copied().unwrap_or(0.0))
+            .collect(),
+        tip_amplitude_m: pts.iter().map(|p| p.tip_amplitude_m()).collect(),
+        force_phase_rad: None,
+        drive_amplitude_m: None,
+        modal_amplitude: None,
+        modal_frequency_rad_s: None,
+    };
+    let mut m = MethodResult::new(Method::Hb.name(), wall_time_s, env, false);
+    let s = &mut m.summary;
+    s.folds = Some(
+        r.branches
+            .iter()
+            .flat_map(|b| &b.points)
+            .filter(|p| p.bifurcation == Bifurcation::Fold)
+            .map(|p| FoldSummary {
+                omega_rad_s: p.omega_rad_s,
+                tip_amplitude_m: p.tip_amplitude_m(),
+            })
+            .collect(),
+    );
+    let mut ranges: Vec<[f64; 2]> = Vec::new();
+    for b in &r.branches {
+        let mut open: Option<[f64; 2]> = None;
+        for p in &b.points {
+            match (p.stable(), open.as_mut()) {
+                (Some(false), Some(rg)) => {
+                    rg[0] = rg[0].min(p.omega_rad_s);
+                    rg[1] = rg[1].max(p.omega_rad_s);
+                }
+                (Some(false), None) => open = Some([p.omega_rad_s; 2]),
+                (_, Some(_)) => ranges.extend(open.take()),
+                _ => {}
+            }
+        }
+        ranges.extend(open);
+    }
+    if r.branches
+        .iter()
+        .any(|b| b.points.iter().any(|p| p.floquet.is_some()))
+    {
+        s.unstable_ranges_rad_s = Some(ranges);
+    }
+    let status: Vec<String> = r
+        .branches
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let kind = match &b.status {
+                BranchStatus::Complete => "complete".to_string(),
+                BranchStatus::Closed => "closed (isola)".to_string(),
+                BranchStatus::MaxPoints => "max_points reached".to_string(),
+                BranchStatus::Stopped { omega_rad_s, .. } => {
+                    format!("stopped at Omega = {omega_rad_s:.4} rad/s")
+                }
+            };
+            format!("branch {i}: {kind}, {} points", b.points.len())
+        })
+        .collect();
+    s.status = Some(status.join("; "));
+    for (i, b) in r.branches.iter().enumerate() {
+        match &b.status {
+            BranchStatus::Stopped {
+                omega_rad_s,
+                reason,
+            } => s.warnings.push(format!(
+                "hb: branch {i} stopped at Omega = {omega_rad_s:.4} rad/s: {reason}; hb_frc.csv holds the points before it"
+            )),
+            BranchStatus::MaxPoints => s.warnings.push(format!(
+                "hb: branch {i} reached hb.max_points = {} before the end of the band; raise it or hb.ds",
+                b.points.len()
+            )),
+            _ => {}
+        }
+    }
+    m
+}
+
+/// `hb` (options: `[hb]`).
+pub struct Hb;
+
+impl super::Method for Hb {
+    fn id(&self) -> Method {
+        Method::Hb
+    }
+
+    fn section(&self) -> Option<&'static str> {
+        Some("hb")
+    }
+
+    fn needs_mode(&self, sc: &Scenario) -> bool {
+        // the seeds come from the single-mode steady state
+        sc.hb.seeds
+    }
+
+    fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
+        let t0 = Instant::now();
+        let seeds = if ctx.sc.hb.seeds {
+            single_mode_seeds(ctx.setup, ctx.table())?
+        } else {
+            Vec::new()
+        };
+        let r = hb_response(ctx.setup, ctx.sc, &seeds)?;
+        let wall = t0.elapsed().as_secs_f64();
+        if ctx.published(Method::Hb) {
+            write_hb_csv(&ctx.out.join("hb_frc.csv"), &r)?;
+        }
+        Ok(MethodOutput::one(hb_result(&r, wall)))
+    }
+}
