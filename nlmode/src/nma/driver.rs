@@ -231,7 +231,7 @@ pub fn nonlinear_modal_analysis_with_basis(
     };
     let outcome = continuation(
         &res,
-        res.linear_guess(lg_start),
+        res.linearised_guess(lg_start),
         lg_end,
         &scale,
         &continuation_for(model, &opts.continuation),

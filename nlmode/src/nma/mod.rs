@@ -39,6 +39,7 @@ mod forced;
 mod harmonics;
 mod measured;
 mod options;
+mod play;
 mod refine;
 mod results;
 

@@ -319,6 +319,12 @@ impl Hysteresis for ElasticDryFriction {
             InitialSlider::Zero => (0.0, 0.0),
         }
     }
+    fn play(&self) -> Option<super::PlayOperator> {
+        Some(super::PlayOperator {
+            stiffness_n_per_m: self.tangential_stiffness_n_per_m,
+            slip_force_n: self.slip_force_n,
+        })
+    }
     fn step(&self, w: f64, u: f64) -> HystereticStep {
         let kt = self.tangential_stiffness_n_per_m;
         let trial = kt * (u - w);
