@@ -103,6 +103,9 @@ impl NonlinearLaw for RegularizedFriction {
     fn name(&self) -> &str {
         "regularized_friction"
     }
+    fn velocity_saturation(&self) -> Option<(f64, f64)> {
+        Some((self.slip_force_n, self.regularization_m_s))
+    }
     fn eval(&self, _u: f64, v: f64) -> (f64, f64, f64) {
         let t = (v / self.regularization_m_s).tanh();
         (

@@ -44,6 +44,13 @@ pub trait NonlinearLaw: std::fmt::Debug + Send + Sync {
     fn hysteresis(&self) -> Option<&dyn Hysteresis> {
         None
     }
+    /// For a law that saturates over a velocity scale (regularised Coulomb
+    /// friction): `(F_s [N], v_r [m/s])`, the saturation force and the
+    /// velocity over which the force turns. The AFT then needs samples across
+    /// the transition ([`crate::nma::NmaOptions::samples`]). Default `None`.
+    fn velocity_saturation(&self) -> Option<(f64, f64)> {
+        None
+    }
 }
 
 /// A rate-independent hysteretic law with one scalar internal state `s` (for the
