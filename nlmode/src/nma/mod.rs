@@ -58,7 +58,7 @@ pub use driver::{
 };
 pub use epmc::Normalisation;
 pub use errors::{NmaError, NmaWarning};
-pub use folds::INTERNAL_RESONANCE_MISMATCH;
+pub use folds::{INTERNAL_RESONANCE_MIN_GROWTH, INTERNAL_RESONANCE_MISMATCH};
 pub use forced::{forced_response, ForcedResponse, ForcedResponseOptions, ForcedResponsePoint};
 pub use harmonics::{
     auto_harmonics, table_agreement, AutoHarmonics, AUTO_HARMONICS_MAX, AUTO_HARMONICS_STEP,

@@ -214,6 +214,13 @@ fn nlvib_friction_contact_chain_passes_full_slip() {
     assert_eq!(r.stop, Some(StopReason::ReachedEnd));
     let d_max = r.branch.iter().map(|b| b.damping_ratio).fold(0.0, f64::max);
     assert!(d_max > 0.3, "{d_max}");
+    // the loops of a while D climbs are no internal resonances: mode 2 is in
+    // the stick mode's shape from the start
+    assert!(
+        r.folds.iter().all(|f| f.internal_resonance.is_none()),
+        "{:?}",
+        r.folds
+    );
 }
 
 #[test]
