@@ -22,6 +22,12 @@
 //!    than `max_contraction` per iteration; with them, `dsmax` bounds how far
 //!    one step can go along a straight branch, and curved parts (loops) are
 //!    resolved by the angle limit.
+//! 5. Before a step-size collapse is reported, `corner_step` tries Newton
+//!    with the parameter fixed just past the last point (a corner of a
+//!    piecewise-smooth branch, e.g. one-sided slip onset of a friction
+//!    element, where the tangent turns by nearly 90 degrees). A corrector that
+//!    lands farther than `2 dsmax` from the last point is rejected even at
+//!    `dsmin` (it ran off along a flat direction of the residual).
 use nalgebra::DVector;
 
 /// A Jacobian that can solve the square system obtained by appending one
@@ -192,7 +198,7 @@ pub struct ContinuationSummary {
     /// lies between points `i - 1` and `i`.
     pub turning_points: Vec<usize>,
     pub stop: StopReason,
-    /// Steps taken by [`corner_step`] (the arc-length corrector had failed
+    /// Steps taken by `corner_step` (the arc-length corrector had failed
     /// down to `dsmin`).
     pub corner_steps: usize,
 }
@@ -381,7 +387,7 @@ fn tangent<J: BorderedSolve>(
     (norm.is_finite() && norm > 0.0).then(|| t / norm)
 }
 
-/// Increments of the parameter tried by [`corner_step`], in units of its base
+/// Increments of the parameter tried by `corner_step`, in units of its base
 /// increment (smallest first: the first point past a corner suffices).
 const CORNER_INCREMENTS: [f64; 4] = [1.0, 4.0, 16.0, 64.0];
 

@@ -20,8 +20,14 @@
 //! full matrices anyway, and for the few nonlinear DOFs of a local nonlinearity
 //! the matrix products are as cheap as FFTs at these sizes (`N` ~ 50).
 //!
-//! **Hysteretic laws** ([`crate::structure::Hysteresis`], e.g. the Jenkins
-//! element) have no force `f(u, v)`: the AFT marches the internal state over the
+//! **Play-type hysteresis** (the Jenkins element,
+//! [`crate::structure::Hysteresis::play`]): the loop is integrated exactly
+//! between located reversals and slip onsets (`super::play`), so the force
+//! harmonics have no sampling error and are smooth in `U` through slip onset;
+//! the samples only serve as the grid on which reversals are searched.
+//!
+//! **Other hysteretic laws** ([`crate::structure::Hysteresis`]) have no force
+//! `f(u, v)`: the AFT marches the internal state over the
 //! sampled period, starting from the relaxed state at the mean displacement
 //! `U[0]` (a stuck slider carrying no mean force), and repeats the period until
 //! the state at its end equals the state at its start; the last period's force

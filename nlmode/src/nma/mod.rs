@@ -55,6 +55,7 @@ pub use crate::table::{
 pub use continuation::{ContinuationOptions, StopReason};
 pub use driver::{
     nonlinear_modal_analysis, nonlinear_modal_analysis_with_basis, solve_at_amplitude,
+    DISSIPATIVE_DAMPING_SCALE,
 };
 pub use epmc::Normalisation;
 pub use errors::{NmaError, NmaWarning};

@@ -196,11 +196,13 @@ impl BackboneOptions {
     }
 }
 
-/// Default AFT samples of a model with a hysteretic element (Jenkins): a sample
-/// switching between stick and slip is a corner of the nonlinear-mode branch,
-/// and with `4H+1` samples these corners are so large that Newton cycles across
-/// them near the maximum of `D(a)`; 256 samples pass them (and put the sampled
-/// loop's describing function within ~1e-5 of the exact one).
+/// Default AFT samples of a model with a hysteretic element. For a play-type
+/// element (Jenkins) they are only the grid on which the reversals of the
+/// displacement are searched (its loop is integrated exactly between the
+/// located transitions); 256 separate the extrema of displacements with up to
+/// ~60 harmonics. For another (sampled) hysteretic law a sample switching
+/// between stick and slip is a corner of the branch, and with `4H+1` samples
+/// these corners are so large that Newton cycles across them; 256 pass them.
 pub const HYSTERETIC_DEFAULT_SAMPLES: usize = 256;
 
 /// The continuation options for `model`: as given, but for a model with a
