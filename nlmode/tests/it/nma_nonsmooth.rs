@@ -300,3 +300,47 @@ fn nlvib_cantilever_table_never_jumps_and_meets_its_accuracy() {
         );
     }
 }
+
+/// The start from the system linearised at rest: a `tanh` friction acts as
+/// the damper `F_s / v_r`, so the start is the complex mode of the damped
+/// linear system. 1 DOF: `omega = sqrt(k/m)`, `D = c / (2 m omega)` in closed
+/// form (the EPMC of a linear oscillator); 2 DOF (NLvib example 05): the
+/// residual `(K_l + i omega C_l - omega^2 (1 + 2 i D) M) phi` of the guess in
+/// physical coordinates vanishes.
+#[test]
+fn start_guess_is_the_mode_of_the_system_linearised_at_rest() {
+    use nlmode::nma::problems::nlvib::chain_of_oscillators;
+    use nlmode::structure::RegularizedFriction;
+    let mut one = chain_of_oscillators(&[2.0], &[0.0, 0.0], &[8.0, 0.0]);
+    let e = nalgebra::DVector::from_element(1, 1.0);
+    one.add_nonlinear("tanh", e, RegularizedFriction::new(0.3, 0.5).unwrap())
+        .unwrap();
+    let basis = Arc::new(ModalBasis::new(&one, false).unwrap());
+    let res = nlmode::nma::epmc::EpmcResidual::new(basis, 3, 13, 0);
+    let x = res.linearised_guess(-4.0);
+    let m = res.n_coeffs();
+    let (w, d) = (x[m], x[m + 1]);
+    assert!((w - 2.0).abs() < 1e-12, "{w}");
+    // c = 0.3 / 0.5 = 0.6 N s/m: D = 0.6 / (2 * 2 * 2)
+    assert!((d - 0.075).abs() < 1e-12, "{d}");
+    assert_eq!(x[m + 2], -4.0);
+
+    let model = nlvib_tanh_friction_2dof();
+    let basis = Arc::new(ModalBasis::new(&model, false).unwrap());
+    let res = nlmode::nma::epmc::EpmcResidual::new(basis.clone(), 1, 5, 0);
+    let x = res.linearised_guess(-2.0);
+    let n = basis.n_modes();
+    let m = res.n_coeffs();
+    let (w, d) = (x[m], x[m + 1]);
+    let psi = nalgebra::DVector::from_fn(n, |k, _| Complex64::new(x[n + k], -x[2 * n + k]));
+    let phi = basis.phi.map(|v| Complex64::new(v, 0.0)) * psi;
+    let c_t = 5.0 / 0.05;
+    let mut a = model.stiffness.map(|v| Complex64::new(v, 0.0))
+        - model.mass.map(|v| Complex64::new(v, 0.0)) * Complex64::new(w * w, 2.0 * d * w * w);
+    a[(0, 0)] += Complex64::new(0.0, w * c_t);
+    let r = (&a * &phi).norm() / (model.stiffness.map(|v| Complex64::new(v, 0.0)) * &phi).norm();
+    assert!(r < 1e-10, "{r}");
+    // stick: mass 1 held by the damper, mass 2 on 640 N/m
+    assert!((w - 640f64.sqrt()).abs() < 0.01 * w, "{w}");
+    assert!(phi[0].norm() < 0.05 * phi[1].norm());
+}
