@@ -49,6 +49,18 @@ enum Piece {
     Slip { a: f64, b: f64, sign: f64 },
 }
 
+/// `(cos k tau, sin k tau)` for `k = 1..=kmax` into `c[k]`, `s[k]` by the
+/// angle-addition recurrence from one `sin_cos` (rounding grows like `k eps`).
+fn trig_table(tau: f64, kmax: usize, c: &mut [f64], s: &mut [f64]) {
+    let (s1, c1) = tau.sin_cos();
+    c[0] = 1.0;
+    s[0] = 0.0;
+    for k in 1..=kmax {
+        c[k] = c[k - 1] * c1 - s[k - 1] * s1;
+        s[k] = s[k - 1] * c1 + c[k - 1] * s1;
+    }
+}
+
 /// The displacement `u(tau) = sum_j U_j phi_j(tau)` and its derivatives.
 struct Signal<'a> {
     u: &'a [f64],
@@ -58,12 +70,14 @@ struct Signal<'a> {
 impl Signal<'_> {
     /// `phi_j(tau)`, `j = 0..2H+1`.
     fn row(&self, tau: f64) -> Vec<f64> {
+        let h = self.harmonics;
+        let (mut c, mut s) = (vec![0.0; h + 1], vec![0.0; h + 1]);
+        trig_table(tau, h, &mut c, &mut s);
         let mut r = vec![0.0; self.u.len()];
         r[0] = 1.0;
-        for n in 1..=self.harmonics {
-            let (s, c) = (n as f64 * tau).sin_cos();
-            r[2 * n - 1] = c;
-            r[2 * n] = s;
+        for n in 1..=h {
+            r[2 * n - 1] = c[n];
+            r[2 * n] = s[n];
         }
         r
     }
@@ -71,9 +85,11 @@ impl Signal<'_> {
     fn eval(&self, tau: f64) -> (f64, f64, f64) {
         let u = self.u;
         let (mut v, mut d1, mut d2) = (u[0], 0.0, 0.0);
+        let (s1, c1) = tau.sin_cos();
+        let (mut c, mut s) = (1.0, 0.0);
         for n in 1..=self.harmonics {
             let nf = n as f64;
-            let (s, c) = (nf * tau).sin_cos();
+            (c, s) = (c * c1 - s * s1, s * c1 + c * s1);
             let (a, b) = (u[2 * n - 1], u[2 * n]);
             v += a * c + b * s;
             d1 += nf * (b * c - a * s);
@@ -254,20 +270,22 @@ pub(super) fn play_aft(
     let mut cs = vec![0.0; 2 * harmonics + 1];
     let mut sn = vec![0.0; 2 * harmonics + 1];
     let mut ih = vec![0.0; nh];
+    let (mut ta_c, mut ta_s) = (vec![0.0; nh], vec![0.0; nh]);
+    let (mut tb_c, mut tb_s) = (vec![0.0; nh], vec![0.0; nh]);
     let mut ihj = DMatrix::zeros(nh, nh);
     for piece in &pieces {
         let (a, b) = match *piece {
             Piece::Stick { a, b, .. } | Piece::Slip { a, b, .. } => (a, b),
         };
         // C_k = int_a^b cos(k tau), S_k = int_a^b sin(k tau), k = 0..2H
+        trig_table(a, 2 * harmonics, &mut ta_c, &mut ta_s);
+        trig_table(b, 2 * harmonics, &mut tb_c, &mut tb_s);
         cs[0] = b - a;
         sn[0] = 0.0;
         for k in 1..=2 * harmonics {
             let kf = k as f64;
-            let (sb, cb) = (kf * b).sin_cos();
-            let (sa, ca) = (kf * a).sin_cos();
-            cs[k] = (sb - sa) / kf;
-            sn[k] = -(cb - ca) / kf;
+            cs[k] = (tb_s[k] - ta_s[k]) / kf;
+            sn[k] = -(tb_c[k] - ta_c[k]) / kf;
         }
         ih[0] = cs[0];
         for m in 1..=harmonics {
