@@ -412,15 +412,15 @@ fn corner_step<R: Residual>(
     opts: &ContinuationOptions,
 ) -> Option<(DVector<f64>, R::Jacobian, usize, DVector<f64>)> {
     let n = x.len();
-    if dir * t[n - 1] <= 0.0 {
-        // the branch turns back in the parameter here: no natural step
-        return None;
-    }
-    let base = last_dlambda.max(1e-6 * (hi - lo).abs().max(1e-300));
     let fixed = ContinuationOptions {
         max_contraction: None,
         ..opts.clone()
     };
+    if dir * t[n - 1] <= 0.0 {
+        // the branch turns back in the parameter here: no natural step
+        return corner_turn(res, x, t, scale, &fixed);
+    }
+    let base = last_dlambda.max(1e-6 * (hi - lo).abs().max(1e-300));
     let xs = x.component_div(scale);
     let mut iterations = 0;
     for k in CORNER_INCREMENTS {
@@ -443,6 +443,53 @@ fn corner_step<R: Residual>(
         let tn = tangent(&jn, &secant, scale)?;
         let tn = if tn.dot(&secant) < 0.0 { -tn } else { tn };
         return Some((xn, jn, iterations, tn));
+    }
+    corner_turn(res, x, t, scale, &fixed)
+}
+
+/// A corner where the branch turns by more than the natural step can follow
+/// (also a fold of the parameter at the corner): the tangent `t_B` of the
+/// piece beyond the corner, from the Jacobian at `x + r t` (`r = 1, 4, 16`
+/// times `dsmin`, scaled), and an arc-length corrector from `x + r t_B` in both
+/// orientations of `t_B`. A point is accepted within `dsmax` of `x` and not
+/// back along the old branch (its secant within 45 degrees of `-t`); the
+/// tangent is oriented along the secant.
+fn corner_turn<R: Residual>(
+    res: &R,
+    x: &DVector<f64>,
+    t: &DVector<f64>,
+    scale: &DVector<f64>,
+    opts: &ContinuationOptions,
+) -> Option<(DVector<f64>, R::Jacobian, usize, DVector<f64>)> {
+    let xs = x.component_div(scale);
+    let mut iterations = 0;
+    for k in [1.0, 4.0, 16.0] {
+        let r = k * opts.dsmin();
+        let (_, jp) = res.eval(&(&xs + t * r).component_mul(scale));
+        let Some(tb) = tangent(&jp, t, scale) else {
+            continue;
+        };
+        for sign in [1.0, -1.0] {
+            let tb = &tb * sign;
+            let start = (&xs + &tb * r).component_mul(scale);
+            let row = tb.component_div(scale);
+            let target = row.dot(&start);
+            let Ok((xc, jc, it)) = newton(res, start, &row, target, opts) else {
+                continue;
+            };
+            iterations += it;
+            let d = xc.component_div(scale) - &xs;
+            let dist = d.norm();
+            if !(dist > 0.0 && dist <= opts.dsmax()) || -d.dot(t) > 0.7 * dist {
+                continue;
+            }
+            let d = d / dist;
+            let Some(tn) = tangent(&jc, &d, scale) else {
+                continue;
+            };
+            let tn = if tn.dot(&d) < 0.0 { -tn } else { tn };
+            return Some((xc, jc, iterations, tn));
+        }
     }
     None
 }
