@@ -25,7 +25,9 @@
 //! 5. Before a step-size collapse is reported, `corner_step` tries Newton
 //!    with the parameter fixed just past the last point (a corner of a
 //!    piecewise-smooth branch, e.g. one-sided slip onset of a friction
-//!    element, where the tangent turns by nearly 90 degrees). A corrector that
+//!    element, where the tangent turns by nearly 90 degrees), then
+//!    `corner_turn` (the tangent of the piece beyond the corner, for a turn
+//!    the parameter cannot follow, e.g. a fold at the corner). A corrector that
 //!    lands farther than `2 dsmax` from the last point is rejected even at
 //!    `dsmin` (it ran off along a flat direction of the residual).
 use nalgebra::DVector;
