@@ -22,6 +22,14 @@
 //!    than `max_contraction` per iteration; with them, `dsmax` bounds how far
 //!    one step can go along a straight branch, and curved parts (loops) are
 //!    resolved by the angle limit.
+//! 5. Before a step-size collapse is reported, `corner_step` tries Newton
+//!    with the parameter fixed just past the last point (a corner of a
+//!    piecewise-smooth branch, e.g. one-sided slip onset of a friction
+//!    element, where the tangent turns by nearly 90 degrees), then
+//!    `corner_turn` (the tangent of the piece beyond the corner, for a turn
+//!    the parameter cannot follow, e.g. a fold at the corner). A corrector that
+//!    lands farther than `2 dsmax` from the last point is rejected even at
+//!    `dsmin` (it ran off along a flat direction of the residual).
 use nalgebra::DVector;
 
 /// A Jacobian that can solve the square system obtained by appending one
@@ -192,6 +200,9 @@ pub struct ContinuationSummary {
     /// lies between points `i - 1` and `i`.
     pub turning_points: Vec<usize>,
     pub stop: StopReason,
+    /// Steps taken by `corner_step` (the arc-length corrector had failed
+    /// down to `dsmin`).
+    pub corner_steps: usize,
 }
 
 /// A converged branch point as handed to the callback.
@@ -378,6 +389,113 @@ fn tangent<J: BorderedSolve>(
     (norm.is_finite() && norm > 0.0).then(|| t / norm)
 }
 
+/// Increments of the parameter tried by `corner_step`, in units of its base
+/// increment (smallest first: the first point past a corner suffices).
+const CORNER_INCREMENTS: [f64; 4] = [1.0, 4.0, 16.0, 64.0];
+
+/// A step across a corner of the branch (a piecewise-smooth residual, e.g. the
+/// onset of slip of a hysteretic element in one direction, where the tangent
+/// turns abruptly and the arc-length corrector fails down to `dsmin`): Newton
+/// with the parameter fixed at `lambda + dir delta` from `x`, `delta` from the
+/// last accepted parameter increment (at least `1e-6` of the range) times
+/// [`CORNER_INCREMENTS`], within the range. Accepted only if it converges
+/// within `dsmax` (scaled) of `x`; the new tangent is bordered with and
+/// oriented along the secant. Returns the point, its Jacobian, the Newton
+/// iterations and the tangent.
+#[allow(clippy::too_many_arguments)]
+fn corner_step<R: Residual>(
+    res: &R,
+    x: &DVector<f64>,
+    t: &DVector<f64>,
+    scale: &DVector<f64>,
+    dir: f64,
+    last_dlambda: f64,
+    (lo, hi): (f64, f64),
+    opts: &ContinuationOptions,
+) -> Option<(DVector<f64>, R::Jacobian, usize, DVector<f64>)> {
+    let n = x.len();
+    let fixed = ContinuationOptions {
+        max_contraction: None,
+        ..opts.clone()
+    };
+    if dir * t[n - 1] <= 0.0 {
+        // the branch turns back in the parameter here: no natural step
+        return corner_turn(res, x, t, scale, &fixed);
+    }
+    let base = last_dlambda.max(1e-6 * (hi - lo).abs().max(1e-300));
+    let xs = x.component_div(scale);
+    let mut iterations = 0;
+    for k in CORNER_INCREMENTS {
+        let lambda = (x[n - 1] + dir * k * base).clamp(lo, hi);
+        if lambda == x[n - 1] {
+            return None;
+        }
+        let mut guess = x.clone();
+        guess[n - 1] = lambda;
+        let Ok((xn, jn, it)) = solve_fixed_parameter(res, guess, &fixed) else {
+            continue;
+        };
+        iterations += it;
+        let secant = xn.component_div(scale) - &xs;
+        let dist = secant.norm();
+        if !(dist > 0.0 && dist <= opts.dsmax()) {
+            continue;
+        }
+        let secant = secant / dist;
+        let tn = tangent(&jn, &secant, scale)?;
+        let tn = if tn.dot(&secant) < 0.0 { -tn } else { tn };
+        return Some((xn, jn, iterations, tn));
+    }
+    corner_turn(res, x, t, scale, &fixed)
+}
+
+/// A corner where the branch turns by more than the natural step can follow
+/// (also a fold of the parameter at the corner): the tangent `t_B` of the
+/// piece beyond the corner, from the Jacobian at `x + r t` (`r = 1, 4, 16`
+/// times `dsmin`, scaled), and an arc-length corrector from `x + r t_B` in both
+/// orientations of `t_B`. A point is accepted within `dsmax` of `x` and not
+/// back along the old branch (its secant within 45 degrees of `-t`); the
+/// tangent is oriented along the secant.
+fn corner_turn<R: Residual>(
+    res: &R,
+    x: &DVector<f64>,
+    t: &DVector<f64>,
+    scale: &DVector<f64>,
+    opts: &ContinuationOptions,
+) -> Option<(DVector<f64>, R::Jacobian, usize, DVector<f64>)> {
+    let xs = x.component_div(scale);
+    let mut iterations = 0;
+    for k in [1.0, 4.0, 16.0] {
+        let r = k * opts.dsmin();
+        let (_, jp) = res.eval(&(&xs + t * r).component_mul(scale));
+        let Some(tb) = tangent(&jp, t, scale) else {
+            continue;
+        };
+        for sign in [1.0, -1.0] {
+            let tb = &tb * sign;
+            let start = (&xs + &tb * r).component_mul(scale);
+            let row = tb.component_div(scale);
+            let target = row.dot(&start);
+            let Ok((xc, jc, it)) = newton(res, start, &row, target, opts) else {
+                continue;
+            };
+            iterations += it;
+            let d = xc.component_div(scale) - &xs;
+            let dist = d.norm();
+            if !(dist > 0.0 && dist <= opts.dsmax()) || -d.dot(t) > 0.7 * dist {
+                continue;
+            }
+            let d = d / dist;
+            let Some(tn) = tangent(&jc, &d, scale) else {
+                continue;
+            };
+            let tn = if tn.dot(&d) < 0.0 { -tn } else { tn };
+            return Some((xc, jc, iterations, tn));
+        }
+    }
+    None
+}
+
 /// Continue the solution branch of `res` from `x0` (solved first with its
 /// parameter fixed) until the parameter `X[n-1]` reaches `lambda_end`.
 ///
@@ -408,6 +526,7 @@ pub fn continuation<R: Residual>(
         rejected_steps: 0,
         turning_points: vec![],
         stop: StopReason::ReachedEnd,
+        corner_steps: 0,
     };
 
     // the start point has no predictor: no contraction control there
@@ -458,6 +577,7 @@ pub fn continuation<R: Residual>(
     }
     let (dsmin, dsmax) = (opts.dsmin(), opts.dsmax());
     let mut ds = opts.ds.clamp(dsmin, dsmax);
+    let mut last_dlambda = 0.0;
     let lo = lambda_start.min(lambda_end);
     let hi = lambda_start.max(lambda_end);
     let margin = 1e-12 * (hi - lo).abs().max(1.0);
@@ -488,9 +608,12 @@ pub fn continuation<R: Residual>(
             // is already at dsmin: a corner of the branch (the stick-slip
             // transition of a friction element, where D(a) has a kink) puts
             // the corrector's point farther than 2 ds at any step length
+            // (never farther than 2 dsmax: a corrector that runs off along a
+            // flat direction of the residual, e.g. to `a -> infinity` where a
+            // saturating element vanishes, is not a corner)
             let attempt = attempt.and_then(|(xn, jn, it)| {
                 let dist = (xn.component_div(scale) - &xs).norm();
-                if dist > 2.0 * ds && ds / 2.0 >= dsmin {
+                if dist > 2.0 * ds && (ds / 2.0 >= dsmin || dist > 2.0 * dsmax) {
                     Err((0.0, it, true))
                 } else {
                     Ok((xn, jn, it))
@@ -520,6 +643,16 @@ pub fn continuation<R: Residual>(
                     }
                     ds /= 2.0;
                     if ds < dsmin {
+                        // before giving up: natural-parameter steps across a
+                        // corner of the branch
+                        if let Some(v) =
+                            corner_step(res, &x, &t, scale, dir, last_dlambda, (lo, hi), opts)
+                        {
+                            summary.newton_iterations += v.2;
+                            summary.corner_steps += 1;
+                            ds = dsmin;
+                            break (v.0, v.1, v.2, Some(v.3));
+                        }
                         return Err((
                             ContinuationFailure::StepSizeCollapse {
                                 parameter: x[n - 1],
@@ -549,6 +682,7 @@ pub fn continuation<R: Residual>(
         }
         summary.newton_iterations += it;
         let step = ds;
+        last_dlambda = (x_new[n - 1] - x[n - 1]).abs();
         x = x_new;
         jac = jac_new;
         t = t_new;

@@ -51,6 +51,25 @@ pub(super) fn find_point(model: &StructuralModel, name: &str) -> Result<usize, N
         })
 }
 
+/// Arc-length scale of the damping ratio `D` for a model with a dissipative
+/// nonlinear element ([`dissipative_elements`]): friction drives `D` from
+/// the linear value to tens of percent (a Jenkins element to 40 %), so with
+/// the linear `D` (or `1e-3`) as scale the continuation would crawl through
+/// that rise in hundreds of steps limited by `dsmax`. Models with
+/// conservative elements only keep `max(D_0, 1e-3)`.
+pub const DISSIPATIVE_DAMPING_SCALE: f64 = 0.05;
+
+/// Whether a nonlinear element of `model` can dissipate: hysteretic, or with
+/// a velocity-dependent force (`df/dv != 0` at `v = 0`, `1e-3` or `1` m/s).
+pub(super) fn dissipative_elements(model: &StructuralModel) -> bool {
+    model.nonlinear.iter().any(|e| {
+        e.law.hysteresis().is_some()
+            || [0.0, 1e-3, 1.0]
+                .iter()
+                .any(|&v| e.law.eval(0.0, v).2 != 0.0)
+    })
+}
+
 /// Nonlinear modal analysis by the EPMC (`eq:EPMC`) with Harmonic Balance and
 /// arc-length continuation in `log10 a`, starting from the linear mode.
 ///
@@ -156,7 +175,11 @@ pub fn nonlinear_modal_analysis_with_basis(
     let m = res.n_coeffs();
     let mut scale = DVector::from_element(m + 3, 1.0);
     scale[m] = omega0.abs().max(1e-12);
-    scale[m + 1] = d0.abs().max(1e-3);
+    scale[m + 1] = d0.abs().max(if dissipative_elements(model) {
+        DISSIPATIVE_DAMPING_SCALE
+    } else {
+        1e-3
+    });
     scale[m + 2] = 1.0;
 
     let mut result = NmaResult {
@@ -231,7 +254,7 @@ pub fn nonlinear_modal_analysis_with_basis(
     };
     let outcome = continuation(
         &res,
-        res.linear_guess(lg_start),
+        res.linearised_guess(lg_start),
         lg_end,
         &scale,
         &continuation_for(model, &opts.continuation),

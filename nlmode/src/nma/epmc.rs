@@ -45,6 +45,14 @@ use nalgebra::{DMatrix, DVector};
 use std::f64::consts::LN_10;
 use std::sync::Arc;
 
+/// Most Rayleigh-quotient iterations of [`EpmcResidual::linearised_guess`].
+pub const LINEARISED_GUESS_ITERATIONS: usize = 50;
+
+/// Most modes for which [`EpmcResidual::linearised_guess`] solves the dense
+/// complex eigenproblem (`O(n^3)` per iteration); above, the undamped linear
+/// mode is the start.
+pub const LINEARISED_GUESS_MAX_MODES: usize = 400;
+
 /// Relative size of `|A + iB|` below which a modal block is kept explicitly.
 const EXPLICIT_THRESHOLD: f64 = 0.05;
 
@@ -1017,6 +1025,93 @@ impl EpmcResidual {
         x[cos_index(1) * n + self.mode] = 1.0;
         x[m] = self.basis.omega(self.mode);
         x[m + 1] = self.basis.damping_ratio(self.mode);
+        x[m + 2] = log10_a;
+        x
+    }
+
+    /// The start vector at `log10 a` from the linear mode of the system
+    /// linearised at rest: every element's tangent `(df/du, df/dv)` at
+    /// `u = v = 0` ([`NonlinearLaw::eval`]; for a Jenkins element its stick
+    /// stiffness `k_t`, for `tanh` friction the damper `F_s / v_r`) added to
+    /// `K` and `C`. The EPMC of a linear system is the nonlinear eigenproblem
+    /// `(K_l + i omega C_l - s M) psi = 0`, `s = omega^2 (1 + 2 i D)`, solved by
+    /// Rayleigh-quotient inverse iteration in modal coordinates from the
+    /// continued mode (at most [`LINEARISED_GUESS_ITERATIONS`] iterations); for
+    /// a damper-like element the start is thus the complex mode. Falls back to
+    /// [`Self::linear_guess`] where all tangents vanish (then identical, e.g.
+    /// cubic springs), for more than [`LINEARISED_GUESS_MAX_MODES`] modes, or
+    /// if the iteration fails.
+    pub fn linearised_guess(&self, log10_a: f64) -> DVector<f64> {
+        use num_complex::Complex64 as C64;
+        let basis = &*self.basis;
+        let n = basis.n_modes();
+        let tangents: Vec<(f64, f64)> = basis
+            .laws
+            .iter()
+            .map(|l| {
+                let (_, k, c) = l.eval(0.0, 0.0);
+                (k, c)
+            })
+            .collect();
+        let finite = tangents.iter().all(|t| t.0.is_finite() && t.1.is_finite());
+        if !finite || tangents.iter().all(|t| *t == (0.0, 0.0)) || n > LINEARISED_GUESS_MAX_MODES {
+            return self.linear_guess(log10_a);
+        }
+        let mut kl = DMatrix::from_diagonal(&basis.omega2);
+        let mut cl = basis.cm.clone();
+        for (e, &(k, c)) in tangents.iter().enumerate() {
+            let we = basis.w.column(e);
+            kl += (&we * we.transpose()) * k;
+            cl += (&we * we.transpose()) * c;
+        }
+        let j = self.mode;
+        let mut psi =
+            DVector::<C64>::from_fn(n, |k, _| C64::new(if k == j { 1.0 } else { 0.0 }, 0.0));
+        let mut s = C64::new(basis.omega2[j], 0.0);
+        let mut converged = false;
+        for _ in 0..LINEARISED_GUESS_ITERATIONS {
+            let omega = s.re.max(0.0).sqrt();
+            let b = DMatrix::<C64>::from_fn(n, n, |r, c| C64::new(kl[(r, c)], omega * cl[(r, c)]));
+            let mut a = b.clone();
+            for k in 0..n {
+                a[(k, k)] -= s;
+            }
+            let next = match a.lu().solve(&psi) {
+                Some(y) if y.iter().all(|v| v.re.is_finite() && v.im.is_finite()) => y,
+                // `s` is an eigenvalue to machine precision
+                _ => {
+                    converged = true;
+                    break;
+                }
+            };
+            let norm = next.norm();
+            if !(norm > 0.0) {
+                break;
+            }
+            psi = next / C64::new(norm, 0.0);
+            let s_new = psi.dotc(&(&b * &psi));
+            let done = (s_new - s).norm() <= 1e-13 * s_new.norm();
+            s = s_new;
+            if done {
+                converged = true;
+                break;
+            }
+        }
+        if !converged || !(s.re > 0.0) || psi[j].norm() == 0.0 {
+            return self.linear_guess(log10_a);
+        }
+        // unit norm, psi_j real and positive
+        let rot = psi[j].conj() / psi[j].norm();
+        let psi = psi.map(|v| v * rot / C64::new(psi.norm(), 0.0));
+        let m = self.n_coeffs();
+        let mut x = DVector::zeros(m + 3);
+        for k in 0..n {
+            x[cos_index(1) * n + k] = psi[k].re;
+            x[sin_index(1) * n + k] = -psi[k].im;
+        }
+        x[sin_index(1) * n + j] = 0.0;
+        x[m] = s.re.sqrt();
+        x[m + 1] = s.im / (2.0 * s.re);
         x[m + 2] = log10_a;
         x
     }

@@ -73,11 +73,19 @@ pub(super) fn finish_from_amplitudes(result: &mut NmaResult, summary: &Continuat
 /// friction saturating, NLvib example 05) is no resonance.
 pub const INTERNAL_RESONANCE_MISMATCH: f64 = 0.35;
 
+/// Least growth of the secondary component's energy share in a loop over its
+/// share at the start of the branch for the loop to be labelled an internal
+/// resonance (see [`identify_internal_resonances`]).
+pub const INTERNAL_RESONANCE_MIN_GROWTH: f64 = 2.0;
+
 /// The internal resonance of every loop (from an amplitude maximum to the next
 /// minimum, or the branch end): the energy component other than the
 /// fundamental that carries most energy at the point of least fundamental share,
 /// if it belongs to another linear mode `k` whose frequency `linear_omegas[k]`
-/// the harmonic meets within [`INTERNAL_RESONANCE_MISMATCH`]. A fold that is
+/// the harmonic meets within [`INTERNAL_RESONANCE_MISMATCH`], and whose share
+/// in the loop exceeds [`INTERNAL_RESONANCE_MIN_GROWTH`] times its share at
+/// the branch start (a mode mixed into the shape from the linear regime on, as
+/// in the stick mode of a friction chain, is no resonance). A fold that is
 /// not one (e.g. where friction saturates) gets a
 /// [`NmaWarning::FoldNotInternalResonance`] instead.
 pub(super) fn identify_internal_resonances(result: &mut NmaResult, linear_omegas: &[f64]) {
@@ -126,7 +134,20 @@ pub(super) fn identify_internal_resonances(result: &mut NmaResult, linear_omegas
         };
         let omega_k = linear_omegas.get(c.mode_index).copied().unwrap_or(f64::NAN);
         let mismatch = (c.harmonic as f64 * ir.omega_rad_s / omega_k - 1.0).abs();
-        if c.mode_index != result.mode_index && mismatch <= INTERNAL_RESONANCE_MISMATCH {
+        // the component's share at the start of the branch: a mode already in
+        // the shape in the linear regime (the start mode of a system whose
+        // elements add stiffness or damping mixes the undamped modes, e.g.
+        // friction in stick) is no resonance the loop runs into
+        let s0 = result.branch[0].secondary;
+        let baseline = if (s0.harmonic, s0.mode_index) == (c.harmonic, c.mode_index) {
+            s0.share
+        } else {
+            0.0
+        };
+        if c.mode_index != result.mode_index
+            && mismatch <= INTERNAL_RESONANCE_MISMATCH
+            && max_share > INTERNAL_RESONANCE_MIN_GROWTH * baseline
+        {
             result.folds[f].internal_resonance = Some(ir);
         } else {
             let fold = &result.folds[f];

@@ -20,8 +20,14 @@
 //! full matrices anyway, and for the few nonlinear DOFs of a local nonlinearity
 //! the matrix products are as cheap as FFTs at these sizes (`N` ~ 50).
 //!
-//! **Hysteretic laws** ([`crate::structure::Hysteresis`], e.g. the Jenkins
-//! element) have no force `f(u, v)`: the AFT marches the internal state over the
+//! **Play-type hysteresis** (the Jenkins element,
+//! [`crate::structure::Hysteresis::play`]): the loop is integrated exactly
+//! between located reversals and slip onsets (`super::play`), so the force
+//! harmonics have no sampling error and are smooth in `U` through slip onset;
+//! the samples only serve as the grid on which reversals are searched.
+//!
+//! **Other hysteretic laws** ([`crate::structure::Hysteresis`]) have no force
+//! `f(u, v)`: the AFT marches the internal state over the
 //! sampled period, starting from the relaxed state at the mean displacement
 //! `U[0]` (a stuck slider carrying no mean force), and repeats the period until
 //! the state at its end equals the state at its start; the last period's force
@@ -162,6 +168,9 @@ impl Aft {
     /// Jacobians `dF/dU`, `dF/domega`.
     pub fn eval(&self, law: &dyn NonlinearLaw, u: &DVector<f64>, omega: f64) -> AftOutput {
         if let Some(h) = law.hysteresis() {
+            if let Some(p) = h.play() {
+                return self.eval_play(p, h, u, true);
+            }
             return self.eval_hysteretic(h, u);
         }
         let n = self.samples;
@@ -197,6 +206,9 @@ impl Aft {
     /// The force harmonics of [`Aft::eval`] alone (no Jacobians; the same numbers).
     pub fn force(&self, law: &dyn NonlinearLaw, u: &DVector<f64>, omega: f64) -> DVector<f64> {
         if let Some(h) = law.hysteresis() {
+            if let Some(p) = h.play() {
+                return self.eval_play(p, h, u, false).force;
+            }
             return self.eval_hysteretic(h, u).force;
         }
         let ut = &self.inv * u;
@@ -209,7 +221,27 @@ impl Aft {
     /// for a play-type element; the cap only bounds exotic laws).
     pub const MAX_HYSTERESIS_PERIODS: usize = 4;
 
-    /// The AFT of a hysteretic law (see the module docs); rate independent, so
+    /// The exact AFT of a play-type law ([`super::play`]): the samples only
+    /// serve as the grid on which the reversals of `u` are searched. Without
+    /// `jacobian` the returned `jac_u` is empty (`(2H+1) x 0`).
+    fn eval_play(
+        &self,
+        p: crate::structure::PlayOperator,
+        law: &dyn Hysteresis,
+        u: &DVector<f64>,
+        jacobian: bool,
+    ) -> AftOutput {
+        let du = &self.dinv * u;
+        let (force, jac_u) =
+            super::play::play_aft(p, self.harmonics, u, &du, law.initial_state(u[0]), jacobian);
+        AftOutput {
+            force,
+            jac_u,
+            jac_omega: DVector::zeros(self.n_coeffs()),
+        }
+    }
+
+    /// The sampled AFT of a hysteretic law (see the module docs); rate independent, so
     /// `dF/domega = 0`.
     fn eval_hysteretic(&self, law: &dyn Hysteresis, u: &DVector<f64>) -> AftOutput {
         let n = self.samples;
@@ -361,24 +393,36 @@ mod tests {
             let aft = Aft::new(h, n);
             let mut u = DVector::zeros(2 * h + 1);
             u[cos_index(1)] = x;
-            let out = aft.eval(&law, &u, 300.0);
+            let out = aft.eval_hysteretic(&law, &u);
             let samples = DVector::from_fn(n, |t, _| loop_force(2.0 * PI * t as f64 / n as f64));
             let expect = &aft.fwd * samples;
             assert!((&out.force - &expect).amax() < 1e-12 * fs, "H={h} N={n}");
             assert_eq!(out.jac_omega.amax(), 0.0);
         }
-        // the describing function: O(N^-2) sampling error from the slip-onset kink
+        // the describing function: O(N^-2) sampling error from the slip-onset
+        // kink of the sampled march; the exact AFT (transitions located) has none
         let (fc, fsn) = jenkins_first_harmonic(kt, fs, x);
-        let aft = Aft::new(1, 1 << 16);
         let mut u = DVector::zeros(3);
         u[cos_index(1)] = x;
-        let out = aft.eval(&law, &u, 1.0);
+        let sampled = Aft::new(1, 1 << 16).eval_hysteretic(&law, &u);
+        for (out, tol) in [(sampled, 1e-9), (Aft::new(1, 6).eval(&law, &u, 1.0), 1e-14)] {
+            assert!(
+                (out.force[cos_index(1)] - fc).abs() < tol * kt * x,
+                "{out:?} {fc}"
+            );
+            assert!((out.force[sin_index(1)] - fsn).abs() < tol * kt * x);
+            assert!(out.force[0].abs() < 1e-12 * fs);
+        }
+        // a phase-shifted, multi-harmonic signal: the exact AFT is the limit of
+        // the sampled one (O(1/N) for a reversal between samples)
+        let u = DVector::from_vec(vec![2e-6, 3e-5, -2.5e-5, 4e-6, 3e-6, -2e-6, 1e-6]);
+        let exact = Aft::new(3, 31).eval(&law, &u, 1.0).force;
+        let fine = Aft::new(3, 1 << 16).eval_hysteretic(&law, &u).force;
         assert!(
-            (out.force[cos_index(1)] - fc).abs() < 1e-9 * kt * x,
-            "{out:?} {fc}"
+            (&exact - &fine).amax() < 2e-4 * fs,
+            "{}",
+            (&exact - &fine).amax()
         );
-        assert!((out.force[sin_index(1)] - fsn).abs() < 1e-9 * kt * x);
-        assert!(out.force[0].abs() < 1e-12 * fs);
         // stick: linear with k_t on the oscillating part, no mean force
         let mut u = DVector::zeros(3);
         u[0] = 1e-3;
@@ -390,24 +434,41 @@ mod tests {
 
     #[test]
     fn jenkins_aft_jacobian_is_the_exact_derivative() {
-        use crate::structure::ElasticDryFriction;
-        let law = ElasticDryFriction::new(1e5, 2.0).unwrap();
-        let aft = Aft::new(3, 31);
-        let u = DVector::from_vec(vec![1e-5, 6e-5, -1e-5, 0.0, 1.5e-5, 4e-6, -3e-6]);
-        let out = aft.eval(&law, &u, 10.0);
-        // piecewise linear in U: central differences are exact away from switches
-        let h = 1e-11;
-        for j in 0..7 {
-            let mut up = u.clone();
-            up[j] += h;
-            let mut um = u.clone();
-            um[j] -= h;
-            let fd =
-                (aft.eval(&law, &up, 10.0).force - aft.eval(&law, &um, 10.0).force) / (2.0 * h);
-            let err = (fd - out.jac_u.column(j)).amax();
-            assert!(err < 1e-5 * 1e5, "column {j}: {err}");
+        use crate::structure::{ElasticDryFriction, InitialSlider};
+        for slider in [InitialSlider::Mean, InitialSlider::Zero] {
+            let law = ElasticDryFriction::new(1e5, 2.0)
+                .unwrap()
+                .with_initial_slider(slider);
+            let aft = Aft::new(3, 31);
+            for u in [
+                vec![1e-5, 6e-5, -1e-5, 0.0, 1.5e-5, 4e-6, -3e-6],
+                // stick throughout (mean away from zero)
+                vec![1e-5, 6e-6, -1e-6, 0.0, 1.5e-6, 4e-7, -3e-7],
+            ] {
+                let u = DVector::from_vec(u);
+                // the sampled march: piecewise linear in U (central differences
+                // exact away from switches); the exact one: smooth
+                let sampled = |u: &DVector<f64>| aft.eval_hysteretic(&law, u);
+                let exact = |u: &DVector<f64>| aft.eval(&law, u, 10.0);
+                for (name, f) in [
+                    ("sampled", &sampled as &dyn Fn(&DVector<f64>) -> AftOutput),
+                    ("exact", &exact),
+                ] {
+                    let out = f(&u);
+                    let h = 1e-11;
+                    for j in 0..7 {
+                        let mut up = u.clone();
+                        up[j] += h;
+                        let mut um = u.clone();
+                        um[j] -= h;
+                        let fd = (f(&up).force - f(&um).force) / (2.0 * h);
+                        let err = (fd - out.jac_u.column(j)).amax();
+                        assert!(err < 1e-5 * 1e5, "{name} {slider:?} column {j}: {err}");
+                    }
+                    assert!(out.jac_u.amax() > 1e3);
+                }
+            }
         }
-        assert!(out.jac_u.amax() > 1e3);
     }
 
     #[test]

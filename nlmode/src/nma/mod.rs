@@ -39,6 +39,7 @@ mod forced;
 mod harmonics;
 mod measured;
 mod options;
+mod play;
 mod refine;
 mod results;
 
@@ -54,10 +55,11 @@ pub use crate::table::{
 pub use continuation::{ContinuationOptions, StopReason};
 pub use driver::{
     nonlinear_modal_analysis, nonlinear_modal_analysis_with_basis, solve_at_amplitude,
+    DISSIPATIVE_DAMPING_SCALE,
 };
 pub use epmc::Normalisation;
 pub use errors::{NmaError, NmaWarning};
-pub use folds::INTERNAL_RESONANCE_MISMATCH;
+pub use folds::{INTERNAL_RESONANCE_MIN_GROWTH, INTERNAL_RESONANCE_MISMATCH};
 pub use forced::{forced_response, ForcedResponse, ForcedResponseOptions, ForcedResponsePoint};
 pub use harmonics::{
     auto_harmonics, table_agreement, AutoHarmonics, AUTO_HARMONICS_MAX, AUTO_HARMONICS_STEP,

@@ -33,7 +33,11 @@ pub struct NmaOptions {
     /// Harmonic truncation order `H` (`eq:fourier`); the paper uses 13.
     pub harmonics: usize,
     /// AFT time samples per period; default `4H+1` (exact for cubic laws), at
-    /// least [`HYSTERETIC_DEFAULT_SAMPLES`] for a model with a hysteretic element.
+    /// least [`HYSTERETIC_DEFAULT_SAMPLES`] for a model with a hysteretic element
+    /// (for a Jenkins element they only set the grid on which the reversals
+    /// are searched: its loop is integrated exactly), and enough to resolve
+    /// a `tanh` friction's transition (`saturation_samples`, capped at
+    /// [`max_aft_samples`]).
     pub samples: Option<usize>,
     /// Which linear mode to continue, 0-based in ascending frequency (0 = the
     /// paper's "mode 1").
@@ -192,11 +196,13 @@ impl BackboneOptions {
     }
 }
 
-/// Default AFT samples of a model with a hysteretic element (Jenkins): a sample
-/// switching between stick and slip is a corner of the nonlinear-mode branch,
-/// and with `4H+1` samples these corners are so large that Newton cycles across
-/// them near the maximum of `D(a)`; 256 samples pass them (and put the sampled
-/// loop's describing function within ~1e-5 of the exact one).
+/// Default AFT samples of a model with a hysteretic element. For a play-type
+/// element (Jenkins) they are only the grid on which the reversals of the
+/// displacement are searched (its loop is integrated exactly between the
+/// located transitions); 256 separate the extrema of displacements with up to
+/// ~60 harmonics. For another (sampled) hysteretic law a sample switching
+/// between stick and slip is a corner of the branch, and with `4H+1` samples
+/// these corners are so large that Newton cycles across them; 256 pass them.
 pub const HYSTERETIC_DEFAULT_SAMPLES: usize = 256;
 
 /// The continuation options for `model`: as given, but for a model with a
@@ -217,6 +223,41 @@ pub(super) fn continuation_for(
 /// Whether any nonlinear element of `model` is hysteretic.
 pub(super) fn has_hysteresis(model: &StructuralModel) -> bool {
     model.nonlinear.iter().any(|e| e.law.hysteresis().is_some())
+}
+
+/// AFT samples that resolve the transition of every velocity-saturating
+/// element ([`crate::structure::NonlinearLaw::velocity_saturation`], `tanh`
+/// friction `F_s tanh(v / v_r)`) in the regime where it shapes the mode: the
+/// element saturates at the velocity amplitude `V = F_s / sqrt(k_w m_w)`
+/// (its slip force reached by the stiffness `k_w = w^T K w` its direction
+/// sees, at the frequency `sqrt(k_w / m_w)`, `m_w = w^T M w`); there the
+/// transition `|v| < v_r` lasts `2 v_r / V` rad of the period, and
+/// `N = 4 pi V / v_r` puts four samples across it. Beyond, the element acts as
+/// a Coulomb force small against the elastic ones, and an under-resolved
+/// transition no longer matters (measured on NLvib example 05, H = 21: with
+/// `4H+1 = 85` samples Newton fails at the onset of slip, `|q_1| = 0.16 m`;
+/// with this rule, 1405 samples, the branch reaches `|q_1| = 14 m`, as with
+/// 8192). Zero (no requirement) without such elements or where `k_w` or
+/// `m_w` vanish.
+pub(super) fn saturation_samples(model: &StructuralModel) -> usize {
+    let mut n = 0usize;
+    for e in &model.nonlinear {
+        let Some((fs, vr)) = e.law.velocity_saturation() else {
+            continue;
+        };
+        let w = &e.direction;
+        let kw = w.dot(&(&model.stiffness * w));
+        let mw = w.dot(&(&model.mass * w));
+        if !(kw > 0.0 && mw > 0.0 && fs > 0.0 && vr > 0.0) {
+            continue;
+        }
+        let v = fs / (kw * mw).sqrt();
+        let need = 4.0 * std::f64::consts::PI * v / vr;
+        if need.is_finite() {
+            n = n.max(need.ceil().min(MAX_AFT_SAMPLES as f64) as usize);
+        }
+    }
+    n
 }
 
 /// Largest number of AFT samples per period accepted ([`NmaOptions::samples`]):
@@ -245,12 +286,14 @@ pub(super) fn check_harmonics(
         return Err(NmaError::NoHarmonics { harmonics });
     }
     let minimum = default_samples(harmonics);
-    let samples = samples.unwrap_or(if has_hysteresis(model) {
-        minimum.max(HYSTERETIC_DEFAULT_SAMPLES)
-    } else {
-        minimum
-    });
     let maximum = max_aft_samples(harmonics);
+    let samples = samples.unwrap_or_else(|| {
+        let mut n = minimum;
+        if has_hysteresis(model) {
+            n = n.max(HYSTERETIC_DEFAULT_SAMPLES);
+        }
+        n.max(saturation_samples(model).min(maximum))
+    });
     if samples > maximum {
         return Err(NmaError::TooManySamples {
             samples,

@@ -103,6 +103,9 @@ impl NonlinearLaw for RegularizedFriction {
     fn name(&self) -> &str {
         "regularized_friction"
     }
+    fn velocity_saturation(&self) -> Option<(f64, f64)> {
+        Some((self.slip_force_n, self.regularization_m_s))
+    }
     fn eval(&self, _u: f64, v: f64) -> (f64, f64, f64) {
         let t = (v / self.regularization_m_s).tanh();
         (
@@ -318,6 +321,12 @@ impl Hysteresis for ElasticDryFriction {
             InitialSlider::Mean => (u, 1.0),
             InitialSlider::Zero => (0.0, 0.0),
         }
+    }
+    fn play(&self) -> Option<super::PlayOperator> {
+        Some(super::PlayOperator {
+            stiffness_n_per_m: self.tangential_stiffness_n_per_m,
+            slip_force_n: self.slip_force_n,
+        })
     }
     fn step(&self, w: f64, u: f64) -> HystereticStep {
         let kt = self.tangential_stiffness_n_per_m;

@@ -44,6 +44,13 @@ pub trait NonlinearLaw: std::fmt::Debug + Send + Sync {
     fn hysteresis(&self) -> Option<&dyn Hysteresis> {
         None
     }
+    /// For a law that saturates over a velocity scale (regularised Coulomb
+    /// friction): `(F_s [N], v_r [m/s])`, the saturation force and the
+    /// velocity over which the force turns. The AFT then needs samples across
+    /// the transition ([`crate::nma::NmaOptions::samples`]). Default `None`.
+    fn velocity_saturation(&self) -> Option<(f64, f64)> {
+        None
+    }
 }
 
 /// A rate-independent hysteretic law with one scalar internal state `s` (for the
@@ -65,6 +72,24 @@ pub trait Hysteresis: std::fmt::Debug + Send + Sync {
     }
     /// Move from state `s` to displacement `u`.
     fn step(&self, s: f64, u: f64) -> HystereticStep;
+    /// The parameters of a play-type (Jenkins) law, if this is one: the AFT
+    /// then integrates its loop exactly between located stick-slip transition
+    /// instants ([`crate::nma::hb`]) instead of marching time samples.
+    /// Default `None` (sampled march).
+    fn play(&self) -> Option<PlayOperator> {
+        None
+    }
+}
+
+/// A play-type hysteresis (Jenkins element): a spring of stiffness `k_t`
+/// [N/m] in series with a Coulomb slider of slip force `F_s` [N]; the slider
+/// `w` moves only where `|k_t (u - w)| = F_s`. See [`Hysteresis::play`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlayOperator {
+    /// `k_t` [N/m].
+    pub stiffness_n_per_m: f64,
+    /// `F_s` [N].
+    pub slip_force_n: f64,
 }
 
 /// Result of [`Hysteresis::step`]: force [N], new state and their partial
