@@ -120,18 +120,46 @@ pub fn sweep_plot(
         for (i, r) in results.iter().enumerate() {
             let c = color(i);
             let y = get(r);
-            let pts: Vec<(f64, f64)> = r
+            let pts: Vec<(f64, f64, bool)> = r
                 .envelope
                 .omega_rad_s
                 .iter()
                 .zip(&y)
-                .filter(|(_, v)| v.is_finite())
-                .map(|(&w, &v)| (w / omega0, v))
+                .zip(stability(r))
+                .filter(|((_, v), _)| v.is_finite())
+                .map(|((&w, &v), stable)| (w / omega0, v, stable))
                 .collect();
+            // a steady-state branch: its unstable runs dashed (each run
+            // shares its end points with the neighbouring ones)
+            let mut start = 0;
+            for k in 1..=pts.len() {
+                if k < pts.len() && pts[k].2 == pts[start].2 {
+                    continue;
+                }
+                let run: Vec<(f64, f64)> = pts[start..(k + 1).min(pts.len())]
+                    .iter()
+                    .map(|&(x, y, _)| (x, y))
+                    .collect();
+                if pts[start].2 {
+                    chart
+                        .draw_series(LineSeries::new(run, c.stroke_width(2)))
+                        .map_err(|e| anyhow!("plot: {e}"))?;
+                } else {
+                    chart
+                        .draw_series(DashedLineSeries::new(run, 6, 4, c.stroke_width(2)))
+                        .map_err(|e| anyhow!("plot: {e}"))?;
+                }
+                start = k;
+            }
+            let label = if pts.iter().any(|p| !p.2) {
+                format!("{} (unstable dashed)", r.name)
+            } else {
+                r.name.clone()
+            };
             chart
-                .draw_series(LineSeries::new(pts, c.stroke_width(2)))
+                .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
                 .map_err(|e| anyhow!("plot: {e}"))?
-                .label(r.name.clone())
+                .label(label)
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
                 });
@@ -149,6 +177,16 @@ pub fn sweep_plot(
     root.present()
         .map_err(|e| anyhow!("plot {}: {e}", path.display()))?;
     Ok(())
+}
+
+/// Per envelope point whether it is drawn solid: the `stable` column of a
+/// steady-state method (`hb`: 0 where Hill's method finds it unstable), all
+/// true otherwise.
+fn stability(r: &MethodResult) -> Vec<bool> {
+    match r.extra_columns.iter().find(|(n, _)| n == "stable") {
+        Some((_, v)) => v.iter().map(|&s| s != 0.0).collect(),
+        None => vec![true; r.envelope.omega_rad_s.len()],
+    }
 }
 
 /// One curve of an x-y plot.

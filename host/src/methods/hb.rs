@@ -149,6 +149,19 @@ pub fn hb_result(r: &HbResult, wall_time_s: f64) -> MethodResult {
         modal_frequency_rad_s: None,
     };
     let mut m = MethodResult::new(Method::Hb.name(), wall_time_s, env, false);
+    if pts.iter().any(|p| p.floquet.is_some()) {
+        // `stable` column of hb_envelope.csv (1 stable, 0 unstable; the plot
+        // dashes the unstable parts)
+        m.extra_columns.push((
+            "stable".into(),
+            pts.iter()
+                .map(|p| match p.stable() {
+                    Some(false) => 0.0,
+                    _ => 1.0,
+                })
+                .collect(),
+        ));
+    }
     let s = &mut m.summary;
     s.folds = Some(
         r.branches
