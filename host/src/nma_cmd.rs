@@ -325,11 +325,76 @@ fn energy_share_plot(
 
 /// `host frf [SCENARIO] -o DIR`: steady state of `eq:NM` at the scenario's
 /// voltage (all roots, stability), with the linear single-mode steady state.
+/// `frf_tip.svg` and `frf_force.svg`: the steady-state solutions `(w, tip,
+/// f)` as dots, stable and unstable apart (`st` 1 or 0), titled `what`.
+fn steady_plots(
+    out: &Path,
+    what: &str,
+    omega0: f64,
+    w: &[f64],
+    tip: &[f64],
+    f: &[f64],
+    st: &[f64],
+) -> Result<()> {
+    let split = |stable: bool| {
+        let idx: Vec<usize> = (0..w.len()).filter(|&i| (st[i] == 1.0) == stable).collect();
+        (
+            idx.iter().map(|&i| w[i] / omega0).collect::<Vec<f64>>(),
+            idx.iter().map(|&i| tip[i] * 1e3).collect::<Vec<f64>>(),
+            idx.iter().map(|&i| f[i]).collect::<Vec<f64>>(),
+        )
+    };
+    let (xs, ys, fs) = split(true);
+    let (xu, yu, fu) = split(false);
+    plot::xy_plot(
+        &out.join("frf_tip.svg"),
+        &format!("Steady state of {what}: tip amplitude"),
+        "Omega/omega0 [-]",
+        "|q_tip,1| [mm]",
+        &[
+            Curve {
+                label: "stable".into(),
+                x: &xs,
+                y: &ys,
+            },
+            Curve {
+                label: "unstable".into(),
+                x: &xu,
+                y: &yu,
+            },
+        ],
+        plot::Style::Dots,
+    )?;
+    plot::xy_plot(
+        &out.join("frf_force.svg"),
+        &format!("Steady state of {what}: force amplitude"),
+        "Omega/omega0 [-]",
+        "|F| [N]",
+        &[
+            Curve {
+                label: "stable".into(),
+                x: &xs,
+                y: &fs,
+            },
+            Curve {
+                label: "unstable".into(),
+                x: &xu,
+                y: &fu,
+            },
+        ],
+        plot::Style::Dots,
+    )?;
+    Ok(())
+}
+
 pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
     let (sc, source) = load_scenario(path)?;
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
     let setup = Setup::new(&sc).with_context(|| format!("scenario {source}"))?;
+    if sc.frf.model == crate::scenario::FrfModel::Hb {
+        return frf_hb(&sc, &setup, out);
+    }
     let (nma, r) = crate::api::frf(&setup, &sc)?;
     println!(
         "{} (table ready after {:.1} ms)",
@@ -361,56 +426,7 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
         cols.push(p);
     }
     write_csv(&out.join("frf.csv"), &header, &cols)?;
-    let split = |stable: bool| {
-        let idx: Vec<usize> = (0..w.len()).filter(|&i| (st[i] == 1.0) == stable).collect();
-        (
-            idx.iter()
-                .map(|&i| w[i] / setup.omega0_rad_s)
-                .collect::<Vec<f64>>(),
-            idx.iter().map(|&i| tip[i] * 1e3).collect::<Vec<f64>>(),
-            idx.iter().map(|&i| f[i]).collect::<Vec<f64>>(),
-        )
-    };
-    let (xs, ys, fs) = split(true);
-    let (xu, yu, fu) = split(false);
-    plot::xy_plot(
-        &out.join("frf_tip.svg"),
-        "Steady state of eq:NM: tip amplitude",
-        "Omega/omega0 [-]",
-        "|q_tip,1| [mm]",
-        &[
-            Curve {
-                label: "stable".into(),
-                x: &xs,
-                y: &ys,
-            },
-            Curve {
-                label: "unstable".into(),
-                x: &xu,
-                y: &yu,
-            },
-        ],
-        plot::Style::Dots,
-    )?;
-    plot::xy_plot(
-        &out.join("frf_force.svg"),
-        "Steady state of eq:NM: force amplitude",
-        "Omega/omega0 [-]",
-        "|F| [N]",
-        &[
-            Curve {
-                label: "stable".into(),
-                x: &xs,
-                y: &fs,
-            },
-            Curve {
-                label: "unstable".into(),
-                x: &xu,
-                y: &fu,
-            },
-        ],
-        plot::Style::Dots,
-    )?;
+    steady_plots(out, "eq:NM", setup.omega0_rad_s, &w, &tip, &f, &st)?;
     println!(
         "steady state at {} frequencies in {:.2} ms: {} with several solutions, {} possibly above the table's range",
         sc.run.frf_points,
@@ -420,6 +436,71 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
     );
     println!(
         "wrote frf.csv, frf_tip.svg, frf_force.svg to {}",
+        out.display()
+    );
+    Ok(())
+}
+
+/// `host frf` with `[frf] model = "hb"`: the harmonic balance of the full
+/// model (`[hb]` options, seeds from the single-mode steady state if
+/// `hb.seeds`), `hb_frc.csv` and the plots of every branch.
+fn frf_hb(sc: &crate::scenario::Scenario, setup: &Setup, out: &Path) -> Result<()> {
+    setup.check_driven()?;
+    let t0 = Instant::now();
+    let seeds = if sc.hb.seeds {
+        let (nma, _) = methods::nma_table(setup, sc, false)?;
+        println!("{}", nma.note);
+        methods::single_mode_seeds(setup, &nma.table)?
+    } else {
+        Vec::new()
+    };
+    let r = methods::hb_response(setup, sc, &seeds)?;
+    let wall = t0.elapsed().as_secs_f64();
+    methods::write_hb_csv(&out.join("hb_frc.csv"), &r)?;
+    let pts: Vec<&nlmode::hb::HbPoint> = r.branches.iter().flat_map(|b| &b.points).collect();
+    let w: Vec<f64> = pts.iter().map(|p| p.omega_rad_s).collect();
+    let tip: Vec<f64> = pts.iter().map(|p| p.tip_amplitude_m()).collect();
+    let f: Vec<f64> = pts
+        .iter()
+        .map(|p| p.force_amplitudes_n().first().copied().unwrap_or(0.0))
+        .collect();
+    let st: Vec<f64> = pts
+        .iter()
+        .map(|p| if p.stable() == Some(false) { 0.0 } else { 1.0 })
+        .collect();
+    steady_plots(
+        out,
+        "the full model (hb)",
+        setup.omega0_rad_s,
+        &w,
+        &tip,
+        &f,
+        &st,
+    )?;
+    let summary = methods::hb_result(&r, wall).summary;
+    println!(
+        "hb (H = {}): {} branches, {} points in {:.2} s ({} seeds); {}",
+        r.harmonics,
+        r.branches.len(),
+        pts.len(),
+        wall,
+        seeds.len(),
+        summary.status.unwrap_or_default()
+    );
+    for fold in summary.folds.iter().flatten() {
+        println!(
+            "  fold at Omega = {:.4} rad/s, tip {:.4e} m",
+            fold.omega_rad_s, fold.tip_amplitude_m
+        );
+    }
+    for rg in summary.unstable_ranges_rad_s.iter().flatten() {
+        println!("  unstable from {:.4} to {:.4} rad/s", rg[0], rg[1]);
+    }
+    for w in &summary.warnings {
+        println!("  warning: {w}");
+    }
+    println!(
+        "wrote hb_frc.csv, frf_tip.svg, frf_force.svg to {}",
         out.display()
     );
     Ok(())

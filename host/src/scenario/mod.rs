@@ -25,6 +25,8 @@ mod nma;
 pub use self::nma::*;
 mod hb;
 pub use self::hb::*;
+mod frf;
+pub use self::frf::*;
 mod imposed_force;
 pub use self::imposed_force::*;
 mod slowflow;
@@ -78,6 +80,8 @@ pub struct Scenario {
     #[serde(default)]
     pub hb: HbSpec,
     #[serde(default)]
+    pub frf: FrfSpec,
+    #[serde(default)]
     pub run: RunSpec,
     #[serde(default)]
     pub imposed_force: ImposedForceSpec,
@@ -112,6 +116,7 @@ impl Default for Scenario {
             excitation: ExcitationSpec::default(),
             nma: NmaSpec::default(),
             hb: HbSpec::default(),
+            frf: FrfSpec::default(),
             run: RunSpec::default(),
             imposed_force: ImposedForceSpec::default(),
             slowflow: SlowFlowSpec::default(),

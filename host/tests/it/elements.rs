@@ -109,7 +109,10 @@ fn jenkins_h1_epmc_backbone_and_damping_equal_the_describing_function() {
         ..Default::default()
     };
     let r = nonlinear_modal_analysis(&s, &opts).unwrap();
-    assert!(r.branch.len() > 30);
+    // the exact play AFT makes the branch smooth: the continuation takes few
+    // steps; every one is checked against the closed form
+    println!("{} branch points", r.branch.len());
+    assert!(r.branch.len() >= 10, "{} points", r.branch.len());
     let (mut stick, mut slip) = (0, 0);
     for b in &r.branch {
         // m = 1: the modal amplitude is the displacement amplitude
@@ -143,10 +146,7 @@ fn jenkins_h1_epmc_backbone_and_damping_equal_the_describing_function() {
             slip += 1;
         }
     }
-    assert!(
-        stick >= 3 && slip >= 20,
-        "{stick} stick, {slip} slip points"
-    );
+    assert!(stick >= 2 && slip >= 6, "{stick} stick, {slip} slip points");
     // gross-slip limit: the structure without the element
     let last = r.branch.last().unwrap();
     assert!(last.amplitude > 0.99, "{}", last.amplitude);
