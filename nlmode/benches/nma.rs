@@ -288,5 +288,65 @@ fn jenkins_full_slip(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, paper_cb, scaling, loops, jenkins_full_slip);
+/// NLvib's published examples as `nlmode::nma::problems::nlvib` builds them
+/// (issue 22, speed: "these analyses take 0.4-1.4 s today; keep that"): the
+/// 2-DOF `tanh` friction oscillator at H = 21 from stick to 100x its
+/// saturation displacement, and the 3-DOF chain with contact, two Jenkins
+/// elements and cubic springs through full slip (H = 7, D beyond 30 %).
+fn nlvib_examples(c: &mut Criterion) {
+    use nlmode::nma::problems::nlvib::{nlvib_friction_contact_chain, nlvib_tanh_friction_2dof};
+    let tanh = nlvib_tanh_friction_2dof();
+    let tanh_opts = NmaOptions {
+        harmonics: 21,
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -1.5,
+            log10_end: 1.0,
+        },
+        ..Default::default()
+    };
+    let chain = nlvib_friction_contact_chain().expect("chain");
+    let chain_opts = NmaOptions {
+        harmonics: 7,
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -2.0,
+            log10_end: 1.0,
+        },
+        ..Default::default()
+    };
+    for (name, model, opts) in [
+        ("tanh_2dof_H21", &tanh, &tanh_opts),
+        ("chain_H7", &chain, &chain_opts),
+    ] {
+        let t0 = Instant::now();
+        let r = nonlinear_modal_analysis(model, opts).expect(name);
+        eprintln!(
+            "{name}: {} points, {} Newton iterations, {} AFT samples, D max {:.3}, {:.3} s",
+            r.n_points(),
+            r.newton_iterations,
+            r.samples,
+            r.branch.iter().map(|b| b.damping_ratio).fold(0.0, f64::max),
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    let mut group = c.benchmark_group("nma_nlvib");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(8));
+    group.bench_function("tanh_2dof_H21", |b| {
+        b.iter(|| nonlinear_modal_analysis(&tanh, &tanh_opts).unwrap())
+    });
+    group.bench_function("chain_H7", |b| {
+        b.iter(|| nonlinear_modal_analysis(&chain, &chain_opts).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    paper_cb,
+    scaling,
+    loops,
+    jenkins_full_slip,
+    nlvib_examples
+);
 criterion_main!(benches);
