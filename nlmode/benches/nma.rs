@@ -288,6 +288,11 @@ fn jenkins_full_slip(c: &mut Criterion) {
     group.finish();
 }
 
+/// Measured (release, quiet 2-core machine, 2026-12-03, criterion medians):
+/// Jenkins full slip H = 7 to D = 0.43 13.2 ms (71 points); `tanh_2dof_H21`
+/// 209 ms (72 points, 1405 AFT samples); `chain_H7` 586 ms (347 points,
+/// D max 0.39).
+///
 /// NLvib's published examples as `nlmode::nma::problems::nlvib` builds them
 /// (issue 22, speed: "these analyses take 0.4-1.4 s today; keep that"): the
 /// 2-DOF `tanh` friction oscillator at H = 21 from stick to 100x its
