@@ -134,6 +134,20 @@ fn echo_setup(sc: &Scenario, setup: &Setup, source: &str, opts: &Options) {
         setup.omega0_rad_s / (2.0 * std::f64::consts::PI),
         100.0 * setup.d0
     );
+    if let Some(t) = &setup.structure_timings {
+        say!(
+            opts,
+            "  sparse reduction: check {:.2} s, ordering {:.2} s, factor {:.2} s ({} non-zeros), eigen {:.2} s, constraint modes {:.2} s, projection {:.2} s; memory estimate {:.2} GB",
+            t.check_s,
+            t.order_s,
+            t.factor_s,
+            t.factor_nnz,
+            t.eigen_s,
+            t.constraint_modes_s,
+            t.project_s,
+            t.memory_estimate_bytes as f64 / 1e9
+        );
+    }
     for (i, (m, mu)) in setup.modal_masses.iter().enumerate() {
         say!(
             opts,

@@ -50,6 +50,9 @@ pub struct Setup {
     /// Linear modal damping ratio of the followed mode, `D0` (beam: the scenario's
     /// `damping_ratio`; matrices: `phi^T C phi / (2 omega0)` of the full model).
     pub d0: f64,
+    /// Stage timings and memory estimate of the sparse Craig-Bampton reduction
+    /// of a large matrices structure (printed by `host run`), `None` otherwise.
+    pub structure_timings: Option<nlmode::structure::sparse::StageTimings>,
     /// Modal mass `1/phi(x)^2` of mode 1 at each exciter [kg] and the mass ratio `m_a/m_mod`.
     pub modal_masses: Vec<(f64, f64)>,
 }
@@ -208,8 +211,8 @@ pub fn build_matrices_structure(
     // sparse from the files to the reduction (dense only for reduction = "none"
     // or a small model, nlmode::structure::matrices::SPARSE_MIN_DOF)
     use nlmode::structure::{
-        matrix_structure_sparse, read_matrix_market_sparse as read_matrix_market, MatricesError,
-        MatrixDamping, MatrixRole, MatrixStructureOptions,
+        matrices::matrix_structure_sparse_with, read_matrix_market_sparse as read_matrix_market,
+        MatricesError, MatrixDamping, MatrixRole, MatrixStructureOptions,
     };
     let key = |e: MatricesError| -> anyhow::Error {
         let k = match &e {
@@ -221,6 +224,9 @@ pub fn build_matrices_structure(
             MatricesError::UnknownPoint { key, .. }
             | MatricesError::InvalidParameter { key, .. } => {
                 format!("structure.{key}")
+            }
+            MatricesError::Structure(nlmode::structure::StructureError::MemoryLimit { .. }) => {
+                "structure.memory_limit_gb".into()
             }
             MatricesError::Structure(_) => "structure".into(),
             MatricesError::TooLargeForDense { .. } => "structure.reduction".into(),
@@ -315,7 +321,11 @@ pub fn build_matrices_structure(
             }
         }
     }
-    let mut ms = matrix_structure_sparse(&opts).map_err(key)?;
+    let sparse = nlmode::structure::sparse::SparseOptions {
+        memory_limit_bytes: st.memory_limit_bytes(),
+        ..Default::default()
+    };
+    let mut ms = matrix_structure_sparse_with(&opts, &sparse).map_err(key)?;
     if let Some(full) = ms.full.as_mut() {
         add_nonlinearities(sc, full)?;
     }
@@ -418,6 +428,7 @@ impl Setup {
     }
 
     pub fn new(sc: &Scenario) -> Result<Self> {
+        let mut timings = None;
         let (model, omega0, full_ndof, mode_index, pts, d0) = match &sc.structure {
             StructureSpec::Beam(beam) => {
                 let l = beam.length_m;
@@ -452,6 +463,7 @@ impl Setup {
                     .map(|e| e.point.clone().context("exciter point"))
                     .collect::<Result<Vec<_>>>()?;
                 let n = ms.full_ndof;
+                timings = ms.timings.clone();
                 (
                     ms.model,
                     ms.omega0_rad_s,
@@ -469,7 +481,9 @@ impl Setup {
         } else {
             followed_mode(&model, mode_index, sc.nma.mode)?
         };
-        Self::assemble(sc, model, omega0, full_ndof, mode_index, &pts, d0)
+        let mut setup = Self::assemble(sc, model, omega0, full_ndof, mode_index, &pts, d0)?;
+        setup.structure_timings = timings;
+        Ok(setup)
     }
 
     /// Refuses a scenario without exciters for what drives the structure
@@ -489,7 +503,7 @@ impl Setup {
     /// `[structure]` and the exciter locations (a study's samples share one
     /// structure and its modal table this way).
     pub fn with_scenario(&self, sc: &Scenario) -> Result<Self> {
-        Self::assemble(
+        let mut setup = Self::assemble(
             sc,
             self.model.clone(),
             self.omega0_rad_s,
@@ -497,7 +511,9 @@ impl Setup {
             self.mode_index,
             &self.exciter_points,
             self.d0,
-        )
+        )?;
+        setup.structure_timings = self.structure_timings.clone();
+        Ok(setup)
     }
 
     /// The exciters (`pts[i]`: the structure point of exciter `i`), the
@@ -592,6 +608,7 @@ impl Setup {
             mode_index,
             sweep,
             d0,
+            structure_timings: None,
             modal_masses,
         })
     }

@@ -45,6 +45,7 @@ struct RawStructure {
     point: Option<Vec<PointSpec>>,
     nonlinear_point: Option<String>,
     allow_rigid_body_modes: Option<bool>,
+    memory_limit_gb: Option<f64>,
 }
 
 impl<'de> Deserialize<'de> for StructureSpec {
@@ -73,6 +74,7 @@ impl<'de> Deserialize<'de> for StructureSpec {
                         ("point", r.point.is_some()),
                         ("nonlinear_point", r.nonlinear_point.is_some()),
                         ("allow_rigid_body_modes", r.allow_rigid_body_modes.is_some()),
+                        ("memory_limit_gb", r.memory_limit_gb.is_some()),
                     ],
                 )?;
                 let b = BeamStructureSpec::default();
@@ -123,6 +125,7 @@ impl<'de> Deserialize<'de> for StructureSpec {
                     k3_n_per_m3: r.k3_n_per_m3.unwrap_or(0.0),
                     nonlinear_point: r.nonlinear_point,
                     allow_rigid_body_modes: r.allow_rigid_body_modes.unwrap_or(false),
+                    memory_limit_gb: r.memory_limit_gb,
                 }))
             }
         }
@@ -209,6 +212,36 @@ pub struct MatricesStructureSpec {
     pub k3_n_per_m3: f64,
     pub nonlinear_point: Option<String>,
     pub allow_rigid_body_modes: bool,
+    /// Refuse a sparse Craig-Bampton reduction whose memory estimate exceeds
+    /// this [GB] before factorising (default: 75 % of the memory available,
+    /// [`default_memory_limit_bytes`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub memory_limit_gb: Option<f64>,
+}
+
+/// 75 % of `MemAvailable` (Linux `/proc/meminfo`), `None` where unknown: the
+/// default `[structure] memory_limit_gb` of a matrices structure.
+pub fn default_memory_limit_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kb: u64 = text
+        .lines()
+        .find_map(|l| l.strip_prefix("MemAvailable:"))?
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kb.saturating_mul(1024) / 4 * 3)
+}
+
+impl MatricesStructureSpec {
+    /// The memory limit of the sparse path [bytes]: `memory_limit_gb` or the default.
+    pub fn memory_limit_bytes(&self) -> Option<u64> {
+        match self.memory_limit_gb {
+            Some(gb) => Some((gb * 1e9) as u64),
+            None => default_memory_limit_bytes(),
+        }
+    }
 }
 
 /// `[structure]` with `kind = "beam"`.
@@ -351,6 +384,9 @@ impl Scenario {
                     st.cb_modes
                 ),
             ));
+        }
+        if let Some(gb) = st.memory_limit_gb {
+            positive("structure.memory_limit_gb", gb)?;
         }
         if let Some(m) = &st.cb_masters {
             for (i, p) in m.iter().enumerate() {

@@ -251,3 +251,68 @@ fn harmonics_auto_is_the_smallest_order_that_agrees_with_four_more() {
     assert!(!ok(h - 1), "H - 1 = {} already agrees", h - 1);
     assert_eq!(auto.table, fixed(h));
 }
+
+/// A 600-mass chain (above `SPARSE_MIN_DOF`): the sparse Craig-Bampton path
+/// reports its stage timings in `host run` and refuses, before factorising,
+/// a model above `[structure] memory_limit_gb`, naming the key.
+#[test]
+fn large_matrices_report_timings_and_respect_the_memory_limit() {
+    let dir = tmpdir("memory");
+    let n = 600;
+    let mut k = String::from("%%MatrixMarket matrix coordinate real symmetric\n");
+    k += &format!("{n} {n} {}\n", 2 * n - 1);
+    for i in 1..=n {
+        k += &format!("{i} {i} 2e4\n");
+        if i < n {
+            k += &format!("{} {i} -1e4\n", i + 1);
+        }
+    }
+    std::fs::write(dir.join("K.mtx"), k).unwrap();
+    let mut m = String::from("%%MatrixMarket matrix coordinate real symmetric\n");
+    m += &format!("{n} {n} {n}\n");
+    for i in 1..=n {
+        m += &format!("{i} {i} 1.0\n");
+    }
+    std::fs::write(dir.join("M.mtx"), m).unwrap();
+    let text = |limit: &str| {
+        format!(
+            "[structure]\nkind = \"matrices\"\nmass_mtx = \"M.mtx\"\nstiffness_mtx = \"K.mtx\"\n\
+             rayleigh = [0.0, 1e-4]\nreduction = \"craig-bampton\"\ncb_modes = 5\n{limit}\
+             [[structure.point]]\nname = \"end\"\ndof = {}\n\
+             [[exciter]]\npoint = \"end\"\n[output]\nresponse_point = \"end\"\n\
+             [run]\nmethods = [\"linear-frf\"]\nfrf_points = 20\n",
+            n - 1
+        )
+    };
+    expect_failure(
+        &dir,
+        "run",
+        &text("memory_limit_gb = 1e-9\n"),
+        &["structure.memory_limit_gb", "memory limit"],
+    );
+    expect_failure(
+        &dir,
+        "run",
+        &text("memory_limit_gb = -1.0\n"),
+        &["structure.memory_limit_gb", "positive"],
+    );
+    let p = dir.join("ok.toml");
+    std::fs::write(&p, text("")).unwrap();
+    let o = host()
+        .arg("run")
+        .arg(&p)
+        .arg("-o")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let so = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{so}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        so.contains("sparse reduction:") && so.contains("memory estimate"),
+        "{so}"
+    );
+}
