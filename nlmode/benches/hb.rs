@@ -4,13 +4,13 @@
 //! and bifurcation location, on one core. Target: at most 0.5 s.
 //!
 //! Also timed: the same curve without stability (the HB continuation alone),
-//! and the Hill eigenvalue problem of one point.
+//! and with the Hill matrix truncated to `stability_harmonics` H_s = 1..7.
 //!
 //! Measured: see the report in docs/hb.md.
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::DVector;
 use nlmode::attachment::{LinearAttachment, ShakerParams};
-use nlmode::hb::{frequency_response, HbOptions, HbSystem};
+use nlmode::hb::{frequency_response, HbOptions, HbSystem, HillMethod};
 use nlmode::structure::{paper_structure, PaperStructureOptions};
 use nlmode::Complex64;
 use std::time::{Duration, Instant};
@@ -55,6 +55,38 @@ fn bench(c: &mut Criterion) {
             "case (a) 10 V, H = 7, stability {stability}: {dt:.3} s, {} points, {unstable} unstable, {folds:?}, status {:?}",
             b.points.len(),
             b.status
+        );
+    }
+    // the condensed Hill problem against the full Hill matrix, and the Hill
+    // matrix's harmonics H_s <= H: time of the curve and the largest
+    // difference of the largest real part of the exponents from the full
+    // Hill matrix at H_s = H
+    let o = HbOptions {
+        bifurcations: false,
+        hill: HillMethod::Full,
+        ..options(w0, true)
+    };
+    let full = frequency_response(&sys, &o, &[]).unwrap();
+    for (hill, hs) in [(HillMethod::Condensed, 7)]
+        .into_iter()
+        .chain((1..=7).map(|hs| (HillMethod::Full, hs)))
+    {
+        let o2 = HbOptions {
+            stability_harmonics: Some(hs),
+            hill,
+            ..o.clone()
+        };
+        let t = Instant::now();
+        let r = frequency_response(&sys, &o2, &[]).unwrap();
+        let dt = t.elapsed().as_secs_f64();
+        let (mut worst, mut flips) = (0.0f64, 0);
+        for (p, q) in r.branches[0].points.iter().zip(&full.branches[0].points) {
+            let (a, b) = (p.floquet.as_ref().unwrap(), q.floquet.as_ref().unwrap());
+            worst = worst.max((a.max_re - b.max_re).abs());
+            flips += usize::from(a.stable != b.stable);
+        }
+        println!(
+            "hill {hill:?}, stability_harmonics {hs}: {dt:.3} s, max |d max Re s| vs full at H_s = 7: {worst:.2e} 1/s, stability flags differing: {flips}"
         );
     }
     let mut g = c.benchmark_group("hb");

@@ -36,6 +36,12 @@ pub struct HbSpec {
     /// Floquet exponents by Hill's method at every point, and the
     /// Neimark-Sacker points.
     pub stability: bool,
+    /// Harmonics of the Hill matrix, `1..=harmonics` (default `harmonics`):
+    /// fewer is faster, the exponents less accurate (docs/hb.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stability_harmonics: Option<usize>,
+    /// `"condensed"` (default) or `"full"`: how Hill's problem is solved.
+    pub hill: nlmode::hb::HillMethod,
     /// Seed further branches (isolas) from every solution of the single-mode
     /// steady state (`host frf`) at frequencies where it has several.
     pub seeds: bool,
@@ -57,6 +63,8 @@ impl Default for HbSpec {
             max_points: o.max_points,
             tolerance: o.tolerance,
             stability: o.stability,
+            stability_harmonics: o.stability_harmonics,
+            hill: o.hill,
             seeds: true,
             control: HbControl::Voltage,
             force_amplitude_n: None,
@@ -78,6 +86,8 @@ impl HbSpec {
             max_points: self.max_points,
             tolerance: self.tolerance,
             stability: self.stability,
+            stability_harmonics: self.stability_harmonics,
+            hill: self.hill,
             bifurcations: true,
             control: match self.control {
                 HbControl::Voltage => nlmode::hb::Control::Voltage,

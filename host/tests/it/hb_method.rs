@@ -135,7 +135,16 @@ fn bad_hb_keys_name_the_key() {
         ),
         ("[hb]\nforce_amplitude_n = 1.0\n", &["hb.force_amplitude_n"]),
         ("[hb]\ncontrol = \"displacement\"\n", &["hb.control"]),
+        ("[hb]\nhill = \"sorted\"\n", &["hb.hill"]),
         ("[hb]\nsamples = 3\n", &["hb.samples"]),
+        (
+            "[hb]\nstability_harmonics = 8\n",
+            &["hb.stability_harmonics"],
+        ),
+        (
+            "[hb]\nstability_harmonics = 0\n",
+            &["hb.stability_harmonics"],
+        ),
     ] {
         expect_failure(&dir, "run", toml, needles);
     }

@@ -250,7 +250,7 @@ fn run(
 }
 
 /// The outputs of one solution.
-fn point(res: &HbResidual, x: &DVector<f64>, stability: bool) -> HbPoint {
+fn point(res: &HbResidual, x: &DVector<f64>, opts: &HbOptions) -> HbPoint {
     let omega = x[x.len() - 1];
     let alpha = res.alpha(x);
     let (response_m, forces_n) = match res.sys.linear(omega, res.harmonics()) {
@@ -269,7 +269,11 @@ fn point(res: &HbResidual, x: &DVector<f64>, stability: bool) -> HbPoint {
         response_m,
         forces_n,
         input_scale: alpha,
-        floquet: if stability { floquet(res, x) } else { None },
+        floquet: if opts.stability {
+            floquet(res, x, opts.hill_harmonics(), opts.hill)
+        } else {
+            None
+        },
         bifurcation: Bifurcation::None,
         unknowns: x.iter().copied().collect(),
     }
@@ -397,11 +401,7 @@ fn finish(
     from_seed: Option<Seed>,
 ) -> HbBranch {
     let n = scale.len();
-    let pts: Vec<HbPoint> = raw
-        .xs
-        .iter()
-        .map(|x| point(res, x, opts.stability))
-        .collect();
+    let pts: Vec<HbPoint> = raw.xs.iter().map(|x| point(res, x, opts)).collect();
     let mut points = Vec::with_capacity(pts.len());
     let dets: Vec<f64> = if opts.bifurcations {
         raw.xs
@@ -442,7 +442,7 @@ fn finish(
             if let (Some(ga), Some(gb)) = (ns(&pts[i - 1]), ns(p)) {
                 if ga * gb < 0.0 && n_complex(&pts[i - 1]) == n_complex(p) {
                     let test = |x: &DVector<f64>, _: &DVector<f64>| {
-                        floquet(res, x)
+                        floquet(res, x, opts.hill_harmonics(), opts.hill)
                             .map(|f| f.max_re_complex)
                             .filter(|v| v.is_finite())
                     };
@@ -455,7 +455,7 @@ fn finish(
             let chord = xb - xa;
             found.sort_by(|a, b| chord.dot(&a.1).total_cmp(&chord.dot(&b.1)));
             for (kind, x) in found {
-                let mut q = point(res, &x, opts.stability);
+                let mut q = point(res, &x, opts);
                 q.bifurcation = kind;
                 points.push(q);
             }

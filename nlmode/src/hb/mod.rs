@@ -77,6 +77,7 @@ use serde::{Deserialize, Serialize};
 
 mod branch;
 pub mod hill;
+mod hill_band;
 mod residual;
 mod system;
 
@@ -173,6 +174,12 @@ pub struct HbOptions {
     pub max_iterations: usize,
     /// Floquet exponents by Hill's method at every point (default true).
     pub stability: bool,
+    /// Harmonics of the Hill matrix (`1..=harmonics`; default `harmonics`):
+    /// the principal block of harmonics `0..=H_s` of the full Hill matrix.
+    pub stability_harmonics: Option<usize>,
+    /// How the Floquet exponents are computed (default
+    /// [`HillMethod::Condensed`]).
+    pub hill: HillMethod,
     /// Look for and refine folds, branch points and Neimark-Sacker points
     /// (default true; Neimark-Sacker needs `stability`).
     pub bifurcations: bool,
@@ -193,6 +200,8 @@ impl Default for HbOptions {
             tolerance: 1e-10,
             max_iterations: 12,
             stability: true,
+            stability_harmonics: None,
+            hill: HillMethod::Condensed,
             bifurcations: true,
             control: Control::Voltage,
         }
@@ -217,6 +226,11 @@ impl HbOptions {
         self.samples.unwrap_or(4 * self.harmonics + 1)
     }
 
+    /// The Hill matrix's harmonics (the default resolved).
+    pub fn hill_harmonics(&self) -> usize {
+        self.stability_harmonics.unwrap_or(self.harmonics)
+    }
+
     /// Checks every option against its bounds.
     pub fn validate(&self) -> Result<(), HbError> {
         let h = self.harmonics;
@@ -225,6 +239,13 @@ impl HbOptions {
             "harmonics",
             h as f64,
             "an integer in 1..=64",
+        )?;
+        let hs = self.hill_harmonics();
+        check(
+            (1..=h).contains(&hs),
+            "stability_harmonics",
+            hs as f64,
+            "an integer in 1..=harmonics",
         )?;
         let s = self.samples();
         check(
@@ -323,6 +344,19 @@ pub struct Seed {
     pub omega_rad_s: f64,
     pub amplitude_m: f64,
     pub phase_rad: f64,
+}
+
+/// How Hill's problem is solved (docs/hb.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum HillMethod {
+    /// The problem condensed onto the nonlinear elements, its roots near the
+    /// fundamental band refined on the exact condensed determinant
+    /// ([`hill_band`]); the full matrix where that does not apply.
+    #[default]
+    Condensed,
+    /// Every eigenvalue of the full Hill matrix, sorted ([`hill`]).
+    Full,
 }
 
 /// Bifurcation label of a branch point.

@@ -48,6 +48,9 @@ pub struct HbSystem {
     response_point: String,
     /// The explicit first-order form of the assembly (Hill's method).
     pub(crate) first_order: Result<FirstOrderSystem, String>,
+    /// `A`'s eigen-decomposition for the condensed Hill problem (`None`:
+    /// the full Hill matrix is used).
+    pub(crate) modal: Option<super::hill_band::ModalForm>,
 }
 
 /// Per-frequency linear quantities of harmonic `n`: `D_n^{-1}` and its
@@ -145,6 +148,10 @@ impl HbSystem {
         let first_order = AssembledSystem::new(model, attachments, response_point)
             .map(|a| a.first_order)
             .map_err(|e| e.to_string());
+        let modal = first_order
+            .as_ref()
+            .ok()
+            .and_then(super::hill_band::ModalForm::new);
         Ok(Self {
             mass: complex(&model.mass),
             damping: complex(&model.damping),
@@ -156,6 +163,7 @@ impl HbSystem {
             response: point(response_point)?,
             response_point: response_point.to_string(),
             first_order,
+            modal,
         })
     }
 
