@@ -609,7 +609,7 @@ macro_rules! getter {
 
 getter!(get_real, "fmi2GetReal", Real, VarType::Real, |m, v| finite(
     v,
-    m.get_real(v)
+    m.try_get_real(v)?
 )?);
 
 /// A Real value handed out must be finite: never fmi2OK with NaN or inf.

@@ -412,6 +412,13 @@ pub trait CoSimModel: Clone + Sized + 'static {
 
     /// Value of a Real variable at the current time.
     fn get_real(&self, vr: u32) -> f64;
+    /// `fmi2GetReal` of one variable: [`Self::get_real`], or an error saying why
+    /// the value cannot be computed (e.g. in Initialization Mode with
+    /// parameters that do not define the model); a model overrides this when
+    /// its `get_real` can be non-finite for a reason the importer should read.
+    fn try_get_real(&self, vr: u32) -> Result<f64, ModelError> {
+        Ok(self.get_real(vr))
+    }
     /// Set a Real input or parameter.
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError>;
     fn get_integer(&self, vr: u32) -> Result<i32, ModelError> {

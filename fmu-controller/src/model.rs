@@ -4,7 +4,7 @@ use fmi2_export::{
     Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, StateReader, StateWriter,
     VarType as T, Variability as V, Variable,
 };
-use nlmode::control::{PllLevel, PllOptions, StreamSample, StreamingPll};
+use nlmode::control::{PllLevel, PllOptions, StreamEvent, StreamSample, StreamingPll};
 
 /// GUID of `modelDescription/controller/modelDescription.xml`.
 pub const GUID: &str = "{3e9b7c21-5d4a-4f08-b6e2-9a1c7d30f5b8}";
@@ -447,16 +447,37 @@ impl CoSimModel for Controller {
 
     /// Samples the inputs at `t` (the start of the step), then advances the
     /// phase to `t + h`; a period completed by the sample updates `Omega`.
-    fn do_step(&mut self, t: f64, h: f64, _log: &Logger) -> Result<(), ModelError> {
+    /// A step longer than 1/8 of the excitation period is split into internal
+    /// steps over which the inputs are held ([`StreamingPll::step`]). A
+    /// period without signal (inputs 0) holds the loop; the first such period
+    /// and the first measured period after them are logged.
+    fn do_step(&mut self, t: f64, h: f64, log: &Logger) -> Result<(), ModelError> {
         let p = self
             .pll
             .as_mut()
             .ok_or_else(|| ModelError::error("the loop is built at fmi2ExitInitializationMode"))?;
+        let held_before = p.unmeasured_periods();
         let mut next = p.clone();
-        next.measure(t, self.inputs).map_err(control_error)?;
-        next.advance(h).map_err(control_error)?;
+        let event = next.step(t, h, self.inputs).map_err(control_error)?;
         *p = next;
         self.t = t + h;
+        let held = p.unmeasured_periods();
+        if event == StreamEvent::Unmeasured && held_before == 0 {
+            log.info(&format!(
+                "the period ending at t = {:e} s had no measurable force or drive-point fundamental \
+                 (F_meas and x_drive without a component at Omega, e.g. all inputs 0 before the exciter is on): \
+                 Omega held at {} rad/s, damping and harmonics held at the last measured period, \
+                 u_ext goes on at the held frequency until a period with signal",
+                t + h,
+                p.omega_rad_s()
+            ));
+        } else if held == 0 && held_before > 0 {
+            log.info(&format!(
+                "signal measured again in the period ending by t = {:e} s after {held_before} period(s) without; \
+                 the loop runs",
+                t + h
+            ));
+        }
         Ok(())
     }
 

@@ -475,12 +475,30 @@ impl CoSimModel for Shaker {
                     self.source.omega_rad_s(self.t - self.t0)
                 }
             }
-            // a failure (parameters out of range before initialization) is NaN,
-            // which the layer reports as an error
+            // a failure (parameters out of range before initialization) is NaN
+            // here and a message in `try_get_real`
             VR_DER_I => self.rates().map_or(f64::NAN, |r| r[0]),
             VR_DER_Q_A => self.rates().map_or(f64::NAN, |r| r[1]),
             VR_DER_V_A => self.rates().map_or(f64::NAN, |r| r[2]),
             _ => f64::NAN, // unreachable: the layer only passes Real vrs of VARIABLES
+        }
+    }
+
+    /// The derivatives are readable in every state, Initialization Mode
+    /// included (those of the start state under the current parameters);
+    /// parameters that give no model are an error saying why, not NaN.
+    fn try_get_real(&self, vr: u32) -> Result<f64, ModelError> {
+        match vr {
+            VR_DER_I | VR_DER_Q_A | VR_DER_V_A => {
+                let r = self.rates().map_err(|e| {
+                    ModelError::error(format!(
+                        "derivatives at the current parameters: {}",
+                        e.message
+                    ))
+                })?;
+                Ok(r[(vr - VR_DER_I) as usize])
+            }
+            _ => Ok(self.get_real(vr)),
         }
     }
 

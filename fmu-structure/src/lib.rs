@@ -17,7 +17,7 @@
 //!   (name in the table, default `2l3`), `drive_point_index` (index into the
 //!   table's points, used when >= 0), `modal_table` (path; empty: the
 //!   `modal_table.json` of the FMU's `resources/` folder).
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
 
 use fmi2_export::{
@@ -87,9 +87,16 @@ pub struct Structure {
     modal_table: String,
     /// `F` at the start of the next step and its first two time derivatives.
     force: InputPolynomial,
+    /// The oscillator from `fmi2ExitInitializationMode` on.
     osc: Option<ModalOscillator>,
     tip: usize,
     out: Outputs,
+    /// Before that (Initialization Mode): the oscillator the current
+    /// parameters give, at the start state `eta = u = 0`, with its tip index,
+    /// built at the first read that needs it (so that `omega`, the outputs
+    /// and `der(eta)`, `der(u)` are readable at the start values) and
+    /// dropped whenever a parameter or the start time changes.
+    preview: RefCell<Option<Result<(ModalOscillator, usize), ModelError>>>,
     /// Output derivatives for the current state and `force.c0`, computed at the
     /// first request (a master asks for them variable by variable); emptied by
     /// everything that changes the state or `F`.
@@ -130,14 +137,32 @@ impl Structure {
         }
     }
 
-    /// Load the table and build the oscillator (at `fmi2ExitInitializationMode`).
-    fn build(&mut self) -> Result<(), ModelError> {
+    /// Load the table and build the oscillator at the start state `eta = u = 0`
+    /// from the current parameters; returns it with the tip's point index.
+    fn load(&self) -> Result<(ModalOscillator, usize), ModelError> {
         let path = self.table_path()?;
-        if !path.is_file() {
-            return Err(ModelError::error(format!(
-                "modal table {} does not exist",
+        // the key the importer can change: the parameter, or the resource file
+        let source = if self.modal_table.is_empty() {
+            format!(
+                "modal table resources/{RESOURCE_TABLE} ({})",
                 path.display()
-            )));
+            )
+        } else {
+            format!("parameter modal_table = \"{}\"", self.modal_table)
+        };
+        match std::fs::metadata(&path) {
+            Err(_) => {
+                return Err(ModelError::error(format!(
+                    "{source}: the file does not exist; expected a modal-table JSON file"
+                )))
+            }
+            // a device such as /dev/zero would be read without end
+            Ok(m) if !m.is_file() => {
+                return Err(ModelError::error(format!(
+                    "{source}: not a regular file; expected a modal-table JSON file"
+                )))
+            }
+            Ok(_) => {}
         }
         let table = ModalTable::read(&path)?;
         let drive = if self.drive_point_index >= 0 {
@@ -154,31 +179,81 @@ impl Structure {
             self.drive_point.clone()
         };
         let mut osc = ModalOscillator::new(&table, &drive, self.frequency_error)?;
-        self.tip = osc.point_index(TIP_POINT)?;
+        let tip = osc.point_index(TIP_POINT)?;
         osc.set_state(OscillatorState {
             time_s: self.start_time_s,
             eta: 0.0,
             u: 0.0,
         })?;
+        Ok((osc, tip))
+    }
+
+    /// Build the oscillator (at `fmi2ExitInitializationMode`), reusing the
+    /// one Initialization Mode built from the same parameters.
+    fn build(&mut self) -> Result<(), ModelError> {
+        let (osc, tip) = match self.preview.take() {
+            Some(Ok(p)) => p,
+            _ => self.load()?,
+        };
+        self.tip = tip;
         self.osc = Some(osc);
         self.update_outputs()
     }
 
-    fn update_outputs(&mut self) -> Result<(), ModelError> {
+    /// A parameter or the start time changed: the preview oscillator and the
+    /// cached rates no longer hold.
+    fn parameters_changed(&mut self) {
+        self.preview.replace(None);
         self.rates.set(None);
-        let Some(osc) = &self.osc else { return Ok(()) };
+    }
+
+    /// `f` on the oscillator and the tip index: the live one after
+    /// initialization, before it the preview of the current parameters.
+    fn with_oscillator<R>(
+        &self,
+        f: impl FnOnce(&ModalOscillator, usize) -> Result<R, ModelError>,
+    ) -> Result<R, ModelError> {
+        if let Some(osc) = &self.osc {
+            return f(osc, self.tip);
+        }
+        let mut preview = self.preview.borrow_mut();
+        match preview.get_or_insert_with(|| self.load()) {
+            Ok((osc, tip)) => f(osc, *tip),
+            Err(e) => Err(ModelError::error(format!(
+                "cannot evaluate the model at the start values: {}",
+                e.message
+            ))),
+        }
+    }
+
+    /// The outputs: after initialization those of the last step or state set,
+    /// before it those of the start state under the current parameters.
+    fn current_outputs(&self) -> Result<Outputs, ModelError> {
+        if self.osc.is_some() {
+            return Ok(self.out);
+        }
+        self.with_oscillator(|osc, tip| Self::outputs_of(osc, tip))
+    }
+
+    fn outputs_of(osc: &ModalOscillator, tip: usize) -> Result<Outputs, ModelError> {
         let mut r = [PointResponse {
             x_m: 0.0,
             v_m_s: 0.0,
         }; 2];
-        let m = osc.outputs(&[osc.drive_index(), self.tip], &mut r)?;
-        self.out = Outputs {
+        let m = osc.outputs(&[osc.drive_index(), tip], &mut r)?;
+        Ok(Outputs {
             x: r[0].x_m,
             v: r[0].v_m_s,
             x_tip: r[1].x_m,
             a: m.amplitude,
             omega: m.omega_rad_s,
-        };
+        })
+    }
+
+    fn update_outputs(&mut self) -> Result<(), ModelError> {
+        self.rates.set(None);
+        let Some(osc) = &self.osc else { return Ok(()) };
+        self.out = Self::outputs_of(osc, self.tip)?;
         Ok(())
     }
 
@@ -187,12 +262,13 @@ impl Structure {
         if let Some(r) = self.rates.get() {
             return Ok(r);
         }
-        let osc = self.oscillator()?;
         let mut p = [PointResponse {
             x_m: 0.0,
             v_m_s: 0.0,
         }; 2];
-        let (a, omega) = osc.output_rates(&[osc.drive_index(), self.tip], self.force.c0, &mut p)?;
+        let (a, omega) = self.with_oscillator(|osc, tip| {
+            Ok(osc.output_rates(&[osc.drive_index(), tip], self.force.c0, &mut p)?)
+        })?;
         let r = OutputRates {
             x: p[0].x_m,
             v: p[0].v_m_s,
@@ -204,9 +280,10 @@ impl Structure {
         Ok(r)
     }
 
-    /// `(eta', u')` at the current state under the input `F` (its value now).
+    /// `(eta', u')` at the current state under the input `F` (its value now);
+    /// before initialization at the start state `eta = u = 0`.
     fn state_rate(&self) -> Result<(f64, f64), ModelError> {
-        Ok(self.oscillator()?.state_rate(self.force.c0)?)
+        self.with_oscillator(|osc, _| Ok(osc.state_rate(self.force.c0)?))
     }
 
     fn oscillator(&self) -> Result<&ModalOscillator, ModelError> {
@@ -370,6 +447,7 @@ impl CoSimModel for Structure {
             tip: 0,
             out: Outputs::default(),
             rates: Cell::new(None),
+            preview: RefCell::new(None),
         })
     }
 
@@ -379,6 +457,7 @@ impl CoSimModel for Structure {
         _stop_time: Option<f64>,
     ) -> Result<(), ModelError> {
         self.start_time_s = start_time;
+        self.parameters_changed();
         Ok(())
     }
 
@@ -399,22 +478,31 @@ impl CoSimModel for Structure {
     }
 
     fn get_real(&self, vr: u32) -> f64 {
-        match vr {
+        // a failure (no table, out of the table's range) is NaN here and a
+        // message in `try_get_real`
+        self.try_get_real(vr).unwrap_or(f64::NAN)
+    }
+
+    /// Every variable is readable in Initialization Mode too: the outputs and
+    /// `der(eta)`, `der(u)` are then those of the start state `eta = u = 0`
+    /// under the current parameters and `F` (the modal table is read for
+    /// them); the error says why when the parameters do not give a model.
+    fn try_get_real(&self, vr: u32) -> Result<f64, ModelError> {
+        let out = || self.current_outputs();
+        Ok(match vr {
             vr::F => self.force.c0,
-            vr::X => self.out.x,
-            vr::V => self.out.v,
-            vr::X_TIP => self.out.x_tip,
-            vr::A => self.out.a,
-            vr::OMEGA => self.out.omega,
+            vr::X => out()?.x,
+            vr::V => out()?.v,
+            vr::X_TIP => out()?.x_tip,
+            vr::A => out()?.a,
+            vr::OMEGA => out()?.omega,
             vr::FREQUENCY_ERROR => self.frequency_error,
             vr::ETA => self.osc.as_ref().map_or(0.0, |o| o.state().eta),
             vr::U => self.osc.as_ref().map_or(0.0, |o| o.state().u),
-            // before initialization (no table) or out of the table's range: NaN,
-            // which the layer reports as an error
-            vr::DER_ETA => self.state_rate().map_or(f64::NAN, |r| r.0),
-            vr::DER_U => self.state_rate().map_or(f64::NAN, |r| r.1),
+            vr::DER_ETA => self.state_rate()?.0,
+            vr::DER_U => self.state_rate()?.1,
             _ => unreachable!("the layer checks value references"),
-        }
+        })
     }
 
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
@@ -429,7 +517,8 @@ impl CoSimModel for Structure {
                         "frequency_error = {value}: the factor 1 + frequency_error must be positive"
                     )));
                 }
-                self.frequency_error = value
+                self.frequency_error = value;
+                self.parameters_changed();
             }
             _ => unreachable!("the layer checks settability"),
         }
@@ -449,6 +538,7 @@ impl CoSimModel for Structure {
         match vr {
             vr::DRIVE_POINT_INDEX => {
                 self.drive_point_index = value;
+                self.parameters_changed();
                 Ok(())
             }
             _ => Err(ModelError::error(format!(
@@ -477,6 +567,7 @@ impl CoSimModel for Structure {
                 )))
             }
         }
+        self.parameters_changed();
         Ok(())
     }
 

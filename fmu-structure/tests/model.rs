@@ -470,3 +470,63 @@ fn extreme_parameters_and_inputs_are_errors_not_nan() {
         assert!(m.get_real(v).is_finite(), "vr {v}");
     }
 }
+
+/// Issue 26: in Initialization Mode every Real is readable: the outputs and
+/// `der(eta)`, `der(u)` are those of the start state `eta = u = 0` under the
+/// current parameters and `F` (libcosim reads them all and aborted on the
+/// former error); without a table the error says why.
+#[test]
+fn every_real_is_readable_in_initialization_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = linear_table(dir.path());
+    let log = Logger::silent();
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.setup_experiment(0.0, None).unwrap();
+    m.enter_initialization_mode(&log).unwrap();
+    for v in Structure::VARIABLES
+        .iter()
+        .filter(|v| v.ty == fmi2_export::VarType::Real)
+    {
+        let x = m.try_get_real(v.vr).unwrap();
+        assert!(x.is_finite(), "{} = {x}", v.name);
+    }
+    assert_eq!(m.get_real(vr::OMEGA), 356.2);
+    assert_eq!(m.get_real(vr::DER_ETA), 0.0);
+    assert_eq!(m.get_real(vr::DER_U), 0.0);
+    // a force: u' = |phi_ex| F / omega at rest, as after initialization
+    m.set_real(vr::F, 0.5).unwrap();
+    let mut dx = [0.0; 2];
+    m.derivatives(&mut dx).unwrap();
+    assert!((dx[1] - 1.04 * 0.5 / 356.2).abs() < 1e-12, "{dx:?}");
+    assert_eq!(m.get_real(vr::DER_U), dx[1]);
+    // a parameter set in Initialization Mode is seen at once
+    m.set_real(vr::FREQUENCY_ERROR, 0.05).unwrap();
+    assert!((m.get_real(vr::OMEGA) - 1.05 * 356.2).abs() < 1e-12);
+    let du_init = m.get_real(vr::DER_U);
+    assert!((du_init - 1.04 * 0.5 / (1.05 * 356.2)).abs() < 1e-12);
+    // the same values after initialization
+    m.exit_initialization_mode(&log).unwrap();
+    assert!((m.get_real(vr::OMEGA) - 1.05 * 356.2).abs() < 1e-12);
+    let mut after = [0.0; 2];
+    m.derivatives(&mut after).unwrap();
+    assert_eq!(after, [0.0, du_init]);
+    // no table: an error naming the cause, not NaN with OK
+    let mut m = instantiate(None);
+    m.enter_initialization_mode(&log).unwrap();
+    let e = m.try_get_real(vr::DER_ETA).unwrap_err().message;
+    assert!(e.contains("no modal table"), "{e}");
+    // ... until the parameter names one
+    m.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+        .unwrap();
+    assert_eq!(m.try_get_real(vr::OMEGA).unwrap(), 356.2);
+    // a device names the parameter and what it expects (issue 26: "does not exist")
+    let mut m = instantiate(None);
+    m.set_string(vr::MODAL_TABLE, "/dev/zero").unwrap();
+    let e = m.exit_initialization_mode(&log).unwrap_err().message;
+    assert!(
+        e.contains("parameter modal_table = \"/dev/zero\"")
+            && e.contains("not a regular file")
+            && e.contains("expected a modal-table JSON file"),
+        "{e}"
+    );
+}

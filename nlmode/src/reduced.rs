@@ -346,6 +346,9 @@ pub(crate) const MAX_INTERFACE: usize = 8;
 /// Maximum number of interface points over all attachments plus the imposed
 /// force points (fixed-size buffers of the hot loop).
 pub(crate) const MAX_PHI: usize = 32;
+/// Most interface points of all linear attachments of one [`ReducedModel`]
+/// together (one slot of [`MAX_PHI`] is kept for an imposed force).
+pub const MAX_INTERFACE_POINTS: usize = MAX_PHI - 1;
 
 impl ReducedModel {
     /// A model of the mode in `table` without attachments or forces yet.

@@ -319,3 +319,31 @@ fn state_derivative_jacobian_matches_difference_quotients() {
         assert_eq!(m.partial_derivative(VR_I, VR_I).unwrap(), 1.0);
     }
 }
+
+/// Issue 26: every Real, the Model Exchange derivatives included, is readable
+/// in Initialization Mode (the start state under the current parameters, the
+/// same values as right after initialization); parameters that give no model
+/// are an error saying why, not NaN.
+#[test]
+fn every_real_is_readable_in_initialization_mode() {
+    let log = Logger::silent();
+    let mut m = shaker();
+    m.setup_experiment(0.0, None).unwrap();
+    m.enter_initialization_mode(&log).unwrap();
+    let reals: Vec<u32> = VARIABLES
+        .iter()
+        .filter(|v| v.ty == fmi2_export::VarType::Real)
+        .map(|v| v.vr)
+        .collect();
+    let before: Vec<f64> = reals.iter().map(|&v| m.try_get_real(v).unwrap()).collect();
+    assert!(before.iter().all(|x| x.is_finite()), "{before:?}");
+    m.exit_initialization_mode(&log).unwrap();
+    for (&v, b) in reals.iter().zip(&before) {
+        assert_eq!(m.try_get_real(v).unwrap(), *b, "vr {v}");
+    }
+    let mut m = shaker();
+    m.set_real(VR_L, -1.0).unwrap();
+    m.enter_initialization_mode(&log).unwrap();
+    let e = m.try_get_real(VR_DER_I).unwrap_err().message;
+    assert!(e.contains("derivatives at the current parameters"), "{e}");
+}

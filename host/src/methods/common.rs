@@ -85,6 +85,24 @@ pub fn with_attachments(
     error: Option<nlmode::reduced::FrequencyError>,
 ) -> Result<nlmode::reduced::ReducedModel> {
     let mut m = base;
+    // the single-mode model's limit, named by the scenario's keys (the
+    // model's own error names the attachment at which the count overflowed)
+    let points: usize = setup
+        .attachments
+        .iter()
+        .map(|a| a.interface_points.len())
+        .sum();
+    if points > nlmode::reduced::MAX_INTERFACE_POINTS {
+        let exciters = setup.exciter_names.len();
+        anyhow::bail!(
+            "exciter: {exciters} [[exciter]] and {} [[attachment]] tables attach at {points} structure points \
+             in total; expected at most {} for the single-nonlinear-mode model (methods nlmode, \
+             linear-slowflow, linear-steady, imposed-force and the controllers' nlmode plant): \
+             use fewer exciters or attachments",
+            setup.attachments.len() - exciters,
+            nlmode::reduced::MAX_INTERFACE_POINTS
+        );
+    }
     for (att, u) in setup.attachments.iter().zip(&setup.inputs) {
         m = m.with_linear_attachment(att, u)?;
     }

@@ -61,6 +61,36 @@ pub fn nma_error(e: nlmode::nma::NmaError) -> anyhow::Error {
     anyhow::anyhow!("{key}: {e}")
 }
 
+/// [`nma_error`] of the NMA's continuation: a start point where Newton does
+/// not converge (the response at the start amplitude is far from linear)
+/// names the scenario key the user moved from its default that makes it so:
+/// `structure.k3_n_per_m3`, else `nma.start_amplitude_m`.
+fn nma_start_error(sc: &crate::scenario::Scenario, e: nlmode::nma::NmaError) -> anyhow::Error {
+    use crate::scenario::{BeamStructureSpec, StructureSpec};
+    if !matches!(e, nlmode::nma::NmaError::StartNotConverged { .. }) {
+        return nma_error(e);
+    }
+    let s = sc.nma.start_amplitude_m;
+    let (k3, k3_default) = match &sc.structure {
+        StructureSpec::Beam(b) => (b.k3_n_per_m3, BeamStructureSpec::default().k3_n_per_m3),
+        StructureSpec::Matrices(m) => (m.k3_n_per_m3, 0.0),
+    };
+    if k3 > 0.0 && k3 != k3_default {
+        anyhow::anyhow!(
+            "structure.k3_n_per_m3 = {k3:e} N/m^3: the nonlinear mode cannot start ({e}); expected a cubic \
+             stiffness for which the response at the start tip amplitude nma.start_amplitude_m = {s:e} m is \
+             still nearly linear (a smaller k3_n_per_m3, or a smaller nma.start_amplitude_m)"
+        )
+    } else if s != crate::scenario::NMA_START_TIP_AMPLITUDE_M {
+        anyhow::anyhow!(
+            "nma.start_amplitude_m = {s:e} m: the nonlinear mode cannot start there ({e}); expected a tip \
+             amplitude at which the response is still nearly linear (a smaller start_amplitude_m)"
+        )
+    } else {
+        nma_error(e)
+    }
+}
+
 /// How each `elastic-dry-friction` element's slider starts the AFT's periodic
 /// march (`initial_slider`), for the notes of `host nma` and `host run`.
 pub fn initial_slider_note(sc: &crate::scenario::Scenario) -> Option<String> {
@@ -98,8 +128,14 @@ pub fn nma_table(
     };
     let t0 = Instant::now();
     if let Some(path) = &sc.nma.table {
+        // a device such as /dev/zero would be read without end: regular files only
+        cosim::file::open_regular(std::path::Path::new(path)).map_err(|e| {
+            anyhow::anyhow!(
+                "nma.table = \"{path}\": expected a modal-table JSON file (docs/modal_table.md): {e}"
+            )
+        })?;
         let table = nlmode::nma::ModalTable::read(std::path::Path::new(path))
-            .with_context(|| "nma.table".to_string())?;
+            .with_context(|| format!("nma.table = \"{path}\""))?;
         let note = format!(
             "modal table read from {path} ({} points)",
             table.amplitude.len()
@@ -135,7 +171,7 @@ pub fn nma_table(
                 &RefineOptions::default(),
                 1,
             )
-            .map_err(nma_error)?;
+            .map_err(|e| nma_start_error(sc, e))?;
             let (_, dw, dd, ds) = a.tried.last().copied().unwrap_or_default();
             auto_note = format!(
                 ", harmonics = \"auto\": H = {} agrees with H = {} within omega {dw:.1e}, D {dd:.1e}, shapes {ds:.1e}",
@@ -164,7 +200,7 @@ pub fn nma_table(
                 warnings.push(w.clone());
                 (p.clone(), format!("; warning: {w}"))
             }
-            _ => return Err(nma_error(e)),
+            _ => return Err(nma_start_error(sc, e)),
         },
     };
     warnings.extend(res.warnings.iter().map(|w| format!("nma: {w}")));

@@ -38,12 +38,7 @@ impl ExcitationSpec {
             ("excitation.eta_start", e.eta_start),
             ("excitation.eta_end", e.eta_end),
         ] {
-            if !(eta.is_finite() && eta > 0.0 && eta <= MAX_ETA) {
-                return Err(bad(
-                    key,
-                    format!("expected 0 < Omega/omega0 <= {MAX_ETA}, got {eta:e}"),
-                ));
-            }
+            eta_in_range(key, eta)?;
         }
         if e.eta_start == e.eta_end {
             return Err(bad(

@@ -149,6 +149,12 @@ pub const MAX_BEAM_NODES: usize = 2000;
 /// Largest `excitation.eta_start` / `eta_end` (`Omega / omega0`): the time
 /// step of every integrator follows the highest excitation frequency.
 pub const MAX_ETA: f64 = 100.0;
+/// Smallest `eta_start` / `eta_end` of a sweep or stepped sine: below a
+/// thousandth of the natural frequency the excitation is quasi-static (one
+/// period lasts 1000 natural periods) and the period-based methods' time
+/// steps and amplitudes leave the floating-point range (`5e-324` ran no step,
+/// `1e-308` overflowed the modal amplitude).
+pub const MIN_ETA: f64 = 1e-3;
 /// Smallest `excitation.rate_per_pseudo_period`: a sweep of `|eta_end -
 /// eta_start|` lasts `|eta_end - eta_start| / r` pseudo periods (1e5 at the
 /// limit, a 4-million-sample reference at 40 samples per period).
@@ -161,6 +167,18 @@ fn bad(key: &str, message: impl Into<String>) -> ScenarioError {
         key: key.into(),
         message: message.into(),
         line: None,
+    }
+}
+
+/// A frequency ratio `Omega / omega0` in `MIN_ETA ..= MAX_ETA`.
+fn eta_in_range(key: &str, eta: f64) -> Result<(), ScenarioError> {
+    if eta.is_finite() && (MIN_ETA..=MAX_ETA).contains(&eta) {
+        Ok(())
+    } else {
+        Err(bad(
+            key,
+            format!("expected {MIN_ETA:e} <= Omega/omega0 <= {MAX_ETA}, got {eta:e}"),
+        ))
     }
 }
 

@@ -74,14 +74,15 @@ impl PhaseResonanceSpec {
         for (i, v) in self.voltage_levels_v.iter().enumerate() {
             positive(&format!("phase_resonance.voltage_levels_v[{i}]"), *v)?;
         }
-        positive("phase_resonance.eta_start", self.eta_start)?;
+        eta_in_range("phase_resonance.eta_start", self.eta_start)?;
         if !(8..=1000).contains(&self.samples_per_period) {
             return Err(bad(
                 "phase_resonance.samples_per_period",
                 format!("expected 8 ..= 1000, got {}", self.samples_per_period),
             ));
         }
-        if 2 * (self.pll.harmonics + 1) > self.samples_per_period {
+        // 2 (H + 1) <= N, written so that no H overflows (9223372036854775807)
+        if self.pll.harmonics > self.samples_per_period / 2 - 1 {
             return Err(bad(
                 "phase_resonance.pll.harmonics",
                 format!(

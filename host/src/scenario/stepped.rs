@@ -115,8 +115,8 @@ impl SteppedSpec {
                 positive(&format!("response_control.response_levels_m[{i}]"), *v)?;
             }
         }
-        positive(&format!("{section}.eta_start"), self.eta_start)?;
-        positive(&format!("{section}.eta_end"), self.eta_end)?;
+        eta_in_range(&format!("{section}.eta_start"), self.eta_start)?;
+        eta_in_range(&format!("{section}.eta_end"), self.eta_end)?;
         if !(2..=MAX_CONTROL_STEPS).contains(&self.steps) {
             return Err(bad(
                 &format!("{section}.steps"),
@@ -131,7 +131,8 @@ impl SteppedSpec {
             ));
         }
         let c = &self.control;
-        if 2 * (c.harmonics + 1) > self.samples_per_period {
+        // 2 (H + 1) <= N, written so that no H overflows (9223372036854775807)
+        if c.harmonics > self.samples_per_period / 2 - 1 {
             return Err(bad(
                 &format!("{section}.control.harmonics"),
                 format!(

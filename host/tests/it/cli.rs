@@ -107,7 +107,10 @@ fn default_run_writes_the_output_contract() {
 }
 
 fn expect_failure(args: &[&str], toml: Option<&str>, needles: &[&str]) {
-    let dir = tmpdir("bad");
+    // one folder per call: the tests of this file run in parallel
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = tmpdir(&format!("bad-{n}"));
     let mut cmd = host();
     cmd.args(args);
     if let Some(t) = toml {
@@ -330,6 +333,80 @@ fn values_that_crashed_a_run_are_refused_by_key() {
         ),
     ];
     for (toml, needles) in cases {
+        expect_failure(&["run"], Some(toml), needles);
+    }
+}
+
+/// Issue 26, item 5: a harmonic order that overflowed `2 (H + 1)` (a panic
+/// with "capacity overflow"), a stepped sine below the floating-point range
+/// of its period (exit 0 with no points), and four errors that named a
+/// computed quantity: each is exit 2 naming the key the user wrote.
+#[test]
+fn bad_input_of_issue_26_is_refused_by_key() {
+    let h = "9223372036854775807";
+    let example = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/response_controlled.toml"
+    ))
+    .unwrap();
+    let tiny = example.replace("eta_start = 0.98", "eta_start = 5e-324");
+    assert_ne!(tiny, example);
+    let fifty: String = (0..50)
+        .map(|i| format!("[[exciter]]\nname = \"s{i}\"\nlocation = \"2l/3\"\n"))
+        .collect();
+    let nlmode_only = "[run]\nmethods = [\"nlmode\"]\n[output]\nfmus = false\nplots = false\n";
+    let cases: Vec<(String, Vec<&str>)> = vec![
+        (
+            format!("[phase_resonance.pll]\nharmonics = {h}\n"),
+            vec!["phase_resonance.pll.harmonics", "at most", h],
+        ),
+        (
+            format!("[force_control.control]\nharmonics = {h}\n"),
+            vec!["force_control.control.harmonics", "at most", h],
+        ),
+        (
+            format!("[response_control.control]\nharmonics = {h}\n"),
+            vec!["response_control.control.harmonics", "at most", h],
+        ),
+        (
+            tiny,
+            vec![
+                "response_control.eta_start",
+                "1e-3 <= Omega/omega0",
+                "5e-324",
+            ],
+        ),
+        (
+            "[excitation]\neta_start = 1e-308\n".into(),
+            vec!["excitation.eta_start", "1e-3 <= Omega/omega0", "1e-308"],
+        ),
+        (
+            format!("[nma]\ntable = \"/dev/zero\"\n{nlmode_only}"),
+            vec![
+                "nma.table",
+                "/dev/zero",
+                "not a regular file",
+                "modal-table JSON",
+            ],
+        ),
+        (
+            format!("{fifty}{nlmode_only}"),
+            vec![
+                "exciter: 50 [[exciter]]",
+                "50 structure points",
+                "at most 31",
+            ],
+        ),
+        (
+            format!("[structure]\nk3_n_per_m3 = 1e30\n{nlmode_only}"),
+            vec![
+                "structure.k3_n_per_m3 = 1e30",
+                "expected",
+                "nma.start_amplitude_m",
+            ],
+        ),
+    ];
+    for (toml, needles) in &cases {
         expect_failure(&["run"], Some(toml), needles);
     }
 }

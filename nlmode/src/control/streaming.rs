@@ -28,6 +28,32 @@
 //! module docs of [`super`]), phase detector and PI update, through
 //! [`PhaseLockedLoop::step`] on a plant that replays it.
 //!
+//! # Any communication step
+//!
+//! [`StreamingPll::step`] takes one communication step of any length: the
+//! sample at its start is held (zero-order hold) over internal steps of at
+//! most `2 pi / (MIN_STEPS_PER_PERIOD Omega)`, each one
+//! [`StreamingPll::measure`] and [`StreamingPll::advance`]. A step within
+//! that limit is exactly one `measure` and one `advance`, so a master at
+//! about 100 or more points per period sees no difference; at fewer points
+//! the held inputs are the only signal the loop has, and its measurement is
+//! correspondingly coarse (a master that wants the loop's accuracy steps at
+//! 100 or more points per period).
+//!
+//! # Periods without signal
+//!
+//! A period whose force or drive-point fundamental is zero (all inputs 0:
+//! the exciter or the sensors are not on yet), whose phase error or damping
+//! is not a finite number, or that got fewer than
+//! [`MIN_SAMPLES_TO_MEASURE`] samples from the master (a communication step
+//! of more than a quarter period: held inputs carry no phase) has no phase
+//! to measure. The loop then
+//! holds: the frequency, the record of the last measured period and the
+//! settle bookkeeping stay as they were, the period is not counted, and the
+//! output goes on at the held frequency ([`StreamEvent::Unmeasured`],
+//! [`StreamingPll::unmeasured_periods`]). The first period with signal
+//! continues the loop as if the held ones had not been.
+//!
 //! # Levels and settle criterion
 //!
 //! A new voltage amplitude ([`StreamingPll::set_voltage`]) applies from the
@@ -52,6 +78,14 @@ use std::f64::consts::TAU;
 pub const MIN_STEPS_PER_PERIOD: f64 = 8.0;
 /// Most uniform phases `N` per period of the demodulation.
 pub const MAX_SAMPLES_PER_PERIOD: usize = 1000;
+/// Fewest samples from the master ([`StreamingPll::measure`], or the first
+/// of a [`StreamingPll::step`]) in a period for it to be measured (module
+/// docs, "Periods without signal"); 8 or more at the steps
+/// [`StreamingPll::advance`] accepts.
+pub const MIN_SAMPLES_TO_MEASURE: usize = 4;
+/// Most internal steps of one [`StreamingPll::step`] (about 2.2e4 s of
+/// excitation at 356 rad/s); a longer communication step is refused.
+pub const MAX_INTERNAL_STEPS: f64 = 1e7;
 
 /// The measured signals at one communication point.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -82,6 +116,21 @@ pub enum StreamEvent {
     /// The sample completed the period that finished the level (settled or
     /// out of periods).
     LevelDone,
+    /// The sample completed a period without a measurable fundamental (module
+    /// docs, "Periods without signal"): frequency and record held.
+    Unmeasured,
+}
+
+impl StreamEvent {
+    /// Order of importance when one communication step holds several events.
+    fn rank(self) -> u8 {
+        match self {
+            StreamEvent::Sampled => 0,
+            StreamEvent::Unmeasured => 1,
+            StreamEvent::PeriodEnd => 2,
+            StreamEvent::LevelDone => 3,
+        }
+    }
 }
 
 /// A completed period and the loop's bookkeeping at its end.
@@ -133,6 +182,13 @@ pub struct StreamingPll {
     /// ([`predicted_level_start_rad_s`]).
     #[serde(default)]
     settled_levels: Vec<(f64, f64)>,
+    /// Consecutive periods without signal up to now (module docs).
+    #[serde(default)]
+    unmeasured_periods: usize,
+    /// Samples from the master in the running period (a state saved before
+    /// this count: taken as enough).
+    #[serde(default = "enough_samples")]
+    fresh_samples: usize,
     /// [`Self::last_period`], rebuilt from `completed` (not serialized).
     #[serde(skip)]
     record: Option<PllLevel>,
@@ -212,6 +268,8 @@ impl StreamingPll {
             completed: None,
             omega_start_rad_s,
             settled_levels: Vec::with_capacity(LEVEL_START_FIT),
+            unmeasured_periods: 0,
+            fresh_samples: 0,
             record: None,
         })
     }
@@ -256,6 +314,16 @@ impl StreamingPll {
     pub fn last_period(&self) -> Option<&PllLevel> {
         self.record.as_ref()
     }
+    /// Consecutive periods without signal that ended last (0 once a period
+    /// with signal ends; module docs, "Periods without signal").
+    pub fn unmeasured_periods(&self) -> usize {
+        self.unmeasured_periods
+    }
+    /// Longest internal step at the running frequency,
+    /// `2 pi / (MIN_STEPS_PER_PERIOD Omega)` \[s\].
+    pub fn max_internal_step_s(&self) -> f64 {
+        TAU / (MIN_STEPS_PER_PERIOD * self.omega_rad_s)
+    }
 
     /// Sets the voltage amplitude of the next level \[V\] (from the next
     /// period start); [`Self::level_done`] is false from now until the new
@@ -271,6 +339,17 @@ impl StreamingPll {
     /// Takes the measured signals at time `t_s`, the phase reached by the
     /// last [`Self::advance`] (the first sample starts the period at phase 0).
     pub fn measure(&mut self, t_s: f64, s: StreamSample) -> Result<StreamEvent, ControlError> {
+        self.sample(t_s, s, true)
+    }
+
+    /// [`Self::measure`]; `fresh`: a sample from the master (else one held
+    /// over an internal step of [`Self::step`]).
+    fn sample(
+        &mut self,
+        t_s: f64,
+        s: StreamSample,
+        fresh: bool,
+    ) -> Result<StreamEvent, ControlError> {
         if !t_s.is_finite() || s.values().iter().any(|v| !v.is_finite()) {
             return Err(bad(
                 "measured signals",
@@ -279,6 +358,9 @@ impl StreamingPll {
             ));
         }
         self.time_s = t_s;
+        if fresh {
+            self.fresh_samples += 1;
+        }
         let th = self.theta_rad;
         let Some((th0, s0)) = self.prev else {
             // the first sample: the period starts here at phase 0
@@ -290,6 +372,8 @@ impl StreamingPll {
         let mut event = StreamEvent::Sampled;
         if th >= TAU {
             event = self.end_period()?;
+            // the sample that ends a period also starts the next
+            self.fresh_samples = usize::from(fresh);
             self.theta_rad = th - TAU;
             self.next_index = 0;
             // the new period's first phases lie between the two samples
@@ -347,7 +431,14 @@ impl StreamingPll {
             settled: false,
             time_s: self.time_s,
         };
+        if self.fresh_samples < MIN_SAMPLES_TO_MEASURE {
+            return Ok(self.hold_period());
+        }
         let (m, pll) = self.replay(&c)?;
+        if !self.measurable(&m) {
+            return Ok(self.hold_period());
+        }
+        self.unmeasured_periods = 0;
         self.omega_rad_s = pll.omega_rad_s();
         self.last_error_rad = pll.last_phase_error_rad();
         // the settle criterion of PhaseLockedLoop::run_level
@@ -399,6 +490,49 @@ impl StreamingPll {
         })
     }
 
+    /// Whether a completed period has a phase and a damping to measure: force
+    /// and drive-point fundamentals non-zero, phase error and power-balance
+    /// damping finite.
+    fn measurable(&self, m: &PhaseMeasurement) -> bool {
+        let (f1, x1) = (m.force_harmonics_n[1].norm(), m.drive_harmonics_m[1].norm());
+        let (_, damping) = self.power_and_damping(m);
+        f1 > 0.0
+            && x1 > 0.0
+            && f1.is_finite()
+            && x1.is_finite()
+            && m.phase_error_rad.is_finite()
+            && damping.is_finite()
+    }
+
+    /// A period without signal: nothing of the loop changes but the count of
+    /// such periods, and a voltage set meanwhile applies from the next period.
+    fn hold_period(&mut self) -> StreamEvent {
+        self.unmeasured_periods += 1;
+        if let Some(v) = self.pending_voltage_v.take() {
+            self.voltage_v = v;
+            self.periods = 0;
+            self.inside = 0;
+            self.last_amplitude_m = None;
+            self.level_done = false;
+        }
+        StreamEvent::Unmeasured
+    }
+
+    /// Mean power and power-balance damping of a measured period (module docs
+    /// of [`super::pll`]).
+    fn power_and_damping(&self, m: &PhaseMeasurement) -> (f64, f64) {
+        let omega = m.omega_rad_s;
+        let power = mean_power_w(&m.force_harmonics_n, &m.drive_harmonics_m, omega);
+        let kinetic: f64 = m
+            .drive_harmonics_m
+            .iter()
+            .enumerate()
+            .skip(1)
+            .map(|(h, x)| (h as f64 * omega).powi(2) * x.norm_sqr())
+            .sum();
+        (power, power / (omega * self.drive_modal_mass_kg * kinetic))
+    }
+
     /// [`PhaseLockedLoop::step`] on the completed period, from the loop's
     /// state before it.
     fn replay(&self, c: &Completed) -> Result<(PhaseMeasurement, PhaseLockedLoop), ControlError> {
@@ -426,14 +560,7 @@ impl StreamingPll {
     /// power balance, as [`PhaseLockedLoop::run_level`] records it).
     fn level_record(&self, c: &Completed, m: PhaseMeasurement) -> PllLevel {
         let omega = m.omega_rad_s;
-        let power = mean_power_w(&m.force_harmonics_n, &m.drive_harmonics_m, omega);
-        let kinetic: f64 = m
-            .drive_harmonics_m
-            .iter()
-            .enumerate()
-            .skip(1)
-            .map(|(h, x)| (h as f64 * omega).powi(2) * x.norm_sqr())
-            .sum();
+        let (power, damping_ratio) = self.power_and_damping(&m);
         PllLevel {
             voltage_v: c.voltage_v,
             settled: c.settled,
@@ -442,7 +569,7 @@ impl StreamingPll {
             omega_rad_s: omega,
             phase_error_rad: m.phase_error_rad,
             amplitude_change: c.amplitude_change.unwrap_or(f64::INFINITY),
-            damping_ratio: power / (omega * self.drive_modal_mass_kg * kinetic),
+            damping_ratio,
             power_w: power,
             harmonics: PeriodHarmonics {
                 force_n: m.force_harmonics_n,
@@ -466,6 +593,61 @@ impl StreamingPll {
         }
         self.theta_rad += self.omega_rad_s * h_s;
         Ok(())
+    }
+
+    /// One communication step from `t_s` to `t_s + h_s` of any length `h_s >
+    /// 0`, with the sample `s` taken at `t_s` and held over the step (module
+    /// docs, "Any communication step"); returns the most important event of
+    /// the step (level done, period end, period without signal, sampled).
+    /// Refuses a step that needs more than [`MAX_INTERNAL_STEPS`] internal
+    /// steps. On an error the loop may be partly advanced: step a copy.
+    pub fn step(
+        &mut self,
+        t_s: f64,
+        h_s: f64,
+        s: StreamSample,
+    ) -> Result<StreamEvent, ControlError> {
+        let too_long = |pll: &Self| ControlError::BadOption {
+            name: "communication step h",
+            value: format!("{h_s:e} s at Omega = {} rad/s", pll.omega_rad_s),
+            expected: "0 < h, at most 1e7 internal steps of 2 pi / (8 Omega) \
+                       (the loop holds the inputs over internal steps of at most 1/8 period)",
+        };
+        if !(h_s.is_finite() && h_s > 0.0) {
+            return Err(ControlError::BadOption {
+                name: "communication step h",
+                value: format!("{h_s:e} s"),
+                expected: "a finite step h > 0",
+            });
+        }
+        // the frequency changes by at most max_step_ratio < 0.5 per period
+        if h_s / self.max_internal_step_s() > MAX_INTERNAL_STEPS / 2.0 {
+            return Err(too_long(self));
+        }
+        let mut event = StreamEvent::Sampled;
+        let (mut t, mut rest) = (t_s, h_s);
+        let mut steps = 0.0;
+        loop {
+            // the sample is the master's at the first internal step, held after it
+            let e = self.sample(t, s, steps == 0.0)?;
+            if e.rank() > event.rank() {
+                event = e;
+            }
+            let max = self.max_internal_step_s();
+            if rest <= max {
+                self.advance(rest)?;
+                return Ok(event);
+            }
+            steps += 1.0;
+            if steps > MAX_INTERNAL_STEPS {
+                return Err(too_long(self));
+            }
+            // equal internal steps over what is left, each at most `max`
+            let sub = (rest / (rest / max).ceil()).min(max);
+            self.advance(sub)?;
+            t += sub;
+            rest -= sub;
+        }
     }
 
     /// Checks a deserialized loop (lengths, ranges, finiteness) and rebuilds
@@ -524,6 +706,10 @@ impl StreamingPll {
         };
         Ok(self)
     }
+}
+
+fn enough_samples() -> usize {
+    MIN_SAMPLES_TO_MEASURE
 }
 
 fn check_voltage(v: f64) -> Result<(), ControlError> {
