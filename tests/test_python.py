@@ -201,6 +201,34 @@ def test_frf_branches():
     assert not f["stable"].all()
 
 
+def test_hb_branches_as_arrays(tmp_path):
+    # the full model's harmonic balance at case (a) (10 V, H = 3): every
+    # branch as arrays, branch 0 equal to the hb envelope and to host run's
+    # hb_frc.csv
+    sc = {"run": {"methods": ["hb"]}, "hb": {"harmonics": 3, "seeds": False}}
+    r = nlmode.run(sc)
+    br = r.branches("hb")
+    assert len(br) == 1
+    b = br[0]
+    env = r.envelope("hb")
+    np.testing.assert_array_equal(b["omega_rad_s"], env["omega_rad_s"])
+    np.testing.assert_array_equal(b["tip_amplitude_m"], env["tip_amplitude_m"])
+    assert b["stable"].dtype == bool and not b["stable"].all() and b["stable"][0]
+    folds = [i for i, x in enumerate(b["bifurcation"]) if x == "fold"]
+    assert len(folds) == len(r.summary["methods"]["hb"]["folds"]) == 2
+    for h in range(4):
+        assert b[f"tip_h{h}_amplitude_m"].shape == b["omega_rad_s"].shape
+    # the same numbers host run writes
+    toml = tmp_path / "hb.toml"
+    toml.write_text('[run]\nmethods = ["hb"]\n[hb]\nharmonics = 3\nseeds = false\n')
+    out = tmp_path / "out"
+    host("run", toml, "-o", out)
+    lines = (out / "hb_frc.csv").read_text().splitlines()
+    assert len(lines) == len(b["omega_rad_s"]) + 1
+    w = [float(x.split(",")[1]) for x in lines[1:]]
+    np.testing.assert_array_equal(np.array(w), b["omega_rad_s"])
+
+
 GRID = {
     "design": "grid",
     "parameter": [

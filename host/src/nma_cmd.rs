@@ -456,7 +456,7 @@ fn frf_hb(sc: &crate::scenario::Scenario, setup: &Setup, out: &Path) -> Result<(
     };
     let r = methods::hb_response(setup, sc, &seeds)?;
     let wall = t0.elapsed().as_secs_f64();
-    methods::write_hb_csv(&out.join("hb_frc.csv"), &r)?;
+    methods::hb_table(&r).write_csv(&out.join("hb_frc.csv"))?;
     let pts: Vec<&nlmode::hb::HbPoint> = r.branches.iter().flat_map(|b| &b.points).collect();
     let w: Vec<f64> = pts.iter().map(|p| p.omega_rad_s).collect();
     let tip: Vec<f64> = pts.iter().map(|p| p.tip_amplitude_m()).collect();

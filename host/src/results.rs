@@ -162,6 +162,62 @@ pub struct MethodResult {
     /// (`<name>_force_amplitude_N`), each piezo shunt's harvested power
     /// (`<name>_harvested_power_W`).
     pub extra_columns: Vec<(String, Vec<f64>)>,
+    /// Further tables the method writes as `<name>.csv` (e.g. `hb_frc`):
+    /// the same columns reach Python.
+    pub tables: Vec<Table>,
+}
+
+/// One column of a [`Table`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Column {
+    Numbers(Vec<f64>),
+    /// Labels; an empty string is an empty CSV field.
+    Text(Vec<String>),
+}
+
+impl Column {
+    fn len(&self) -> usize {
+        match self {
+            Column::Numbers(v) => v.len(),
+            Column::Text(v) => v.len(),
+        }
+    }
+
+    fn field(&self, i: usize) -> String {
+        match self {
+            Column::Numbers(v) => v[i].to_string(),
+            Column::Text(v) => v[i].clone(),
+        }
+    }
+}
+
+/// A table of named columns of one length, written as `<name>.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    pub name: String,
+    pub columns: Vec<(String, Column)>,
+}
+
+impl Table {
+    /// Number of rows (the shortest column's length).
+    pub fn rows(&self) -> usize {
+        self.columns.iter().map(|(_, c)| c.len()).min().unwrap_or(0)
+    }
+
+    /// Writes the table as CSV (header, then one record per row; numbers in
+    /// Rust's shortest round-trip form).
+    pub fn write_csv(&self, path: &Path) -> Result<()> {
+        let write = || -> Result<(), csv::Error> {
+            let mut w = csv::Writer::from_path(path)?;
+            w.write_record(self.columns.iter().map(|(n, _)| n.as_str()))?;
+            for i in 0..self.rows() {
+                w.write_record(self.columns.iter().map(|(_, c)| c.field(i)))?;
+            }
+            w.flush()?;
+            Ok(())
+        };
+        write().with_context(|| format!("cannot write {}", path.display()))
+    }
 }
 
 impl MethodResult {
@@ -185,6 +241,7 @@ impl MethodResult {
             time_series: None,
             summary,
             extra_columns: Vec::new(),
+            tables: Vec::new(),
         }
     }
 

@@ -65,13 +65,15 @@ def _source(scenario: Source):
 class RunResult:
     """What a sweep computed: ``summary`` (the dict of ``summary.json``),
     ``methods`` (the output names, e.g. ``nlmode``, ``closed-form``),
-    ``envelope(method)`` and ``time_series(method)``."""
+    ``envelope(method)``, ``time_series(method)``, ``table(name)`` (further
+    tables such as ``hb_frc``) and ``branches(method)`` (``hb``'s branches)."""
 
     def __init__(self, summary: Dict[str, Any], results):
         self.summary = summary
-        self._envelopes = {name: env for name, env, _ in results}
-        self._series = {name: ts for name, _, ts in results}
-        self.methods: List[str] = [name for name, _, _ in results]
+        self._envelopes = {name: env for name, env, _, _ in results}
+        self._series = {name: ts for name, _, ts, _ in results}
+        self._tables = {t: cols for _, _, _, tabs in results for t, cols in tabs.items()}
+        self.methods: List[str] = [name for name, _, _, _ in results]
 
     def envelope(self, method: str) -> Dict[str, np.ndarray]:
         """The columns of ``<method>_envelope.csv`` as numpy arrays."""
@@ -87,6 +89,47 @@ class RunResult:
             with_ts = [m for m, t in self._series.items() if t is not None]
             raise KeyError(f"no time series of {method!r}; methods with one: {with_ts}")
         return ts
+
+    def table(self, name: str) -> Dict[str, Any]:
+        """The columns of the further table ``<name>.csv`` (e.g. ``hb_frc``):
+        numpy arrays, and lists of str for label columns (``stable``,
+        ``bifurcation``)."""
+        try:
+            return self._tables[name]
+        except KeyError:
+            raise KeyError(f"no table {name!r}; the run has {sorted(self._tables)}") from None
+
+    def branches(self, method: str = "hb") -> List[Dict[str, Any]]:
+        """The solution branches of ``hb`` (branch 0 the main one, then the
+        isolated branches found from the seeds), each a dict of the
+        ``hb_frc.csv`` columns for its points: numpy arrays, ``stable`` a
+        bool array (``None`` where stability was not computed, then an object
+        array) and ``bifurcation`` a list of labels."""
+        if method != "hb":
+            raise KeyError(f"no branches of {method!r}; only 'hb' has branches")
+        t = self.table("hb_frc")
+        branch = np.asarray(t["branch"]).astype(int)
+        out = []
+        for b in range(int(branch.max()) + 1 if branch.size else 0):
+            idx = np.flatnonzero(branch == b)
+            d: Dict[str, Any] = {}
+            for k, v in t.items():
+                if k == "branch":
+                    continue
+                if isinstance(v, list):
+                    vals = [v[i] for i in idx]
+                    if k == "stable":
+                        d[k] = (
+                            np.array([x == "true" for x in vals])
+                            if all(x in ("true", "false") for x in vals)
+                            else np.array([None if x == "" else x == "true" for x in vals], dtype=object)
+                        )
+                    else:
+                        d[k] = vals
+                else:
+                    d[k] = np.asarray(v)[idx]
+            out.append(d)
+        return out
 
     def __repr__(self) -> str:
         return f"RunResult(methods={self.methods})"

@@ -23,6 +23,10 @@ class RunResult:
         """The columns of ``<method>_envelope.csv`` as numpy arrays."""
     def time_series(self, method: str) -> Arrays:
         """The columns of ``<method>_timeseries.csv`` as numpy arrays."""
+    def table(self, name: str) -> Dict[str, Any]:
+        """The columns of a further table (``hb_frc``): arrays, label lists."""
+    def branches(self, method: str = "hb") -> List[Dict[str, Any]]:
+        """``hb``'s branches (0 the main one), each the ``hb_frc.csv`` columns."""
 
 class ModalTable(Dict[str, Any]):
     """``amplitude``, ``omega_rad_s``, ``damping_ratio`` (arrays), ``shapes``

@@ -3,7 +3,7 @@
 The public API is in ``nlmode`` (``run``, ``nma``, ``frf``, ``study``);
 these are the functions it calls. Every long call releases the GIL.
 """
-from typing import Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -25,10 +25,17 @@ def run(
     fmu_dir: Optional[str] = None,
 ) -> Tuple[
     str,
-    List[Tuple[str, Dict[str, npt.NDArray[np.float64]], Optional[Dict[str, npt.NDArray[np.float64]]]]],
+    List[
+        Tuple[
+            str,
+            Dict[str, npt.NDArray[np.float64]],
+            Optional[Dict[str, npt.NDArray[np.float64]]],
+            Dict[str, Dict[str, Any]],
+        ]
+    ],
 ]:
     """A sweep as ``host run`` computes it: (summary.json text, [(output name,
-    envelope columns, time-series columns or None)])."""
+    envelope columns, time-series columns or None, further tables)])."""
 
 def nma(text: Optional[str] = None, path: Optional[str] = None) -> Tuple[str, str, float]:
     """(modal_table.json text, how the table was made, omega0 [rad/s])."""

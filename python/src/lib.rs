@@ -140,7 +140,9 @@ fn columns<'py>(py: Python<'py>, cols: Vec<(String, Vec<f64>)>) -> PyResult<Boun
 }
 
 /// `run(text, path, methods, out_dir, fmu_dir) -> (summary_json, [(name,
-/// envelope, time_series or None)])`: a sweep as `host run` computes it.
+/// envelope, time_series or None, tables)])`: a sweep as `host run` computes
+/// it; `tables` maps a further table's name (e.g. `hb_frc`) to its columns
+/// (numpy arrays, lists of str for labels).
 #[pyfunction]
 #[pyo3(signature = (text=None, path=None, methods=None, out_dir=None, fmu_dir=None))]
 fn run<'py>(
@@ -185,6 +187,7 @@ fn run<'py>(
                         r.name.clone(),
                         host::results::envelope_columns(r),
                         r.time_series.as_ref().map(|t| t.columns.clone()),
+                        r.tables.clone(),
                     )
                 })
                 .collect();
@@ -193,12 +196,25 @@ fn run<'py>(
         .map_err(py_err)?;
     let (summary, results) = computed;
     let list = PyList::empty(py);
-    for (name, env, ts) in results {
+    for (name, env, ts, tables) in results {
         let ts = match ts {
             Some(t) => columns(py, t)?.into_any(),
             None => py.None().into_bound(py),
         };
-        list.append((name, columns(py, env)?, ts))?;
+        let tabs = PyDict::new(py);
+        for t in tables {
+            let d = PyDict::new(py);
+            for (col, v) in t.columns {
+                match v {
+                    host::results::Column::Numbers(x) => {
+                        d.set_item(col, PyArray1::from_vec(py, x))?
+                    }
+                    host::results::Column::Text(x) => d.set_item(col, x)?,
+                }
+            }
+            tabs.set_item(t.name, d)?;
+        }
+        list.append((name, columns(py, env)?, ts, tabs))?;
     }
     (summary, list).into_pyobject(py)
 }

@@ -5,11 +5,10 @@
 use super::common::{frf_omegas, reduced_model};
 use super::{MethodOutput, RunContext};
 use crate::model::Setup;
-use crate::results::{Envelope, FoldSummary, MethodResult};
+use crate::results::{Column, Envelope, FoldSummary, MethodResult, Table};
 use crate::scenario::{Method, Scenario};
 use anyhow::{Context, Result};
 use nlmode::hb::{frequency_response, Bifurcation, BranchStatus, HbResult, HbSystem, Seed};
-use std::path::Path;
 use std::time::Instant;
 
 /// Largest number of seeds taken from the single-mode steady state.
@@ -82,52 +81,67 @@ pub fn hb_response(setup: &Setup, sc: &Scenario, seeds: &[Seed]) -> Result<HbRes
     frequency_response(&sys, &opts, seeds).context("hb")
 }
 
-/// `hb_frc.csv`: one row per point of every branch (a contract: `branch`,
+/// `hb_frc`: one row per point of every branch (a contract: `branch`,
 /// `omega_rad_s`, `tip_amplitude_m`, `force_amplitude_N`, `stable`,
 /// `bifurcation`, `<name>_force_amplitude_N` per force column,
-/// `tip_h<n>_amplitude_m` per harmonic `n = 0..=H`).
-pub fn write_hb_csv(path: &Path, r: &HbResult) -> Result<()> {
-    let mut w = csv::Writer::from_path(path)
-        .with_context(|| format!("cannot create {}", path.display()))?;
-    let mut header: Vec<String> = [
-        "branch",
-        "omega_rad_s",
-        "tip_amplitude_m",
-        "force_amplitude_N",
-        "stable",
-        "bifurcation",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    header.extend(
-        r.force_names
+/// `tip_h<n>_amplitude_m` per harmonic `n = 0..=H`), written as `hb_frc.csv`
+/// and returned to Python.
+pub fn hb_table(r: &HbResult) -> Table {
+    let pts = || {
+        r.branches
             .iter()
-            .map(|n| format!("{n}_force_amplitude_N")),
-    );
-    header.extend((0..=r.harmonics).map(|n| format!("tip_h{n}_amplitude_m")));
-    let write = |w: &mut csv::Writer<std::fs::File>| -> Result<(), csv::Error> {
-        w.write_record(&header)?;
-        for (b, br) in r.branches.iter().enumerate() {
-            for p in &br.points {
-                let f = p.force_amplitudes_n();
-                let mut row = vec![
-                    b.to_string(),
-                    p.omega_rad_s.to_string(),
-                    p.tip_amplitude_m().to_string(),
-                    f.first().copied().unwrap_or(f64::NAN).to_string(),
-                    p.stable().map_or(String::new(), |s| s.to_string()),
-                    p.bifurcation.label().to_string(),
-                ];
-                row.extend(f.iter().map(|v| v.to_string()));
-                row.extend(p.harmonic_amplitudes_m().iter().map(|v| v.to_string()));
-                w.write_record(&row)?;
-            }
-        }
-        w.flush()?;
-        Ok(())
+            .enumerate()
+            .flat_map(|(b, br)| br.points.iter().map(move |p| (b, p)))
     };
-    write(&mut w).with_context(|| format!("cannot write {}", path.display()))
+    let num = |f: &dyn Fn(usize, &nlmode::hb::HbPoint) -> f64| {
+        Column::Numbers(pts().map(|(b, p)| f(b, p)).collect())
+    };
+    let mut columns = vec![
+        ("branch".to_string(), num(&|b, _| b as f64)),
+        ("omega_rad_s".into(), num(&|_, p| p.omega_rad_s)),
+        ("tip_amplitude_m".into(), num(&|_, p| p.tip_amplitude_m())),
+        (
+            "force_amplitude_N".into(),
+            num(&|_, p| p.force_amplitudes_n().first().copied().unwrap_or(f64::NAN)),
+        ),
+        (
+            "stable".into(),
+            Column::Text(
+                pts()
+                    .map(|(_, p)| p.stable().map_or(String::new(), |s| s.to_string()))
+                    .collect(),
+            ),
+        ),
+        (
+            "bifurcation".into(),
+            Column::Text(
+                pts()
+                    .map(|(_, p)| p.bifurcation.label().to_string())
+                    .collect(),
+            ),
+        ),
+    ];
+    for (i, n) in r.force_names.iter().enumerate() {
+        columns.push((
+            format!("{n}_force_amplitude_N"),
+            num(&|_, p| p.force_amplitudes_n().get(i).copied().unwrap_or(f64::NAN)),
+        ));
+    }
+    for h in 0..=r.harmonics {
+        columns.push((
+            format!("tip_h{h}_amplitude_m"),
+            num(&|_, p| {
+                p.harmonic_amplitudes_m()
+                    .get(h)
+                    .copied()
+                    .unwrap_or(f64::NAN)
+            }),
+        ));
+    }
+    Table {
+        name: "hb_frc".into(),
+        columns,
+    }
 }
 
 /// The main branch as an envelope (for the figures of merit and the plot),
@@ -149,6 +163,7 @@ pub fn hb_result(r: &HbResult, wall_time_s: f64) -> MethodResult {
         modal_frequency_rad_s: None,
     };
     let mut m = MethodResult::new(Method::Hb.name(), wall_time_s, env, false);
+    m.tables.push(hb_table(r));
     if pts.iter().any(|p| p.floquet.is_some()) {
         // `stable` column of hb_envelope.csv (1 stable, 0 unstable; the plot
         // dashes the unstable parts)
@@ -257,9 +272,12 @@ impl super::Method for Hb {
         };
         let r = hb_response(ctx.setup, ctx.sc, &seeds)?;
         let wall = t0.elapsed().as_secs_f64();
+        let m = hb_result(&r, wall);
         if ctx.published(Method::Hb) {
-            write_hb_csv(&ctx.out.join("hb_frc.csv"), &r)?;
+            for t in &m.tables {
+                t.write_csv(&ctx.out.join(format!("{}.csv", t.name)))?;
+            }
         }
-        Ok(MethodOutput::one(hb_result(&r, wall)))
+        Ok(MethodOutput::one(m))
     }
 }

@@ -29,7 +29,7 @@ pub mod stepped;
 pub mod test_plan;
 
 pub use self::cosim::cosim;
-pub use self::hb::{hb_response, hb_result, single_mode_seeds, write_hb_csv};
+pub use self::hb::{hb_response, hb_result, hb_table, single_mode_seeds};
 pub use self::nma::{nma_table, Nma};
 pub use common::{
     add_slowflow_exciter_forces, attachment_output, exciter_slow_flow, frf_omegas,

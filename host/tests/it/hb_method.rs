@@ -224,3 +224,66 @@ fn host_frf_with_model_hb_is_the_full_model_beside_the_single_mode_one() {
     // the paper's reduction is accurate near the resonance (measured 0.1 %)
     assert!((nm / hb - 1.0).abs() < 5e-3, "{nm} vs {hb}");
 }
+
+#[test]
+fn force_control_holds_the_exciter_force_and_the_structure_sees_only_it() {
+    // [hb] control = "force": the shaker's fundamental force is held, so in
+    // the linear limit the tip moves as the bare structure's receptance from
+    // the exciter point times the force (nlmode::frf, an independent LU per
+    // frequency), whatever voltage the shaker needs
+    let dir = tmpdir("force");
+    let f = 0.5;
+    let sc = Scenario::parse(&format!(
+        "[structure]\nk3_n_per_m3 = 0.0\n[run]\nmethods = [\"hb\"]\n[hb]\nharmonics = 1\nstability = false\nseeds = false\ncontrol = \"force\"\nforce_amplitude_n = {f}\n"
+    ))
+    .unwrap();
+    compute(&sc, "test", &dir, &opts()).unwrap();
+    let (h, lin_rows) = rows(&dir.join("hb_frc.csv"));
+    assert_eq!(h[3], "force_amplitude_N");
+    let col = |r: &Vec<String>, i: usize| r[i].parse::<f64>().unwrap();
+    let setup = Setup::new(&sc).unwrap();
+    let omegas: Vec<f64> = lin_rows.iter().map(|r| col(r, 1)).collect();
+    let rec = nlmode::frf::structure_receptance(
+        &setup.model,
+        &setup.exciter_points[0],
+        &setup.response_point,
+        &omegas,
+    )
+    .unwrap();
+    assert!(lin_rows.len() >= 10);
+    for (r, hq) in lin_rows.iter().zip(&rec) {
+        assert!(
+            (col(r, 3) - f).abs() < 1e-8 * f,
+            "force {} at {}",
+            col(r, 3),
+            col(r, 1)
+        );
+        let want = f * hq.norm();
+        assert!(
+            (col(r, 2) - want).abs() < 1e-8 * want,
+            "tip {} vs {want} at {}",
+            col(r, 2),
+            col(r, 1)
+        );
+    }
+    // with the cubic spring: the force is held through the resonance and the
+    // peak moves above the linear one (hardening)
+    let dir = tmpdir("force_nl");
+    let sc = Scenario::parse(
+        "[run]\nmethods = [\"hb\"]\n[hb]\nharmonics = 3\nseeds = false\ncontrol = \"force\"\nforce_amplitude_n = 0.5\n",
+    )
+    .unwrap();
+    let c = compute(&sc, "test", &dir, &opts()).unwrap();
+    let (_, rows) = rows(&dir.join("hb_frc.csv"));
+    for r in &rows {
+        assert!(
+            (col(r, 3) - 0.5).abs() < 1e-8,
+            "force {} at {}",
+            col(r, 3),
+            col(r, 1)
+        );
+    }
+    let peak = c.summary.methods["hb"].peak_omega_rad_s.unwrap();
+    let w0 = Setup::new(&sc).unwrap().omega0_rad_s;
+    assert!(peak > 1.01 * w0, "peak {peak} vs omega0 {w0}");
+}
