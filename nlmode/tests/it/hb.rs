@@ -2,7 +2,8 @@
 //! closed-form H = 1 curve, folds and stability; the linear limit of the
 //! paper beam with its shaker (and with two shakers and a TMD) against the
 //! assembled linear FRF; force control against the bare structure's
-//! receptance; convergence in H on the paper beam; bad options.
+//! receptance; convergence in H on the paper beam; bad options; Hill's
+//! stability against fixed-frequency runs of the full system (reference).
 use nalgebra::DVector;
 use nlmode::attachment::{LinearAttachment, ShakerParams};
 use nlmode::frf::{assembled_frf, linear_force_drop, structure_receptance};
@@ -569,6 +570,197 @@ fn paper_beam_10v_middle_branch_unstable_by_hill() {
             assert!(s, "point {i} at {} should be stable", q.omega_rad_s);
         } else if i > folds[0] + 1 && i + 1 < folds[1] {
             assert!(!s, "point {i} at {} should be unstable", q.omega_rad_s);
+        }
+    }
+}
+
+/// The periodic state `z(0)` of the assembled first-order system (structure
+/// and shaker states, `nlmode::reference`) on the HB solution `q`: with the
+/// element force `f(t)` of the solution's tip motion (sampled finely here,
+/// independently of the production AFT), `z_n = (i n Omega - A)^{-1} (b u_n +
+/// G f_n)` is the unique periodic response of the linear part to the known
+/// periodic inputs, i.e. the HB solution's state.
+fn periodic_state(
+    asys: &nlmode::reference::AssembledSystem,
+    law: &dyn nlmode::structure::NonlinearLaw,
+    q: &nlmode::hb::HbPoint,
+    volts: f64,
+) -> DVector<f64> {
+    let fo = &asys.first_order;
+    let w = q.omega_rad_s;
+    let u = &q.response_m;
+    let h = u.len() - 1;
+    let ns = 512;
+    let mut f_n = vec![Complex64::new(0.0, 0.0); h + 1];
+    for k in 0..ns {
+        let tau = 2.0 * std::f64::consts::PI * k as f64 / ns as f64;
+        let (mut x, mut v) = (0.0, 0.0);
+        for (n, un) in u.iter().enumerate() {
+            let e = Complex64::from_polar(1.0, n as f64 * tau);
+            x += (un * e).re;
+            v += (Complex64::new(0.0, n as f64 * w) * un * e).re;
+        }
+        let (f, _, _) = law.eval(x, v);
+        for (n, fnn) in f_n.iter_mut().enumerate() {
+            let scale = if n == 0 { 1.0 } else { 2.0 };
+            *fnn += Complex64::from_polar(scale * f / ns as f64, -(n as f64) * tau);
+        }
+    }
+    let nz = fo.nz();
+    let mut z0 = DVector::<f64>::zeros(nz);
+    for (n, fnn) in f_n.iter().enumerate() {
+        let mut lhs = fo.a.map(|a| Complex64::new(-a, 0.0));
+        for i in 0..nz {
+            lhs[(i, i)] += Complex64::new(0.0, n as f64 * w);
+        }
+        let mut rhs = fo.g.column(0).map(|g| Complex64::new(g, 0.0)) * *fnn;
+        if n == 1 {
+            rhs += fo.b.column(0).map(|b| Complex64::new(b * volts, 0.0));
+        }
+        let zn = lhs.lu().solve(&rhs).unwrap();
+        z0 += zn.map(|c| c.re);
+    }
+    z0
+}
+
+/// Fundamental amplitude of the tip over each window of 10 periods of a
+/// fixed-frequency run of the full assembled system from `z0`.
+fn window_amplitudes(
+    asys: &nlmode::reference::AssembledSystem,
+    z0: &DVector<f64>,
+    w: f64,
+    volts: f64,
+    periods: usize,
+) -> Vec<f64> {
+    use nlmode::reference::{integrate, ReferenceOptions, SampleGrid};
+    let per = 64;
+    let window = 10 * per;
+    let t = 2.0 * std::f64::consts::PI / w;
+    let grid = SampleGrid {
+        interval_s: t / per as f64,
+        count: per * periods,
+    };
+    let mut obs = DVector::zeros(asys.n_observed());
+    let mut a1 = vec![Complex64::new(0.0, 0.0); periods / 10];
+    let opts = ReferenceOptions {
+        rtol: 1e-10,
+        atol: 1e-16,
+        ..ReferenceOptions::default()
+    };
+    integrate(
+        asys,
+        z0,
+        grid,
+        &|s| volts * (w * s).cos(),
+        &opts,
+        &mut |i, z| {
+            if i / window < a1.len() {
+                let ph = w * i as f64 * t / per as f64;
+                asys.observe(z, volts * ph.cos(), &[0.0], &mut obs);
+                a1[i / window] += Complex64::from_polar(2.0 * obs[0] / window as f64, -ph);
+            }
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    a1.iter().map(|a| a.norm()).collect()
+}
+
+#[test]
+fn fixed_frequency_runs_of_the_full_system_confirm_hill_stability() {
+    // case (a), 10 V, H = 7: started on an HB solution, the full assembled
+    // system (the reference integrator, tolerance 1e-10) stays on a stable one
+    // (its amplitude within 1e-4 of the HB amplitude for 150 periods: 3e-11
+    // measured on the upper branch, 2e-9 next to the jump-up fold) and leaves
+    // an unstable one (by 17 %, onto another branch), its deviation growing
+    // at the rate of Hill's unstable exponent
+    let p = paper(nlmode::benchmark::K3_N_PER_M3);
+    let sp = ShakerParams::paper();
+    let shaker = LinearAttachment::shaker("shaker", &sp, "2l3").unwrap();
+    let volts = 10.0;
+    let u = DVector::from_element(1, Complex64::new(volts, 0.0));
+    let sys = HbSystem::new(&p.model, std::slice::from_ref(&shaker), &[u], &[], "tip").unwrap();
+    let asys = nlmode::reference::AssembledSystem::new(&p.model, &[shaker], "tip").unwrap();
+    // the element is the grounded tip spring: its displacement is the tip's
+    let el = &p.model.nonlinear[0];
+    let tip = p.model.points.iter().find(|q| q.name == "tip").unwrap();
+    assert!((&el.direction - &tip.direction).norm() < 1e-12);
+    let w0 = p.omega0_rad_s;
+    let opts = HbOptions {
+        harmonics: 7,
+        omega_start_rad_s: 0.8 * w0,
+        omega_end_rad_s: 1.8 * w0,
+        ..HbOptions::default()
+    };
+    let r = frequency_response(&sys, &opts, &[]).unwrap();
+    let b = &r.branches[0];
+    let re = |q: &nlmode::hb::HbPoint| q.floquet.as_ref().unwrap().max_re;
+    // the most unstable point, the stable point of largest amplitude (upper
+    // branch, near its fold) and the first stable point after the jump
+    let unstable = b
+        .points
+        .iter()
+        .filter(|q| q.stable() == Some(false))
+        .max_by(|a, c| re(a).total_cmp(&re(c)))
+        .unwrap();
+    let upper = b
+        .points
+        .iter()
+        .filter(|q| q.stable() == Some(true) && q.bifurcation == Bifurcation::None)
+        .max_by(|a, c| a.tip_amplitude_m().total_cmp(&c.tip_amplitude_m()))
+        .unwrap();
+    let last_fold = b
+        .points
+        .iter()
+        .rposition(|q| q.bifurcation == Bifurcation::Fold)
+        .unwrap();
+    let lower = b.points[last_fold + 1..]
+        .iter()
+        .find(|q| q.stable() == Some(true))
+        .unwrap();
+    for (q, stable) in [(upper, true), (lower, true), (unstable, false)] {
+        let z0 = periodic_state(&asys, el.law.as_ref(), q, volts);
+        let periods = if stable { 150 } else { 350 };
+        let a = window_amplitudes(&asys, &z0, q.omega_rad_s, volts, periods);
+        let dev: Vec<f64> = a
+            .iter()
+            .map(|x| (x - q.tip_amplitude_m()).abs() / q.tip_amplitude_m())
+            .collect();
+        println!(
+            "Omega {:.4} rad/s, max Re s {:.3} 1/s: HB {:.6e} m, deviation per 10 periods {:?}",
+            q.omega_rad_s,
+            re(q),
+            q.tip_amplitude_m(),
+            dev.iter().map(|d| format!("{d:.2e}")).collect::<Vec<_>>()
+        );
+        if stable {
+            assert!(
+                dev.iter().all(|d| *d < 1e-4),
+                "stable point at {} drifted: {dev:?}",
+                q.omega_rad_s
+            );
+        } else {
+            // it leaves the branch, and while the deviation is small it grows
+            // at the rate of the unstable Floquet exponent
+            assert!(
+                *dev.last().unwrap() > 5e-2,
+                "unstable point at {} stayed: {dev:?}",
+                q.omega_rad_s
+            );
+            let (i, j) = (5, 15);
+            assert!(dev[j] < 1e-2);
+            let dt = (j - i) as f64 * 10.0 * 2.0 * std::f64::consts::PI / q.omega_rad_s;
+            let sigma = (dev[j] / dev[i]).ln() / dt;
+            println!(
+                "measured growth rate {sigma:.3} 1/s against Re s = {:.3} 1/s",
+                re(q)
+            );
+            // (4.401 against 4.401 measured)
+            assert!(
+                (sigma - re(q)).abs() < 1e-2 * re(q),
+                "growth {sigma} vs {}",
+                re(q)
+            );
         }
     }
 }
