@@ -181,6 +181,120 @@ fn duffing_higher_harmonics_converge_and_seed_finds_no_new_branch() {
     assert_eq!(r.branches.len(), 1);
 }
 
+#[test]
+fn duffing_branch_disconnected_in_the_band_is_found_from_seeds() {
+    // over a band that starts between the Duffing's folds, the curve through
+    // the start point is one solution branch; the other branch in the band
+    // (two of the three solutions at each Omega there, joined at the jump-down
+    // fold) is not connected to it inside the band, the situation of an
+    // isola. Seeded with the three closed-form solutions at one frequency,
+    // the continuation reports both branches, every point on the closed-form
+    // relation and the disconnected branch's fold at the analytic frequency.
+    let folds = duffing_folds();
+    let (wl, wu) = (folds[0], folds[1]);
+    let (wa, wb) = (wl + 0.3 * (wu - wl), wu + 0.2);
+    let ws = 0.5 * (wa + wu);
+    // the three H = 1 amplitudes at ws: sign changes of G on a log grid, bisected
+    let grid: Vec<f64> = (0..4000)
+        .map(|i| 10f64.powf(-6.0 + 6.0 * i as f64 / 3999.0))
+        .collect();
+    let mut roots = vec![];
+    for p in grid.windows(2) {
+        let (mut lo, mut hi) = (p[0], p[1]);
+        if duffing_relation(lo, ws) * duffing_relation(hi, ws) >= 0.0 {
+            continue;
+        }
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if duffing_relation(lo, ws) * duffing_relation(mid, ws) <= 0.0 {
+                hi = mid
+            } else {
+                lo = mid
+            }
+        }
+        roots.push((0.5 * (lo + hi)).sqrt());
+    }
+    assert_eq!(roots.len(), 3, "{roots:?}");
+    // response u_1 = A e^{-i theta} to the real force F
+    let seeds: Vec<Seed> = roots
+        .iter()
+        .map(|&a| {
+            let y = K - M * ws * ws + 0.75 * K3 * a * a;
+            Seed {
+                omega_rad_s: ws,
+                amplitude_m: a,
+                phase_rad: -(C * ws).atan2(y),
+            }
+        })
+        .collect();
+    let model = duffing(M, C, K, K3);
+    let sys = HbSystem::new(
+        &model,
+        &[],
+        &[],
+        &[("x".into(), Complex64::new(F, 0.0))],
+        "x",
+    )
+    .unwrap();
+    let opts = HbOptions {
+        harmonics: 1,
+        omega_start_rad_s: wa,
+        omega_end_rad_s: wb,
+        ds: 0.01,
+        ..HbOptions::default()
+    };
+    let without = frequency_response(&sys, &opts, &[]).unwrap();
+    assert_eq!(without.branches.len(), 1);
+    let r = frequency_response(&sys, &opts, &seeds).unwrap();
+    assert_eq!(
+        r.branches.len(),
+        2,
+        "{:?}",
+        r.branches
+            .iter()
+            .map(|b| (b.points.len(), &b.status))
+            .collect::<Vec<_>>()
+    );
+    assert!(r.branches[1].from_seed.is_some());
+    for b in &r.branches {
+        assert_eq!(b.status, nlmode::hb::BranchStatus::Complete);
+        for p in &b.points {
+            let a = p.tip_amplitude_m();
+            assert!(duffing_relation(a * a, p.omega_rad_s).abs() <= 1e-8 * F * F);
+        }
+    }
+    // every closed-form solution at ws lies on one of the two branches
+    for &a in &roots {
+        let on = r.branches.iter().any(|b| {
+            b.points.windows(2).any(|q| {
+                let (w0, w1) = (q[0].omega_rad_s, q[1].omega_rad_s);
+                if (w0 - ws) * (w1 - ws) > 0.0 || w0 == w1 {
+                    return false;
+                }
+                let t = (ws - w0) / (w1 - w0);
+                let ai =
+                    q[0].tip_amplitude_m() + t * (q[1].tip_amplitude_m() - q[0].tip_amplitude_m());
+                (ai - a).abs() < 2e-2 * a
+            })
+        });
+        assert!(on, "solution {a} at {ws} on no branch");
+    }
+    // one fold in the band, the jump-down one, at its analytic frequency; the
+    // middle part of the branch holding it is unstable
+    let found: Vec<f64> = r
+        .bifurcations()
+        .iter()
+        .filter(|(_, p)| p.bifurcation == Bifurcation::Fold)
+        .map(|(_, p)| p.omega_rad_s)
+        .collect();
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!((found[0] - wu).abs() < 1e-7 * wu, "{} vs {wu}", found[0]);
+    assert!(r
+        .branches
+        .iter()
+        .any(|b| b.points.iter().any(|p| p.stable() == Some(false))));
+}
+
 /// The paper beam with its cubic spring's coefficient set to `k3` (the
 /// element kept, so the HB carries its unknowns even at `k3 = 0`).
 fn paper(k3: f64) -> PaperStructure {
