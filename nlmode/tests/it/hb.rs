@@ -473,10 +473,11 @@ fn convergence_in_h_paper_beam_10v() {
     println!("relative peak difference {:e}", (p7 - p13).abs() / p13);
     assert_eq!(f7.len(), 2);
     assert_eq!(f13.len(), 2);
-    assert!((p7 - p13).abs() < 1e-3 * p13);
+    // measured: peak 2.7e-11, folds 4e-13
+    assert!((p7 - p13).abs() < 1e-8 * p13);
     for (a, b) in f7.iter().zip(&f13) {
         println!("fold shift H 7 -> 13: {:e}", (a - b).abs() / b);
-        assert!((a - b).abs() < 1e-3 * b);
+        assert!((a - b).abs() < 1e-9 * b);
     }
     // the jump-down fold lies far above omega0 at 10 V
     assert!(f7.iter().cloned().fold(0.0, f64::max) > 1.2 * w0);
