@@ -3,7 +3,10 @@
 //! paper beam with its shaker (and with two shakers and a TMD) against the
 //! assembled linear FRF; force control against the bare structure's
 //! receptance; convergence in H on the paper beam; bad options; Hill's
-//! stability against fixed-frequency runs of the full system (reference).
+//! stability against fixed-frequency runs of the full system (reference);
+//! a branch disconnected within the band found from seeds; Neimark-Sacker
+//! points of the forced van der Pol oscillator and branch points of two
+//! coupled Duffing oscillators against their closed-form conditions.
 use nalgebra::DVector;
 use nlmode::attachment::{LinearAttachment, ShakerParams};
 use nlmode::frf::{assembled_frf, linear_force_drop, structure_receptance};
@@ -877,5 +880,187 @@ fn fixed_frequency_runs_of_the_full_system_confirm_hill_stability() {
                 re(q)
             );
         }
+    }
+}
+
+/// `f(u, v) = eps (u^2 - b) v`: with the linear damping `c`, the forced van
+/// der Pol oscillator `x'' + (c - eps b) x' + eps x^2 x' + x = F cos(Omega t)`.
+#[derive(Debug)]
+struct VanDerPol {
+    eps: f64,
+    b: f64,
+}
+
+impl nlmode::structure::NonlinearLaw for VanDerPol {
+    fn name(&self) -> &str {
+        "van-der-pol"
+    }
+    fn eval(&self, u: f64, v: f64) -> (f64, f64, f64) {
+        let e = self.eps;
+        (
+            e * (u * u - self.b) * v,
+            2.0 * e * u * v,
+            e * (u * u - self.b),
+        )
+    }
+}
+
+#[test]
+fn forced_van_der_pol_loses_entrainment_at_neimark_sacker_points() {
+    // x'' - eps (1 - x^2) x' + x = F cos(Omega t), eps = 0.1, F = 0.2 (above
+    // the forcing where the entrainment boundary is a fold, F = 0.1 here): the
+    // entrained (periodic) response is stable near Omega = 1 and becomes
+    // quasi-periodic where a complex pair of Floquet exponents crosses the
+    // axis. Averaging gives the slow flow's trace eps (1 - r^2 / 2): the
+    // Neimark-Sacker points lie where the response amplitude r = sqrt(2);
+    // Hill's problem at H = 1 puts them there to 1e-12 (1e-8 asserted). The
+    // linear part carries +0.05 of damping (a stable A: the condensed Hill
+    // problem) and the law the rest; the full Hill matrix must find the same
+    // points.
+    let eps = 0.1;
+    let mut model = duffing(1.0, 0.5 * eps, 1.0, 0.0);
+    model.nonlinear[0].law = Arc::new(VanDerPol { eps, b: 1.5 });
+    let sys = HbSystem::new(
+        &model,
+        &[],
+        &[],
+        &[("x".into(), Complex64::new(0.2, 0.0))],
+        "x",
+    )
+    .unwrap();
+    let mut found = vec![];
+    for hill in [HillMethod::Condensed, HillMethod::Full] {
+        let opts = HbOptions {
+            harmonics: 1,
+            omega_start_rad_s: 0.7,
+            omega_end_rad_s: 1.3,
+            ds: 0.01,
+            hill,
+            ..HbOptions::default()
+        };
+        let r = frequency_response(&sys, &opts, &[]).unwrap();
+        let b = &r.branches[0];
+        let ns: Vec<&nlmode::hb::HbPoint> = b
+            .points
+            .iter()
+            .filter(|q| q.bifurcation == Bifurcation::NeimarkSacker)
+            .collect();
+        println!(
+            "{hill:?}: NS at {:?}, other labels {:?}",
+            ns.iter()
+                .map(|q| (q.omega_rad_s, q.tip_amplitude_m()))
+                .collect::<Vec<_>>(),
+            r.bifurcations()
+                .iter()
+                .filter(|(_, q)| q.bifurcation != Bifurcation::NeimarkSacker)
+                .map(|(_, q)| (q.bifurcation.label(), q.omega_rad_s))
+                .collect::<Vec<_>>()
+        );
+        assert_eq!(ns.len(), 2);
+        for q in &ns {
+            let r = q.tip_amplitude_m();
+            assert!(
+                (r - 2f64.sqrt()).abs() < 0.05 * 2f64.sqrt(),
+                "NS at r = {r}"
+            );
+            // the refined point: the complex pair on the axis
+            let f = q.floquet.as_ref().unwrap();
+            assert!(f.max_re_complex.abs() < 1e-6, "{}", f.max_re_complex);
+        }
+        // stable between the two points (entrained), unstable outside
+        let (w1, w2) = (
+            ns[0].omega_rad_s.min(ns[1].omega_rad_s),
+            ns[0].omega_rad_s.max(ns[1].omega_rad_s),
+        );
+        for q in &b.points {
+            let w = q.omega_rad_s;
+            if w < w1 - 1e-3 || w > w2 + 1e-3 {
+                assert_eq!(q.stable(), Some(false), "at {w}");
+            } else if w > w1 + 1e-3 && w < w2 - 1e-3 {
+                assert_eq!(q.stable(), Some(true), "at {w}");
+            }
+        }
+        found.push((w1, w2));
+    }
+    // the two Hill problems agree on the points
+    assert!(
+        (found[0].0 - found[1].0).abs() < 1e-8 && (found[0].1 - found[1].1).abs() < 1e-8,
+        "{found:?}"
+    );
+}
+
+#[test]
+fn coupled_duffings_forced_out_of_phase_break_symmetry_at_branch_points() {
+    // two unit masses on grounded springs k = 1 with cubic springs k3 = 1,
+    // coupled by kc = 0.05, damping c = 0.01, forced out of phase (+-F): the
+    // out-of-phase response x1 = -x2 = A cos(Omega t + phi) loses its symmetry
+    // (localisation) where the in-phase perturbation y = x1 + x2,
+    // y'' + c y' + k y + 3 k3 x^2 y = 0, has a singular H = 1 balance:
+    // (k - W^2 + 9/4 k3 A^2)(k - W^2 + 3/4 k3 A^2) + c^2 W^2 = 0. The
+    // continuation labels branch points there (an augmented determinant
+    // changing sign), refined onto that closed-form condition.
+    use nalgebra::DMatrix;
+    use nlmode::structure::{NamedPoint, NonlinearElement, StructuralModel};
+    let (k, kc, c, k3, f) = (1.0, 0.05, 0.01, 1.0, 0.02);
+    let e = |i: usize| DVector::from_fn(2, |j, _| if i == j { 1.0 } else { 0.0 });
+    let model = StructuralModel {
+        mass: DMatrix::identity(2, 2),
+        stiffness: DMatrix::from_row_slice(2, 2, &[k + kc, -kc, -kc, k + kc]),
+        damping: DMatrix::identity(2, 2) * c,
+        nonlinear: (0..2)
+            .map(|i| NonlinearElement {
+                name: format!("cubic{i}"),
+                direction: e(i),
+                law: Arc::new(CubicLaw { k3, c3: 0.0 }),
+            })
+            .collect(),
+        points: (0..2)
+            .map(|i| NamedPoint {
+                name: format!("p{}", i + 1),
+                direction: e(i),
+            })
+            .collect(),
+    };
+    let sys = HbSystem::new(
+        &model,
+        &[],
+        &[],
+        &[
+            ("p1".into(), Complex64::new(f, 0.0)),
+            ("p2".into(), Complex64::new(-f, 0.0)),
+        ],
+        "p1",
+    )
+    .unwrap();
+    let opts = HbOptions {
+        harmonics: 1,
+        omega_start_rad_s: 0.9,
+        omega_end_rad_s: 2.5,
+        ds: 0.01,
+        stability: false,
+        ..HbOptions::default()
+    };
+    let r = frequency_response(&sys, &opts, &[]).unwrap();
+    let bps: Vec<&nlmode::hb::HbPoint> = r.branches[0]
+        .points
+        .iter()
+        .filter(|q| q.bifurcation == Bifurcation::BranchPoint)
+        .collect();
+    println!(
+        "branch points {:?}, status {:?}",
+        bps.iter()
+            .map(|q| (q.omega_rad_s, q.tip_amplitude_m()))
+            .collect::<Vec<_>>(),
+        r.branches[0].status
+    );
+    assert!(!bps.is_empty());
+    for q in &bps {
+        let (w, a) = (q.omega_rad_s, q.tip_amplitude_m());
+        let k1 = k - w * w + 2.25 * k3 * a * a;
+        let k2 = k - w * w + 0.75 * k3 * a * a;
+        let g = k1 * k2 + c * c * w * w;
+        let scale = (k1 * k2).abs() + c * c * w * w;
+        println!("BP at {w}: A = {a}, condition {g:e} of {scale:e}");
+        assert!(g.abs() < 1e-6 * scale, "at {w}: {g:e} vs {scale:e}");
     }
 }
