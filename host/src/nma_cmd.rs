@@ -447,14 +447,14 @@ pub fn frf(path: Option<&Path>, out: &Path) -> Result<()> {
 fn frf_hb(sc: &crate::scenario::Scenario, setup: &Setup, out: &Path) -> Result<()> {
     setup.check_driven()?;
     let t0 = Instant::now();
-    let seeds = if sc.hb.seeds {
+    let nma = if sc.hb.seeds {
         let (nma, _) = methods::nma_table(setup, sc, false)?;
         println!("{}", nma.note);
-        methods::single_mode_seeds(setup, &nma.table)?
+        Some(nma)
     } else {
-        Vec::new()
+        None
     };
-    let r = methods::hb_response(setup, sc, &seeds)?;
+    let r = methods::hb_response(setup, sc, nma.as_ref().map(|n| &n.table))?;
     let wall = t0.elapsed().as_secs_f64();
     methods::hb_table(&r).write_csv(&out.join("hb_frc.csv"))?;
     let pts: Vec<&nlmode::hb::HbPoint> = r.branches.iter().flat_map(|b| &b.points).collect();
@@ -479,12 +479,16 @@ fn frf_hb(sc: &crate::scenario::Scenario, setup: &Setup, out: &Path) -> Result<(
     )?;
     let summary = methods::hb_result(&r, wall).summary;
     println!(
-        "hb (H = {}): {} branches, {} points in {:.2} s ({} seeds); {}",
+        "hb (H = {}): {} branches, {} points in {:.2} s (seeds {}); {}",
         r.harmonics,
         r.branches.len(),
         pts.len(),
         wall,
-        seeds.len(),
+        if nma.is_some() {
+            "from the single-mode steady state and the main branch's folds"
+        } else {
+            "off"
+        },
         summary.status.unwrap_or_default()
     );
     for fold in summary.folds.iter().flatten() {

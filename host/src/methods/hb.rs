@@ -8,7 +8,9 @@ use crate::model::Setup;
 use crate::results::{Column, Envelope, FoldSummary, MethodResult, Table};
 use crate::scenario::{Method, Scenario};
 use anyhow::{Context, Result};
-use nlmode::hb::{frequency_response, Bifurcation, BranchStatus, HbResult, HbSystem, Seed};
+use nlmode::hb::{
+    add_seeded_branches, frequency_response, Bifurcation, BranchStatus, HbResult, HbSystem, Seed,
+};
 use std::time::Instant;
 
 /// Largest number of seeds taken from the single-mode steady state.
@@ -22,10 +24,20 @@ const SEED_FREQUENCIES: usize = 120;
 /// (evenly thinned to [`MAX_HB_SEEDS`]); the response point's fundamental
 /// `a phi_tip,1(a) e^{-i theta}`.
 pub fn single_mode_seeds(setup: &Setup, table: &nlmode::nma::ModalTable) -> Result<Vec<Seed>> {
+    single_mode_seeds_at(setup, table, &frf_omegas(setup, SEED_FREQUENCIES), true)
+}
+
+/// [`single_mode_seeds`] at `omegas`; with `only_multiple`, only where the
+/// single-mode steady state has several solutions.
+fn single_mode_seeds_at(
+    setup: &Setup,
+    table: &nlmode::nma::ModalTable,
+    omegas: &[f64],
+    only_multiple: bool,
+) -> Result<Vec<Seed>> {
     let model = reduced_model(setup, table, None)?;
-    let omegas = frf_omegas(setup, SEED_FREQUENCIES);
     let ss = model
-        .steady_state(&omegas, setup.sweep.amplitude)
+        .steady_state(omegas, setup.sweep.amplitude)
         .context("hb: seeds from the single-mode steady state")?;
     let tip = table
         .points
@@ -40,7 +52,7 @@ pub fn single_mode_seeds(setup: &Setup, table: &nlmode::nma::ModalTable) -> Resu
         .map_or(1.0, |v| v.signum());
     let mut seeds: Vec<Seed> = ss
         .iter()
-        .filter(|p| p.solutions.len() > 1)
+        .filter(|p| !only_multiple || p.solutions.len() > 1)
         .flat_map(|p| {
             p.solutions.iter().map(move |s| Seed {
                 omega_rad_s: p.omega_rad_s,
@@ -65,8 +77,16 @@ pub fn single_mode_seeds(setup: &Setup, table: &nlmode::nma::ModalTable) -> Resu
 }
 
 /// The HB frequency response of `setup` over the sweep's band with `[hb]`'s
-/// options, seeded with `seeds`.
-pub fn hb_response(setup: &Setup, sc: &Scenario, seeds: &[Seed]) -> Result<HbResult> {
+/// options. With `hb.seeds` and the modal table: seeded from every solution
+/// of the single-mode steady state where it has several
+/// ([`single_mode_seeds`]), then from every single-mode solution at the
+/// frequencies of the main branch's folds (an isola near a fold of the full
+/// model that the single-mode grid missed).
+pub fn hb_response(
+    setup: &Setup,
+    sc: &Scenario,
+    table: Option<&nlmode::nma::ModalTable>,
+) -> Result<HbResult> {
     let sys = HbSystem::new(
         &setup.model,
         &setup.attachments,
@@ -78,7 +98,30 @@ pub fn hb_response(setup: &Setup, sc: &Scenario, seeds: &[Seed]) -> Result<HbRes
     let opts = sc
         .hb
         .options(setup.sweep.omega_start_rad_s, setup.sweep.omega_end_rad_s);
-    frequency_response(&sys, &opts, seeds).context("hb")
+    let table = table.filter(|_| sc.hb.seeds);
+    let seeds = match table {
+        Some(t) => single_mode_seeds(setup, t)?,
+        None => Vec::new(),
+    };
+    let mut r = frequency_response(&sys, &opts, &seeds).context("hb")?;
+    if let Some(t) = table {
+        let folds: Vec<f64> = r
+            .branches
+            .first()
+            .map(|b| {
+                b.points
+                    .iter()
+                    .filter(|p| p.bifurcation == Bifurcation::Fold)
+                    .map(|p| p.omega_rad_s)
+                    .collect()
+            })
+            .unwrap_or_default();
+        if !folds.is_empty() {
+            let more = single_mode_seeds_at(setup, t, &folds, false)?;
+            add_seeded_branches(&sys, &opts, &mut r, &more).context("hb")?;
+        }
+    }
+    Ok(r)
 }
 
 /// `hb_frc`: one row per point of every branch (a contract: `branch`,
@@ -265,12 +308,12 @@ impl super::Method for Hb {
 
     fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
         let t0 = Instant::now();
-        let seeds = if ctx.sc.hb.seeds {
-            single_mode_seeds(ctx.setup, ctx.table())?
+        let table = if ctx.sc.hb.seeds {
+            Some(ctx.table())
         } else {
-            Vec::new()
+            None
         };
-        let r = hb_response(ctx.setup, ctx.sc, &seeds)?;
+        let r = hb_response(ctx.setup, ctx.sc, table)?;
         let wall = t0.elapsed().as_secs_f64();
         let m = hb_result(&r, wall);
         if ctx.published(Method::Hb) {

@@ -43,6 +43,35 @@ pub fn frequency_response(
     seeds: &[Seed],
 ) -> Result<HbResult, HbError> {
     opts.validate()?;
+    check_seeds(seeds)?;
+    let (res, scale, x0) = prepare(sys, opts)?;
+    let (w0, w1) = (opts.omega_start_rad_s, opts.omega_end_rad_s);
+    let copts = opts.continuation();
+    let raw = match run(&res, x0, w1, &scale, &copts, false) {
+        Ok(r) => r,
+        Err((norm, reason)) => {
+            return Err(HbError::StartNotConverged {
+                omega_rad_s: w0,
+                residual_norm: norm,
+                reason,
+            })
+        }
+    };
+    let mut branches = vec![finish(&res, raw, &scale, opts, None)];
+    for seed in seeds {
+        if let Some(b) = seeded(&res, seed, &branches, &scale, opts) {
+            branches.push(b);
+        }
+    }
+    Ok(HbResult {
+        branches,
+        force_names: sys.force_names(),
+        harmonics: opts.harmonics,
+    })
+}
+
+/// Seeds: at most [`MAX_SEEDS`], positive frequency and amplitude, finite phase.
+fn check_seeds(seeds: &[Seed]) -> Result<(), HbError> {
     if seeds.len() > MAX_SEEDS {
         return Err(HbError::BadOption {
             name: "seeds",
@@ -71,6 +100,15 @@ pub fn frequency_response(
             });
         }
     }
+    Ok(())
+}
+
+/// The residual, the unknowns' scale and the start point at `omega_start`
+/// (the linear solution) of a frequency response.
+fn prepare<'a>(
+    sys: &'a HbSystem,
+    opts: &HbOptions,
+) -> Result<(HbResidual<'a>, DVector<f64>, DVector<f64>), HbError> {
     if opts.stability {
         if let Err(reason) = &sys.first_order {
             return Err(HbError::NoFirstOrderForm {
@@ -129,33 +167,32 @@ pub fn frequency_response(
     if force.is_some() {
         scale[n - 2] = alpha0.max(1e-300);
     }
-    let copts = opts.continuation();
     let mut x0 = res.linear_guess(&lin0, alpha0);
     if force.is_some() {
         x0 = x0.push(alpha0);
     }
     let x0 = x0.push(w0);
-    let raw = match run(&res, x0, w1, &scale, &copts, false) {
-        Ok(r) => r,
-        Err((norm, reason)) => {
-            return Err(HbError::StartNotConverged {
-                omega_rad_s: w0,
-                residual_norm: norm,
-                reason,
-            })
-        }
-    };
-    let mut branches = vec![finish(&res, raw, &scale, opts, None)];
+    Ok((res, scale, x0))
+}
+
+/// Adds to `result` (a [`frequency_response`] of `sys` with `opts`) the
+/// branches reached from `seeds` that are not on one of its branches (e.g.
+/// seeds found after the main branch, at its folds).
+pub fn add_seeded_branches(
+    sys: &HbSystem,
+    opts: &HbOptions,
+    result: &mut HbResult,
+    seeds: &[Seed],
+) -> Result<(), HbError> {
+    opts.validate()?;
+    check_seeds(seeds)?;
+    let (res, scale, _) = prepare(sys, opts)?;
     for seed in seeds {
-        if let Some(b) = seeded(&res, seed, &branches, &scale, opts) {
-            branches.push(b);
+        if let Some(b) = seeded(&res, seed, &result.branches, &scale, opts) {
+            result.branches.push(b);
         }
     }
-    Ok(HbResult {
-        branches,
-        force_names: sys.force_names(),
-        harmonics: h,
-    })
+    Ok(())
 }
 
 /// Peak fundamental linear amplitude at the elements over the range (at

@@ -81,7 +81,7 @@ mod hill_band;
 mod residual;
 mod system;
 
-pub use branch::frequency_response;
+pub use branch::{add_seeded_branches, frequency_response};
 pub use hill::Floquet;
 pub use system::{HbSystem, MAX_DOFS};
 

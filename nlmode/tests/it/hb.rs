@@ -246,9 +246,12 @@ fn duffing_branch_disconnected_in_the_band_is_found_from_seeds() {
         ds: 0.01,
         ..HbOptions::default()
     };
-    let without = frequency_response(&sys, &opts, &[]).unwrap();
+    let mut without = frequency_response(&sys, &opts, &[]).unwrap();
     assert_eq!(without.branches.len(), 1);
     let r = frequency_response(&sys, &opts, &seeds).unwrap();
+    // the same branches when the seeds come after the main branch
+    nlmode::hb::add_seeded_branches(&sys, &opts, &mut without, &seeds).unwrap();
+    assert_eq!(without, r);
     assert_eq!(
         r.branches.len(),
         2,
