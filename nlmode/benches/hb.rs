@@ -95,41 +95,58 @@ fn bench(c: &mut Criterion) {
     // integrator (release, same tolerance as reference's default) times
     // (nz + 1) x 3 iterations x the 41 points is a lower bound of its cost
     {
-        use nlmode::reference::{integrate, AssembledSystem, ReferenceOptions, SampleGrid};
+        use nlmode::reference::{
+            integrate, AssembledSystem, Integrator, ReferenceOptions, SampleGrid,
+        };
         let p = paper_structure(&PaperStructureOptions::default()).unwrap();
         let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
         let asys = AssembledSystem::new(&p.model, &[shaker], "tip").unwrap();
         let w = 1.3 * w0;
-        let periods = 200;
         let per = 64;
-        let grid = SampleGrid {
-            interval_s: 2.0 * std::f64::consts::PI / w / per as f64,
-            count: per * periods,
-        };
         let z0 = nalgebra::DVector::zeros(asys.first_order.nz());
-        let t = Instant::now();
-        integrate(
-            &asys,
-            &z0,
-            grid,
-            &|s| 10.0 * (w * s).cos(),
-            &ReferenceOptions::default(),
-            &mut |_, _| {},
-            &mut |_| {},
-        )
-        .unwrap();
-        let per_period = t.elapsed().as_secs_f64() / periods as f64;
         let nz = asys.first_order.nz();
-        let shooting = per_period * (nz + 1) as f64 * 3.0 * 41.0;
         let t = Instant::now();
         frequency_response(&sys, &options(w0, true), &[]).unwrap();
         let hb = t.elapsed().as_secs_f64();
-        println!(
-            "one period of the full system: {:.3} ms; shooting lower bound for the curve ({} states, 3 Newton iterations, 41 points): {shooting:.2} s; hb with stability {hb:.3} s: {:.0}x",
-            per_period * 1e3,
-            nz,
-            shooting / hb
-        );
+        for (name, method, periods) in [
+            (
+                "exponential (the tool's reference)",
+                Integrator::Exponential,
+                200,
+            ),
+            (
+                "Dormand-Prince 5(4) (ode45's method)",
+                Integrator::DormandPrince,
+                5,
+            ),
+        ] {
+            let grid = SampleGrid {
+                interval_s: 2.0 * std::f64::consts::PI / w / per as f64,
+                count: per * periods,
+            };
+            let opts = ReferenceOptions {
+                method,
+                ..ReferenceOptions::default()
+            };
+            let t = Instant::now();
+            integrate(
+                &asys,
+                &z0,
+                grid,
+                &|s| 10.0 * (w * s).cos(),
+                &opts,
+                &mut |_, _| {},
+                &mut |_| {},
+            )
+            .unwrap();
+            let per_period = t.elapsed().as_secs_f64() / periods as f64;
+            let shooting = per_period * (nz + 1) as f64 * 3.0 * 41.0;
+            println!(
+                "one period of the full system, {name}: {:.3} ms; shooting lower bound for the curve ({nz} states + sensitivities, 3 Newton iterations, 41 points): {shooting:.2} s; hb with stability {hb:.3} s: {:.0}x",
+                per_period * 1e3,
+                shooting / hb
+            );
+        }
     }
     let mut g = c.benchmark_group("hb");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
