@@ -65,16 +65,21 @@ fn duffing_folds() -> Vec<f64> {
     out
 }
 
-fn duffing_run(harmonics: usize) -> nlmode::hb::HbResult {
+/// The Duffing oscillator (`M`, `C`, `K`, `K3`) forced by `F` at its mass.
+fn duffing_system() -> HbSystem {
     let model = duffing(M, C, K, K3);
-    let sys = HbSystem::new(
+    HbSystem::new(
         &model,
         &[],
         &[],
         &[("x".into(), Complex64::new(F, 0.0))],
         "x",
     )
-    .unwrap();
+    .unwrap()
+}
+
+fn duffing_run(harmonics: usize) -> nlmode::hb::HbResult {
+    let sys = duffing_system();
     let opts = HbOptions {
         harmonics,
         omega_start_rad_s: 0.6,
@@ -157,15 +162,7 @@ fn duffing_higher_harmonics_converge_and_seed_finds_no_new_branch() {
     let p = &h5.branches[0].points[h5.branches[0].points.len() / 2];
     assert!(p.harmonic_amplitudes_m()[3] > 0.0);
     // a seed on the main branch is recognised
-    let model = duffing(M, C, K, K3);
-    let sys = HbSystem::new(
-        &model,
-        &[],
-        &[],
-        &[("x".into(), Complex64::new(F, 0.0))],
-        "x",
-    )
-    .unwrap();
+    let sys = duffing_system();
     let q = &h1.branches[0].points[10];
     let seed = Seed {
         omega_rad_s: q.omega_rad_s,
@@ -230,15 +227,7 @@ fn duffing_branch_disconnected_in_the_band_is_found_from_seeds() {
             }
         })
         .collect();
-    let model = duffing(M, C, K, K3);
-    let sys = HbSystem::new(
-        &model,
-        &[],
-        &[],
-        &[("x".into(), Complex64::new(F, 0.0))],
-        "x",
-    )
-    .unwrap();
+    let sys = duffing_system();
     let opts = HbOptions {
         harmonics: 1,
         omega_start_rad_s: wa,
@@ -299,6 +288,16 @@ fn duffing_branch_disconnected_in_the_band_is_found_from_seeds() {
         .branches
         .iter()
         .any(|b| b.points.iter().any(|p| p.stable() == Some(false))));
+}
+
+/// The paper's case (a): the beam with its cubic spring, the shaker at 2l/3
+/// driven at `volts`, the tip observed.
+fn case_a(volts: f64) -> (PaperStructure, LinearAttachment, HbSystem) {
+    let p = paper(nlmode::benchmark::K3_N_PER_M3);
+    let shaker = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
+    let u = DVector::from_element(1, Complex64::new(volts, 0.0));
+    let sys = HbSystem::new(&p.model, std::slice::from_ref(&shaker), &[u], &[], "tip").unwrap();
+    (p, shaker, sys)
 }
 
 /// The paper beam with its cubic spring's coefficient set to `k3` (the
@@ -440,11 +439,7 @@ fn force_control_holds_the_force_and_sees_the_bare_structure() {
 
 #[test]
 fn convergence_in_h_paper_beam_10v() {
-    let p = paper(nlmode::benchmark::K3_N_PER_M3);
-    let sp = ShakerParams::paper();
-    let shaker = LinearAttachment::shaker("shaker", &sp, "2l3").unwrap();
-    let u = DVector::from_element(1, Complex64::new(10.0, 0.0));
-    let sys = HbSystem::new(&p.model, &[shaker], &[u], &[], "tip").unwrap();
+    let (p, _, sys) = case_a(10.0);
     let w0 = p.omega0_rad_s;
     let run = |h: usize| {
         let opts = HbOptions {
@@ -491,15 +486,7 @@ fn convergence_in_h_paper_beam_10v() {
 
 #[test]
 fn bad_options_are_named() {
-    let model = duffing(M, C, K, K3);
-    let sys = HbSystem::new(
-        &model,
-        &[],
-        &[],
-        &[("x".into(), Complex64::new(F, 0.0))],
-        "x",
-    )
-    .unwrap();
+    let sys = duffing_system();
     let base = HbOptions {
         omega_start_rad_s: 0.6,
         omega_end_rad_s: 1.6,
@@ -590,7 +577,7 @@ fn bad_options_are_named() {
         Err(HbError::UnknownForceColumn { column: 3, .. })
     ));
     assert!(matches!(
-        HbSystem::new(&model, &[], &[], &[], "nowhere"),
+        HbSystem::new(&duffing(M, C, K, K3), &[], &[], &[], "nowhere"),
         Err(HbError::UnknownPoint { .. })
     ));
 }
@@ -599,11 +586,7 @@ fn bad_options_are_named() {
 fn paper_beam_10v_middle_branch_unstable_by_hill() {
     // case (a), H = 3: between the jump-down and jump-up folds the branch is
     // unstable, elsewhere stable (the shaker's states are part of the Hill matrix)
-    let p = paper(nlmode::benchmark::K3_N_PER_M3);
-    let sp = ShakerParams::paper();
-    let shaker = LinearAttachment::shaker("shaker", &sp, "2l3").unwrap();
-    let u = DVector::from_element(1, Complex64::new(10.0, 0.0));
-    let sys = HbSystem::new(&p.model, &[shaker], &[u], &[], "tip").unwrap();
+    let (p, _, sys) = case_a(10.0);
     let w0 = p.omega0_rad_s;
     let opts = HbOptions {
         harmonics: 3,
@@ -795,12 +778,8 @@ fn fixed_frequency_runs_of_the_full_system_confirm_hill_stability() {
     // measured on the upper branch, 2e-9 next to the jump-up fold) and leaves
     // an unstable one (by 17 %, onto another branch), its deviation growing
     // at the rate of Hill's unstable exponent
-    let p = paper(nlmode::benchmark::K3_N_PER_M3);
-    let sp = ShakerParams::paper();
-    let shaker = LinearAttachment::shaker("shaker", &sp, "2l3").unwrap();
     let volts = 10.0;
-    let u = DVector::from_element(1, Complex64::new(volts, 0.0));
-    let sys = HbSystem::new(&p.model, std::slice::from_ref(&shaker), &[u], &[], "tip").unwrap();
+    let (p, shaker, sys) = case_a(volts);
     let asys = nlmode::reference::AssembledSystem::new(&p.model, &[shaker], "tip").unwrap();
     // the element is the grounded tip spring: its displacement is the tip's
     let el = &p.model.nonlinear[0];
