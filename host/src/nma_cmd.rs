@@ -6,7 +6,7 @@ use crate::plot::{self, Curve};
 use crate::results::write_csv;
 use crate::run::load_scenario;
 use anyhow::{Context, Result};
-use nlmode::nma::epmc::ModalBasis;
+use nlmode::nma::modal_basis::ModalBasis;
 use nlmode::nma::{
     nonlinear_modal_analysis_with_basis, BackboneOptions, FoldKind, NmaOptions, NmaResult,
 };

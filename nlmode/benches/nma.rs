@@ -57,7 +57,7 @@
 //! x3.9, x3.3 DOFs: x7, the largest case leaving the caches); the one-off
 //! dense eigen-decomposition (O(n^3)) dominates the unreduced analyses.
 use criterion::{criterion_group, criterion_main, Criterion};
-use nlmode::nma::epmc::ModalBasis;
+use nlmode::nma::modal_basis::ModalBasis;
 use nlmode::nma::{
     nonlinear_modal_analysis, nonlinear_modal_analysis_with_basis, AmplitudeRange, BackboneOptions,
     ContinuationOptions, NmaOptions, RefineOptions, TablePolicy,

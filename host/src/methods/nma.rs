@@ -122,7 +122,7 @@ pub fn nma_table(
     sc: &crate::scenario::Scenario,
     conservative: bool,
 ) -> Result<(Nma, Option<nlmode::nma::NmaResult>)> {
-    use nlmode::nma::epmc::ModalBasis;
+    use nlmode::nma::modal_basis::ModalBasis;
     use nlmode::nma::{
         auto_harmonics, nonlinear_modal_analysis_with_basis, RefineOptions, TablePolicy,
     };

@@ -3,9 +3,10 @@
 use super::continuation::{
     continuation, BranchState, ContinuationFailure, ContinuationOptions, StopReason,
 };
-use super::epmc::{EpmcResidual, ModalBasis, Normalisation};
+use super::epmc::{EpmcResidual, Normalisation};
 use super::errors::{NmaError, NmaWarning};
 use super::folds::{finish, finish_from_amplitudes, identify_internal_resonances};
+use super::modal_basis::ModalBasis;
 use super::options::{check_harmonics, continuation_for, AmplitudeRange, NmaOptions};
 use super::results::{BranchPoint, EnergyComponent, NmaResult};
 use crate::structure::StructuralModel;

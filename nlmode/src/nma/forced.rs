@@ -1,8 +1,9 @@
 //! Harmonic Balance frequency responses of the forced full model.
 use super::continuation::{continuation, ContinuationOptions, StopReason};
 use super::driver::point_indices;
-use super::epmc::{ForcedResidual, ModalBasis};
+use super::epmc::ForcedResidual;
 use super::errors::NmaError;
+use super::modal_basis::ModalBasis;
 use super::options::{check_harmonics, continuation_for};
 use crate::structure::StructuralModel;
 use crate::Complex64;

@@ -2,8 +2,8 @@
 //! whose refined modal table agrees with that of `H + 4` within the table
 //! accuracy.
 use super::driver::nonlinear_modal_analysis_with_basis;
-use super::epmc::ModalBasis;
 use super::errors::NmaError;
+use super::modal_basis::ModalBasis;
 use super::options::NmaOptions;
 use super::refine::RefineOptions;
 use super::results::TablePolicy;

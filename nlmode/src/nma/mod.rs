@@ -4,8 +4,11 @@
 //! modal table that every consumer of the nonlinear mode reads.
 //!
 //! - [`hb`]: Fourier layout and AFT with analytic Jacobians,
+//! - [`modal_basis`]: the structure's linear modes the residuals are written in,
 //! - [`epmc`]: the EPMC and forced-response Harmonic Balance residuals in modal
-//!   coordinates and their condensed (Schur-complement) Newton solver,
+//!   coordinates,
+//! - [`hb_jacobian`]: their structured Jacobian and its condensed
+//!   (Schur-complement) Newton solver,
 //! - [`continuation`]: pseudo-arc-length continuation over any residual,
 //! - this module: the drivers [`nonlinear_modal_analysis`] and
 //!   [`forced_response`], the branch result and its conversion to a
@@ -46,6 +49,8 @@ mod results;
 pub mod continuation;
 pub mod epmc;
 pub mod hb;
+pub mod hb_jacobian;
+pub mod modal_basis;
 pub mod problems;
 
 pub use crate::table::{

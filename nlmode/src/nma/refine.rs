@@ -1,8 +1,9 @@
 //! Modal tables refined to a stated interpolation accuracy by fresh Harmonic
 //! Balance solves at interval midpoints.
 use super::driver::AmplitudeSolver;
-use super::epmc::{ModalBasis, Normalisation};
+use super::epmc::Normalisation;
 use super::errors::NmaError;
+use super::modal_basis::ModalBasis;
 use super::options::NmaOptions;
 use super::results::{BranchPoint, NmaResult, TablePolicy};
 use crate::structure::StructuralModel;

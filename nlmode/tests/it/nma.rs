@@ -4,7 +4,8 @@ use nalgebra::{DMatrix, DVector};
 use nlmode::nma::continuation::{
     solve_fixed_parameter, solve_fixed_parameter_chord, BorderedFactor, BorderedSolve, Residual,
 };
-use nlmode::nma::epmc::{EpmcResidual, ForcedResidual, ModalBasis};
+use nlmode::nma::epmc::{EpmcResidual, ForcedResidual};
+use nlmode::nma::modal_basis::ModalBasis;
 use nlmode::nma::problems::{
     chain, duffing, duffing_backbone_h1, duffing_exact_backbone, CubicLaw,
 };

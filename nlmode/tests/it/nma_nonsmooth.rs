@@ -3,7 +3,7 @@
 //! crossing an internal resonance; answers known independently of the solver
 //! (closed-form describing function, a fine-sampled residual with its own
 //! friction march, fresh HB solves). `cargo test -p nlmode --test it nma_nonsmooth`.
-use nlmode::nma::epmc::ModalBasis;
+use nlmode::nma::modal_basis::ModalBasis;
 use nlmode::nma::problems::nlvib::{
     jenkins_describing_function, jenkins_oscillator, nlvib_cantilever_cubic,
     nlvib_friction_contact_chain, nlvib_tanh_friction_2dof,
