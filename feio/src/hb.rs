@@ -123,12 +123,14 @@ fn section<'a, T>(
     path: &Path,
     lines: &mut impl Iterator<Item = (usize, &'a [u8])>,
     count: usize,
+    max_fields: usize,
     fmt: Fmt,
     what: &'static str,
     last_line: &mut usize,
     parse: impl Fn(&[u8]) -> Option<T>,
 ) -> Result<(Vec<T>, Vec<(usize, usize)>), Error> {
-    let mut out = Vec::with_capacity(count);
+    // no more reserved than the rest of the file can hold (one field per `width` bytes)
+    let mut out = Vec::with_capacity(count.min(max_fields));
     let mut at = Vec::new();
     while out.len() < count {
         let Some((l, rec)) = lines.next() else {
@@ -382,6 +384,7 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         path,
         &mut lines,
         ncols + 1,
+        b.len() / fmts[0].width + 1,
         fmts[0],
         "column pointers",
         &mut last,
@@ -420,6 +423,7 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         path,
         &mut lines,
         nnz,
+        b.len() / fmts[1].width + 1,
         fmts[1],
         "row indices",
         &mut last,
@@ -429,6 +433,7 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         path,
         &mut lines,
         nnz,
+        b.len() / fmts[2].width + 1,
         fmts[2],
         "values",
         &mut last,
