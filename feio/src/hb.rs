@@ -116,19 +116,33 @@ fn fortran_real(f: &[u8]) -> Option<f64> {
     text::real_field(&buf[..n])
 }
 
-/// The fields of one section: `count` values in records of `fmt`, starting at
-/// line `first` (1-based) of `lines`; returns the values and, for each record,
-/// `(index of its first value, its line)`.
-fn section<'a, T>(
-    path: &Path,
-    lines: &mut impl Iterator<Item = (usize, &'a [u8])>,
+/// What one section holds: `count` values in records of `fmt`; at most
+/// `max_fields` reserved (what the rest of the file can hold).
+struct Want {
     count: usize,
     max_fields: usize,
     fmt: Fmt,
     what: &'static str,
+}
+
+/// `(index of its first value, its line)` of each record of a section.
+type Records = Vec<(usize, usize)>;
+
+/// The fields of one section from the next lines of `lines` (`last_line`: the
+/// last line read); returns the values and their records.
+fn section<'a, T>(
+    path: &Path,
+    lines: &mut impl Iterator<Item = (usize, &'a [u8])>,
+    want: Want,
     last_line: &mut usize,
     parse: impl Fn(&[u8]) -> Option<T>,
-) -> Result<(Vec<T>, Vec<(usize, usize)>), Error> {
+) -> Result<(Vec<T>, Records), Error> {
+    let Want {
+        count,
+        max_fields,
+        fmt,
+        what,
+    } = want;
     // no more reserved than the rest of the file can hold (one field per `width` bytes)
     let mut out = Vec::with_capacity(count.min(max_fields));
     let mut at = Vec::new();
@@ -383,10 +397,12 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
     let (ptr, ptr_at) = section(
         path,
         &mut lines,
-        ncols + 1,
-        b.len() / fmts[0].width + 1,
-        fmts[0],
-        "column pointers",
+        Want {
+            count: ncols + 1,
+            max_fields: b.len() / fmts[0].width + 1,
+            fmt: fmts[0],
+            what: "column pointers",
+        },
         &mut last,
         text::uint_field,
     )?;
@@ -422,20 +438,24 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
     let (ind, ind_at) = section(
         path,
         &mut lines,
-        nnz,
-        b.len() / fmts[1].width + 1,
-        fmts[1],
-        "row indices",
+        Want {
+            count: nnz,
+            max_fields: b.len() / fmts[1].width + 1,
+            fmt: fmts[1],
+            what: "row indices",
+        },
         &mut last,
         text::uint_field,
     )?;
     let (vals, val_at) = section(
         path,
         &mut lines,
-        nnz,
-        b.len() / fmts[2].width + 1,
-        fmts[2],
-        "values",
+        Want {
+            count: nnz,
+            max_fields: b.len() / fmts[2].width + 1,
+            fmt: fmts[2],
+            what: "values",
+        },
         &mut last,
         fortran_real,
     )?;

@@ -268,7 +268,7 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
                 nrows as u64 * ncols as u64
             };
             // a value takes at least 2 bytes: no more reserved than the file holds
-            let cap = total.min((data.len() as u64 + 1) / 2) as usize;
+            let cap = total.min((data.len() as u64).div_ceil(2)) as usize;
             let total = total as usize;
             rows.reserve_exact(cap);
             cols.reserve_exact(cap);
@@ -375,7 +375,7 @@ struct Chunk {
 fn chunks(data: &[u8]) -> Vec<std::ops::Range<usize>> {
     let threads = rayon::current_num_threads().max(1);
     if data.len() < PARALLEL_MIN_BYTES || threads == 1 {
-        return vec![0..data.len()];
+        return std::iter::once(0..data.len()).collect();
     }
     let target = (data.len() / (4 * threads)).max(1 << 20);
     let mut out = Vec::new();
