@@ -349,8 +349,8 @@ fn the_frame_example_runs_with_host_run() {
     std::fs::remove_dir_all(&out).ok();
 }
 
-/// The 3-DOF chain (masses 1, 2, 3 kg; springs 300, 200, 300 N/m, the first
-/// and the last to ground... as in nlmode's tests) as dense lower triangles.
+/// A 3-DOF spring-mass chain: masses 1, 2, 3 kg; springs 100 N/m (ground to
+/// mass 1), 200, 300 N/m between the masses, 100 N/m (mass 3 to ground).
 const CHAIN_M: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]];
 const CHAIN_K: [[f64; 3]; 3] = [
     [300.0, -200.0, 0.0],
