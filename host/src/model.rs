@@ -211,7 +211,7 @@ pub fn build_matrices_structure(
     // sparse from the files to the reduction (dense only for reduction = "none"
     // or a small model, nlmode::structure::matrices::SPARSE_MIN_DOF)
     use nlmode::structure::{
-        matrices::matrix_structure_sparse_with, read_matrix_market_sparse as read_matrix_market,
+        matrices::{matrix_structure_sparse_with, read_matrix_triplets, sparse_from_feio},
         MatricesError, MatrixDamping, MatrixRole, MatrixStructureOptions,
     };
     let key = |e: MatricesError| -> anyhow::Error {
@@ -244,12 +244,59 @@ pub fn build_matrices_structure(
         };
         anyhow::anyhow!("{k}: {e}")
     };
-    let mass = read_matrix_market(MatrixRole::Mass, &st.mass_mtx).map_err(key)?;
-    let stiffness = read_matrix_market(MatrixRole::Stiffness, &st.stiffness_mtx).map_err(key)?;
-    let damping = match (&st.damping_mtx, st.rayleigh, st.damping_ratio) {
-        (Some(p), _, _) => {
-            MatrixDamping::Matrix(read_matrix_market(MatrixRole::Damping, p).map_err(key)?)
+    // the files in their format (feio), then nlmode's checked sparse matrices
+    let format = st.matrix_format.feio();
+    let mut files = vec![
+        (MatrixRole::Mass, &st.mass_mtx),
+        (MatrixRole::Stiffness, &st.stiffness_mtx),
+    ];
+    if let Some(p) = &st.damping_mtx {
+        files.push((MatrixRole::Damping, p));
+    }
+    let mut read = Vec::with_capacity(files.len());
+    for (role, path) in &files {
+        read.push(read_matrix_triplets(*role, path, format).map_err(key)?);
+    }
+    // labelled files (Abaqus' labels format) share one numbering: the union of
+    // their (node, dof) labels, ascending
+    let labels: Option<Vec<feio::Label>> = if read.iter().any(|t| t.labels.is_some()) {
+        if let Some(k) = read.iter().position(|t| t.labels.is_none()) {
+            let l = read.iter().position(|t| t.labels.is_some()).unwrap_or(0);
+            anyhow::bail!(
+                "structure.{}: {} carries no node labels, but {} {} does: give all matrices \
+                 in one labelled format (Abaqus' node, dof, node, dof, value)",
+                files[k].0.key(),
+                files[k].1.display(),
+                files[l].0.key(),
+                files[l].1.display()
+            );
         }
+        let mut all: Vec<feio::Label> = read
+            .iter()
+            .flat_map(|t| t.labels.iter().flatten().copied())
+            .collect();
+        all.sort_unstable();
+        all.dedup();
+        for t in read.iter_mut() {
+            // every label is in the union
+            let _ = t.relabel(&all);
+        }
+        Some(all)
+    } else {
+        None
+    };
+    let mut sparse_of = |k: usize| {
+        let t = std::mem::take(&mut read[k]);
+        sparse_from_feio(files[k].0, files[k].1, &t).map_err(key)
+    };
+    let mass = sparse_of(0)?;
+    let stiffness = sparse_of(1)?;
+    let damping_matrix = match &st.damping_mtx {
+        Some(_) => Some(sparse_of(2)?),
+        None => None,
+    };
+    let damping = match (damping_matrix, st.rayleigh, st.damping_ratio) {
+        (Some(c), _, _) => MatrixDamping::Matrix(c),
         (None, Some([alpha_per_s, beta_s]), _) => MatrixDamping::Rayleigh {
             alpha_per_s,
             beta_s,
@@ -260,8 +307,53 @@ pub fn build_matrices_structure(
         },
         (None, None, None) => anyhow::bail!("structure.damping_mtx: missing damping"),
     };
-    let points: Vec<(String, usize)> = st.point.iter().map(|p| (p.name.clone(), p.dof)).collect();
-    let dof = |name: &str| st.point.iter().find(|p| p.name == name).map(|p| p.dof);
+    // each point's row: `dof`, or its node and direction in the labels
+    let mut points: Vec<(String, usize)> = Vec::with_capacity(st.point.len());
+    for (i, p) in st.point.iter().enumerate() {
+        let dof = match (p.dof, p.node, p.direction) {
+            (Some(d), _, _) => d,
+            (None, Some(node), Some(dir)) => {
+                let Some(labels) = &labels else {
+                    anyhow::bail!(
+                        "structure.point[{i}].node: node {node} needs a labelled matrix file \
+                         (Abaqus' node, dof, node, dof, value); {} has no labels: give dof",
+                        st.mass_mtx.display()
+                    );
+                };
+                match labels.binary_search(&(node, dir.0)) {
+                    Ok(d) => d,
+                    Err(_) => {
+                        let nodes = labels.iter().filter(|l| l.0 == node).count();
+                        let what = if nodes == 0 {
+                            format!(
+                                "node {node} is not in the matrix files ({} .. {} of {} labelled DOFs)",
+                                labels.first().map_or(0, |l| l.0),
+                                labels.last().map_or(0, |l| l.0),
+                                labels.len()
+                            )
+                        } else {
+                            let dirs: Vec<u8> =
+                                labels.iter().filter(|l| l.0 == node).map(|l| l.1).collect();
+                            format!(
+                                "node {node} has no direction {} ({}) in the matrix files; its DOFs are {dirs:?}",
+                                dir.0,
+                                dir.name()
+                            )
+                        };
+                        anyhow::bail!(
+                            "structure.point[{i}].node: {what} ({})",
+                            st.mass_mtx.display()
+                        );
+                    }
+                }
+            }
+            _ => {
+                anyhow::bail!("structure.point[{i}].dof: missing: give dof, or node and direction")
+            }
+        };
+        points.push((p.name.clone(), dof));
+    }
+    let dof = |name: &str| points.iter().find(|p| p.0 == name).map(|p| p.1);
     let cubic_spring = st
         .nonlinear_point
         .as_ref()
@@ -302,7 +394,7 @@ pub fn build_matrices_structure(
         stiffness_path: st.stiffness_mtx.clone(),
         damping,
         damping_path: st.damping_mtx.clone(),
-        points,
+        points: points.clone(),
         cubic_spring,
         craig_bampton: match st.reduction {
             Reduction::CraigBampton => Some((masters, st.cb_modes)),

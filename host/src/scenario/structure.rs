@@ -46,6 +46,7 @@ struct RawStructure {
     nonlinear_point: Option<String>,
     allow_rigid_body_modes: Option<bool>,
     memory_limit_gb: Option<f64>,
+    matrix_format: Option<MatrixFormat>,
 }
 
 impl<'de> Deserialize<'de> for StructureSpec {
@@ -75,6 +76,7 @@ impl<'de> Deserialize<'de> for StructureSpec {
                         ("nonlinear_point", r.nonlinear_point.is_some()),
                         ("allow_rigid_body_modes", r.allow_rigid_body_modes.is_some()),
                         ("memory_limit_gb", r.memory_limit_gb.is_some()),
+                        ("matrix_format", r.matrix_format.is_some()),
                     ],
                 )?;
                 let b = BeamStructureSpec::default();
@@ -126,6 +128,7 @@ impl<'de> Deserialize<'de> for StructureSpec {
                     nonlinear_point: r.nonlinear_point,
                     allow_rigid_body_modes: r.allow_rigid_body_modes.unwrap_or(false),
                     memory_limit_gb: r.memory_limit_gb,
+                    matrix_format: r.matrix_format.unwrap_or_default(),
                 }))
             }
         }
@@ -180,13 +183,94 @@ pub enum Reduction {
     None,
 }
 
-/// A named DOF of a matrices structure (`[[structure.point]]`).
+/// A named DOF of a matrices structure (`[[structure.point]]`): its row `dof`,
+/// or, in a labelled file (Abaqus' `node, dof, node, dof, value`), its `node`
+/// and `direction`.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct PointSpec {
     pub name: String,
     /// 0-based row of `M` and `K`.
-    pub dof: usize,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dof: Option<usize>,
+    /// Node label of a labelled matrix file (with `direction`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<u64>,
+    /// Abaqus DOF of `node`: 1..6 or `x`, `y`, `z`, `rx`, `ry`, `rz`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub direction: Option<Direction>,
+}
+
+/// The direction of a labelled point: Abaqus' DOF number (1, 2, 3 the
+/// translations x, y, z; 4, 5, 6 the rotations about x, y, z), given as that
+/// number or as `"x"`, `"y"`, `"z"`, `"rx"`, `"ry"`, `"rz"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Direction(pub u8);
+
+impl Direction {
+    const NAMES: [&'static str; 6] = ["x", "y", "z", "rx", "ry", "rz"];
+
+    /// Its name (`x`, ..., `rz`).
+    pub fn name(self) -> &'static str {
+        Self::NAMES[(self.0 as usize).clamp(1, 6) - 1]
+    }
+}
+
+impl<'de> Deserialize<'de> for Direction {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Number(i64),
+            Name(String),
+        }
+        let found = match Raw::deserialize(d)? {
+            Raw::Number(n) if (1..=6).contains(&n) => return Ok(Direction(n as u8)),
+            Raw::Number(n) => n.to_string(),
+            Raw::Name(s) => match Self::NAMES.iter().position(|n| n.eq_ignore_ascii_case(&s)) {
+                Some(i) => return Ok(Direction(i as u8 + 1)),
+                None => format!("\"{s}\""),
+            },
+        };
+        Err(D::Error::custom(format!(
+            "expected a direction 1..6 or \"x\", \"y\", \"z\", \"rx\", \"ry\", \"rz\", found {found}"
+        )))
+    }
+}
+
+impl Serialize for Direction {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+/// The format of the matrix files (`structure.matrix_format`); `auto` detects
+/// it per file (`feio::detect`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MatrixFormat {
+    #[default]
+    Auto,
+    MatrixMarket,
+    HarwellBoeing,
+    Abaqus,
+}
+
+impl MatrixFormat {
+    /// The reader's format.
+    pub fn feio(self) -> feio::Format {
+        match self {
+            MatrixFormat::Auto => feio::Format::Auto,
+            MatrixFormat::MatrixMarket => feio::Format::MatrixMarket,
+            MatrixFormat::HarwellBoeing => feio::Format::HarwellBoeing,
+            MatrixFormat::Abaqus => feio::Format::Abaqus,
+        }
+    }
+
+    fn is_auto(&self) -> bool {
+        *self == MatrixFormat::Auto
+    }
 }
 
 /// `[structure]` with `kind = "matrices"` (docs/scenario.md). Paths are relative
@@ -217,6 +301,9 @@ pub struct MatricesStructureSpec {
     /// [`default_memory_limit_bytes`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub memory_limit_gb: Option<f64>,
+    /// The format of `mass_mtx`, `stiffness_mtx`, `damping_mtx` (default: detected).
+    #[serde(skip_serializing_if = "MatrixFormat::is_auto")]
+    pub matrix_format: MatrixFormat,
 }
 
 /// 75 % of `MemAvailable` (Linux `/proc/meminfo`), `None` where unknown: the
@@ -296,6 +383,32 @@ impl Scenario {
                     &format!("structure.point[{i}].name"),
                     "expected a non-empty name",
                 ));
+            }
+            let key = |k: &str| format!("structure.point[{i}].{k}");
+            match (p.dof, p.node, p.direction) {
+                (Some(_), None, None) | (None, Some(_), Some(_)) => {}
+                (Some(_), _, _) => {
+                    return Err(bad(
+                        &key("node"),
+                        "give either dof or node and direction, not both",
+                    ))
+                }
+                (None, Some(_), None) => {
+                    return Err(bad(
+                        &key("direction"),
+                        "missing: node needs a direction (1..6 or \"x\", \"y\", \"z\", \"rx\", \"ry\", \"rz\")",
+                    ))
+                }
+                (None, None, Some(_)) => {
+                    return Err(bad(&key("node"), "missing: direction needs a node"))
+                }
+                (None, None, None) => {
+                    return Err(bad(
+                        &key("dof"),
+                        "missing: give dof (the 0-based row of M and K), or node and direction \
+                         (matrices in Abaqus' labels format)",
+                    ))
+                }
             }
             if st.point[..i].iter().any(|o| o.name == p.name) {
                 return Err(bad(

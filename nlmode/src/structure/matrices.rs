@@ -3,8 +3,10 @@
 //! spring at a named point, damping and Craig-Bampton reduction.
 //!
 //! * [`read_matrix_market`] reads a Matrix Market file (coordinate or array, real,
-//!   general or symmetric) by the `nalgebra-sparse` crate (feature `io`) into a
-//!   dense `DMatrix`; [`write_matrix_market`] writes the coordinate symmetric form
+//!   general or symmetric, also `.mtx.gz`) by the `feio` crate into a dense
+//!   `DMatrix`; [`read_matrix_triplets`] reads any format of `feio` (Harwell-Boeing,
+//!   Abaqus matrix output) and [`sparse_from_feio`] makes the checked sparse
+//!   matrix of its triplets; [`write_matrix_market`] writes the coordinate symmetric form
 //!   (lower triangle, shortest round-trip decimal, so that reading it back gives the
 //!   same bits).
 //! * [`matrix_structure`] checks and builds the model: square, equal sizes, finite,
@@ -91,13 +93,15 @@ pub enum MatricesError {
         path: PathBuf,
         message: String,
     },
-    /// The file is not valid Matrix Market (line 1-based where the reader names it).
-    #[error("{role}: {} is not a valid Matrix Market file{}: {message}", path.display(),
+    /// The file is not valid in its format (Matrix Market, Harwell-Boeing,
+    /// Abaqus; `feio`): the 1-based line and what was expected there.
+    #[error("{role}: {} is not a valid {format} file{}: {message}", path.display(),
         line.map(|l| format!(" (line {l})")).unwrap_or_default())]
     Malformed {
         role: MatrixRole,
         path: PathBuf,
         line: Option<usize>,
+        format: &'static str,
         message: String,
     },
     /// A matrix that is not square.
@@ -116,14 +120,16 @@ pub enum MatricesError {
         n: usize,
         expected: usize,
     },
-    /// A NaN or infinite entry.
-    #[error("{role}: {} has a non-finite entry {value} at row {row}, column {col} (0-based)", path.display())]
+    /// A NaN or infinite entry (and its line in the file, where read from one).
+    #[error("{role}: {} has a non-finite entry {value} at row {row}, column {col} (0-based){}", path.display(),
+        line.map(|l| format!(" (line {l})")).unwrap_or_default())]
     NonFinite {
         role: MatrixRole,
         path: PathBuf,
         row: usize,
         col: usize,
         value: f64,
+        line: Option<usize>,
     },
     /// Not symmetric within [`SYMMETRY_RTOL`].
     #[error("{role}: {} is not symmetric: max |A - A^T| = {asymmetry:e} > {SYMMETRY_RTOL:e} max |A| = {scale:e}", path.display())]
@@ -188,16 +194,100 @@ pub enum MatricesError {
     Structure(#[from] StructureError),
 }
 
-/// Line number (1-based) from a pest error message (`--> 7:3`).
-fn pest_line(message: &str) -> Option<usize> {
-    let rest = &message[message.find("-->")? + 3..];
-    let rest = rest.trim_start();
-    let end = rest.find(':')?;
-    rest[..end].trim().parse().ok()
+/// The [`MatricesError`] of a reader's error (`feio`): the key, file and line.
+pub fn matrices_error(role: MatrixRole, e: feio::Error) -> MatricesError {
+    match e {
+        feio::Error::Io { path, message } => MatricesError::Io {
+            role,
+            path,
+            message,
+        },
+        feio::Error::Parse {
+            path,
+            line,
+            detail: feio::Detail::NonFinite { row, col, value },
+            ..
+        } => MatricesError::NonFinite {
+            role,
+            path,
+            row,
+            col,
+            value,
+            line: Some(line),
+        },
+        feio::Error::Parse {
+            path,
+            line,
+            format,
+            detail,
+        } => MatricesError::Malformed {
+            role,
+            path,
+            line: Some(line),
+            format: match format {
+                feio::Format::MatrixMarket => "Matrix Market",
+                feio::Format::HarwellBoeing => "Harwell-Boeing",
+                feio::Format::Abaqus => "Abaqus matrix",
+                feio::Format::Auto => "matrix",
+            },
+            message: detail.to_string(),
+        },
+    }
 }
 
-/// Reads a Matrix Market file (coordinate or array; real; general, symmetric or
-/// skew-symmetric) into a dense square matrix; duplicate coordinate entries add up.
+/// The sparse matrix of a reader's triplets (`feio::Triplets`, symmetric
+/// storage expanded; duplicates add up): square, finite, indices in range.
+/// Every reader of this module ends here, so the checks live once.
+pub fn sparse_from_feio(
+    role: MatrixRole,
+    path: &Path,
+    t: &feio::Triplets,
+) -> Result<SparseMatrix, MatricesError> {
+    let (rows, cols) = (t.nrows, t.ncols);
+    if rows != cols {
+        return Err(MatricesError::NotSquare {
+            role,
+            path: path.into(),
+            rows,
+            cols,
+        });
+    }
+    let mut triplets = Vec::with_capacity(t.nnz().saturating_mul(2).min(1 << 28));
+    for (r, c, v) in t.expanded() {
+        if !v.is_finite() {
+            return Err(MatricesError::NonFinite {
+                role,
+                path: path.into(),
+                row: r,
+                col: c,
+                value: v,
+                line: None,
+            });
+        }
+        triplets.push((r, c, v));
+    }
+    sparse_from_triplets(rows, &triplets).ok_or_else(|| MatricesError::Malformed {
+        role,
+        path: path.into(),
+        line: None,
+        format: "matrix",
+        message: "an entry's index is out of range".into(),
+    })
+}
+
+/// Reads a matrix file in `format` (`feio`: Matrix Market, `.mtx.gz`,
+/// Harwell-Boeing, Abaqus matrix output; `Auto` detects it) into its triplets.
+pub fn read_matrix_triplets(
+    role: MatrixRole,
+    path: &Path,
+    format: feio::Format,
+) -> Result<feio::Triplets, MatricesError> {
+    feio::read(path, format).map_err(|e| matrices_error(role, e))
+}
+
+/// Reads a Matrix Market file (coordinate or array; real or integer; general or
+/// symmetric; also gzip-compressed) into a dense square matrix; duplicate
+/// coordinate entries add up.
 pub fn read_matrix_market(role: MatrixRole, path: &Path) -> Result<DMatrix<f64>, MatricesError> {
     Ok(sparse_to_dense(&read_matrix_market_sparse(role, path)?))
 }
@@ -207,12 +297,8 @@ pub fn read_matrix_market_sparse(
     role: MatrixRole,
     path: &Path,
 ) -> Result<SparseMatrix, MatricesError> {
-    let text = std::fs::read_to_string(path).map_err(|e| MatricesError::Io {
-        role,
-        path: path.into(),
-        message: e.to_string(),
-    })?;
-    read_matrix_market_sparse_str(role, path, &text)
+    let t = read_matrix_triplets(role, path, feio::Format::MatrixMarket)?;
+    sparse_from_feio(role, path, &t)
 }
 
 /// As [`read_matrix_market`] from the file's text (`path` only names it in errors).
@@ -232,43 +318,9 @@ pub fn read_matrix_market_sparse_str(
     path: &Path,
     text: &str,
 ) -> Result<SparseMatrix, MatricesError> {
-    let coo = nalgebra_sparse::io::load_coo_from_matrix_market_str::<f64>(text).map_err(|e| {
-        let message = e.message().replace('\n', " ");
-        MatricesError::Malformed {
-            role,
-            path: path.into(),
-            line: pest_line(e.message()),
-            message: message.split_whitespace().collect::<Vec<_>>().join(" "),
-        }
-    })?;
-    let (rows, cols) = (coo.nrows(), coo.ncols());
-    if rows != cols {
-        return Err(MatricesError::NotSquare {
-            role,
-            path: path.into(),
-            rows,
-            cols,
-        });
-    }
-    let mut triplets = Vec::with_capacity(coo.nnz());
-    for (r, c, v) in coo.triplet_iter() {
-        if !v.is_finite() {
-            return Err(MatricesError::NonFinite {
-                role,
-                path: path.into(),
-                row: r,
-                col: c,
-                value: *v,
-            });
-        }
-        triplets.push((r, c, *v));
-    }
-    sparse_from_triplets(rows, &triplets).ok_or_else(|| MatricesError::Malformed {
-        role,
-        path: path.into(),
-        line: None,
-        message: "an entry's index is out of range".into(),
-    })
+    let t = feio::read_bytes(path, text.as_bytes(), feio::Format::MatrixMarket)
+        .map_err(|e| matrices_error(role, e))?;
+    sparse_from_feio(role, path, &t)
 }
 
 /// The Matrix Market text (coordinate, real, symmetric: the lower triangle's
@@ -450,6 +502,7 @@ fn check_sparse_matrix(
             row,
             col,
             value,
+            line: None,
         });
     }
     let (asym, scale) = asymmetry(a);
@@ -1227,8 +1280,21 @@ mod tests {
     }
 
     #[test]
-    fn pest_line_numbers() {
-        assert_eq!(pest_line("Error:  --> 7:3\n  |"), Some(7));
-        assert_eq!(pest_line("no line"), None);
+    fn reader_errors_keep_the_key_file_and_line() {
+        let e = read_matrix_market_sparse_str(
+            MatrixRole::Damping,
+            Path::new("C.mtx"),
+            "%%MatrixMarket matrix coordinate real general\n2 2 1\n1 1 inf\n",
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, MatricesError::NonFinite { line: Some(3), .. }),
+            "{e}"
+        );
+        let msg = e.to_string();
+        assert!(
+            msg.contains("damping_mtx") && msg.contains("C.mtx") && msg.contains("line 3"),
+            "{msg}"
+        );
     }
 }
