@@ -84,7 +84,7 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
         .as_ref()
         .map(|n| n.table.harmonics)
         .unwrap_or(sc.nma.harmonics_or_min());
-    let mut validity = setup.validity_warnings(harmonics, table_omega);
+    let mut validity = setup.validity_warnings(harmonics, table_omega, sc.slowflow.attachments);
     for w in &validity {
         say!(opts, "warning: {w}");
     }

@@ -787,6 +787,7 @@ impl Setup {
         &self,
         harmonics: usize,
         table_omega: Option<(f64, f64)>,
+        attachments: nlmode::reduced::AttachmentStates,
     ) -> Vec<String> {
         let mut w = Vec::new();
         if self.attachments.is_empty() {
@@ -800,7 +801,11 @@ impl Setup {
             self.sweep.omega_start_rad_s.max(self.sweep.omega_end_rad_s),
         );
         let limit = QUASI_STEADY_FACTOR / t_mod;
-        for att in &self.attachments {
+        // carried as states, a pole this close to the band is followed in time
+        // (a pole within 5 / T_mod is far inside the dynamic slow flow's
+        // `fast_pole_factor * Omega_max`)
+        let quasi_steady = attachments == nlmode::reduced::AttachmentStates::QuasiSteady;
+        for att in self.attachments.iter().filter(|_| quasi_steady) {
             match att.fixed_interface_poles() {
                 Ok(poles) => {
                     // distance of s from the segment i [w_lo, w_hi] of the imaginary axis
@@ -814,7 +819,7 @@ impl Setup {
                         .filter(|p| dist(p) < limit)
                     {
                         w.push(format!(
-                            "attachment '{}': fixed-interface pole {:.4e}{:+.4e}i rad/s lies {:.3e} rad/s from the swept band [{w_lo:.1}, {w_hi:.1}] rad/s, less than {QUASI_STEADY_FACTOR} / T_mod = {limit:.3e} rad/s (T_mod = 2 D0 omega0 / |dOmega/dt| = {t_mod:.3e} s): the quasi-steady attachment assumption of eq:NM is doubtful (sweep slower, or damp the attachment)",
+                            "attachment '{}': fixed-interface pole {:.4e}{:+.4e}i rad/s lies {:.3e} rad/s from the swept band [{w_lo:.1}, {w_hi:.1}] rad/s, less than {QUASI_STEADY_FACTOR} / T_mod = {limit:.3e} rad/s (T_mod = 2 D0 omega0 / |dOmega/dt| = {t_mod:.3e} s): the quasi-steady attachment assumption of eq:NM is doubtful: carry the attachment's states with [slowflow] attachments = \"dynamic\" (or sweep slower)",
                             att.name, p.re, p.im, dist(p)
                         ));
                     }

@@ -707,6 +707,31 @@ impl Localization {
     }
 }
 
+/// The blocks of one attachment at one frequency in interface (`G`, through
+/// `P = pinv(B2)`) and internal (`2`, through `L2`) coordinates
+/// ([`Condenser::averaged_blocks`]). With `u_G` the interface displacements,
+/// `x_r` the internal states and `u` the inputs, the attachment's equations
+/// in the frequency domain read
+/// `Z_2G u_G + Z_22 x_r = B_u2 u` and the force on the structure
+/// `F_G = -(Z_GG u_G + Z_G2 x_r) + B_uG u`.
+#[derive(Debug, Clone)]
+pub struct AveragedBlocks {
+    /// `P^T Z P` (`ncon x ncon`).
+    pub z_gg: DMatrix<Complex64>,
+    /// `P^T Z L2` (`ncon x nr`).
+    pub z_g2: DMatrix<Complex64>,
+    /// `L2^T Z P` (`nr x ncon`).
+    pub z_2g: DMatrix<Complex64>,
+    /// `L2^T Z L2` (`nr x nr`).
+    pub z_22: DMatrix<Complex64>,
+    /// `dZ22/d(i Omega)` (`nr x nr`).
+    pub b_22: DMatrix<Complex64>,
+    /// `P^T input_map` (`ncon x ninput`).
+    pub bu_g: DMatrix<Complex64>,
+    /// `L2^T input_map` (`nr x ninput`).
+    pub bu_2: DMatrix<Complex64>,
+}
+
 /// The condensation of one attachment prepared for many frequencies: the
 /// coefficient matrices projected once onto the interface (`P`) and internal
 /// (`L2`) directions, `A_k^GG = P^T A_k P`, `A_k^G2 = P^T A_k L2`,
@@ -839,6 +864,36 @@ impl Condenser {
             t_g,
         };
         Ok((at(z_g, t_g), at(dz_g, dt_g)))
+    }
+
+    /// Number of internal (primal) states `ndim - ncon` of `x_r` (`eq:primal`).
+    pub fn internal_states(&self) -> usize {
+        self.a_22[0].nrows()
+    }
+
+    /// The blocks of the attachment in interface (`P`) and internal (`L2`)
+    /// coordinates at `Omega`, for carrying `x_r` as a slowly varying complex
+    /// amplitude in the slow flow (`crate::reduced` "attachment states"):
+    /// `Z_mn` as in `eq:assemblyF1`-`eq:assemblyF2` and
+    /// `B22 = dZ22/d(i Omega) = sum_k k (i Omega)^(k-1) L2^T A_k L2`, the
+    /// coefficient of `x_r'` in the first-order averaged `eq:component2`.
+    pub fn averaged_blocks(&self, omega_rad_s: f64) -> AveragedBlocks {
+        // dZ/d(i Omega) = -i dZ/dOmega
+        let minus_i = Complex64::new(0.0, -1.0);
+        AveragedBlocks {
+            z_gg: poly(&self.a_gg, omega_rad_s),
+            z_g2: poly(&self.a_g2, omega_rad_s),
+            z_2g: poly(&self.a_2g, omega_rad_s),
+            z_22: poly(&self.a_22, omega_rad_s),
+            b_22: poly_derivative(&self.a_22, omega_rad_s) * minus_i,
+            bu_g: self.bu_g.clone(),
+            bu_2: self.bu_2.clone(),
+        }
+    }
+
+    /// The attachment's name.
+    pub fn name(&self) -> &str {
+        &self.name
     }
 
     /// Inverts `Z22` after checking its condition; see

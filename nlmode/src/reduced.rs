@@ -88,6 +88,7 @@ use num_complex::Complex64;
 use std::fmt::Debug;
 use std::sync::Arc;
 
+pub mod dynamic;
 mod fast;
 mod imposed;
 mod output;
@@ -97,6 +98,7 @@ mod steady;
 mod sweep;
 
 pub use crate::dopri::IntegratorStats;
+pub use dynamic::AttachmentStates;
 pub use imposed::ForceEnvelope;
 pub use output::SampleFields;
 pub use post::TimeSignals;
@@ -162,6 +164,8 @@ pub enum ReducedError {
         eps: f64,
         offset_rad_s: f64,
     },
+    #[error("attachment '{attachment}': its states cannot be carried in the slow flow (attachments = \"dynamic\"): {why}")]
+    AttachmentStates { attachment: String, why: String },
     #[error("the slow-flow result has no samples")]
     EmptyResult,
     #[error("imposed force at '{point}': {found} imposed forces, at most {max} are supported")]
@@ -195,6 +199,14 @@ pub trait InterfaceModel: Debug + Send + Sync {
     /// (the quantities are rational in `Omega`; relative error below 1e-7 for
     /// the paper's shaker, largest near its suspension resonance); models that
     /// know the derivative override it.
+    /// The attachment's state model in interface and internal coordinates,
+    /// needed to carry its states in the slow flow
+    /// ([`AttachmentStates::Dynamic`]); `None` (the default) for a model known
+    /// only by its frequency response.
+    fn condenser(&self) -> Option<&crate::attachment::Condenser> {
+        None
+    }
+
     fn condense_with_derivative(
         &self,
         omega_rad_s: f64,
@@ -902,6 +914,9 @@ impl InterfaceModel for PreparedAttachment {
     }
     fn ninput(&self) -> usize {
         self.attachment.ninput()
+    }
+    fn condenser(&self) -> Option<&crate::attachment::Condenser> {
+        Some(&self.condenser)
     }
     fn condense(&self, omega_rad_s: f64) -> Result<Condensed, AttachmentModelError> {
         let c = self.condenser.condense(omega_rad_s)?;

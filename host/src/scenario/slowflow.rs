@@ -10,6 +10,11 @@ pub struct SlowFlowSpec {
     pub imposed_force_rtol: f64,
     /// Output samples along the sweep, uniform in time (both ends included).
     pub output_samples: usize,
+    /// How the attachments enter the slow flow of `nlmode` and
+    /// `imposed-force`: `"quasi-steady"` (`eq:NM`, the paper's model) or
+    /// `"dynamic"` (their states carried beside the modal amplitude,
+    /// `nlmode::reduced::dynamic`).
+    pub attachments: nlmode::reduced::AttachmentStates,
 }
 
 impl Default for SlowFlowSpec {
@@ -19,6 +24,7 @@ impl Default for SlowFlowSpec {
             rtol: lib.rtol,
             imposed_force_rtol: 1e-5,
             output_samples: lib.output_samples,
+            attachments: lib.attachments,
         }
     }
 }
@@ -33,6 +39,7 @@ impl SlowFlowSpec {
                 self.rtol
             },
             output_samples: self.output_samples,
+            attachments: self.attachments,
             ..Default::default()
         }
     }

@@ -92,13 +92,21 @@ fn tmd_and_shaker_match_the_closed_form_of_the_coupled_system() {
     // 12.5 rad/s off the axis) is reported, the shaker's poles are not; the two
     // split modes lie outside each other's 1:1 window (the impedance captures
     // the TMD exactly in steady state)
-    let w = setup.validity_warnings(sc.nma.harmonics_or_min(), None);
+    let w = setup.validity_warnings(sc.nma.harmonics_or_min(), None, sc.slowflow.attachments);
     assert!(
-        w.iter()
-            .any(|s| s.contains("'tmd'") && s.contains("quasi-steady")),
+        w.iter().any(|s| s.contains("'tmd'")
+            && s.contains("quasi-steady")
+            && s.contains("attachments = \"dynamic\"")),
         "{w:?}"
     );
     assert!(!w.iter().any(|s| s.contains("'shaker'")), "{w:?}");
+    // with the attachment states carried the assumption is not made
+    let w = setup.validity_warnings(
+        sc.nma.harmonics_or_min(),
+        None,
+        nlmode::reduced::AttachmentStates::Dynamic,
+    );
+    assert!(!w.iter().any(|s| s.contains("quasi-steady")), "{w:?}");
 }
 
 /// Symmetric chain ground-0-1-2-3-ground, equal masses and springs, points at
@@ -296,7 +304,7 @@ fn one_exciter_input_factor_is_exactly_one() {
     let s = Setup::new(&sc).unwrap();
     assert_eq!(s.inputs, vec![vec![Complex64::new(1.0, 0.0)]]);
     // the paper's case (a): the shaker passes the validity checks
-    let w = s.validity_warnings(sc.nma.harmonics_or_min(), None);
+    let w = s.validity_warnings(sc.nma.harmonics_or_min(), None, sc.slowflow.attachments);
     assert!(w.is_empty(), "{w:?}");
 }
 

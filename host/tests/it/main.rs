@@ -19,5 +19,6 @@ mod measured_table;
 mod nma_keys;
 mod phase_resonance;
 mod phase_resonance_cosim;
+mod slowflow_states;
 mod study;
 mod test_plan;

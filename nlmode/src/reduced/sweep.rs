@@ -1,5 +1,6 @@
 //! Slow-flow integration of `eq:NM` along a sine sweep (`nlmode`,
 //! `linear-slowflow`, `imposed-force`).
+use super::dynamic::AttachmentStates;
 use super::fast::Breaks;
 use super::output::{OutputStates, SampleFields};
 use super::{ReducedError, ReducedModel, MAX_PHI};
@@ -30,6 +31,21 @@ pub struct SlowFlowOptions {
     /// Relative accuracy of the attachment quantities `Z_G`, `T_G u_hat`
     /// tabulated along the sweep's frequency range (see [`SlowFlowResult`]).
     pub channel_tol: f64,
+    /// How the attachments enter the slow flow: in quasi-steady state
+    /// (`eq:NM`, the paper's model, default) or with their states carried as
+    /// slowly varying amplitudes ([`super::dynamic`]).
+    #[serde(default)]
+    pub attachments: AttachmentStates,
+    /// With [`AttachmentStates::Dynamic`]: an attachment mode whose pole lies
+    /// farther than `fast_pole_factor * Omega_max` from the swept band is
+    /// kept in quasi-steady state ([`super::dynamic`], "fast and slow
+    /// parts"); `f64::INFINITY` carries every state.
+    #[serde(default = "default_fast_pole_factor")]
+    pub fast_pole_factor: f64,
+}
+
+fn default_fast_pole_factor() -> f64 {
+    super::dynamic::FAST_POLE_FACTOR
 }
 
 impl Default for SlowFlowOptions {
@@ -40,12 +56,14 @@ impl Default for SlowFlowOptions {
             max_step_fraction: 0.02,
             output_samples: 2001,
             channel_tol: 1e-9,
+            attachments: AttachmentStates::QuasiSteady,
+            fast_pole_factor: super::dynamic::FAST_POLE_FACTOR,
         }
     }
 }
 
 impl SlowFlowOptions {
-    fn check(&self) -> Result<(), ReducedError> {
+    pub(crate) fn check(&self) -> Result<(), ReducedError> {
         let bad = |name, value: f64, why| Err(ReducedError::BadOption { name, value, why });
         if !(self.rtol > 0.0 && self.rtol < 1.0) {
             return bad("rtol", self.rtol, "must lie in (0, 1)");
@@ -69,6 +87,13 @@ impl SlowFlowOptions {
         }
         if !(self.channel_tol > 0.0 && self.channel_tol < 1e-2) {
             return bad("channel_tol", self.channel_tol, "must lie in (0, 1e-2)");
+        }
+        if !(self.fast_pole_factor > 0.0) {
+            return bad(
+                "fast_pole_factor",
+                self.fast_pole_factor,
+                "must be positive (infinity: every attachment state carried)",
+            );
         }
         Ok(())
     }
@@ -272,7 +297,31 @@ impl OmegaCache {
         amplitude: f64,
         tol: f64,
     ) -> Result<Self, ReducedError> {
-        let nch = model.nch;
+        Self::tabulate(
+            model.nch,
+            lo,
+            hi,
+            tol,
+            |w, v| model.fill_channels(w, amplitude, v),
+            |w, v, d| model.fill_channels_with_derivative(w, amplitude, v, d),
+        )
+    }
+
+    /// The tabulation of [`Self::build`] for any `nch` channels: `value(w, v)`
+    /// fills the channels at `w`, `value_and_derivative(w, v, d)` also their
+    /// derivatives with respect to `w`.
+    pub fn tabulate(
+        nch: usize,
+        lo: f64,
+        hi: f64,
+        tol: f64,
+        value: impl Fn(f64, &mut [Complex64]) -> Result<(), ReducedError>,
+        value_and_derivative: impl Fn(
+            f64,
+            &mut [Complex64],
+            &mut [Complex64],
+        ) -> Result<(), ReducedError>,
+    ) -> Result<Self, ReducedError> {
         if nch == 0 {
             return Ok(Self {
                 nodes: Breaks::new(&[lo, hi]),
@@ -283,7 +332,7 @@ impl OmegaCache {
         let node = |w: f64| -> Result<(Vec<Complex64>, Vec<Complex64>), ReducedError> {
             let mut v = vec![Complex64::new(0.0, 0.0); nch];
             let mut d = v.clone();
-            model.fill_channels_with_derivative(w, amplitude, &mut v, &mut d)?;
+            value_and_derivative(w, &mut v, &mut d)?;
             Ok((v, d))
         };
         let n0 = 9;
@@ -309,7 +358,7 @@ impl OmegaCache {
                 let wm = 0.5 * (w0 + w1);
                 let h = w1 - w0;
                 let mut exact = vec![Complex64::new(0.0, 0.0); nch];
-                model.fill_channels(wm, amplitude, &mut exact)?;
+                value(wm, &mut exact)?;
                 let bad = (0..nch).any(|c| {
                     let herm = 0.5 * (v0[c] + v1[c]) + 0.125 * h * (d0[c] - d1[c]);
                     (herm - exact[c]).norm() > tol * scale[c]
@@ -355,6 +404,11 @@ impl OmegaCache {
             c,
             nch,
         })
+    }
+
+    /// Number of channels per frequency.
+    pub fn nch(&self) -> usize {
+        self.nch
     }
 
     pub fn len(&self) -> usize {
@@ -450,6 +504,13 @@ impl ReducedModel {
         for imp in &self.imposed {
             imp.envelope.check_covers(lo, hi)?;
         }
+        if opts.attachments == AttachmentStates::Dynamic {
+            let ports = super::dynamic::StatePort::select(self, lo, hi, opts.fast_pole_factor)?;
+            // without a slow attachment state the model is `eq:NM` itself
+            if !ports.is_empty() {
+                return super::dynamic::simulate(self, &ports, sweep, opts, a0, sink);
+            }
+        }
         let cache = OmegaCache::build(self, lo, hi, sweep.amplitude, opts.channel_tol)?;
         let duration = sweep.duration_s();
         let atol = opts.atol_rel * self.a_scale;
@@ -504,32 +565,8 @@ impl ReducedModel {
             None => SweepStatus::Completed,
             Some(stop) => {
                 let t_stop = last_state.0;
-                let w = sweep.omega_rad_s(t_stop);
-                let status = match stop {
-                    Stop::Rhs {
-                        error: ReducedError::Table(TableError::AboveRange { max, .. }),
-                        ..
-                    } => SweepStatus::LeftTableRange {
-                        t_s: t_stop,
-                        omega_rad_s: w,
-                        a: Complex64::new(last_state.1[0], last_state.1[1]).norm(),
-                        a_max: max,
-                    },
-                    Stop::Rhs { error, .. } | Stop::Observer { error, .. } => return Err(error),
-                    Stop::StepTooSmall { h, .. } => SweepStatus::StepSizeTooSmall {
-                        t_s: t_stop,
-                        omega_rad_s: w,
-                        h_s: h,
-                    },
-                    Stop::MaxSteps { .. } => SweepStatus::MaxSteps {
-                        t_s: t_stop,
-                        omega_rad_s: w,
-                    },
-                    Stop::NotFinite { .. } => SweepStatus::NotFinite {
-                        t_s: t_stop,
-                        omega_rad_s: w,
-                    },
-                };
+                let a_stop = Complex64::new(last_state.1[0], last_state.1[1]).norm();
+                let status = stop_status(stop, t_stop, sweep.omega_rad_s(t_stop), a_stop)?;
                 // the state where the sweep stopped ends the output
                 if batch.last_t.map(|t| t < t_stop).unwrap_or(true) {
                     batch.push(t_stop, Complex64::new(last_state.1[0], last_state.1[1]));
@@ -545,6 +582,43 @@ impl ReducedModel {
             samples: batch.emitted,
         })
     }
+}
+
+/// The status of a sweep whose integration stopped at `t_stop` (excitation
+/// frequency `omega_rad_s`, modal amplitude `a_stop` there); an error of the
+/// model other than leaving the table's range is returned as it is.
+pub(crate) fn stop_status(
+    stop: Stop<ReducedError>,
+    t_stop: f64,
+    omega_rad_s: f64,
+    a_stop: f64,
+) -> Result<SweepStatus, ReducedError> {
+    let (t_s, w) = (t_stop, omega_rad_s);
+    Ok(match stop {
+        Stop::Rhs {
+            error: ReducedError::Table(TableError::AboveRange { max, .. }),
+            ..
+        } => SweepStatus::LeftTableRange {
+            t_s,
+            omega_rad_s: w,
+            a: a_stop,
+            a_max: max,
+        },
+        Stop::Rhs { error, .. } | Stop::Observer { error, .. } => return Err(error),
+        Stop::StepTooSmall { h, .. } => SweepStatus::StepSizeTooSmall {
+            t_s,
+            omega_rad_s: w,
+            h_s: h,
+        },
+        Stop::MaxSteps { .. } => SweepStatus::MaxSteps {
+            t_s,
+            omega_rad_s: w,
+        },
+        Stop::NotFinite { .. } => SweepStatus::NotFinite {
+            t_s,
+            omega_rad_s: w,
+        },
+    })
 }
 
 /// Output samples a sweep computes and hands to its [`SweepSink`] at a time.

@@ -1,6 +1,7 @@
 //! nlmode's integration tests, one test binary (one link of the dependency
 //! graph instead of one per file): `cargo test -p nlmode --test it [module::]`.
 mod attachment;
+mod dynamic;
 mod frf;
 mod hb;
 mod matrices;

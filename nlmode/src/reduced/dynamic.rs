@@ -1,0 +1,630 @@
+//! Attachment states in the slow flow (`[slowflow] attachments = "dynamic"`):
+//! the modulation equations extended by the attachments' states, as the
+//! paper suggests where the quasi-steady assumption fails (Section 3, "one
+//! has to apply Complexification-Averaging to the attachment model, too").
+//!
+//! # Derivation
+//!
+//! In the primal coordinates of `eq:primal` (`x = L1 q + L2 x_r`) with the
+//! interface displacements `u_G = E^T q` and `P = pinv(B2)` (so `L1 = P E^T`,
+//! [`crate::attachment`]), `eq:component2` projected on `L2` and the force
+//! it exerts on the structure read (`eq:assemblyT1`-`eq:assemblyT2`)
+//!
+//! ```text
+//! L2^T sum_k A_k d^k/dt^k (P u_G + L2 x_r) = L2^T f_ex2,
+//! F_G = -P^T sum_k A_k d^k/dt^k (P u_G + L2 x_r) + P^T f_ex2,        c1 = E F_G.
+//! ```
+//!
+//! Complexification as for the structure (`eq:ansatz`):
+//! `u_G = Re(U e^{i Phi})`, `x_r = Re(X e^{i Phi})`, `f_ex2 = Re(B_u u_hat e^{i Phi})`
+//! with `Phi' = Omega` and `U`, `X` slowly varying. Then
+//! `d^k/dt^k (X e^{i Phi}) = e^{i Phi} (i Omega + d/dt)^k X` (terms in `Omega'`
+//! dropped, as in `eq:NM`), and to first order in the slow derivatives
+//!
+//! ```text
+//! sum_k A_k (i Omega + d/dt)^k X = Z(Omega) X + Z_s(Omega) X' + O(X''),
+//! Z_s = dZ/d(i Omega) = sum_k k (i Omega)^(k-1) A_k,
+//! ```
+//!
+//! exact for a first-order attachment (`k <= 1`, e.g. an electrical circuit).
+//! Averaging (the fundamental harmonic) gives, with the blocks of
+//! [`crate::attachment::AveragedBlocks`] (`Z_mn` of `eq:assemblyF1`,
+//! `B22 = L2^T Z_s L2`):
+//!
+//! ```text
+//! (1)  B22 X' + Z22 X = B_u2 u_hat - Z_2G U,
+//! (2)  F_G = -(Z_GG U + Z_G2 X) + B_uG u_hat,
+//! (3)  2 i Omega A' + (omega^2 - Omega^2 + 2 i D omega Omega) A
+//!          = phi^H f_ex1 + sum_att phi_G^H F_G,          U = phi_G A,
+//! ```
+//!
+//! (3) being `eq:NMpre` with the coupling force (2). The terms with the rate
+//! of the interface displacement (`Z_s` acting on `U'`) and `Z_G2,s X'` in
+//! (2) are dropped: they are of the order of what `eq:NM` itself neglects on
+//! the structure side (the modulation of the attachment's force through its
+//! frequency dependence, `dZ_A/dOmega A'`); keeping them would change
+//! `eq:NM` even for an attachment without internal states (a rigid mass
+//! would add `m |phi_G|^2` to the unit modal mass of the `A'` term). The
+//! model adds exactly the attachment's own internal dynamics, `B22 X'`.
+//!
+//! **Reduction to `eq:NM`.** At `X' = 0`, (1) gives
+//! `X = Z22^{-1} (B_u2 u_hat - Z_2G U)`; in (2) that is `eq:fc1`
+//! (`F_G = -Z_G U + T_G u_hat`) and (3) becomes `eq:NM`: the steady states
+//! of the two models are the same. In a transient, the homogeneous part of
+//! (1), `X' = -B22^{-1} Z22 X`, has the eigenvalues `mu_j`; since
+//! `Z(Omega - i mu) ~ Z + mu Z_s`, `mu_j + i Omega` approximates a
+//! fixed-interface pole `s_j` of the attachment near the band (exactly for a
+//! first-order attachment). For a pole far from the band `X` follows its
+//! quasi-steady value with a lag `~ X_qs' / |mu_j|`; through a coupling
+//! stiffness that grows with the pole (a stiff spring to a dashpot or a
+//! mass) the lag's force tends to a finite rate term (`-c U'` of the
+//! dashpot, `-2 i Omega m U'` of the mass), of the order `eq:NM` itself
+//! neglects (`dZ_A/dOmega A'`, relative `~ 1/(Omega T_mod)`). So a far pole
+//! gives `eq:NM` plus such a term (tested: the difference to that model falls
+//! like `1/|mu|`); keeping it quasi-steady (below) drops it consistently with
+//! `eq:NM`, and a model whose attachment poles all lie far from the band *is*
+//! `eq:NM` (bit for bit: the sweep runs the quasi-steady kernel).
+//!
+//! **Fast and slow parts.** In the basis `X = T y` of the eigenvectors of
+//! `B22^{-1} Z22` at the band centre `Omega_c`, a component whose pole
+//! `mu_j + i Omega_c` lies farther than `fast_pole_factor * Omega_max` from the
+//! swept band `i [Omega_min, Omega_max]` is kept in quasi-steady state
+//! (`y_f' = 0`, eliminated exactly by a Schur complement): its lag is of the
+//! order of the slow flow's own averaging error, and carrying it would make
+//! the integration stiff (the paper shaker's electrical pole `R/L = 2.1e4
+//! 1/s`). Only the slow components `y_s` are states. With
+//! `N = T^{-1} B22^{-1} Z22 T`, `K = T^{-1} B22^{-1} Z_2G`,
+//! `h = T^{-1} B22^{-1} B_u2 u_hat`, `W = Z_G2 T`, and `X_* = N_ff^{-1} [N_fs, K_f, h_f]`:
+//!
+//! ```text
+//! y_s' = -P1 y_s - P2 U + p,     P1 = N_ss - N_sf X_N,  P2 = K_s - N_sf X_K,  p = h_s - N_sf X_h,
+//! F_G  = -Q1 U - Q2 y_s + q,     Q1 = Z_GG - W_f X_K,   Q2 = W_s - W_f X_N,   q = B_uG u_hat - W_f X_h.
+//! ```
+//!
+//! With no slow component, `Q1 = Z_G` and `q = T_G u_hat` (`eq:fc1`): a model
+//! whose attachments have no pole near the band is `eq:NM` exactly, and the
+//! sweep then runs the quasi-steady kernel itself. The blocks are functions
+//! of `Omega` only and are tabulated along the sweep like `Z_G`
+//! ([`super::sweep`], cubic Hermite to `channel_tol`).
+//!
+//! # Scope
+//!
+//! Every attachment given by its coefficient matrices
+//! ([`crate::attachment::LinearAttachment`]) with a regular `B22` in the band
+//! (its internal states all have dynamics: a state without a derivative, a
+//! purely algebraic one, is not covered). An attachment known only by its
+//! frequency response has no states to carry: refused with a message.
+//! Starting from rest, the attachment states start at zero (the exciter
+//! switched on at `t = 0`), as in the full-order `reference`.
+use super::output::OutputStates;
+use super::sweep::{stop_status, OmegaCache};
+use super::{ReducedError, ReducedModel, SlowFlowOptions, SweepRun, SweepSink, SweepStatus};
+use super::{MAX_PHI, SWEEP_BATCH};
+use crate::attachment::{AveragedBlocks, Condenser};
+use crate::dopri::{integrate, Controller, ErrorScale, Tolerances};
+use crate::excitation::LinearSweep;
+use nalgebra::{DMatrix, DVector};
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// How the attachments enter the slow flow.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AttachmentStates {
+    /// In quasi-steady state: condensed into `Z_A` and the imposed modal force
+    /// (`eq:fc1`, `eq:NM`; the paper's model).
+    #[default]
+    QuasiSteady,
+    /// Their internal states carried as slowly varying complex amplitudes
+    /// beside `A` (module docs).
+    Dynamic,
+}
+
+/// Default of [`SlowFlowOptions::fast_pole_factor`]: an attachment mode whose
+/// pole lies farther than the band's top frequency from the band is kept in
+/// quasi-steady state.
+pub const FAST_POLE_FACTOR: f64 = 1.0;
+
+/// Condition number of the basis `T` above which the eigenvectors are not
+/// used and every internal state of the attachment is carried as it is.
+const BASIS_CONDITION_LIMIT: f64 = 1e8;
+
+type CMat = DMatrix<Complex64>;
+
+/// An attachment of a [`ReducedModel`] whose slow internal states are carried.
+#[derive(Debug, Clone)]
+pub(crate) struct StatePort {
+    /// Index in [`ReducedModel::ports`].
+    port: usize,
+    condenser: Condenser,
+    /// `x_r = T y`, slow components first.
+    t: CMat,
+    t_inv: CMat,
+    /// Slow (carried) components.
+    ns: usize,
+    ncon: usize,
+    /// Offset of the port's interface shapes among the gathered shapes.
+    phi_offset: usize,
+    /// Offset of the port's slow states among the complex states after `A`.
+    state_offset: usize,
+    /// Offset of the port's extra channels (`P1`, `P2`, `p`, `Q2`) after the
+    /// model's `nch` standard channels.
+    extra_offset: usize,
+}
+
+impl StatePort {
+    /// The attachments of `model` that have internal states with a pole within
+    /// `factor * hi` of the band `i [lo, hi]` (module docs); empty if none.
+    pub(crate) fn select(
+        model: &ReducedModel,
+        lo: f64,
+        hi: f64,
+        factor: f64,
+    ) -> Result<Vec<StatePort>, ReducedError> {
+        let mut out = Vec::new();
+        let (mut phi_offset, mut state_offset, mut extra_offset) = (0, 0, model.nch);
+        let wc = 0.5 * (lo + hi);
+        for (index, port) in model.ports.iter().enumerate() {
+            let ncon = port.ncon();
+            let name = port.model.name().to_string();
+            let refuse = |why: String| ReducedError::AttachmentStates {
+                attachment: name.clone(),
+                why,
+            };
+            let Some(condenser) = port.model.condenser() else {
+                return Err(refuse(
+                    "it is given as a frequency response only, without a state model; use attachments = \"quasi-steady\"".into(),
+                ));
+            };
+            let nr = condenser.internal_states();
+            phi_offset += ncon;
+            if nr == 0 {
+                continue;
+            }
+            let b = condenser.averaged_blocks(wc);
+            let binv = b.b_22.clone().try_inverse().ok_or_else(|| {
+                refuse(format!(
+                    "B22 = dZ22/d(i Omega) is singular at Omega = {wc} rad/s: an internal state has no dynamics of its own (algebraic), which the averaged model does not cover"
+                ))
+            })?;
+            let n0 = &binv * &b.z_22;
+            let (mu, v) = complex_eigen(&n0).ok_or_else(|| {
+                refuse(format!(
+                    "the eigenvalues of B22^-1 Z22 at Omega = {wc} rad/s did not converge"
+                ))
+            })?;
+            // distance of the pole mu + i Omega_c from the band i [lo, hi]
+            let dist = |m: &Complex64| {
+                let s = m + Complex64::new(0.0, wc);
+                let im = s.im.abs().clamp(lo, hi);
+                Complex64::new(s.re, s.im.abs() - im).norm()
+            };
+            let mut order: Vec<usize> = (0..nr).collect();
+            order.sort_by(|&i, &j| dist(&mu[i]).total_cmp(&dist(&mu[j])));
+            let ns = order
+                .iter()
+                .filter(|&&j| dist(&mu[j]) < factor * hi)
+                .count();
+            if ns == 0 {
+                continue;
+            }
+            let t = CMat::from_fn(nr, nr, |i, k| v[(i, order[k])]);
+            let (t, t_inv, ns) = match t.clone().try_inverse() {
+                Some(ti) if t.norm() * ti.norm() < BASIS_CONDITION_LIMIT => (t, ti, ns),
+                // defective or nearly so: carry every internal state as it is
+                _ => (CMat::identity(nr, nr), CMat::identity(nr, nr), nr),
+            };
+            let sp = StatePort {
+                port: index,
+                condenser: condenser.clone(),
+                t,
+                t_inv,
+                ns,
+                ncon,
+                phi_offset: phi_offset - ncon,
+                state_offset,
+                extra_offset,
+            };
+            state_offset += ns;
+            extra_offset += sp.nextra();
+            out.push(sp);
+        }
+        Ok(out)
+    }
+
+    /// Number of extra channels: `P1` (`ns x ns`), `P2` (`ns x ncon`), `p`
+    /// (`ns`), `Q2` (`ncon x ns`), each row major.
+    fn nextra(&self) -> usize {
+        let (s, c) = (self.ns, self.ncon);
+        s * s + s * c + s + c * s
+    }
+
+    /// `Q1`, `q` into the port's standard channels (in place of `Z_G`,
+    /// `T_G u_hat`) and `P1`, `P2`, `p`, `Q2` into the extra channels, at
+    /// `Omega` for the input amplitudes `u_hat` (module docs).
+    fn fill(
+        &self,
+        model: &ReducedModel,
+        omega: f64,
+        amplitude: f64,
+        out: &mut [Complex64],
+    ) -> Result<(), ReducedError> {
+        let port = &model.ports[self.port];
+        let b: AveragedBlocks = self.condenser.averaged_blocks(omega);
+        let singular = |what: &str| ReducedError::AttachmentStates {
+            attachment: port.model.name().into(),
+            why: format!("{what} is singular at Omega = {omega} rad/s"),
+        };
+        let binv = b
+            .b_22
+            .clone()
+            .try_inverse()
+            .ok_or_else(|| singular("B22 = dZ22/d(i Omega)"))?;
+        let u = DVector::from_iterator(port.input.len(), port.input.iter().map(|u| u * amplitude));
+        let g_q = &b.bu_g * &u;
+        let left = &self.t_inv * &binv;
+        let n = &left * &b.z_22 * &self.t;
+        let k = &left * &b.z_2g;
+        let h = &left * (&b.bu_2 * &u);
+        let w = &b.z_g2 * &self.t;
+        let (nr, s, c) = (n.nrows(), self.ns, self.ncon);
+        let f = nr - s;
+        let (mut p1, mut p2, mut p) = (
+            n.view((0, 0), (s, s)).into_owned(),
+            k.rows(0, s).into_owned(),
+            h.rows(0, s).into_owned(),
+        );
+        let (mut q1, mut q2, mut q) = (b.z_gg.clone(), w.columns(0, s).into_owned(), g_q);
+        if f > 0 {
+            let nff_inv = n
+                .view((s, s), (f, f))
+                .into_owned()
+                .try_inverse()
+                .ok_or_else(|| singular("the fast block of B22^-1 Z22"))?;
+            let x_n = &nff_inv * n.view((s, 0), (f, s));
+            let x_k = &nff_inv * k.rows(s, f);
+            let x_h = &nff_inv * h.rows(s, f);
+            let n_sf = n.view((0, s), (s, f));
+            let w_f = w.columns(s, f);
+            p1 -= &n_sf * &x_n;
+            p2 -= &n_sf * &x_k;
+            p -= &n_sf * &x_h;
+            q1 -= &w_f * &x_k;
+            q2 -= &w_f * &x_n;
+            q -= &w_f * &x_h;
+        }
+        let o = port.offset;
+        for r in 0..c {
+            for j in 0..c {
+                out[o + r * c + j] = q1[(r, j)];
+            }
+            out[o + c * c + r] = q[r];
+        }
+        let mut e = self.extra_offset;
+        let mut put = |rows: usize, cols: usize, m: &[Complex64]| {
+            // nalgebra's storage is column major: written row major here
+            for r in 0..rows {
+                for j in 0..cols {
+                    out[e] = m[r + j * rows];
+                    e += 1;
+                }
+            }
+        };
+        put(s, s, p1.as_slice());
+        put(s, c, p2.as_slice());
+        put(s, 1, p.as_slice());
+        put(c, s, q2.as_slice());
+        Ok(())
+    }
+
+    /// The carried states' rates `y_s' = -P1 y_s - P2 U + p` into `dy`, and the
+    /// port's force channel `q` replaced by `q - Q2 y_s` (so that the standard
+    /// channels give `F_G = -Q1 U + (q - Q2 y_s)`), for the modal amplitude
+    /// `amp` and the gathered shapes `phi`.
+    #[inline]
+    fn apply(
+        &self,
+        model: &ReducedModel,
+        ch: &mut [Complex64],
+        phi: &[Complex64],
+        amp: Complex64,
+        y: &[Complex64],
+        dy: Option<&mut [Complex64]>,
+    ) {
+        let (s, c) = (self.ns, self.ncon);
+        let e = self.extra_offset;
+        let (p1, rest) = ch[e..].split_at(s * s);
+        let (p2, rest) = rest.split_at(s * c);
+        let (p, rest) = rest.split_at(s);
+        let q2 = &rest[..c * s];
+        let u = &phi[self.phi_offset..self.phi_offset + c];
+        if let Some(dy) = dy {
+            for i in 0..s {
+                let mut r = p[i];
+                for j in 0..s {
+                    r -= p1[i * s + j] * y[j];
+                }
+                for j in 0..c {
+                    r -= p2[i * c + j] * u[j] * amp;
+                }
+                dy[i] = r;
+            }
+        }
+        let mut corr = [Complex64::new(0.0, 0.0); MAX_PHI];
+        for (r, cr) in corr.iter_mut().enumerate().take(c) {
+            for j in 0..s {
+                *cr += q2[r * s + j] * y[j];
+            }
+        }
+        let o = model.ports[self.port].offset + c * c;
+        for (r, cr) in corr.iter().enumerate().take(c) {
+            ch[o + r] -= cr;
+        }
+    }
+}
+
+/// Eigenvalues and right eigenvectors (columns) of a small complex matrix
+/// (faer's complex EVD).
+fn complex_eigen(m: &CMat) -> Option<(Vec<Complex64>, CMat)> {
+    let n = m.nrows();
+    let a = faer::Mat::<Complex64>::from_fn(n, n, |i, j| m[(i, j)]);
+    let evd = a.eigen().ok()?;
+    let sv = evd.S().column_vector();
+    let s = (0..n).map(|i| sv[i]).collect();
+    let u = evd.U();
+    Some((s, CMat::from_fn(n, n, |i, j| u[(i, j)])))
+}
+
+/// The complex states after `A` in the real state vector (`[Re A, Im A, Re y, Im y, ...]`).
+fn complex_states(y: &[f64], out: &mut Vec<Complex64>) {
+    out.clear();
+    out.extend(y[2..].chunks_exact(2).map(|c| Complex64::new(c[0], c[1])));
+}
+
+/// The sweep of [`ReducedModel::simulate_sweep_into`] with the slow states
+/// of `ports` carried (module docs): same output, same statuses.
+pub(crate) fn simulate(
+    model: &ReducedModel,
+    ports: &[StatePort],
+    sweep: &LinearSweep,
+    opts: &SlowFlowOptions,
+    a0: Complex64,
+    sink: &mut dyn SweepSink,
+) -> Result<SweepRun, ReducedError> {
+    let (lo, hi) = {
+        let (s, e) = (sweep.omega_start_rad_s, sweep.omega_end_rad_s);
+        (s.min(e), s.max(e))
+    };
+    let amplitude = sweep.amplitude;
+    let nch = model.nch;
+    let ntot = nch + ports.iter().map(StatePort::nextra).sum::<usize>();
+    let ns: usize = ports.iter().map(|p| p.ns).sum();
+    let fill = |w: f64, v: &mut [Complex64]| -> Result<(), ReducedError> {
+        model.fill_channels(w, amplitude, &mut v[..nch])?;
+        for p in ports {
+            p.fill(model, w, amplitude, v)?;
+        }
+        Ok(())
+    };
+    // the blocks are rational in Omega: central differences (1e-5 Omega) for
+    // the Hermite slopes; the tabulation checks the values at every midpoint
+    let fill_d = |w: f64, v: &mut [Complex64], d: &mut [Complex64]| -> Result<(), ReducedError> {
+        let dw = 1e-5 * w;
+        fill(w, v)?;
+        let mut vm = vec![Complex64::new(0.0, 0.0); ntot];
+        fill(w + dw, d)?;
+        fill(w - dw, &mut vm)?;
+        for (d, m) in d.iter_mut().zip(&vm) {
+            *d = (*d - m) / (2.0 * dw);
+        }
+        Ok(())
+    };
+    let cache = OmegaCache::tabulate(ntot, lo, hi, opts.channel_tol, fill, fill_d)?;
+    let duration = sweep.duration_s();
+    // absolute tolerances: A against the table's largest amplitude, each
+    // carried state against its quasi-steady size over the band
+    let atol_a = opts.atol_rel * model.a_scale;
+    let mut scale = vec![0.0f64; ns];
+    {
+        let mut ch = vec![Complex64::new(0.0, 0.0); ntot];
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        model.gather(model.a_scale, &mut phi)?;
+        for w in [lo, 0.5 * (lo + hi), hi] {
+            cache.eval(w, &mut ch);
+            for amp in [0.0, model.a_scale] {
+                for p in ports {
+                    let ys = p.quasi_steady(&ch, &phi, Complex64::new(amp, 0.0))?;
+                    for (j, y) in ys.iter().enumerate() {
+                        let k = p.state_offset + j;
+                        scale[k] = scale[k].max(y.norm());
+                    }
+                }
+            }
+        }
+    }
+    let mut atol = DVector::from_element(2 + 2 * ns, atol_a);
+    for (k, s) in scale.iter().enumerate() {
+        let a = opts.atol_rel * if *s > 0.0 { *s } else { 1.0 };
+        atol[2 + 2 * k] = a;
+        atol[3 + 2 * k] = a;
+    }
+    let tol = Tolerances {
+        rtol: opts.rtol,
+        atol,
+        controller: Controller::Pi,
+        scale: ErrorScale::Local,
+        h_max: opts.max_step_fraction * duration,
+        h_min: 1e-12 * duration,
+        max_steps: 10_000_000,
+        h0: None,
+    };
+    let mut ch = vec![Complex64::new(0.0, 0.0); ntot];
+    let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+    let mut ys: Vec<Complex64> = Vec::with_capacity(ns);
+    let mut dys = vec![Complex64::new(0.0, 0.0); ns];
+    let rhs = |t: f64, y: &DVector<f64>, dy: &mut DVector<f64>| -> Result<(), ReducedError> {
+        let w = sweep.omega_rad_s(t);
+        cache.eval(w, &mut ch);
+        let fi = model.imposed_at(w)?;
+        let amp = Complex64::new(y[0], y[1]);
+        let a = (y[0] * y[0] + y[1] * y[1]).sqrt();
+        let props = model.gather(a, &mut phi)?;
+        complex_states(y.as_slice(), &mut ys);
+        for p in ports {
+            let r = p.state_offset..p.state_offset + p.ns;
+            p.apply(model, &mut ch, &phi, amp, &ys[r.clone()], Some(&mut dys[r]));
+        }
+        let (k, fm, _) = model.terms_with(&props, &phi, w, &ch[..nch], fi);
+        let z = fm - k * amp;
+        let s = 0.5 / w;
+        dy[0] = z.im * s;
+        dy[1] = -z.re * s;
+        for (j, d) in dys.iter().enumerate() {
+            dy[2 + 2 * j] = d.re;
+            dy[3 + 2 * j] = d.im;
+        }
+        Ok(())
+    };
+    let n = opts.output_samples;
+    let dt = duration / (n - 1) as f64;
+    let sample_t = |j: usize| if j + 1 == n { duration } else { j as f64 * dt };
+    let mut y0 = DVector::zeros(2 + 2 * ns);
+    y0[0] = a0.re;
+    y0[1] = a0.im;
+    let mut batch = StateBatch {
+        ts: Vec::with_capacity(SWEEP_BATCH),
+        states: Vec::with_capacity(SWEEP_BATCH),
+        emitted: 0,
+    };
+    let mut next = 0usize;
+    let mut last_state = (0.0, y0.clone());
+    let mut yt = y0.clone();
+    let (stats, stop) = integrate(rhs, 0.0, y0.clone(), duration, &tol, |d, _| {
+        let t1 = d.t0 + d.h;
+        while next < n && sample_t(next) <= t1 * (1.0 + 1e-14) {
+            let t = sample_t(next).max(d.t0);
+            d.eval_into(t, &mut yt);
+            batch.ts.push(t);
+            batch.states.push(yt.clone());
+            next += 1;
+            if batch.ts.len() == SWEEP_BATCH {
+                batch.flush(model, ports, sweep, &cache, sink)?;
+            }
+        }
+        d.eval_into(t1, &mut last_state.1);
+        last_state.0 = t1;
+        Ok(())
+    });
+    if batch.emitted == 0 && batch.ts.is_empty() {
+        batch.ts.push(0.0);
+        batch.states.push(y0);
+    }
+    let status = match stop {
+        None => SweepStatus::Completed,
+        Some(stop) => {
+            let (t_stop, y) = &last_state;
+            let a_stop = Complex64::new(y[0], y[1]).norm();
+            let status = stop_status(stop, *t_stop, sweep.omega_rad_s(*t_stop), a_stop)?;
+            if batch.ts.last().map(|t| t < t_stop).unwrap_or(true) {
+                batch.ts.push(*t_stop);
+                batch.states.push(y.clone());
+            }
+            status
+        }
+    };
+    batch.flush(model, ports, sweep, &cache, sink)?;
+    Ok(SweepRun {
+        status,
+        stats,
+        channel_nodes: cache.len(),
+        samples: batch.emitted,
+    })
+}
+
+impl StatePort {
+    /// The quasi-steady value of the carried states, `P1^{-1} (p - P2 U)`, at
+    /// the channels `ch` and the modal amplitude `amp` (tolerance scales).
+    fn quasi_steady(
+        &self,
+        ch: &[Complex64],
+        phi: &[Complex64],
+        amp: Complex64,
+    ) -> Result<Vec<Complex64>, ReducedError> {
+        let (s, c) = (self.ns, self.ncon);
+        let e = self.extra_offset;
+        let p1 = CMat::from_row_slice(s, s, &ch[e..e + s * s]);
+        let p2 = CMat::from_row_slice(s, c, &ch[e + s * s..e + s * s + s * c]);
+        let p = DVector::from_column_slice(&ch[e + s * s + s * c..e + s * s + s * c + s]);
+        let u = DVector::from_iterator(
+            c,
+            phi[self.phi_offset..self.phi_offset + c]
+                .iter()
+                .map(|f| f * amp),
+        );
+        let y = p1
+            .lu()
+            .solve(&(p - p2 * u))
+            .unwrap_or_else(|| DVector::zeros(s));
+        Ok(y.iter().copied().collect())
+    }
+}
+
+/// The sampled states not yet handed to the sink.
+struct StateBatch {
+    ts: Vec<f64>,
+    states: Vec<DVector<f64>>,
+    emitted: usize,
+}
+
+impl StateBatch {
+    /// The output quantities of the pending states (the standard channels
+    /// with each port's force channel including its carried states), to the
+    /// sink.
+    fn flush(
+        &mut self,
+        model: &ReducedModel,
+        ports: &[StatePort],
+        sweep: &LinearSweep,
+        cache: &OmegaCache,
+        sink: &mut dyn SweepSink,
+    ) -> Result<(), ReducedError> {
+        if self.ts.is_empty() {
+            return Ok(());
+        }
+        let nch = model.nch;
+        let w: Vec<f64> = self.ts.iter().map(|&t| sweep.omega_rad_s(t)).collect();
+        let mut channels = Vec::with_capacity(nch * w.len());
+        let mut amps = Vec::with_capacity(w.len());
+        let mut ch = vec![Complex64::new(0.0, 0.0); cache.nch()];
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        let mut ys = Vec::new();
+        for (&wi, y) in w.iter().zip(&self.states) {
+            cache.eval(wi, &mut ch);
+            let amp = Complex64::new(y[0], y[1]);
+            model.gather(amp.norm(), &mut phi)?;
+            complex_states(y.as_slice(), &mut ys);
+            for p in ports {
+                let r = p.state_offset..p.state_offset + p.ns;
+                p.apply(model, &mut ch, &phi, amp, &ys[r], None);
+            }
+            channels.extend_from_slice(&ch[..nch]);
+            amps.push(amp);
+        }
+        let imposed_n = model.drive_imposed_n(&w)?;
+        let samples = model.output_fields(
+            &OutputStates {
+                t_s: &self.ts,
+                omega_rad_s: &w,
+                amplitude: &amps,
+                channels: &channels,
+                imposed_n: &imposed_n,
+            },
+            sink.fields(),
+        )?;
+        sink.samples(&samples)?;
+        self.emitted += self.ts.len();
+        self.ts.clear();
+        self.states.clear();
+        Ok(())
+    }
+}
