@@ -4,6 +4,10 @@
 # its own Python venv in .venv and pins its versions, see tests/requirements.txt).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# A from-scratch build gains nothing from incremental compilation's caches
+# (only their cost): off for this run and the harness's builds (inherited),
+# which then also use rustc's default of 16 codegen units per crate.
+export CARGO_INCREMENTAL="${CARGO_INCREMENTAL:-0}"
 echo "== cargo test (workspace; the test profile optimises the numerics)"
 cargo test --workspace 2>&1
 echo "== cargo test done after ${SECONDS} s"

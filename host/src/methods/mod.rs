@@ -30,7 +30,7 @@ pub mod test_plan;
 
 pub use self::cosim::cosim;
 pub use self::hb::{hb_response, hb_result, hb_table, single_mode_seeds};
-pub use self::nma::{nma_table, Nma};
+pub use self::nma::{fold_warning, nma_table, Nma};
 pub use common::{
     add_slowflow_exciter_forces, attachment_output, exciter_slow_flow, frf_omegas,
     modal_harvested_power, reduced_model, slow_flow, with_attachments,

@@ -216,6 +216,7 @@ pub fn nma_table(
     if let Some(acc) = &table.accuracy {
         warnings.extend(acc.warnings());
     }
+    warnings.extend(fold_warning(&res, &table));
     let wall = t0.elapsed().as_secs_f64();
     let fold = match table.truncated_at_fold {
         Some(a) => format!(
@@ -257,5 +258,31 @@ pub fn nma_table(
             warnings,
         },
         Some(res),
+    ))
+}
+
+/// The warning for a table that ends at a fold of the amplitude that is not
+/// an internal resonance (e.g. a friction chain whose mode shape changes
+/// through slip): past it `a` is not single-valued, so no single-mode table
+/// can go on, while the backbone (`*_branch.csv`) continues. A fold at an
+/// internal resonance is described in the note's loop list instead.
+pub fn fold_warning(
+    res: &nlmode::nma::NmaResult,
+    table: &nlmode::nma::ModalTable,
+) -> Option<String> {
+    let a_fold = table.truncated_at_fold?;
+    let fold = res.folds.iter().find(|f| f.amplitude == a_fold)?;
+    if fold.internal_resonance.is_some() {
+        return None;
+    }
+    let a_max = res.branch.iter().map(|b| b.amplitude).fold(0.0, f64::max);
+    let d_max = res
+        .branch
+        .iter()
+        .map(|b| b.damping_ratio)
+        .fold(0.0, f64::max);
+    Some(format!(
+        "modal table: ends at a fold of the modal amplitude at a = {a_fold:.4e} (omega = {:.2} rad/s; not an internal resonance): beyond it a is not single-valued, so the single-mode methods stop there; the backbone continues to a = {a_max:.4e} (damping ratio up to {d_max:.3}) in the *_branch.csv files; for responses past the fold use `hb` (the full model)",
+        fold.omega_rad_s
     ))
 }

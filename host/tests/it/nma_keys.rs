@@ -316,3 +316,60 @@ fn large_matrices_report_timings_and_respect_the_memory_limit() {
         "{so}"
     );
 }
+
+/// NLvib's friction-contact chain through full slip (nlmode's
+/// `nlvib_friction_contact_chain`): its backbone folds in `a` where mode 2
+/// enters the shape (not an internal resonance), so the table ends there and
+/// `host nma`/`host run` warn with the fold, the end of the backbone and the
+/// remedy; the paper beam's table, cut at its 1:3 internal resonance (listed
+/// in the note), gets no such warning.
+#[test]
+fn a_table_ending_at_a_genuine_fold_of_a_is_a_warning() {
+    use nlmode::nma::{
+        nonlinear_modal_analysis, problems::nlvib::nlvib_friction_contact_chain, AmplitudeRange,
+        NmaOptions, RefineOptions, TablePolicy,
+    };
+    use std::sync::Arc;
+    let model = nlvib_friction_contact_chain().unwrap();
+    let opts = NmaOptions {
+        harmonics: 7,
+        amplitude: AmplitudeRange::Modal {
+            log10_start: -2.0,
+            log10_end: 1.0,
+        },
+        ..Default::default()
+    };
+    let r = nonlinear_modal_analysis(&model, &opts).unwrap();
+    let basis = Arc::new(nlmode::nma::modal_basis::ModalBasis::new(&model, false).unwrap());
+    let t = r
+        .refined_table(
+            &model,
+            basis,
+            &opts,
+            TablePolicy::PrimaryBranch,
+            &RefineOptions::default(),
+        )
+        .unwrap();
+    let w = methods::fold_warning(&r, &t).expect("a warning");
+    eprintln!("{w}");
+    let a = t.truncated_at_fold.unwrap();
+    assert!(w.contains(&format!("{a:.4e}")) && w.contains("not an internal resonance"));
+    assert!(w.contains("hb"), "{w}");
+    let d: f64 = w
+        .split("damping ratio up to ")
+        .nth(1)
+        .and_then(|s| s.split(')').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(d > 0.3, "{w}");
+    // the paper beam: its table ends at the 1:3 loop, no fold warning
+    let sc = host::scenario::Scenario::default_scenario();
+    let setup = Setup::new(&sc).unwrap();
+    let (n, _) = methods::nma_table(&setup, &sc, false).unwrap();
+    assert!(n.table.truncated_at_fold.is_some());
+    assert!(!n
+        .warnings
+        .iter()
+        .any(|w| w.contains("fold of the modal amplitude")));
+}
