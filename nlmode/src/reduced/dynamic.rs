@@ -96,8 +96,7 @@
 //! frequency response has no states to carry: refused with a message.
 //! Starting from rest, the attachment states start at zero (the exciter
 //! switched on at `t = 0`), as in the full-order `reference`.
-use super::output::OutputStates;
-use super::sweep::{stop_status, OmegaCache};
+use super::sweep::{emit, stop_status, OmegaCache};
 use super::{ReducedError, ReducedModel, SlowFlowOptions, SweepRun, SweepSink, SweepStatus};
 use super::{MAX_PHI, SWEEP_BATCH};
 use crate::attachment::{AveragedBlocks, Condenser};
@@ -610,18 +609,7 @@ impl StateBatch {
             channels.extend_from_slice(&ch[..nch]);
             amps.push(amp);
         }
-        let imposed_n = model.drive_imposed_n(&w)?;
-        let samples = model.output_fields(
-            &OutputStates {
-                t_s: &self.ts,
-                omega_rad_s: &w,
-                amplitude: &amps,
-                channels: &channels,
-                imposed_n: &imposed_n,
-            },
-            sink.fields(),
-        )?;
-        sink.samples(&samples)?;
+        emit(model, &self.ts, &w, &amps, &channels, sink)?;
         self.emitted += self.ts.len();
         self.ts.clear();
         self.states.clear();

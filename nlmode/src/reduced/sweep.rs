@@ -686,23 +686,36 @@ impl OutputBatch {
         }
         let w: Vec<f64> = self.ts.iter().map(|&t| sweep.omega_rad_s(t)).collect();
         let channels = cache.eval_rows(&w);
-        let imposed_n = model.drive_imposed_n(&w)?;
-        let samples = model.output_fields(
-            &OutputStates {
-                t_s: &self.ts,
-                omega_rad_s: &w,
-                amplitude: &self.amps,
-                channels: &channels,
-                imposed_n: &imposed_n,
-            },
-            sink.fields(),
-        )?;
-        sink.samples(&samples)?;
+        emit(model, &self.ts, &w, &self.amps, &channels, sink)?;
         self.emitted += self.ts.len();
         self.ts.clear();
         self.amps.clear();
         Ok(())
     }
+}
+
+/// The output samples at the states `amps` (times `ts`, frequencies `w`,
+/// the attachment channels of each sample in turn), to the sink.
+pub(crate) fn emit(
+    model: &ReducedModel,
+    ts: &[f64],
+    w: &[f64],
+    amps: &[Complex64],
+    channels: &[Complex64],
+    sink: &mut dyn SweepSink,
+) -> Result<(), ReducedError> {
+    let imposed_n = model.drive_imposed_n(w)?;
+    let samples = model.output_fields(
+        &OutputStates {
+            t_s: ts,
+            omega_rad_s: w,
+            amplitude: amps,
+            channels,
+            imposed_n: &imposed_n,
+        },
+        sink.fields(),
+    )?;
+    sink.samples(&samples)
 }
 
 #[cfg(test)]
