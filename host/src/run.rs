@@ -25,7 +25,7 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
 /// `host run`: every method the scenario lists that can run is run and its
 /// outputs written. A method that cannot run for want of something outside
 /// the scenario (today: `cosim` without the FMU libraries, see
-/// [`cosim::repo::locate_libraries`]) does not stop the others; it is
+/// [`crate::fmus::locate_libraries`]) does not stop the others; it is
 /// returned (and listed under `failed_methods` in summary.json), so that the
 /// command line can exit non-zero. `fmu_dir`: where the FMU libraries are
 /// (`--fmu-dir`).

@@ -20,7 +20,8 @@ pub fn cosim(
     table: Option<(&nlmode::nma::ModalTable, &std::path::Path)>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<MethodResult> {
-    use cosim::{run_cosim, Algorithm, CosimParams};
+    use crate::fmus::structure_shaker::{run_cosim, CosimParams};
+    use cosim::Algorithm;
     setup.check_cosim()?;
     let structure = sc
         .cosim
