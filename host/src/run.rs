@@ -121,9 +121,11 @@ fn print_summary(setup: &Setup, done: &[MethodResult], summary: &Summary) {
     for r in done {
         let s = &summary.methods[&r.name];
         let g = |v: Option<f64>| v.unwrap_or(f64::NAN);
+        // the linear methods' `force_drop` (null: not finite)
         let drop = s
-            .force_drop
-            .map(|d| format!("{:.1}", 100.0 * d))
+            .extra
+            .get("force_drop")
+            .map(|d| format!("{:.1}", 100.0 * d.as_f64().unwrap_or(f64::NAN)))
             .unwrap_or_default();
         println!(
             "{:<18} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",

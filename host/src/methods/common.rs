@@ -133,8 +133,8 @@ fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult)
             ("force_phase_rad".into(), col(|x| x.force_phase_rad())),
         ],
     });
-    r.summary.steps = Some(res.stats.accepted_steps as u64);
-    r.summary.status = Some(format!("{:?}", res.status));
+    r.summary.set("steps", res.stats.accepted_steps as u64);
+    r.summary.set("status", format!("{:?}", res.status));
     if !matches!(res.status, nlmode::reduced::SweepStatus::Completed) {
         r.summary
             .warnings

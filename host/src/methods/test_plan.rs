@@ -294,6 +294,12 @@ fn write_csv(path: &Path, targets: &[PlannedTarget], omega0: f64) -> Result<()> 
 /// `test-plan` (options: `[test_plan]`).
 pub struct TestPlan;
 
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const TestPlan: Self = Self::new("test-plan");
+}
+
 impl super::Method for TestPlan {
     fn id(&self) -> MethodId {
         MethodId::TestPlan

@@ -99,7 +99,7 @@ fn embedded_sweep_toml_is_the_rust_default() {
 
 #[test]
 fn method_names_are_the_serde_names() {
-    for m in Method::ALL {
+    for m in Method::all() {
         let v: Method = serde::Deserialize::deserialize(serde::de::value::StrDeserializer::<
             serde::de::value::Error,
         >::new(m.name()))
@@ -231,3 +231,4 @@ fn attachment_tables_parse_and_name_their_keys() {
         assert!(e.key.starts_with(key), "{text}: {e}");
     }
 }
+

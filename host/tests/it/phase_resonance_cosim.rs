@@ -50,7 +50,7 @@ fn compare(algorithm: &str, macro_step_s: f64, levels: [f64; 2], force_tol: [f64
     let t_cosim = t0.elapsed().as_secs_f64();
     eprintln!(
         "reference PLL {t_ref:.2} s, three-FMU loop {t_cosim:.2} s ({:?} macro steps)",
-        r.summary.steps
+        r.summary.get::<u64>("steps")
     );
     assert!(r.summary.warnings.is_empty(), "{:?}", r.summary.warnings);
     let csv = std::fs::read_to_string(dir.join("phase_resonance.csv")).unwrap();
