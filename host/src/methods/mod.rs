@@ -46,7 +46,7 @@ pub use crate::scenario::Method as MethodId;
 
 use crate::model::Setup;
 use crate::results::MethodResult;
-use crate::scenario::Scenario;
+use crate::scenario::{OptionsSection, Scenario};
 use anyhow::Result;
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -67,6 +67,15 @@ pub trait Method: Sync {
     /// run before it, the others are computed for it, unpublished.
     fn depends_on(&self, _sc: &Scenario) -> Vec<MethodId> {
         Vec::new()
+    }
+
+    /// Its own options section, if it has one that no other part of the
+    /// scenario reads: a table declared in the method's file
+    /// ([`OptionsSection::of`] a [`crate::scenario::SectionOptions`] type),
+    /// read with [`Scenario::section`]. (The sections of the methods that
+    /// predate this, `[hb]`, `[cosim]`, ..., are fields of [`Scenario`].)
+    fn options(&self) -> Option<OptionsSection> {
+        None
     }
 
     /// Whether it needs the nonlinear mode ([`RunContext::table`]).
