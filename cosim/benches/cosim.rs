@@ -15,7 +15,7 @@ use cosim::import::Fmu;
 use cosim::master::{run, Algorithm, Master, MasterOptions, ParamValue};
 use criterion::{criterion_group, Criterion};
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 const TEST_MD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
