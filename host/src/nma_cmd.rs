@@ -216,7 +216,9 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         branch_csv(out, label, &r, &setup.response_point)?;
         branches.push((label, r));
     }
-    let series: Vec<(String, Vec<f64>, Vec<f64>, Vec<f64>)> = branches
+    /// (label, tip amplitude, Omega / omega0, damping ratio [%]) of a branch.
+    type Series = (String, Vec<f64>, Vec<f64>, Vec<f64>);
+    let series: Vec<Series> = branches
         .iter()
         .map(|(label, r)| {
             let tip = r

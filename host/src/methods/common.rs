@@ -153,7 +153,7 @@ pub fn slow_flow(
     let t0 = Instant::now();
     let res = model
         .simulate_sweep(&setup.sweep, options)
-        .with_context(|| format!("{name}"))?;
+        .with_context(|| name.to_string())?;
     let wall = t0.elapsed().as_secs_f64();
     let mut r = slowflow_result(name, wall, &res);
     // harvested power of every piezo shunt from the quasi-steady attachment

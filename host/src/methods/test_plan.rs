@@ -156,7 +156,7 @@ fn open_loop(
     model: &nlmode::reduced::ReducedModel,
     voltage_v: f64,
 ) -> Result<(f64, f64, f64, String)> {
-    let mut sweep = setup.sweep.clone();
+    let mut sweep = setup.sweep;
     sweep.amplitude = voltage_v;
     let res = model
         .simulate_sweep(&sweep, &sc.slowflow.options(Method::Nlmode))

@@ -30,6 +30,7 @@ use host::model::Setup;
 use host::scenario::{PhaseResonanceModel, Scenario};
 use std::time::Instant;
 
+#[allow(clippy::needless_range_loop)] // the levels of two envelopes and their tolerances
 fn compare(algorithm: &str, macro_step_s: f64, levels: [f64; 2], force_tol: [f64; 2]) {
     let text = format!(
         "[run]\nmethods = [\"phase-resonance\"]\n[[exciter]]\nlocation = \"2l/3\"\n\
