@@ -53,9 +53,10 @@ produce() {
   done
 }
 
-# JSON without the timing keys, sorted, one canonical text.
+# JSON without the timing keys, the keys in the file's order (so the order is
+# compared too).
 normalize_json() {
-  jq -S --argjson keys "$TIMING_KEYS" \
+  jq --argjson keys "$TIMING_KEYS" \
     'walk(if type == "object" then with_entries(select(.key as $k | $keys | index($k) | not)) else . end)' "$1"
 }
 

@@ -6,7 +6,7 @@ master is timed against this Python master in the same run (reported, not
 asserted).
 
 The SSP export (issue 6 item 4): the host writes the coupled system as an SSP
-1.0 archive (`host/examples/cosim_ssp.rs`, `cosim::paper::export_ssp`); fmpy
+1.0 archive (`host/examples/cosim_ssp.rs`, `host::fmus::structure_shaker::export_ssp`); fmpy
 validates it against the SSP schema and runs it with `simulate_ssp`
 (fixed-step Jacobi, zero-order hold), which must reproduce the host's Jacobi
 master without input derivatives at the same macro step."""

@@ -4,12 +4,12 @@
 //!   rollback), connection ordering, recording ([`master::run`],
 //!   [`master::Recording`]) and the generic run ([`master::run_generic`]);
 //! * [`spec`]: the generic TOML co-simulation file (`docs/cosim.md`);
-//! * [`ssp`]: SSP 1.0 export of a coupled system;
-//! * [`paper`]: the paper's pairing, the structure and shaker FMUs swept
-//!   through resonance (the `cosim` method of `host run`);
-//! * [`repo`]: packaging this repository's two FMUs from their built
-//!   libraries (found beside the executable or in `--fmu-dir`) and the parts
-//!   embedded at compile time.
+//! * [`ssp`]: SSP 1.0 export of a coupled system.
+//!
+//! The generic master only: it knows no physics and no particular FMU. This
+//! repository's FMUs and their pairing (the `cosim` method of `host run`) are
+//! the host's (`host/src/fmus/`), written as a co-simulation file like any
+//! user's.
 //!
 //! FMUs are loaded by `fmi2-import` (re-exported as [`import`]); input files
 //! are read by the FMI core's bounded regular-file reader (re-exported as
@@ -19,8 +19,6 @@ pub use fmi2::file;
 pub use fmi2_import as import;
 
 pub mod master;
-pub mod paper;
-pub mod repo;
 pub mod spec;
 pub mod ssp;
 
@@ -28,4 +26,3 @@ pub mod ssp;
 mod tests;
 
 pub use master::{Algorithm, Master, MasterError, MasterOptions, ParamValue};
-pub use paper::{run_cosim, CosimError, CosimOutput, CosimParams};

@@ -277,6 +277,134 @@ fn split_endpoint(s: &str) -> Result<(&str, &str), MasterError> {
         .ok_or_else(|| MasterError::BadEndpoint(s.into()))
 }
 
+/// The connections resolved to links between the units' variables (checked:
+/// Real output to Real input of another unit, each input fed once), and
+/// `feeds[b]`: the units feeding an input of `b` that some output of `b`
+/// depends on directly.
+fn resolve_links(
+    us: &[Unit],
+    connections: &[(String, String)],
+) -> Result<(Vec<Link>, Vec<Vec<usize>>), MasterError> {
+    let names = || {
+        us.iter()
+            .map(|u| u.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let find = |ep: &str| -> Result<(usize, usize), MasterError> {
+        let (u, v) = split_endpoint(ep)?;
+        let ui = us
+            .iter()
+            .position(|x| x.name == u)
+            .ok_or_else(|| MasterError::UnknownUnit {
+                endpoint: ep.into(),
+                unit: u.into(),
+                available: names(),
+            })?;
+        let vi = us[ui]
+            .fmu
+            .md
+            .variables
+            .iter()
+            .position(|x| x.name == v)
+            .ok_or_else(|| {
+                MasterError::Fmu(FmuError::Schema(SchemaError::UnknownVariable {
+                    model: us[ui].fmu.md.model_name.clone(),
+                    name: v.into(),
+                }))
+            })?;
+        Ok((ui, vi))
+    };
+    let mut links = Vec::new();
+    let mut ins: Vec<(usize, usize)> = Vec::new();
+    // feeds[b] contains a if a -> b feeds an input that some output of b depends on directly
+    let mut feeds = vec![Vec::<usize>::new(); us.len()];
+    for (from, to) in connections {
+        let (su, sv) = find(from)?;
+        let (du, dv) = find(to)?;
+        let bad = |reason: String| MasterError::BadConnection {
+            from: from.clone(),
+            to: to.clone(),
+            reason,
+        };
+        let s = &us[su].fmu.md.variables[sv];
+        let d = &us[du].fmu.md.variables[dv];
+        if s.ty != VarType::Real || d.ty != VarType::Real {
+            return Err(bad("only Real variables can be connected".into()));
+        }
+        if s.causality != Causality::Output {
+            return Err(bad(format!(
+                "source has causality {:?}, expected output",
+                s.causality
+            )));
+        }
+        if d.causality != Causality::Input {
+            return Err(bad(format!(
+                "target has causality {:?}, expected input",
+                d.causality
+            )));
+        }
+        if su == du {
+            return Err(bad("a unit cannot feed itself".into()));
+        }
+        if ins.contains(&(du, dv)) {
+            return Err(MasterError::DoubleInput(to.clone()));
+        }
+        ins.push((du, dv));
+        let md = &us[du].fmu.md;
+        if md
+            .outputs
+            .iter()
+            .any(|o| md.output_depends_on(o.index - 1, dv))
+            && !feeds[du].contains(&su)
+        {
+            feeds[du].push(su);
+        }
+        links.push(Link {
+            src: su,
+            src_vr: s.value_reference,
+            dst: du,
+            dst_vr: d.value_reference,
+            interp: us[du].fmu.md.co_simulation.can_interpolate_inputs,
+            src_der: us[su].fmu.md.co_simulation.max_output_derivative_order >= 1,
+        });
+    }
+    Ok((links, feeds))
+}
+
+/// Exchange order: Kahn's topological sort on direct feedthrough (`feeds`
+/// of [`resolve_links`]), stable in the given unit order; units in an
+/// algebraic loop keep their order.
+fn exchange_order(feeds: &[Vec<usize>]) -> Vec<usize> {
+    let n = feeds.len();
+    let mut exchange = Vec::new();
+    let mut placed = vec![false; n];
+    while exchange.len() < n {
+        let next = (0..n)
+            .find(|&b| !placed[b] && feeds[b].iter().all(|&a| placed[a] || a == b))
+            .or_else(|| (0..n).find(|&b| !placed[b]))
+            .expect("an unplaced unit");
+        placed[next] = true;
+        exchange.push(next);
+    }
+    exchange
+}
+
+/// Each unit's outputs, output derivatives and inputs by link.
+fn ports_of(links: &[Link], n: usize) -> Vec<Ports> {
+    let mut ports: Vec<Ports> = (0..n).map(|_| Ports::default()).collect();
+    for (c, l) in links.iter().enumerate() {
+        ports[l.src].out_vrs.push(l.src_vr);
+        ports[l.src].out_links.push(c);
+        if l.src_der {
+            ports[l.src].der_vrs.push(l.src_vr);
+            ports[l.src].der_links.push(c);
+        }
+        ports[l.dst].in_links.push(c);
+    }
+    ports
+}
+
 impl Master {
     /// Instantiate every FMU (`units`: name and loaded FMU) and resolve the
     /// connections (`from`, `to` as `unit.variable`).
@@ -293,102 +421,8 @@ impl Master {
             let inst = fmu.instantiate(&name, true)?;
             us.push(Unit { name, inst, fmu });
         }
-        let names = || {
-            us.iter()
-                .map(|u| u.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        let find = |ep: &str| -> Result<(usize, usize), MasterError> {
-            let (u, v) = split_endpoint(ep)?;
-            let ui =
-                us.iter()
-                    .position(|x| x.name == u)
-                    .ok_or_else(|| MasterError::UnknownUnit {
-                        endpoint: ep.into(),
-                        unit: u.into(),
-                        available: names(),
-                    })?;
-            let vi = us[ui]
-                .fmu
-                .md
-                .variables
-                .iter()
-                .position(|x| x.name == v)
-                .ok_or_else(|| {
-                    MasterError::Fmu(FmuError::Schema(SchemaError::UnknownVariable {
-                        model: us[ui].fmu.md.model_name.clone(),
-                        name: v.into(),
-                    }))
-                })?;
-            Ok((ui, vi))
-        };
-        let mut links = Vec::new();
-        let mut ins: Vec<(usize, usize)> = Vec::new();
-        // feeds[b] contains a if a -> b feeds an input that some output of b depends on directly
-        let mut feeds = vec![Vec::<usize>::new(); us.len()];
-        for (from, to) in connections {
-            let (su, sv) = find(from)?;
-            let (du, dv) = find(to)?;
-            let bad = |reason: String| MasterError::BadConnection {
-                from: from.clone(),
-                to: to.clone(),
-                reason,
-            };
-            let s = &us[su].fmu.md.variables[sv];
-            let d = &us[du].fmu.md.variables[dv];
-            if s.ty != VarType::Real || d.ty != VarType::Real {
-                return Err(bad("only Real variables can be connected".into()));
-            }
-            if s.causality != Causality::Output {
-                return Err(bad(format!(
-                    "source has causality {:?}, expected output",
-                    s.causality
-                )));
-            }
-            if d.causality != Causality::Input {
-                return Err(bad(format!(
-                    "target has causality {:?}, expected input",
-                    d.causality
-                )));
-            }
-            if su == du {
-                return Err(bad("a unit cannot feed itself".into()));
-            }
-            if ins.contains(&(du, dv)) {
-                return Err(MasterError::DoubleInput(to.clone()));
-            }
-            ins.push((du, dv));
-            let md = &us[du].fmu.md;
-            if md
-                .outputs
-                .iter()
-                .any(|o| md.output_depends_on(o.index - 1, dv))
-                && !feeds[du].contains(&su)
-            {
-                feeds[du].push(su);
-            }
-            links.push(Link {
-                src: su,
-                src_vr: s.value_reference,
-                dst: du,
-                dst_vr: d.value_reference,
-                interp: us[du].fmu.md.co_simulation.can_interpolate_inputs,
-                src_der: us[su].fmu.md.co_simulation.max_output_derivative_order >= 1,
-            });
-        }
-        // Exchange order: Kahn's topological sort on direct feedthrough, stable
-        // in the given unit order; units in an algebraic loop keep their order.
-        let mut exchange = Vec::new();
-        let mut placed = vec![false; us.len()];
-        while exchange.len() < us.len() {
-            let next = (0..us.len())
-                .find(|&b| !placed[b] && feeds[b].iter().all(|&a| placed[a] || a == b))
-                .or_else(|| (0..us.len()).find(|&b| !placed[b]))
-                .expect("an unplaced unit");
-            placed[next] = true;
-            exchange.push(next);
-        }
+        let (links, feeds) = resolve_links(&us, connections)?;
+        let exchange = exchange_order(&feeds);
         let gs_order = match &opts.order {
             Some(o) => {
                 let mut s = o.clone();
@@ -401,16 +435,7 @@ impl Master {
             }
             None => exchange.clone(),
         };
-        let mut ports: Vec<Ports> = (0..us.len()).map(|_| Ports::default()).collect();
-        for (c, l) in links.iter().enumerate() {
-            ports[l.src].out_vrs.push(l.src_vr);
-            ports[l.src].out_links.push(c);
-            if l.src_der {
-                ports[l.src].der_vrs.push(l.src_vr);
-                ports[l.src].der_links.push(c);
-            }
-            ports[l.dst].in_links.push(c);
-        }
+        let ports = ports_of(&links, us.len());
         if opts.algorithm == Algorithm::Iterative {
             for u in &us {
                 if !u.fmu.md.co_simulation.can_get_and_set_fmu_state {

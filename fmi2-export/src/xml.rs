@@ -254,184 +254,223 @@ pub fn check_dependencies<M: CoSimModel>(
     configurations: usize,
     instantiate: impl Fn(usize) -> M,
 ) -> Vec<String> {
-    let log = crate::model::Logger::silent();
+    let c = DependencyCheck {
+        md,
+        configurations,
+        instantiate,
+        log: crate::model::Logger::silent(),
+        inputs: md
+            .variables
+            .iter()
+            .filter(|v| v.causality == "input")
+            .collect(),
+    };
     let mut errs = Vec::new();
-    let var = |i: usize| md.variables.iter().find(|v| v.index == i);
-    let initialize = |mut m: M, errs: &mut Vec<String>| -> Option<M> {
+    // each part stops the check (`Err(Stop)`) where the model cannot be
+    // initialized or set; its messages are in `errs`
+    let _ = c
+        .outputs(&mut errs)
+        .and_then(|_| c.derivatives(&mut errs))
+        .and_then(|_| c.initial_unknowns(&mut errs));
+    errs
+}
+
+/// The check of [`check_dependencies`] stops here (the reason is in its messages).
+struct Stop;
+
+/// What the parts of [`check_dependencies`] share.
+struct DependencyCheck<'a, F> {
+    md: &'a ModelDescription,
+    configurations: usize,
+    instantiate: F,
+    log: crate::model::Logger,
+    inputs: Vec<&'a fmi2::schema::ScalarVariable>,
+}
+
+impl<'a, M: CoSimModel, F: Fn(usize) -> M> DependencyCheck<'a, F> {
+    fn initialize(&self, mut m: M, errs: &mut Vec<String>) -> Result<M, Stop> {
         let r = m
             .setup_experiment(0.0, None)
-            .and_then(|_| m.enter_initialization_mode(&log))
-            .and_then(|_| m.exit_initialization_mode(&log));
+            .and_then(|_| m.enter_initialization_mode(&self.log))
+            .and_then(|_| m.exit_initialization_mode(&self.log));
         match r {
-            Ok(()) => Some(m),
+            Ok(()) => Ok(m),
             Err(e) => {
                 errs.push(format!("initialization failed: {e}"));
-                None
+                Err(Stop)
             }
         }
-    };
-    let read = |m: &M, i: usize| -> Option<f64> {
-        let v = var(i)?;
+    }
+
+    fn read(&self, m: &M, i: usize) -> Option<f64> {
+        let v = self.md.variables.iter().find(|v| v.index == i)?;
         match v.ty {
             fmi2::schema::VarType::Real => Some(m.get_real(v.value_reference)),
             _ => None,
         }
-    };
-    // <Outputs>: direct feedthrough from the inputs in the initialized state
-    let inputs: Vec<_> = md
-        .variables
-        .iter()
-        .filter(|v| v.causality == "input")
-        .collect();
-    for u in &md.outputs {
-        let listed = u.dependencies.clone().unwrap_or_default();
-        for inp in &inputs {
-            let mut changes = false;
-            for k in 0..configurations {
-                let Some(base) = initialize(instantiate(k), &mut errs) else {
-                    return errs;
-                };
-                let mut m = base.clone();
-                if perturb(&mut m, inp).is_none() {
-                    continue;
+    }
+
+    /// `<Outputs>`: direct feedthrough from the inputs in the initialized state.
+    fn outputs(&self, errs: &mut Vec<String>) -> Result<(), Stop> {
+        for u in &self.md.outputs {
+            let listed = u.dependencies.clone().unwrap_or_default();
+            for inp in &self.inputs {
+                let mut changes = false;
+                for k in 0..self.configurations {
+                    let base = self.initialize((self.instantiate)(k), errs)?;
+                    let mut m = base.clone();
+                    if perturb(&mut m, inp).is_none() {
+                        continue;
+                    }
+                    changes |= self.read(&base, u.index) != self.read(&m, u.index);
                 }
-                changes |= read(&base, u.index) != read(&m, u.index);
-            }
-            if changes != listed.contains(&inp.index) {
-                errs.push(format!(
-                    "<Outputs> index {}: direct dependency on input {} (index {}) is {} in the code, {} in the XML",
-                    u.index,
-                    inp.name,
-                    inp.index,
-                    if changes { "present" } else { "absent" },
-                    if listed.contains(&inp.index) { "listed" } else { "not listed" }
-                ));
+                if changes != listed.contains(&inp.index) {
+                    errs.push(format!(
+                        "<Outputs> index {}: direct dependency on input {} (index {}) is {} in the code, {} in the XML",
+                        u.index,
+                        inp.name,
+                        inp.index,
+                        if changes { "present" } else { "absent" },
+                        if listed.contains(&inp.index) { "listed" } else { "not listed" }
+                    ));
+                }
             }
         }
+        Ok(())
     }
-    // <Derivatives>: from the initialized model with every continuous state at
-    // its nominal value, a derivative must list each input and state whose
-    // perturbation changes it (listing more is allowed: the dependencies are
-    // structural, e.g. `omega(a)` makes a rate depend on a state even where a
-    // linear table hides it); get_real of each derivative variable must equal
-    // `derivatives`
-    let states: Vec<usize> = M::CONTINUOUS_STATES
-        .iter()
-        .filter_map(|s| {
-            md.variables
-                .iter()
-                .find(|v| v.value_reference == s.state_vr && v.ty == fmi2::schema::VarType::Real)
-                .map(|v| v.index)
-        })
-        .collect();
-    let nominal: Vec<f64> = M::CONTINUOUS_STATES.iter().map(|s| s.nominal).collect();
-    let mut me_bases = Vec::new();
-    if !md.derivatives.is_empty() {
-        for k in 0..configurations {
-            let Some(mut m) = initialize(instantiate(k), &mut errs) else {
-                return errs;
-            };
-            if let Err(e) = m.set_continuous_states(&nominal) {
-                errs.push(format!("set_continuous_states({nominal:?}) failed: {e}"));
-                return errs;
-            }
-            let mut dx = vec![0.0; nominal.len()];
-            match m.derivatives(&mut dx) {
-                Ok(()) => {
-                    for (s, d) in M::CONTINUOUS_STATES.iter().zip(&dx) {
-                        let g = m.get_real(s.derivative_vr);
-                        if g != *d {
-                            errs.push(format!(
-                                "get_real({}) = {g} but derivatives() gives {d}",
-                                s.derivative_vr
-                            ));
+
+    /// `<Derivatives>`: from the initialized model with every continuous state
+    /// at its nominal value, a derivative must list each input and state whose
+    /// perturbation changes it (listing more is allowed: the dependencies are
+    /// structural, e.g. `omega(a)` makes a rate depend on a state even where a
+    /// linear table hides it); get_real of each derivative variable must equal
+    /// `derivatives`.
+    fn derivatives(&self, errs: &mut Vec<String>) -> Result<(), Stop> {
+        let md = self.md;
+        let states: Vec<usize> = M::CONTINUOUS_STATES
+            .iter()
+            .filter_map(|s| {
+                md.variables
+                    .iter()
+                    .find(|v| {
+                        v.value_reference == s.state_vr && v.ty == fmi2::schema::VarType::Real
+                    })
+                    .map(|v| v.index)
+            })
+            .collect();
+        let nominal: Vec<f64> = M::CONTINUOUS_STATES.iter().map(|s| s.nominal).collect();
+        let mut me_bases = Vec::new();
+        if !md.derivatives.is_empty() {
+            for k in 0..self.configurations {
+                let mut m = self.initialize((self.instantiate)(k), errs)?;
+                if let Err(e) = m.set_continuous_states(&nominal) {
+                    errs.push(format!("set_continuous_states({nominal:?}) failed: {e}"));
+                    return Err(Stop);
+                }
+                let mut dx = vec![0.0; nominal.len()];
+                match m.derivatives(&mut dx) {
+                    Ok(()) => {
+                        for (s, d) in M::CONTINUOUS_STATES.iter().zip(&dx) {
+                            let g = m.get_real(s.derivative_vr);
+                            if g != *d {
+                                errs.push(format!(
+                                    "get_real({}) = {g} but derivatives() gives {d}",
+                                    s.derivative_vr
+                                ));
+                            }
                         }
                     }
+                    Err(e) => errs.push(format!("derivatives failed: {e}")),
                 }
-                Err(e) => errs.push(format!("derivatives failed: {e}")),
+                me_bases.push(m);
             }
-            me_bases.push(m);
         }
+        for u in &md.derivatives {
+            let listed = u.dependencies.clone().unwrap_or_default();
+            let mut present: Vec<(usize, String)> = Vec::new();
+            for base in &me_bases {
+                for inp in &self.inputs {
+                    let mut m = base.clone();
+                    if perturb(&mut m, inp).is_some()
+                        && self.read(base, u.index) != self.read(&m, u.index)
+                    {
+                        present.push((inp.index, inp.name.clone()));
+                    }
+                }
+                for (j, &si) in states.iter().enumerate() {
+                    let mut x = nominal.clone();
+                    x[j] *= 1.0 + 1e-3;
+                    let mut m = base.clone();
+                    if let Err(e) = m.set_continuous_states(&x) {
+                        errs.push(format!("set_continuous_states failed: {e}"));
+                        return Err(Stop);
+                    }
+                    if self.read(base, u.index) != self.read(&m, u.index) {
+                        present.push((si, md.variables[si - 1].name.clone()));
+                    }
+                }
+            }
+            present.sort();
+            present.dedup();
+            for (i, name) in present {
+                if !listed.contains(&i) {
+                    errs.push(format!(
+                        "<Derivatives> index {}: depends on {name} (index {i}) in the code, not listed in the XML",
+                        u.index
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
-    for u in &md.derivatives {
-        let listed = u.dependencies.clone().unwrap_or_default();
-        let mut present: Vec<(usize, String)> = Vec::new();
-        for base in &me_bases {
-            for inp in &inputs {
-                let mut m = base.clone();
-                if perturb(&mut m, inp).is_some() && read(base, u.index) != read(&m, u.index) {
-                    present.push((inp.index, inp.name.clone()));
-                }
-            }
-            for (j, &si) in states.iter().enumerate() {
-                let mut x = nominal.clone();
-                x[j] *= 1.0 + 1e-3;
-                let mut m = base.clone();
-                if let Err(e) = m.set_continuous_states(&x) {
-                    errs.push(format!("set_continuous_states failed: {e}"));
-                    return errs;
-                }
-                if read(base, u.index) != read(&m, u.index) {
-                    present.push((si, md.variables[si - 1].name.clone()));
-                }
-            }
+
+    /// `<InitialUnknowns>`: values after initialization vs inputs and
+    /// parameters set before it.
+    fn initial_unknowns(&self, errs: &mut Vec<String>) -> Result<(), Stop> {
+        let md = self.md;
+        let knowns: Vec<_> = md
+            .variables
+            .iter()
+            .filter(|v| v.causality == "input" || v.causality == "parameter")
+            .collect();
+        let bases: Vec<M> = (0..self.configurations)
+            .filter_map(|k| self.initialize((self.instantiate)(k), errs).ok())
+            .collect();
+        if bases.len() != self.configurations {
+            return Err(Stop);
         }
-        present.sort();
-        present.dedup();
-        for (i, name) in present {
-            if !listed.contains(&i) {
+        for u in &md.initial_unknowns {
+            let Some(listed) = u.dependencies.clone() else {
                 errs.push(format!(
-                    "<Derivatives> index {}: depends on {name} (index {i}) in the code, not listed in the XML",
-                    u.index
+                    "<InitialUnknowns> index {} (line {}) has no dependencies attribute (= depends on all knowns)",
+                    u.index, u.line
                 ));
-            }
-        }
-    }
-    // <InitialUnknowns>: values after initialization vs inputs and parameters set before it
-    let knowns: Vec<_> = md
-        .variables
-        .iter()
-        .filter(|v| v.causality == "input" || v.causality == "parameter")
-        .collect();
-    let bases: Vec<M> = (0..configurations)
-        .filter_map(|k| initialize(instantiate(k), &mut errs))
-        .collect();
-    if bases.len() != configurations {
-        return errs;
-    }
-    for u in &md.initial_unknowns {
-        let Some(listed) = u.dependencies.clone() else {
-            errs.push(format!(
-                "<InitialUnknowns> index {} (line {}) has no dependencies attribute (= depends on all knowns)",
-                u.index, u.line
-            ));
-            continue;
-        };
-        for kn in &knowns {
-            let mut changes = false;
-            let mut checked = false;
-            for (k, base) in bases.iter().enumerate() {
-                let mut m = instantiate(k);
-                if perturb(&mut m, kn).is_none() {
-                    continue;
+                continue;
+            };
+            for kn in &knowns {
+                let mut changes = false;
+                let mut checked = false;
+                for (k, base) in bases.iter().enumerate() {
+                    let mut m = (self.instantiate)(k);
+                    if perturb(&mut m, kn).is_none() {
+                        continue;
+                    }
+                    checked = true;
+                    let m = self.initialize(m, errs)?;
+                    changes |= self.read(base, u.index) != self.read(&m, u.index);
                 }
-                checked = true;
-                let Some(m) = initialize(m, &mut errs) else {
-                    return errs;
-                };
-                changes |= read(base, u.index) != read(&m, u.index);
-            }
-            if checked && changes != listed.contains(&kn.index) {
-                errs.push(format!(
-                    "<InitialUnknowns> index {}: dependency on {} (index {}) is {} in the code, {} in the XML",
-                    u.index,
-                    kn.name,
-                    kn.index,
-                    if changes { "present" } else { "absent" },
-                    if listed.contains(&kn.index) { "listed" } else { "not listed" }
-                ));
+                if checked && changes != listed.contains(&kn.index) {
+                    errs.push(format!(
+                        "<InitialUnknowns> index {}: dependency on {} (index {}) is {} in the code, {} in the XML",
+                        u.index,
+                        kn.name,
+                        kn.index,
+                        if changes { "present" } else { "absent" },
+                        if listed.contains(&kn.index) { "listed" } else { "not listed" }
+                    ));
+                }
             }
         }
+        Ok(())
     }
-    errs
 }

@@ -232,7 +232,7 @@ impl Structure {
         if self.osc.is_some() {
             return Ok(self.out);
         }
-        self.with_oscillator(|osc, tip| Self::outputs_of(osc, tip))
+        self.with_oscillator(Self::outputs_of)
     }
 
     fn outputs_of(osc: &ModalOscillator, tip: usize) -> Result<Outputs, ModelError> {

@@ -1,6 +1,6 @@
 //! The paper's structure-shaker co-simulation as an SSP 1.0 archive
 //! (issue 6 item 4), written by the host's exporter
-//! ([`cosim::paper::export_ssp`]), and the host's own Jacobi master run on the
+//! ([`host::fmus::structure_shaker::export_ssp`]), and the host's own Jacobi master run on the
 //! same FMUs with the same macro step, so that an SSP runner (fmpy's
 //! `simulate_ssp`, fixed-step Jacobi with zero-order hold) can be compared
 //! with it (`tests/test_cosim.py`).
@@ -24,8 +24,8 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use cosim::paper::{export_ssp, run_cosim, CosimParams};
 use cosim::Algorithm;
+use host::fmus::structure_shaker::{export_ssp, run_cosim, CosimParams};
 use nlmode::attachment::ShakerParams;
 use nlmode::excitation::LinearSweep;
 

@@ -17,7 +17,7 @@ pub use crate::scenario::{load_scenario, ScenarioSource};
 #[derive(Debug, Clone, Default)]
 pub struct Options {
     /// Where the FMU libraries are (`--fmu-dir`; else `$NLMODE_FMU_DIR`, else
-    /// beside the executable, see [`cosim::repo::locate_libraries`]).
+    /// beside the executable, see [`crate::fmus::locate_libraries`]).
     pub fmu_dir: Option<PathBuf>,
     /// Print what `host run` prints (the scenario, the NMA note, warnings) and
     /// show progress bars on long methods.

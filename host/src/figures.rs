@@ -127,6 +127,8 @@ impl Fold {
 
     /// The next sample `(omega [rad/s], tip amplitude [m], force amplitude [N])`.
     #[inline]
+    // `!(a <= b)` on purpose: true where a comparison involves NaN
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn push(&mut self, x: f64, y: f64, f: f64) {
         let (j, w) = (self.count, self.w);
         self.count += 1;
@@ -142,7 +144,7 @@ impl Fold {
         let older = if slot == w { 0 } else { slot + 1 };
         self.ring[slot] = (x, y);
         self.slot = older;
-        if y.is_finite() && self.top.map_or(true, |(_, v)| y.total_cmp(&v).is_ge()) {
+        if y.is_finite() && self.top.is_none_or(|(_, v)| y.total_cmp(&v).is_ge()) {
             self.top = Some((j, y));
             self.best = None;
         }
@@ -153,7 +155,7 @@ impl Fold {
                 let dx = x - xi;
                 if dx != 0.0 {
                     let slope = (y - yi) / dx.abs();
-                    if self.best.map_or(true, |(s, _)| slope < s) {
+                    if self.best.is_none_or(|(s, _)| slope < s) {
                         self.best = Some((slope, 0.5 * (xi + x)));
                     }
                 }
@@ -215,6 +217,8 @@ mod tests {
 
     /// The figures by their definition, searched over the whole envelope
     /// (the independent check of [`Fold`]'s one-pass search).
+    // `!(a <= b)` on purpose: true where a comparison involves NaN
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn batch(e: &Envelope, is_sweep: bool) -> Figures {
         let finite = |v: f64| v.is_finite().then_some(v);
         let (x, y) = (&e.omega_rad_s, &e.tip_amplitude_m);
@@ -247,7 +251,7 @@ mod tests {
                     continue;
                 }
                 let slope = (y[i + w] - y[i]) / dx.abs();
-                if best.map_or(true, |(s, _)| slope < s) {
+                if best.is_none_or(|(s, _)| slope < s) {
                     best = Some((slope, 0.5 * (x[i] + x[i + w])));
                 }
             }

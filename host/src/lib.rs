@@ -11,6 +11,7 @@
 pub mod api;
 pub mod cosim_cmd;
 pub mod figures;
+pub mod fmus;
 pub mod methods;
 pub mod model;
 pub mod nma_cmd;

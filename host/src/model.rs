@@ -201,6 +201,127 @@ pub fn add_nonlinearities(sc: &Scenario, model: &mut StructuralModel) -> Result<
     Ok(())
 }
 
+/// A matrices error with the scenario key it concerns (`structure.point[2].dof`).
+fn matrices_error(
+    st: &MatricesStructureSpec,
+    e: nlmode::structure::MatricesError,
+) -> anyhow::Error {
+    use nlmode::structure::MatricesError;
+    let k = match &e {
+        MatricesError::DofOutOfRange { name, .. } => {
+            let i = st.point.iter().position(|p| &p.name == name).unwrap_or(0);
+            format!("structure.point[{i}].dof")
+        }
+        MatricesError::DuplicatePoint { .. } => "structure.point".into(),
+        MatricesError::UnknownPoint { key, .. } | MatricesError::InvalidParameter { key, .. } => {
+            format!("structure.{key}")
+        }
+        MatricesError::Structure(nlmode::structure::StructureError::MemoryLimit { .. }) => {
+            "structure.memory_limit_gb".into()
+        }
+        MatricesError::Structure(_) => "structure".into(),
+        MatricesError::TooLargeForDense { .. } => "structure.reduction".into(),
+        MatricesError::MassNotPositiveDefinite { .. } => "structure.mass_mtx".into(),
+        MatricesError::StiffnessIndefinite { .. } | MatricesError::RigidBodyModes { .. } => {
+            "structure.stiffness_mtx".into()
+        }
+        MatricesError::Io { role, .. }
+        | MatricesError::Malformed { role, .. }
+        | MatricesError::NotSquare { role, .. }
+        | MatricesError::SizeMismatch { role, .. }
+        | MatricesError::NonFinite { role, .. }
+        | MatricesError::NotSymmetric { role, .. }
+        | MatricesError::BadDiagonal { role, .. } => format!("structure.{}", role.key()),
+    };
+    anyhow::anyhow!("{k}: {e}")
+}
+
+/// Each point's row: `dof`, or its node and direction in the `labels` of
+/// labelled matrix files.
+fn point_dofs(
+    st: &MatricesStructureSpec,
+    labels: Option<&[feio::Label]>,
+) -> Result<Vec<(String, usize)>> {
+    let mut points: Vec<(String, usize)> = Vec::with_capacity(st.point.len());
+    for (i, p) in st.point.iter().enumerate() {
+        let dof = match (p.dof, p.node, p.direction) {
+            (Some(d), _, _) => d,
+            (None, Some(node), Some(dir)) => {
+                let Some(labels) = labels else {
+                    anyhow::bail!(
+                        "structure.point[{i}].node: node {node} needs a labelled matrix file \
+                     (Abaqus' node, dof, node, dof, value); {} has no labels: give dof",
+                        st.mass_mtx.display()
+                    );
+                };
+                match labels.binary_search(&(node, dir.0)) {
+                    Ok(d) => d,
+                    Err(_) => {
+                        let nodes = labels.iter().filter(|l| l.0 == node).count();
+                        let what = if nodes == 0 {
+                            format!(
+                            "node {node} is not in the matrix files ({} .. {} of {} labelled DOFs)",
+                            labels.first().map_or(0, |l| l.0),
+                            labels.last().map_or(0, |l| l.0),
+                            labels.len()
+                        )
+                        } else {
+                            let dirs: Vec<u8> =
+                                labels.iter().filter(|l| l.0 == node).map(|l| l.1).collect();
+                            format!(
+                            "node {node} has no direction {} ({}) in the matrix files; its DOFs are {dirs:?}",
+                            dir.0,
+                            dir.name()
+                        )
+                        };
+                        anyhow::bail!(
+                            "structure.point[{i}].node: {what} ({})",
+                            st.mass_mtx.display()
+                        );
+                    }
+                }
+            }
+            _ => {
+                anyhow::bail!("structure.point[{i}].dof: missing: give dof, or node and direction")
+            }
+        };
+        points.push((p.name.clone(), dof));
+    }
+    Ok(points)
+}
+
+/// The default Craig-Bampton masters: the nonlinear point and every exciter,
+/// element and attachment point, one per DOF (`dof`: a point's row).
+fn default_masters(
+    sc: &Scenario,
+    st: &MatricesStructureSpec,
+    dof: &dyn Fn(&str) -> Option<usize>,
+) -> Vec<String> {
+    let mut m: Vec<String> = Vec::new();
+    let elements: Vec<String> = sc
+        .nonlinearity
+        .iter()
+        .flat_map(|nl| nl.point_names())
+        .collect();
+    let used = st
+        .nonlinear_point
+        .iter()
+        .filter(|_| st.k3_n_per_m3 != 0.0)
+        .chain(sc.exciter.iter().filter_map(|e| e.point.as_ref()))
+        .chain(elements.iter())
+        .chain(
+            sc.attachment
+                .iter()
+                .flat_map(|a| a.point.iter().chain(a.points.iter().flatten())),
+        );
+    for p in used {
+        if m.iter().all(|q| dof(q) != dof(p)) {
+            m.push(p.clone());
+        }
+    }
+    m
+}
+
 /// The matrices structure of the scenario (paths already resolved), built by
 /// `nlmode::structure::matrix_structure`. Errors name the scenario key (and
 /// file, line).
@@ -214,36 +335,7 @@ pub fn build_matrices_structure(
         matrices::{matrix_structure_sparse_with, read_matrix_triplets, sparse_from_feio},
         MatricesError, MatrixDamping, MatrixRole, MatrixStructureOptions,
     };
-    let key = |e: MatricesError| -> anyhow::Error {
-        let k = match &e {
-            MatricesError::DofOutOfRange { name, .. } => {
-                let i = st.point.iter().position(|p| &p.name == name).unwrap_or(0);
-                format!("structure.point[{i}].dof")
-            }
-            MatricesError::DuplicatePoint { .. } => "structure.point".into(),
-            MatricesError::UnknownPoint { key, .. }
-            | MatricesError::InvalidParameter { key, .. } => {
-                format!("structure.{key}")
-            }
-            MatricesError::Structure(nlmode::structure::StructureError::MemoryLimit { .. }) => {
-                "structure.memory_limit_gb".into()
-            }
-            MatricesError::Structure(_) => "structure".into(),
-            MatricesError::TooLargeForDense { .. } => "structure.reduction".into(),
-            MatricesError::MassNotPositiveDefinite { .. } => "structure.mass_mtx".into(),
-            MatricesError::StiffnessIndefinite { .. } | MatricesError::RigidBodyModes { .. } => {
-                "structure.stiffness_mtx".into()
-            }
-            MatricesError::Io { role, .. }
-            | MatricesError::Malformed { role, .. }
-            | MatricesError::NotSquare { role, .. }
-            | MatricesError::SizeMismatch { role, .. }
-            | MatricesError::NonFinite { role, .. }
-            | MatricesError::NotSymmetric { role, .. }
-            | MatricesError::BadDiagonal { role, .. } => format!("structure.{}", role.key()),
-        };
-        anyhow::anyhow!("{k}: {e}")
-    };
+    let key = |e: MatricesError| matrices_error(st, e);
     // the files in their format (feio), then nlmode's checked sparse matrices
     let format = st.matrix_format.feio();
     let mut files = vec![
@@ -307,85 +399,15 @@ pub fn build_matrices_structure(
         },
         (None, None, None) => anyhow::bail!("structure.damping_mtx: missing damping"),
     };
-    // each point's row: `dof`, or its node and direction in the labels
-    let mut points: Vec<(String, usize)> = Vec::with_capacity(st.point.len());
-    for (i, p) in st.point.iter().enumerate() {
-        let dof = match (p.dof, p.node, p.direction) {
-            (Some(d), _, _) => d,
-            (None, Some(node), Some(dir)) => {
-                let Some(labels) = &labels else {
-                    anyhow::bail!(
-                        "structure.point[{i}].node: node {node} needs a labelled matrix file \
-                         (Abaqus' node, dof, node, dof, value); {} has no labels: give dof",
-                        st.mass_mtx.display()
-                    );
-                };
-                match labels.binary_search(&(node, dir.0)) {
-                    Ok(d) => d,
-                    Err(_) => {
-                        let nodes = labels.iter().filter(|l| l.0 == node).count();
-                        let what = if nodes == 0 {
-                            format!(
-                                "node {node} is not in the matrix files ({} .. {} of {} labelled DOFs)",
-                                labels.first().map_or(0, |l| l.0),
-                                labels.last().map_or(0, |l| l.0),
-                                labels.len()
-                            )
-                        } else {
-                            let dirs: Vec<u8> =
-                                labels.iter().filter(|l| l.0 == node).map(|l| l.1).collect();
-                            format!(
-                                "node {node} has no direction {} ({}) in the matrix files; its DOFs are {dirs:?}",
-                                dir.0,
-                                dir.name()
-                            )
-                        };
-                        anyhow::bail!(
-                            "structure.point[{i}].node: {what} ({})",
-                            st.mass_mtx.display()
-                        );
-                    }
-                }
-            }
-            _ => {
-                anyhow::bail!("structure.point[{i}].dof: missing: give dof, or node and direction")
-            }
-        };
-        points.push((p.name.clone(), dof));
-    }
+    let points = point_dofs(st, labels.as_deref())?;
     let dof = |name: &str| points.iter().find(|p| p.0 == name).map(|p| p.1);
     let cubic_spring = st
         .nonlinear_point
         .as_ref()
         .map(|p| (p.clone(), st.k3_n_per_m3));
-    // Default masters: the nonlinear point and every exciter point, one per DOF.
     let masters = match &st.cb_masters {
         Some(m) => m.clone(),
-        None => {
-            let mut m: Vec<String> = Vec::new();
-            let elements: Vec<String> = sc
-                .nonlinearity
-                .iter()
-                .flat_map(|nl| nl.point_names())
-                .collect();
-            let used = st
-                .nonlinear_point
-                .iter()
-                .filter(|_| st.k3_n_per_m3 != 0.0)
-                .chain(sc.exciter.iter().filter_map(|e| e.point.as_ref()))
-                .chain(elements.iter())
-                .chain(
-                    sc.attachment
-                        .iter()
-                        .flat_map(|a| a.point.iter().chain(a.points.iter().flatten())),
-                );
-            for p in used {
-                if m.iter().all(|q| dof(q) != dof(p)) {
-                    m.push(p.clone());
-                }
-            }
-            m
-        }
+        None => default_masters(sc, st, &dof),
     };
     let opts = MatrixStructureOptions {
         mass,

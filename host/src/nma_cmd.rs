@@ -216,7 +216,9 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         branch_csv(out, label, &r, &setup.response_point)?;
         branches.push((label, r));
     }
-    let series: Vec<(String, Vec<f64>, Vec<f64>, Vec<f64>)> = branches
+    /// (label, tip amplitude, Omega / omega0, damping ratio [%]) of a branch.
+    type Series = (String, Vec<f64>, Vec<f64>, Vec<f64>);
+    let series: Vec<Series> = branches
         .iter()
         .map(|(label, r)| {
             let tip = r
@@ -489,15 +491,19 @@ fn frf_hb(sc: &crate::scenario::Scenario, setup: &Setup, out: &Path) -> Result<(
         } else {
             "off"
         },
-        summary.status.unwrap_or_default()
+        summary
+            .get::<String>(methods::hb::STATUS)
+            .unwrap_or_default()
     );
-    for fold in summary.folds.iter().flatten() {
+    let folds: Option<Vec<methods::hb::FoldSummary>> = summary.get(methods::hb::FOLDS);
+    for fold in folds.iter().flatten() {
         println!(
             "  fold at Omega = {:.4} rad/s, tip {:.4e} m",
             fold.omega_rad_s, fold.tip_amplitude_m
         );
     }
-    for rg in summary.unstable_ranges_rad_s.iter().flatten() {
+    let ranges: Option<Vec<[f64; 2]>> = summary.get(methods::hb::UNSTABLE_RANGES);
+    for rg in ranges.iter().flatten() {
         println!("  unstable from {:.4} to {:.4} rad/s", rg[0], rg[1]);
     }
     for w in &summary.warnings {

@@ -1,6 +1,6 @@
 //! `host package`: `structure.fmu`, `shaker.fmu` and (when its library
 //! `libcontroller.so` is there too) `controller.fmu` from the built FMU
-//! libraries (found by [`cosim::repo::locate_libraries`]: `--fmu-dir`,
+//! libraries (found by [`crate::fmus::locate_libraries`]: `--fmu-dir`,
 //! `NLMODE_FMU_DIR` or beside this executable; never built here), with the
 //! paper beam's modal table in the structure FMU's `resources/`.
 use crate::methods;
@@ -19,7 +19,7 @@ pub const FMU_TABLE_HARMONICS: usize = 13;
 /// installation that ships only the first two) the controller FMU is left
 /// out with a warning on stderr.
 pub fn package(out: &Path, fmu_dir: Option<&Path>) -> Result<Vec<PathBuf>> {
-    let libs = cosim::repo::locate_libraries(fmu_dir)?;
+    let libs = crate::fmus::locate_libraries(fmu_dir)?;
     let mut sc = Scenario::default_scenario();
     sc.nma.harmonics = crate::scenario::Harmonics::Fixed(FMU_TABLE_HARMONICS);
     let setup = Setup::new(&sc).context("paper beam for the FMU's modal table")?;
@@ -29,12 +29,12 @@ pub fn package(out: &Path, fmu_dir: Option<&Path>) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
     let table = tmp.join("modal_table.json");
     nma.table.write(&table)?;
-    let result = cosim::repo::package_repo_fmus(&libs, out, Some(&table));
+    let result = crate::fmus::package_repo_fmus(&libs, out, Some(&table));
     let _ = std::fs::remove_dir_all(&tmp);
     let (structure, shaker) = result?;
     let mut paths = vec![structure, shaker];
-    match cosim::repo::locate_library(fmu_dir, &cosim::repo::CONTROLLER) {
-        Ok(lib) => paths.push(cosim::repo::package_controller_fmu(&lib, out)?),
+    match crate::fmus::locate_library(fmu_dir, &crate::fmus::CONTROLLER) {
+        Ok(lib) => paths.push(crate::fmus::package_controller_fmu(&lib, out)?),
         Err(e) => eprintln!("warning: controller.fmu not packaged: {e}"),
     }
     Ok(paths)

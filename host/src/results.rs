@@ -1,7 +1,7 @@
 //! Method results and the machine-readable output contract (DESIGN.md section 7):
 //! `summary.json`, `<method>_envelope.csv`, `<method>_timeseries.csv`.
 pub use crate::figures::{jump_down, Figures};
-use crate::scenario::{CosimAlgorithm, OutputKind};
+use crate::scenario::OutputKind;
 use anyhow::{Context, Result};
 pub use nlmode::envelope::Envelope;
 use nlmode::envelope::{EnvelopeError, EnvelopeRow};
@@ -18,93 +18,87 @@ pub struct TimeSeries {
     pub columns: Vec<(String, Vec<f64>)>,
 }
 
-/// One method's entry of `summary.json` (DESIGN.md section 7), serialized once.
-/// Fields in the alphabetical order of the keys; optional ones appear only for
-/// the methods that have them.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+/// One method's entry of `summary.json` (DESIGN.md section 7): the figures
+/// every method has (filled in by [`MethodResult::new`]), its warnings, the
+/// attachments' outputs, and the method's own entries ([`MethodSummary::set`]:
+/// `integrator`, `folds`, `force_drop`, ...). Written as one object, the keys
+/// in (byte-wise) alphabetical order, then `max_harvested_power_W`.
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct MethodSummary {
-    /// `cosim`: master algorithm.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub algorithm: Option<CosimAlgorithm>,
-    /// Linear force drop `1 - |F/F0|` at `omega0` (`linear-frf`, `linear-steady`, `closed-form`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub force_drop: Option<f64>,
-    /// `linear-frf`: the drop by `eq:forcedrop`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub force_drop_closed_form: Option<f64>,
-    /// `reference`: integrator used.
-    /// `hb`: the folds of every branch (`{omega_rad_s, tip_amplitude_m}`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub folds: Option<Vec<FoldSummary>>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub integrator: Option<String>,
-    /// Excitation frequency of the jump-down [rad/s] (sweeps).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Excitation frequency of the jump-down [rad/s] (sweeps; absent otherwise).
     pub jump_down_omega_rad_s: Option<f64>,
-    /// `cosim`: macro step [s].
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub macro_step_s: Option<f64>,
-    /// `cosim`: macro steps taken.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub macro_steps: Option<u64>,
-    /// Mass ratio `m_a / m_mod` at the first exciter.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub mass_ratio: Option<f64>,
     /// Largest force amplitude [N] (null without finite values).
-    #[serde(rename = "max_force_amplitude_N")]
     pub max_force_amplitude_n: Option<f64>,
     /// Smallest force amplitude [N] (null without finite values).
-    #[serde(rename = "min_force_amplitude_N")]
     pub min_force_amplitude_n: Option<f64>,
-    /// Modal mass `1/phi(x)^2` of mode 1 at the first exciter [kg].
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub modal_mass_kg: Option<f64>,
-    /// `linear-steady`: `omega0` of the single-mode model [rad/s].
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub omega0_single_mode_rad_s: Option<f64>,
     /// Excitation frequency at the peak [rad/s] (null without finite values).
     pub peak_omega_rad_s: Option<f64>,
     /// Peak tip amplitude [m] (null without finite values).
     pub peak_tip_amplitude_m: Option<f64>,
     /// Envelope samples.
     pub points: usize,
-    /// `reference`: rejected steps.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub rejected_steps: Option<u64>,
-    /// Slow flows: how the sweep ended.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub status: Option<String>,
-    /// Accepted integration steps.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub steps: Option<u64>,
-    /// `cosim`: time at which the co-simulation stopped early [s].
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub stopped_at_s: Option<f64>,
-    /// `hb`: the `[from, to]` Omega ranges of consecutive unstable points of
-    /// every branch [rad/s].
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub unstable_ranges_rad_s: Option<Vec<[f64; 2]>>,
     /// Wall time of the method [s].
     pub wall_time_s: f64,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
     /// Piezo shunts: the largest mean harvested power `mean(R i^2)` over the
-    /// envelope [W], by attachment name.
-    #[serde(
-        rename = "max_harvested_power_W",
-        skip_serializing_if = "BTreeMap::is_empty"
-    )]
+    /// envelope [W], by attachment name (`max_harvested_power_W`).
     pub max_harvested_power_w: BTreeMap<String, f64>,
+    /// The method's own entries by key, set by the method
+    /// ([`MethodSummary::set`]; the keys are part of the output contract).
+    pub extra: BTreeMap<String, serde_json::Value>,
+}
+
+impl MethodSummary {
+    /// Sets the method's entry `key` (`"integrator"`, `"folds"`).
+    pub fn set(&mut self, key: &str, value: impl Serialize) {
+        let v = serde_json::to_value(value).unwrap_or(serde_json::Value::Null);
+        self.extra.insert(key.into(), v);
+    }
+
+    /// The method's entry `key`, if set and of type `T`.
+    pub fn get<T: serde::de::DeserializeOwned>(&self, key: &str) -> Option<T> {
+        self.extra
+            .get(key)
+            .and_then(|v| serde_json::from_value(v.clone()).ok())
+    }
+}
+
+impl Serialize for MethodSummary {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::{Error, SerializeMap};
+        use serde_json::Value;
+        fn v<T: Serialize, E: Error>(x: &T) -> Result<Value, E> {
+            serde_json::to_value(x).map_err(E::custom)
+        }
+        let mut keys: BTreeMap<&str, Value> = BTreeMap::new();
+        if let Some(j) = self.jump_down_omega_rad_s {
+            keys.insert("jump_down_omega_rad_s", v(&j)?);
+        }
+        keys.insert("max_force_amplitude_N", v(&self.max_force_amplitude_n)?);
+        keys.insert("min_force_amplitude_N", v(&self.min_force_amplitude_n)?);
+        keys.insert("peak_omega_rad_s", v(&self.peak_omega_rad_s)?);
+        keys.insert("peak_tip_amplitude_m", v(&self.peak_tip_amplitude_m)?);
+        keys.insert("points", v(&self.points)?);
+        keys.insert("wall_time_s", v(&self.wall_time_s)?);
+        if !self.warnings.is_empty() {
+            keys.insert("warnings", v(&self.warnings)?);
+        }
+        for (k, x) in &self.extra {
+            keys.insert(k, x.clone());
+        }
+        let harvested = !self.max_harvested_power_w.is_empty();
+        let mut m = s.serialize_map(Some(keys.len() + usize::from(harvested)))?;
+        for (k, x) in &keys {
+            m.serialize_entry(k, x)?;
+        }
+        if harvested {
+            m.serialize_entry("max_harvested_power_W", &self.max_harvested_power_w)?;
+        }
+        m.end()
+    }
 }
 
 /// `summary.json` (DESIGN.md section 7); fields in the alphabetical order of the keys.
-/// A fold (limit point) of a steady-state branch (`methods.hb.folds`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct FoldSummary {
-    pub omega_rad_s: f64,
-    pub tip_amplitude_m: f64,
-}
-
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
     pub damping_ratio: f64,

@@ -25,7 +25,7 @@ pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
 /// `host run`: every method the scenario lists that can run is run and its
 /// outputs written. A method that cannot run for want of something outside
 /// the scenario (today: `cosim` without the FMU libraries, see
-/// [`cosim::repo::locate_libraries`]) does not stop the others; it is
+/// [`crate::fmus::locate_libraries`]) does not stop the others; it is
 /// returned (and listed under `failed_methods` in summary.json), so that the
 /// command line can exit non-zero. `fmu_dir`: where the FMU libraries are
 /// (`--fmu-dir`).
@@ -121,9 +121,11 @@ fn print_summary(setup: &Setup, done: &[MethodResult], summary: &Summary) {
     for r in done {
         let s = &summary.methods[&r.name];
         let g = |v: Option<f64>| v.unwrap_or(f64::NAN);
+        // the linear methods' `force_drop` (null: not finite)
         let drop = s
-            .force_drop
-            .map(|d| format!("{:.1}", 100.0 * d))
+            .extra
+            .get("force_drop")
+            .map(|d| format!("{:.1}", 100.0 * d.as_f64().unwrap_or(f64::NAN)))
             .unwrap_or_default();
         println!(
             "{:<18} {:>10.4} {:>14.4} {:>12.4} {:>12.4} {:>12.4} {:>10}",

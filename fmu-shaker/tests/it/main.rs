@@ -2,4 +2,5 @@
 //! graph instead of one per file): `cargo test -p fmu-shaker --test it [module::]`.
 mod cosim_damping;
 mod model_description;
+mod model_structure;
 mod physics;

@@ -133,8 +133,8 @@ fn slowflow_result(name: &str, wall: f64, res: &nlmode::reduced::SlowFlowResult)
             ("force_phase_rad".into(), col(|x| x.force_phase_rad())),
         ],
     });
-    r.summary.steps = Some(res.stats.accepted_steps as u64);
-    r.summary.status = Some(format!("{:?}", res.status));
+    r.summary.set("steps", res.stats.accepted_steps as u64);
+    r.summary.set("status", format!("{:?}", res.status));
     if !matches!(res.status, nlmode::reduced::SweepStatus::Completed) {
         r.summary
             .warnings
@@ -153,7 +153,7 @@ pub fn slow_flow(
     let t0 = Instant::now();
     let res = model
         .simulate_sweep(&setup.sweep, options)
-        .with_context(|| format!("{name}"))?;
+        .with_context(|| name.to_string())?;
     let wall = t0.elapsed().as_secs_f64();
     let mut r = slowflow_result(name, wall, &res);
     // harvested power of every piezo shunt from the quasi-steady attachment

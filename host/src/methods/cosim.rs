@@ -20,7 +20,8 @@ pub fn cosim(
     table: Option<(&nlmode::nma::ModalTable, &std::path::Path)>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<MethodResult> {
-    use cosim::{run_cosim, Algorithm, CosimParams};
+    use crate::fmus::structure_shaker::{run_cosim, CosimParams};
+    use cosim::Algorithm;
     setup.check_cosim()?;
     let structure = sc
         .cosim
@@ -81,20 +82,26 @@ pub fn cosim(
             ("current_A".into(), out.current_a.clone()),
         ],
     });
-    r.summary.algorithm = Some(sc.cosim.algorithm);
-    r.summary.macro_step_s = Some(p.macro_step_s);
-    r.summary.macro_steps = Some(out.stats.steps as u64);
+    r.summary.set("algorithm", sc.cosim.algorithm);
+    r.summary.set("macro_step_s", p.macro_step_s);
+    r.summary.set("macro_steps", out.stats.steps as u64);
     if let Some((t, msg)) = &out.stopped {
         r.summary
             .warnings
             .push(format!("cosim stopped at t = {t} s: {msg}"));
-        r.summary.stopped_at_s = Some(*t);
+        r.summary.set("stopped_at_s", *t);
     }
     Ok(r)
 }
 
 /// `cosim` (options: `[cosim]`).
 pub struct Cosim;
+
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const Cosim: Self = Self::new("cosim");
+}
 
 impl super::Method for Cosim {
     fn id(&self) -> Method {

@@ -5,6 +5,12 @@ use anyhow::Result;
 /// `force-controlled` (options: `[force_control]`).
 pub struct ForceControlled;
 
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const ForceControlled: Self = Self::new("force-controlled");
+}
+
 impl super::Method for ForceControlled {
     fn id(&self) -> MethodId {
         MethodId::ForceControlled

@@ -5,12 +5,13 @@
 use super::common::{frf_omegas, reduced_model};
 use super::{MethodOutput, RunContext};
 use crate::model::Setup;
-use crate::results::{Column, Envelope, FoldSummary, MethodResult, Table};
+use crate::results::{Column, Envelope, MethodResult, Table};
 use crate::scenario::{Method, Scenario};
 use anyhow::{Context, Result};
 use nlmode::hb::{
     add_seeded_branches, frequency_response, Bifurcation, BranchStatus, HbResult, HbSystem, Seed,
 };
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// Largest number of seeds taken from the single-mode steady state.
@@ -187,6 +188,21 @@ pub fn hb_table(r: &HbResult) -> Table {
     }
 }
 
+/// A fold (limit point) of a steady-state branch (`methods.hb.folds`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FoldSummary {
+    pub omega_rad_s: f64,
+    pub tip_amplitude_m: f64,
+}
+
+/// `hb`'s entry of `summary.json`: the folds of every branch ([`FoldSummary`]s).
+pub const FOLDS: &str = "folds";
+/// `hb`'s entry of `summary.json`: the `[from, to]` Omega ranges of
+/// consecutive unstable points of every branch [rad/s] (with stability only).
+pub const UNSTABLE_RANGES: &str = "unstable_ranges_rad_s";
+/// `hb`'s entry of `summary.json`: how each branch ended.
+pub const STATUS: &str = "status";
+
 /// The main branch as an envelope (for the figures of merit and the plot),
 /// the folds and unstable ranges of every branch, warnings for branches that
 /// stopped.
@@ -221,17 +237,17 @@ pub fn hb_result(r: &HbResult, wall_time_s: f64) -> MethodResult {
         ));
     }
     let s = &mut m.summary;
-    s.folds = Some(
-        r.branches
-            .iter()
-            .flat_map(|b| &b.points)
-            .filter(|p| p.bifurcation == Bifurcation::Fold)
-            .map(|p| FoldSummary {
-                omega_rad_s: p.omega_rad_s,
-                tip_amplitude_m: p.tip_amplitude_m(),
-            })
-            .collect(),
-    );
+    let folds: Vec<FoldSummary> = r
+        .branches
+        .iter()
+        .flat_map(|b| &b.points)
+        .filter(|p| p.bifurcation == Bifurcation::Fold)
+        .map(|p| FoldSummary {
+            omega_rad_s: p.omega_rad_s,
+            tip_amplitude_m: p.tip_amplitude_m(),
+        })
+        .collect();
+    s.set(FOLDS, folds);
     let mut ranges: Vec<[f64; 2]> = Vec::new();
     for b in &r.branches {
         let mut open: Option<[f64; 2]> = None;
@@ -252,7 +268,7 @@ pub fn hb_result(r: &HbResult, wall_time_s: f64) -> MethodResult {
         .iter()
         .any(|b| b.points.iter().any(|p| p.floquet.is_some()))
     {
-        s.unstable_ranges_rad_s = Some(ranges);
+        s.set(UNSTABLE_RANGES, ranges);
     }
     let status: Vec<String> = r
         .branches
@@ -270,7 +286,7 @@ pub fn hb_result(r: &HbResult, wall_time_s: f64) -> MethodResult {
             format!("branch {i}: {kind}, {} points", b.points.len())
         })
         .collect();
-    s.status = Some(status.join("; "));
+    s.set(STATUS, status.join("; "));
     for (i, b) in r.branches.iter().enumerate() {
         match &b.status {
             BranchStatus::Stopped {
@@ -291,6 +307,12 @@ pub fn hb_result(r: &HbResult, wall_time_s: f64) -> MethodResult {
 
 /// `hb` (options: `[hb]`).
 pub struct Hb;
+
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const Hb: Self = Self::new("hb");
+}
 
 impl super::Method for Hb {
     fn id(&self) -> Method {

@@ -97,10 +97,10 @@ pub fn linear_frf(setup: &Setup, n: usize) -> Result<MethodResult> {
             shaker.omega_a() / setup.omega0_rad_s,
             shaker.damping_ratio(),
         );
-    r.summary.force_drop = Some(drop);
-    r.summary.force_drop_closed_form = Some(closed);
-    r.summary.modal_mass_kg = Some(m_mod);
-    r.summary.mass_ratio = Some(mu);
+    r.summary.set("force_drop", drop);
+    r.summary.set("force_drop_closed_form", closed);
+    r.summary.set("modal_mass_kg", m_mod);
+    r.summary.set("mass_ratio", mu);
     Ok(r)
 }
 
@@ -136,14 +136,20 @@ pub fn closed_form(setup: &Setup, n: usize) -> Result<MethodResult> {
     };
     let mut r = MethodResult::new("closed-form", t0.elapsed().as_secs_f64(), env, false);
     let drop = 1.0 - frf::force_drop_closed_form(setup.d0, mu, ra, shaker.damping_ratio());
-    r.summary.force_drop = Some(drop);
-    r.summary.modal_mass_kg = Some(m_mod);
-    r.summary.mass_ratio = Some(mu);
+    r.summary.set("force_drop", drop);
+    r.summary.set("modal_mass_kg", m_mod);
+    r.summary.set("mass_ratio", mu);
     Ok(r)
 }
 
 /// `linear-frf` (options: `[run] frf_points`).
 pub struct LinearFrf;
+
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const LinearFrf: Self = Self::new("linear-frf");
+}
 
 impl super::Method for LinearFrf {
     fn id(&self) -> Method {

@@ -7,6 +7,12 @@ use anyhow::Result;
 /// `linear-slowflow` (options: `[slowflow]`).
 pub struct LinearSlowflow;
 
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const LinearSlowflow: Self = Self::new("linear-slowflow");
+}
+
 impl super::Method for LinearSlowflow {
     fn id(&self) -> MethodId {
         MethodId::LinearSlowflow

@@ -34,13 +34,19 @@ pub fn linear_steady(
             r.add_harvested_power(&name, power);
         }
     }
-    r.summary.force_drop = Some(ls.force_drop);
-    r.summary.omega0_single_mode_rad_s = Some(ls.omega0_rad_s);
+    r.summary.set("force_drop", ls.force_drop);
+    r.summary.set("omega0_single_mode_rad_s", ls.omega0_rad_s);
     Ok(r)
 }
 
 /// `linear-steady` (options: `[run] frf_points`).
 pub struct LinearSteady;
+
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const LinearSteady: Self = Self::new("linear-steady");
+}
 
 impl super::Method for LinearSteady {
     fn id(&self) -> Method {

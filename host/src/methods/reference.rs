@@ -67,14 +67,20 @@ pub fn reference(
             ("force_N".into(), res.force_n.clone()),
         ],
     });
-    r.summary.steps = Some(res.stats.steps as u64);
-    r.summary.rejected_steps = Some(res.stats.rejected as u64);
-    r.summary.integrator = Some(format!("{method:?}"));
+    r.summary.set("steps", res.stats.steps as u64);
+    r.summary.set("rejected_steps", res.stats.rejected as u64);
+    r.summary.set("integrator", format!("{method:?}"));
     Ok(r)
 }
 
 /// `reference` (options: `[reference]`).
 pub struct Reference;
+
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const Reference: Self = Self::new("reference");
+}
 
 impl super::Method for Reference {
     fn id(&self) -> Method {

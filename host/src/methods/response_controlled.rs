@@ -5,6 +5,12 @@ use anyhow::Result;
 /// `response-controlled` (options: `[response_control]`).
 pub struct ResponseControlled;
 
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const ResponseControlled: Self = Self::new("response-controlled");
+}
+
 impl super::Method for ResponseControlled {
     fn id(&self) -> MethodId {
         MethodId::ResponseControlled

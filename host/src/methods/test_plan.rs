@@ -156,7 +156,7 @@ fn open_loop(
     model: &nlmode::reduced::ReducedModel,
     voltage_v: f64,
 ) -> Result<(f64, f64, f64, String)> {
-    let mut sweep = setup.sweep.clone();
+    let mut sweep = setup.sweep;
     sweep.amplitude = voltage_v;
     let res = model
         .simulate_sweep(&sweep, &sc.slowflow.options(Method::Nlmode))
@@ -293,6 +293,12 @@ fn write_csv(path: &Path, targets: &[PlannedTarget], omega0: f64) -> Result<()> 
 
 /// `test-plan` (options: `[test_plan]`).
 pub struct TestPlan;
+
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const TestPlan: Self = Self::new("test-plan");
+}
 
 impl super::Method for TestPlan {
     fn id(&self) -> MethodId {

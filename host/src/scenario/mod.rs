@@ -10,9 +10,12 @@
 use nlmode::reference::Integrator;
 use nlmode::structure::BoundaryCondition;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 mod load;
+mod sections;
+pub use self::sections::{OptionsSection, SectionOptions};
 mod run;
 pub use self::run::*;
 mod structure;
@@ -101,6 +104,11 @@ pub struct Scenario {
     pub response_control: ResponseControlSpec,
     #[serde(default)]
     pub test_plan: TestPlanSpec,
+    /// The options sections of methods that own theirs
+    /// ([`crate::methods::Method::options`]), as written, by table name; a
+    /// method reads its own with [`Scenario::section`].
+    #[serde(skip)]
+    pub sections: BTreeMap<String, toml::Value>,
 }
 
 /// The paper's case (a): every section's default, one exciter at 2l/3 and the
@@ -127,6 +135,7 @@ impl Default for Scenario {
             force_control: ForceControlSpec::default(),
             response_control: ResponseControlSpec::default(),
             test_plan: TestPlanSpec::default(),
+            sections: BTreeMap::new(),
         }
     }
 }
@@ -197,20 +206,40 @@ impl Scenario {
     /// Parse TOML text (unknown keys and unknown spellings are errors naming the
     /// key) and validate it.
     pub fn parse(text: &str) -> Result<Self, ScenarioError> {
-        let s: Scenario =
-            serde_path_to_error::deserialize(toml::Deserializer::new(text)).map_err(|e| {
-                let path = e.path().to_string();
-                let inner = e.into_inner();
-                let line = inner
-                    .span()
-                    .map(|sp| text[..sp.start.min(text.len())].matches('\n').count() + 1);
-                ScenarioError {
-                    key: if path == "." { "scenario".into() } else { path },
-                    message: inner.message().trim().to_string(),
-                    line,
-                }
-            })?;
+        Self::parse_with(text, &Self::options_sections())
+    }
+
+    /// [`Scenario::parse`] with `own` the methods' own options sections.
+    fn parse_with(text: &str, own: &[OptionsSection]) -> Result<Self, ScenarioError> {
+        let names: Vec<&'static str> = own.iter().map(|o| o.name).collect();
+        let aside = sections::SetAside::default();
+        let de = sections::WithSections {
+            inner: toml::Deserializer::new(text),
+            names: &names,
+            out: &aside,
+        };
+        let line_at = |at: usize| text[..at.min(text.len())].matches('\n').count() + 1;
+        let s: Scenario = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            let line = inner.span().map(|sp| line_at(sp.start));
+            ScenarioError {
+                key: if path == "." { "scenario".into() } else { path },
+                message: inner.message().trim().to_string(),
+                line,
+            }
+        })?;
         let mut s = s;
+        // the methods' own sections, checked by their method (the line: the section's)
+        for (name, (v, at)) in aside.into_inner() {
+            if let Some(o) = own.iter().find(|o| o.name == name) {
+                (o.check)(&v).map_err(|e| ScenarioError {
+                    line: e.line.or(Some(line_at(at))),
+                    ..e
+                })?;
+            }
+            s.sections.insert(name, v);
+        }
         // a matrices structure has no default exciter (the paper's sits at 2l/3
         // of the beam): without [[exciter]] tables it has none (`host nma`)
         if matches!(s.structure, StructureSpec::Matrices(_))
@@ -237,7 +266,20 @@ impl Scenario {
         self.validate_rest()
     }
 
+    /// The options sections the registry's methods own.
+    fn options_sections() -> Vec<OptionsSection> {
+        crate::methods::REGISTRY
+            .iter()
+            .filter_map(|m| m.options())
+            .collect()
+    }
+
     fn validate_rest(&self) -> Result<(), ScenarioError> {
+        for o in Self::options_sections() {
+            if let Some(v) = self.sections.get(o.name) {
+                (o.check)(v)?;
+            }
+        }
         self.phase_resonance.validate()?;
         self.force_control.validate("force_control")?;
         self.response_control.validate("response_control")?;

@@ -1,79 +1,105 @@
 //! `[run]`: the methods of `host run` and the steady-state methods' frequency points.
 use super::*;
 
-/// A sweep method of `host run` (`[run] methods`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Method {
-    /// Time integration of the assembled full-order model.
-    Reference,
-    /// Assembled linear frequency response (with `closed-form` beside it).
-    LinearFrf,
-    /// Slow flow of the single nonlinear modal oscillator with the shaker (`eq:NM`).
-    Nlmode,
-    /// The same with constant linear modal properties.
-    LinearSlowflow,
-    /// Its algebraic linear steady state.
-    LinearSteady,
-    /// The FMUs co-simulated by the host's master.
-    Cosim,
-    /// The modal oscillator driven by a prescribed force (paper Section 5.3).
-    ImposedForce,
-    /// Phase-resonance test: phase-locked loop stepped through voltage levels
-    /// (`[phase_resonance]`, `phase_resonance.csv`).
-    PhaseResonance,
-    /// Force-controlled stepped sine (`[force_control]`, `force_control.csv`).
-    ForceControlled,
-    /// Response-controlled stepped sine (`[response_control]`,
-    /// `response_control.csv`).
-    ResponseControlled,
-    /// Test planning on the single-nonlinear-mode model (`[test_plan]`,
-    /// `test_plan.csv`).
-    TestPlan,
-    /// Harmonic balance of the full model with every attachment, stability
-    /// and bifurcations (`[hb]`, `hb_frc.csv`).
-    Hb,
-}
+/// A method of `host run` by its name (`[run] methods`, `linear-frf`): one
+/// of the method registry's ([`crate::methods::REGISTRY`]). Each method's file
+/// declares its own name (`impl Method { pub const Hb: Method = Method::new("hb"); }`)
+/// and returns it from [`crate::methods::Method::id`]; a scenario naming
+/// another method is rejected when it is read, naming the registry's methods.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Method(&'static str);
 
 impl Method {
-    /// Every method, in the order of the docs.
-    pub const ALL: [Method; 12] = [
-        Method::Reference,
-        Method::LinearFrf,
-        Method::Nlmode,
-        Method::LinearSlowflow,
-        Method::LinearSteady,
-        Method::ImposedForce,
-        Method::Cosim,
-        Method::PhaseResonance,
-        Method::ForceControlled,
-        Method::ResponseControlled,
-        Method::TestPlan,
-        Method::Hb,
-    ];
+    /// The method named `name` (for the method's own file; a name that is not
+    /// the registry's is never read from a scenario).
+    pub const fn new(name: &'static str) -> Self {
+        Self(name)
+    }
+
+    /// Every registered method, in the registry's order.
+    pub fn all() -> impl Iterator<Item = Method> {
+        crate::methods::REGISTRY.iter().map(|m| m.id())
+    }
+
+    /// The registered method named `name`.
+    pub fn named(name: &str) -> Option<Method> {
+        Self::all().find(|m| m.0 == name)
+    }
 
     /// The name in scenarios and output files (`linear-frf`).
     pub fn name(self) -> &'static str {
-        match self {
-            Method::Reference => "reference",
-            Method::LinearFrf => "linear-frf",
-            Method::Nlmode => "nlmode",
-            Method::LinearSlowflow => "linear-slowflow",
-            Method::LinearSteady => "linear-steady",
-            Method::Cosim => "cosim",
-            Method::ImposedForce => "imposed-force",
-            Method::PhaseResonance => "phase-resonance",
-            Method::ForceControlled => "force-controlled",
-            Method::ResponseControlled => "response-controlled",
-            Method::TestPlan => "test-plan",
-            Method::Hb => "hb",
-        }
+        self.0
+    }
+
+    /// The registered names, in the registry's order (serde's list of
+    /// expected spellings).
+    fn names() -> &'static [&'static str] {
+        static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
+        NAMES.get_or_init(|| Self::all().map(Method::name).collect())
+    }
+}
+
+impl std::fmt::Debug for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Method({:?})", self.0)
     }
 }
 
 impl std::fmt::Display for Method {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+/// Written as a unit variant (a string in TOML), as a `#[derive]`d enum of the
+/// registered names would be.
+impl Serialize for Method {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let index = Self::names().iter().position(|n| *n == self.0).unwrap_or(0);
+        s.serialize_unit_variant("Method", index as u32, self.0)
+    }
+}
+
+/// Read as a unit variant of the registered names (the messages of a
+/// `#[derive]`d enum: `unknown variant `x`, expected one of ...`).
+impl<'de> Deserialize<'de> for Method {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::{self, EnumAccess, VariantAccess};
+        struct Name;
+        impl<'de> de::Visitor<'de> for Name {
+            type Value = Method;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("variant identifier")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Method, E> {
+                Method::named(v).ok_or_else(|| E::unknown_variant(v, Method::names()))
+            }
+            fn visit_bytes<E: de::Error>(self, v: &[u8]) -> Result<Method, E> {
+                match std::str::from_utf8(v) {
+                    Ok(v) => self.visit_str(v),
+                    Err(_) => Err(E::invalid_value(de::Unexpected::Bytes(v), &self)),
+                }
+            }
+        }
+        impl<'de> de::DeserializeSeed<'de> for Name {
+            type Value = Method;
+            fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Method, D::Error> {
+                d.deserialize_identifier(self)
+            }
+        }
+        struct Unit;
+        impl<'de> de::Visitor<'de> for Unit {
+            type Value = Method;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("enum Method")
+            }
+            fn visit_enum<A: EnumAccess<'de>>(self, a: A) -> Result<Method, A::Error> {
+                let (m, v) = a.variant_seed(Name)?;
+                v.unit_variant()?;
+                Ok(m)
+            }
+        }
+        d.deserialize_enum("Method", Self::names(), Unit)
     }
 }
 
@@ -105,7 +131,7 @@ impl RunSpec {
     /// Check the method list and the frequency points.
     pub(crate) fn validate(&self) -> Result<(), ScenarioError> {
         if self.methods.is_empty() {
-            let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+            let names = Method::names();
             return Err(bad(
                 "run.methods",
                 format!("expected a non-empty list from {names:?}"),

@@ -370,6 +370,96 @@ impl Default for BeamStructureSpec {
     }
 }
 
+/// `[[structure.point]]`: a non-empty unique name, and either `dof` or `node`
+/// and `direction`.
+fn validate_points(st: &MatricesStructureSpec) -> Result<(), ScenarioError> {
+    for (i, p) in st.point.iter().enumerate() {
+        if p.name.is_empty() {
+            return Err(bad(
+                &format!("structure.point[{i}].name"),
+                "expected a non-empty name",
+            ));
+        }
+        let key = |k: &str| format!("structure.point[{i}].{k}");
+        match (p.dof, p.node, p.direction) {
+            (Some(_), None, None) | (None, Some(_), Some(_)) => {}
+            (Some(_), _, _) => {
+                return Err(bad(
+                    &key("node"),
+                    "give either dof or node and direction, not both",
+                ))
+            }
+            (None, Some(_), None) => {
+                return Err(bad(
+                    &key("direction"),
+                    "missing: node needs a direction (1..6 or \"x\", \"y\", \"z\", \"rx\", \"ry\", \"rz\")",
+                ))
+            }
+            (None, None, Some(_)) => {
+                return Err(bad(&key("node"), "missing: direction needs a node"))
+            }
+            (None, None, None) => {
+                return Err(bad(
+                    &key("dof"),
+                    "missing: give dof (the 0-based row of M and K), or node and direction \
+                     (matrices in Abaqus' labels format)",
+                ))
+            }
+        }
+        if st.point[..i].iter().any(|o| o.name == p.name) {
+            return Err(bad(
+                &format!("structure.point[{i}].name"),
+                format!("point names must be unique, '{}' repeats", p.name),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The damping of a matrices structure: exactly one of `damping_mtx`,
+/// `rayleigh` or `damping_ratio` (+ `damping_mode`), in range.
+fn validate_damping(st: &MatricesStructureSpec) -> Result<(), ScenarioError> {
+    let given = [
+        st.damping_mtx.is_some(),
+        st.rayleigh.is_some(),
+        st.damping_ratio.is_some(),
+    ];
+    if given.iter().filter(|g| **g).count() != 1 {
+        return Err(bad(
+            "structure.damping_mtx",
+            "give exactly one of damping_mtx, rayleigh = [alpha, beta] or damping_ratio (+ damping_mode)",
+        ));
+    }
+    if st.damping_mode.is_some() && st.damping_ratio.is_none() {
+        return Err(bad(
+            "structure.damping_mode",
+            "damping_mode needs damping_ratio",
+        ));
+    }
+    if let Some(r) = st.damping_ratio {
+        if !(r.is_finite() && (0.0..1.0).contains(&r)) {
+            return Err(bad(
+                "structure.damping_ratio",
+                format!("expected 0 <= D < 1, got {r}"),
+            ));
+        }
+    }
+    if st.damping_mode == Some(0) {
+        return Err(bad(
+            "structure.damping_mode",
+            "expected a mode number >= 1 (1 = the lowest mode)",
+        ));
+    }
+    if let Some([a, b]) = st.rayleigh {
+        for (k, v) in [("structure.rayleigh[0]", a), ("structure.rayleigh[1]", b)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(k, format!("expected a finite number >= 0, got {v}")));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl Scenario {
     /// `[structure]` of `kind = "matrices"` and the keys that refer to its points
     /// (the matrices themselves are checked when they are read).
@@ -377,46 +467,7 @@ impl Scenario {
         &self,
         st: &MatricesStructureSpec,
     ) -> Result<(), ScenarioError> {
-        for (i, p) in st.point.iter().enumerate() {
-            if p.name.is_empty() {
-                return Err(bad(
-                    &format!("structure.point[{i}].name"),
-                    "expected a non-empty name",
-                ));
-            }
-            let key = |k: &str| format!("structure.point[{i}].{k}");
-            match (p.dof, p.node, p.direction) {
-                (Some(_), None, None) | (None, Some(_), Some(_)) => {}
-                (Some(_), _, _) => {
-                    return Err(bad(
-                        &key("node"),
-                        "give either dof or node and direction, not both",
-                    ))
-                }
-                (None, Some(_), None) => {
-                    return Err(bad(
-                        &key("direction"),
-                        "missing: node needs a direction (1..6 or \"x\", \"y\", \"z\", \"rx\", \"ry\", \"rz\")",
-                    ))
-                }
-                (None, None, Some(_)) => {
-                    return Err(bad(&key("node"), "missing: direction needs a node"))
-                }
-                (None, None, None) => {
-                    return Err(bad(
-                        &key("dof"),
-                        "missing: give dof (the 0-based row of M and K), or node and direction \
-                         (matrices in Abaqus' labels format)",
-                    ))
-                }
-            }
-            if st.point[..i].iter().any(|o| o.name == p.name) {
-                return Err(bad(
-                    &format!("structure.point[{i}].name"),
-                    format!("point names must be unique, '{}' repeats", p.name),
-                ));
-            }
-        }
+        validate_points(st)?;
         let names: Vec<&str> = st.point.iter().map(|p| p.name.as_str()).collect();
         let known = |key: &str, name: &str| {
             if names.contains(&name) {
@@ -428,44 +479,7 @@ impl Scenario {
                 ))
             }
         };
-        let given = [
-            st.damping_mtx.is_some(),
-            st.rayleigh.is_some(),
-            st.damping_ratio.is_some(),
-        ];
-        if given.iter().filter(|g| **g).count() != 1 {
-            return Err(bad(
-                "structure.damping_mtx",
-                "give exactly one of damping_mtx, rayleigh = [alpha, beta] or damping_ratio (+ damping_mode)",
-            ));
-        }
-        if st.damping_mode.is_some() && st.damping_ratio.is_none() {
-            return Err(bad(
-                "structure.damping_mode",
-                "damping_mode needs damping_ratio",
-            ));
-        }
-        if let Some(r) = st.damping_ratio {
-            if !(r.is_finite() && (0.0..1.0).contains(&r)) {
-                return Err(bad(
-                    "structure.damping_ratio",
-                    format!("expected 0 <= D < 1, got {r}"),
-                ));
-            }
-        }
-        if st.damping_mode == Some(0) {
-            return Err(bad(
-                "structure.damping_mode",
-                "expected a mode number >= 1 (1 = the lowest mode)",
-            ));
-        }
-        if let Some([a, b]) = st.rayleigh {
-            for (k, v) in [("structure.rayleigh[0]", a), ("structure.rayleigh[1]", b)] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(bad(k, format!("expected a finite number >= 0, got {v}")));
-                }
-            }
-        }
+        validate_damping(st)?;
         if !(st.k3_n_per_m3.is_finite() && st.k3_n_per_m3 >= 0.0) {
             return Err(bad(
                 "structure.k3_n_per_m3",

@@ -99,7 +99,7 @@ fn embedded_sweep_toml_is_the_rust_default() {
 
 #[test]
 fn method_names_are_the_serde_names() {
-    for m in Method::ALL {
+    for m in Method::all() {
         let v: Method = serde::Deserialize::deserialize(serde::de::value::StrDeserializer::<
             serde::de::value::Error,
         >::new(m.name()))
@@ -230,4 +230,50 @@ fn attachment_tables_parse_and_name_their_keys() {
         let e = Scenario::parse(text).unwrap_err();
         assert!(e.key.starts_with(key), "{text}: {e}");
     }
+}
+
+/// A method's own options section (`[demo]`), as a method file declares it.
+#[derive(Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct Demo {
+    steps: usize,
+}
+
+impl SectionOptions for Demo {
+    const NAME: &'static str = "demo";
+    fn validate(&self) -> Result<(), ScenarioError> {
+        if self.steps == 0 {
+            return Err(bad("demo.steps", "expected at least 1"));
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn a_methods_own_section_is_read_checked_and_set_aside() {
+    let own = [OptionsSection::of::<Demo>()];
+    let s = Scenario::parse_with("title = \"t\"\n[demo]\nsteps = 3\n", &own).unwrap();
+    assert_eq!(s.section::<Demo>().unwrap(), Demo { steps: 3 });
+    assert_eq!(s.title, "t");
+    // absent: the defaults
+    let s = Scenario::parse_with("", &own).unwrap();
+    assert_eq!(s.section::<Demo>().unwrap(), Demo::default());
+    // the checks name the key, with the section's line
+    let e = Scenario::parse_with("\n[demo]\nsteps = 0\n", &own).unwrap_err();
+    assert_eq!((e.key.as_str(), e.line), ("demo.steps", Some(2)));
+    let e = Scenario::parse_with("[demo]\nstep = 1\n", &own).unwrap_err();
+    assert_eq!(e.key, "demo.step", "{e}");
+    assert!(e.message.contains("unknown field `step`"), "{e}");
+    // the scenario's own keys keep their messages and lines
+    let e =
+        Scenario::parse_with("[demo]\nsteps = 1\n[structure]\nlenght_m = 1\n", &own).unwrap_err();
+    assert_eq!(
+        (e.key.as_str(), e.line),
+        ("structure.lenght_m", Some(4)),
+        "{e}"
+    );
+    let e = Scenario::parse_with("[demo]\nsteps = 1\n[demo2]\n", &own).unwrap_err();
+    assert_eq!((e.key.as_str(), e.line), ("demo2", Some(3)), "{e}");
+    // unregistered, the table is an unknown key
+    assert_eq!(Scenario::parse("[demo]\n").unwrap_err().key, "demo");
 }

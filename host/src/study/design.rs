@@ -73,6 +73,8 @@ pub enum Distribution {
 
 impl Distribution {
     /// The distribution a parameter names, its numbers checked (the error names the key).
+    // `!(mass > 1e-12)` on purpose: a NaN mass is refused too
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn from_spec(p: &ParameterSpec) -> Result<Self, StudyError> {
         let bad = |message: String| StudyError::Parameter {
             key: p.key.clone(),
@@ -220,7 +222,7 @@ pub fn normal_quantile(u: f64) -> f64 {
         -3.969683028665376e1,
         2.209460984245205e2,
         -2.759285104469687e2,
-        1.383577518672690e2,
+        1.38357751867269e2,
         -3.066479806614716e1,
         2.506628277459239,
     ];

@@ -154,7 +154,7 @@ impl Study {
         let text = cosim::file::read_regular_to_string(path, crate::scenario::MAX_SCENARIO_BYTES)
             .with_context(|| format!("cannot read study file {}", path.display()))?;
         let base_dir = path.parent().unwrap_or(Path::new(""));
-        Ok(Self::from_text(&text, base_dir)?)
+        Self::from_text(&text, base_dir)
     }
 
     /// A study from its TOML text; `base_dir`: where a relative `scenario` is.
@@ -394,10 +394,13 @@ impl Prepared {
 /// fault (e.g. its exciter), so the next sample tries again.
 #[derive(Default)]
 struct Cache {
-    map: Mutex<HashMap<String, Arc<Mutex<Option<Arc<Prepared>>>>>>,
+    map: Mutex<HashMap<String, Slot<Prepared>>>,
     /// The slow-flow plans by ([`Study::groups`] index, method).
-    plans: Mutex<HashMap<(usize, Method), Arc<Mutex<Option<Arc<Plan>>>>>>,
+    plans: Mutex<HashMap<(usize, Method), Slot<Plan>>>,
 }
+
+/// A value built once and shared, or `None` while (or after failing) to be built.
+type Slot<T> = Arc<Mutex<Option<Arc<T>>>>;
 
 /// What the samples of one group ([`Study::groups`]) share for a slow-flow
 /// method: from the setup of the first of them (the others differ only in

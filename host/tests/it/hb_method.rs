@@ -4,6 +4,7 @@
 //! the transient slow sweep (`reference`) at the paper's case (a).
 use crate::common::{expect_failure, tmpdir};
 use host::api::{compute, Options};
+use host::methods::hb::{FoldSummary, FOLDS, STATUS, UNSTABLE_RANGES};
 use host::model::Setup;
 use host::scenario::Scenario;
 use nalgebra::DVector;
@@ -74,8 +75,11 @@ fn linear_limit_equals_the_assembled_frf_with_the_shaker() {
     let (a, b) = (setup.sweep.omega_start_rad_s, setup.sweep.omega_end_rad_s);
     assert!((omegas[0] - a).abs() < 1e-9 * a && (omegas.last().unwrap() - b).abs() < 1e-9 * b);
     let s = &c.summary.methods["hb"];
-    assert_eq!(s.folds.as_deref(), Some(&[][..]));
-    assert!(s.unstable_ranges_rad_s.is_none(), "stability not computed");
+    assert_eq!(s.get::<Vec<FoldSummary>>(FOLDS), Some(vec![]));
+    assert!(
+        !s.extra.contains_key(UNSTABLE_RANGES),
+        "stability not computed"
+    );
 }
 
 #[test]
@@ -87,8 +91,8 @@ fn case_a_folds_bracket_the_jump_of_the_slow_sweep() {
     .unwrap();
     let c = compute(&sc, "test", &dir, &opts()).unwrap();
     let hb = &c.summary.methods["hb"];
-    let folds = hb.folds.clone().unwrap();
-    println!("hb folds {folds:?}, status {:?}", hb.status);
+    let folds: Vec<FoldSummary> = hb.get(FOLDS).unwrap();
+    println!("hb folds {folds:?}, status {:?}", hb.get::<String>(STATUS));
     assert!(folds.len() >= 2, "{folds:?}");
     let jump_ref = c.summary.methods["reference"]
         .jump_down_omega_rad_s
@@ -157,8 +161,8 @@ fn case_a_middle_branch_between_the_folds_is_unstable() {
         Scenario::parse("[run]\nmethods = [\"hb\"]\n[hb]\nharmonics = 3\nseeds = false\n").unwrap();
     let c = compute(&sc, "test", &dir, &opts()).unwrap();
     let hb = &c.summary.methods["hb"];
-    let folds = hb.folds.clone().unwrap();
-    let ranges = hb.unstable_ranges_rad_s.clone().unwrap();
+    let folds: Vec<FoldSummary> = hb.get(FOLDS).unwrap();
+    let ranges: Vec<[f64; 2]> = hb.get(UNSTABLE_RANGES).unwrap();
     println!("folds {folds:?}, unstable {ranges:?}");
     assert_eq!(folds.len(), 2, "{folds:?}");
     let (lo, hi) = (

@@ -22,7 +22,7 @@ fn install(with_libs: bool) -> (tempfile::TempDir, PathBuf, PathBuf) {
     std::fs::copy(env!("CARGO_BIN_EXE_host"), &host).unwrap();
     if with_libs {
         // built by this test run (host's dev-dependencies fmu-structure, fmu-shaker)
-        let libs = cosim::repo::locate_libraries(None).unwrap();
+        let libs = host::fmus::locate_libraries(None).unwrap();
         std::fs::copy(&libs.structure, bin.join("libstructure.so")).unwrap();
         std::fs::copy(&libs.shaker, bin.join("libshaker.so")).unwrap();
     }
@@ -139,7 +139,7 @@ fn installed_host_without_the_libraries_runs_the_other_methods() {
 fn installed_host_cosimulates_fmus_it_is_given() {
     let (_prefix, host, work) = install(false);
     // the libraries elsewhere: `host package --fmu-dir` packages from there
-    let libs = cosim::repo::locate_libraries(None).unwrap();
+    let libs = host::fmus::locate_libraries(None).unwrap();
     let lib_dir = work.join("libs");
     std::fs::create_dir_all(&lib_dir).unwrap();
     std::fs::copy(&libs.structure, lib_dir.join("libstructure.so")).unwrap();

@@ -10,6 +10,7 @@ mod bounded_files;
 mod cli;
 mod controlled_stepped;
 mod elements;
+mod fuzz_fmus;
 mod fuzz_scenario;
 mod generic;
 mod hb_method;

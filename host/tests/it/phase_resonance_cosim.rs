@@ -30,6 +30,7 @@ use host::model::Setup;
 use host::scenario::{PhaseResonanceModel, Scenario};
 use std::time::Instant;
 
+#[allow(clippy::needless_range_loop)] // the levels of two envelopes and their tolerances
 fn compare(algorithm: &str, macro_step_s: f64, levels: [f64; 2], force_tol: [f64; 2]) {
     let text = format!(
         "[run]\nmethods = [\"phase-resonance\"]\n[[exciter]]\nlocation = \"2l/3\"\n\
@@ -50,7 +51,7 @@ fn compare(algorithm: &str, macro_step_s: f64, levels: [f64; 2], force_tol: [f64
     let t_cosim = t0.elapsed().as_secs_f64();
     eprintln!(
         "reference PLL {t_ref:.2} s, three-FMU loop {t_cosim:.2} s ({:?} macro steps)",
-        r.summary.steps
+        r.summary.get::<u64>("steps")
     );
     assert!(r.summary.warnings.is_empty(), "{:?}", r.summary.warnings);
     let csv = std::fs::read_to_string(dir.join("phase_resonance.csv")).unwrap();

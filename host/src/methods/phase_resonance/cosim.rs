@@ -22,6 +22,8 @@
 //! `DIR/phase_resonance_fmus/`, with the scenario's modal table in the
 //! structure FMU. `phase_resonance.csv` and the plots are those of
 //! [`super`].
+use crate::fmus::structure_shaker::{connections, parameters, CosimParams};
+use crate::fmus::{locate_libraries, locate_library, package_controller_fmu, package_repo_fmus};
 use crate::model::Setup;
 use crate::results::MethodResult;
 use crate::scenario::{CosimAlgorithm, Scenario};
@@ -29,8 +31,6 @@ use anyhow::{anyhow, bail, Context, Result};
 use controller_vr::*;
 use cosim::import::Fmu;
 use cosim::master::{Algorithm, Master, MasterOptions, ParamValue};
-use cosim::paper::{connections, parameters, CosimParams};
-use cosim::repo::{locate_libraries, locate_library, package_controller_fmu, package_repo_fmus};
 use nlmode::control::PllLevel;
 use nlmode::nma::ModalTable;
 use nlmode::Complex64;
@@ -102,8 +102,8 @@ pub fn phase_resonance(
         run.wall_time_s,
         "phase-resonance (cosim)",
     )?;
-    r.summary.steps = Some(run.macro_steps as u64);
-    r.summary.algorithm = Some(sc.cosim.algorithm);
+    r.summary.set("steps", run.macro_steps as u64);
+    r.summary.set("algorithm", sc.cosim.algorithm);
     Ok(r)
 }
 
@@ -131,7 +131,7 @@ pub fn run_levels(
     let table_path = dir.join("modal_table.json");
     tip_aliased(table, setup)?.write(&table_path)?;
     let libs = locate_libraries(None)?;
-    let controller_lib = locate_library(None, &cosim::repo::CONTROLLER)?;
+    let controller_lib = locate_library(None, &crate::fmus::CONTROLLER)?;
     let (structure_fmu, shaker_fmu) = package_repo_fmus(&libs, &dir, Some(&table_path))?;
     let controller_fmu = package_controller_fmu(&controller_lib, &dir)?;
     let _ = std::fs::remove_file(&table_path);

@@ -83,8 +83,8 @@ pub fn phase_resonance(
         "phase-resonance",
     )?;
     if let ControlledPlant::Reference(p) = &plant {
-        r.summary.steps = Some(p.stats().steps as u64);
-        r.summary.rejected_steps = Some(p.stats().rejected as u64);
+        r.summary.set("steps", p.stats().steps as u64);
+        r.summary.set("rejected_steps", p.stats().rejected as u64);
     }
     Ok(r)
 }
@@ -147,6 +147,12 @@ pub fn plant(
 }
 /// `phase-resonance` (options: `[phase_resonance]`).
 pub struct PhaseResonance;
+
+/// Its name in scenarios and output files.
+impl super::MethodId {
+    #[allow(non_upper_case_globals)]
+    pub const PhaseResonance: Self = Self::new("phase-resonance");
+}
 
 impl super::Method for PhaseResonance {
     fn id(&self) -> MethodId {

@@ -1,10 +1,17 @@
-//! The repository's own FMUs, `structure.fmu` and `shaker.fmu`, packaged at
+//! This repository's FMUs and their pairing (the `cosim` crate is the generic
+//! master; what is specific to these FMUs is here).
+//!
+//! * [`STRUCTURE`], [`SHAKER`], [`CONTROLLER`]: the FMU list;
+//! * [`structure_shaker`]: the structure + shaker pairing of the `cosim`
+//!   method, written as a co-simulation file like any user's.
+//!
+//! The repository's own FMUs, `structure.fmu` and `shaker.fmu`, are packaged at
 //! run time from parts fixed at build time: the shared libraries
 //! `libstructure.so` / `libshaker.so` are *found*, never built (a workspace
 //! `cargo build [--release]` puts them in `target/<profile>/`, beside the
 //! `host` binary), and everything else an `.fmu` holds (the
 //! modelDescription.xml of `modelDescription/<id>/` and the FMU crate's
-//! README.md as documentation) is embedded in this crate at compile time, so
+//! README.md as documentation) is embedded in the host at compile time, so
 //! that an installed binary needs neither the source tree nor a toolchain.
 //! `modelDescription/<id>/` holds no `resources/` or `documentation/` folder
 //! (a test keeps it so); the structure FMU's modal table is added by the
@@ -13,6 +20,8 @@ use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 use fmi2_export::package::{readme_documentation, write_fmu, FmuSpec, PackageError};
+
+pub mod structure_shaker;
 
 /// Environment variable naming the folder with the FMU libraries (like `--fmu-dir`).
 pub const FMU_DIR_ENV: &str = "NLMODE_FMU_DIR";
@@ -32,16 +41,16 @@ pub struct RepoFmu {
 pub const STRUCTURE: RepoFmu = RepoFmu {
     id: "structure",
     package: "fmu-structure",
-    model_description: include_str!("../../modelDescription/structure/modelDescription.xml"),
-    readme: include_str!("../../fmu-structure/README.md"),
+    model_description: include_str!("../../../modelDescription/structure/modelDescription.xml"),
+    readme: include_str!("../../../fmu-structure/README.md"),
 };
 
 /// The shaker FMU (crate `fmu-shaker`).
 pub const SHAKER: RepoFmu = RepoFmu {
     id: "shaker",
     package: "fmu-shaker",
-    model_description: include_str!("../../modelDescription/shaker/modelDescription.xml"),
-    readme: include_str!("../../fmu-shaker/README.md"),
+    model_description: include_str!("../../../modelDescription/shaker/modelDescription.xml"),
+    readme: include_str!("../../../fmu-shaker/README.md"),
 };
 
 /// The controller FMU (crate `fmu-controller`): the phase-locked loop of
@@ -49,8 +58,8 @@ pub const SHAKER: RepoFmu = RepoFmu {
 pub const CONTROLLER: RepoFmu = RepoFmu {
     id: "controller",
     package: "fmu-controller",
-    model_description: include_str!("../../modelDescription/controller/modelDescription.xml"),
-    readme: include_str!("../../fmu-controller/README.md"),
+    model_description: include_str!("../../../modelDescription/controller/modelDescription.xml"),
+    readme: include_str!("../../../fmu-controller/README.md"),
 };
 
 /// Why the repository's FMUs could not be packaged.
@@ -222,7 +231,7 @@ mod tests {
                 .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
                 .collect();
             assert_eq!(names, ["modelDescription.xml"], "{}", dir.display());
-            let md = fmi2::ModelDescription::parse(fmu.model_description).unwrap();
+            let md = cosim::import::ModelDescription::parse(fmu.model_description).unwrap();
             assert_eq!(md.co_simulation.model_identifier, fmu.id);
         }
     }
@@ -246,7 +255,7 @@ mod tests {
 
     #[test]
     fn libraries_of_this_build_are_found_beside_the_test_binary() {
-        // cosim's dev-dependencies fmu-structure / fmu-shaker put the cdylibs in target/<profile>/deps
+        // the host's dev-dependencies fmu-structure / fmu-shaker put the cdylibs in target/<profile>/deps
         let libs = locate_libraries(None).unwrap();
         assert!(
             libs.structure.is_file() && libs.shaker.is_file(),
@@ -255,7 +264,7 @@ mod tests {
         let controller = locate_library(None, &CONTROLLER).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let fmu = package_controller_fmu(&controller, dir.path()).unwrap();
-        let loaded = crate::import::Fmu::load(&fmu).unwrap();
+        let loaded = cosim::import::Fmu::load(&fmu).unwrap();
         assert_eq!(loaded.md.co_simulation.model_identifier, "controller");
     }
 }

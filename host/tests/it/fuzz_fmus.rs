@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use cosim::import::{Fmu, Instance};
-use cosim::repo::{locate_libraries, package_repo_fmus};
+use host::fmus::{locate_libraries, package_repo_fmus};
 use nlmode::nma::ModalTable;
 use nlmode::Complex64;
 

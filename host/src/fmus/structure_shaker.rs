@@ -1,10 +1,14 @@
-//! The `cosim` method: the structure FMU and the shaker FMU of this
-//! repository (DESIGN.md section 5) co-simulated over a sine sweep.
+//! The `cosim` method's pairing: the structure FMU and the shaker FMU of this
+//! repository (DESIGN.md section 5) co-simulated over a sine sweep by the
+//! generic master of the `cosim` crate.
 //!
-//! Connections: `structure.x -> shaker.x`, `structure.v -> shaker.v`,
-//! `shaker.F -> structure.F`. The shaker generates the sweep voltage itself
-//! (`u_hat`, `Omega_start`, `Omega_end`, `Omega_rate`); the excitation phase
-//! for the envelope is the integral of its `Omega` output.
+//! The units, connections (`structure.x -> shaker.x`, `structure.v ->
+//! shaker.v`, `shaker.F -> structure.F`) and recorded variables are a
+//! co-simulation file like any user's (`docs/cosim.md`),
+//! `structure_shaker.toml` beside this file ([`PAIRING`]); the parameters
+//! come from the scenario ([`parameters`]). The shaker generates the sweep
+//! voltage itself (`u_hat`, `Omega_start`, `Omega_end`, `Omega_rate`); the
+//! excitation phase for the envelope is the integral of its `Omega` output.
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -13,8 +17,21 @@ use nlmode::envelope::Envelope;
 use nlmode::excitation::LinearSweep;
 use nlmode::reference::envelope::fundamental_amplitudes;
 
-use crate::import::Fmu;
-use crate::master::{run, Algorithm, Master, MasterError, MasterOptions, MasterStats, ParamValue};
+use cosim::import::Fmu;
+use cosim::master::{
+    run, Algorithm, GenericSpec, Master, MasterError, MasterOptions, MasterStats, ParamValue,
+};
+
+/// The pairing as a co-simulation file (`docs/cosim.md`): units, connections,
+/// recorded variables. Its master settings are placeholders: [`CosimParams`]
+/// sets them.
+pub const PAIRING: &str = include_str!("structure_shaker.toml");
+
+/// [`PAIRING`], read by the `cosim` crate's reader of co-simulation files.
+pub fn pairing() -> GenericSpec {
+    cosim::spec::parse_spec(PAIRING, Path::new("structure_shaker.toml"))
+        .expect("the embedded pairing is a valid co-simulation file")
+}
 
 /// Everything `run_cosim` needs besides the two FMU files.
 #[derive(Debug, Clone)]
@@ -107,7 +124,7 @@ pub enum CosimError {
     Load {
         what: &'static str,
         path: PathBuf,
-        source: Box<crate::import::FmuError>,
+        source: Box<cosim::import::FmuError>,
     },
     #[error(transparent)]
     Master(#[from] MasterError),
@@ -117,16 +134,10 @@ pub enum CosimError {
     BadDuration(f64),
 }
 
-/// The connections `structure.x -> shaker.x`, `structure.v -> shaker.v`, `shaker.F -> structure.F`.
+/// The connections of [`PAIRING`]: `structure.x -> shaker.x`, `structure.v
+/// -> shaker.v`, `shaker.F -> structure.F`.
 pub fn connections() -> Vec<(String, String)> {
-    [
-        ("structure.x", "shaker.x"),
-        ("structure.v", "shaker.v"),
-        ("shaker.F", "structure.F"),
-    ]
-    .iter()
-    .map(|(a, b)| (a.to_string(), b.to_string()))
-    .collect()
+    pairing().connections
 }
 
 /// The FMU parameters (`unit.variable`, value) of `p`: shaker constants,
@@ -175,16 +186,16 @@ pub fn parameters(p: &CosimParams) -> Result<Vec<(String, ParamValue)>, CosimErr
     Ok(v)
 }
 
-/// Write the coupled system of `p` as an SSP 1.0 archive (see [`crate::ssp`]).
+/// Write the coupled system of `p` as an SSP 1.0 archive (see [`cosim::ssp`]).
 /// A modal table given as a file path is referenced by that path.
 pub fn export_ssp(
     out: &Path,
     structure_fmu: &Path,
     shaker_fmu: &Path,
     p: &CosimParams,
-) -> Result<(), crate::ssp::SspError> {
-    let params = parameters(p).map_err(|e| crate::ssp::SspError::BadUnit(e.to_string()))?;
-    crate::ssp::write_ssp(
+) -> Result<(), cosim::ssp::SspError> {
+    let params = parameters(p).map_err(|e| cosim::ssp::SspError::BadUnit(e.to_string()))?;
+    cosim::ssp::write_ssp(
         out,
         "structure-shaker",
         &[
@@ -241,7 +252,7 @@ pub fn build_master(
         return Err(CosimError::BadDuration(dur));
     }
     // the run ends at the first communication point at or after `dur`
-    let n = (crate::master::macro_steps(0.0, dur, p.macro_step_s)? as f64).max(1.0);
+    let n = (cosim::master::macro_steps(0.0, dur, p.macro_step_s)? as f64).max(1.0);
     m.initialize(0.0, Some(n * p.macro_step_s))?;
     Ok(m)
 }
@@ -264,17 +275,8 @@ pub fn run_cosim(
         2.0 * PI / w_max / 64.0
     };
     let every = ((dt_out / h).round() as usize).max(1);
-    let names: Vec<String> = [
-        "shaker.Omega",
-        "structure.x_tip",
-        "structure.x",
-        "shaker.F",
-        "shaker.u",
-        "shaker.I",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
+    // shaker.Omega, structure.x_tip, structure.x, shaker.F, shaker.u, shaker.I
+    let names = pairing().record;
     let rec = run(&mut m, dur, &names, every, progress)?;
     let col = |k: usize| rec.columns[k].1.clone();
     let mut out = CosimOutput {
@@ -340,3 +342,7 @@ pub fn envelope_of(o: &CosimOutput) -> Envelope {
     e.drive_amplitude_m = Some(drive);
     e
 }
+
+#[cfg(test)]
+#[path = "structure_shaker_tests.rs"]
+mod tests;
