@@ -285,12 +285,12 @@ impl StatePort {
             let x_h = &nff_inv * h.rows(s, f);
             let n_sf = n.view((0, s), (s, f));
             let w_f = w.columns(s, f);
-            p1 -= &n_sf * &x_n;
-            p2 -= &n_sf * &x_k;
-            p -= &n_sf * &x_h;
-            q1 -= &w_f * &x_k;
-            q2 -= &w_f * &x_n;
-            q -= &w_f * &x_h;
+            p1 -= n_sf * &x_n;
+            p2 -= n_sf * &x_k;
+            p -= n_sf * &x_h;
+            q1 -= w_f * &x_k;
+            q2 -= w_f * &x_n;
+            q -= w_f * &x_h;
         }
         let o = port.offset;
         for r in 0..c {

@@ -88,7 +88,7 @@ impl SlowFlowOptions {
         if !(self.channel_tol > 0.0 && self.channel_tol < 1e-2) {
             return bad("channel_tol", self.channel_tol, "must lie in (0, 1e-2)");
         }
-        if !(self.fast_pole_factor > 0.0) {
+        if self.fast_pole_factor.is_nan() || self.fast_pole_factor <= 0.0 {
             return bad(
                 "fast_pole_factor",
                 self.fast_pole_factor,
