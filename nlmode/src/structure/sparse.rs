@@ -413,18 +413,25 @@ impl SymbolicFactor {
     }
 
     /// As [`SymbolicFactor::new`] with the ordering `ordering` (`auto`
-    /// resolved by the size, [`Ordering::resolve`]); `None` also when the
-    /// nested dissection fails or is not built in.
+    /// resolved by the size, [`Ordering::resolve`]). Where the nested
+    /// dissection fails (METIS reports an error, or is not built in) the
+    /// ordering is AMD, and [`SymbolicFactor::ordering`] says so.
     pub fn with_ordering(a: &SparseMatrix, ordering: Ordering) -> Option<Self> {
         let params = CholeskySymbolicParams {
             // supernodal unless the factor is very sparse (faer's own choice)
             supernodal_flop_ratio_threshold: SupernodalThreshold::AUTO,
             ..Default::default()
         };
-        let ordering = ordering.resolve(a.nrows());
-        let inner = match ordering {
-            Ordering::NestedDissection => {
-                let fwd = super::ordering::nested_dissection(a)?;
+        let mut ordering = ordering.resolve(a.nrows());
+        let nd = match ordering {
+            Ordering::NestedDissection => super::ordering::nested_dissection(a),
+            _ => None,
+        };
+        if nd.is_none() {
+            ordering = Ordering::Amd;
+        }
+        let inner = match nd {
+            Some(fwd) => {
                 let mut inv = vec![0usize; fwd.len()];
                 for (new, &old) in fwd.iter().enumerate() {
                     inv[old] = new;
@@ -437,7 +444,7 @@ impl SymbolicFactor {
                     params,
                 )
             }
-            _ => factorize_symbolic_cholesky(
+            None => factorize_symbolic_cholesky(
                 a.symbolic(),
                 Side::Lower,
                 SymmetricOrdering::Amd,
