@@ -137,8 +137,10 @@ fn echo_setup(sc: &Scenario, setup: &Setup, source: &str, opts: &Options) {
     if let Some(t) = &setup.structure_timings {
         say!(
             opts,
-            "  sparse reduction: check {:.2} s, ordering {:.2} s, factor {:.2} s ({} non-zeros), eigen {:.2} s, constraint modes {:.2} s, projection {:.2} s; memory estimate {:.2} GB",
+            "  sparse reduction: read {:.2} s, check {:.2} s, ordering ({}) {:.2} s, factor {:.2} s ({} non-zeros), eigen {:.2} s, constraint modes {:.2} s, projection {:.2} s; memory estimate {:.2} GB",
+            t.read_s,
             t.check_s,
+            t.ordering,
             t.order_s,
             t.factor_s,
             t.factor_nnz,
@@ -267,6 +269,7 @@ pub fn summary(
             .map(|r| (r.name.clone(), r.summary.clone()))
             .collect(),
         speedup_nlmode_over_reference: speedup(done),
+        structure_stages: setup.structure_timings.clone(),
         failed_methods: failed.iter().cloned().collect(),
         warnings: Vec::new(),
     }

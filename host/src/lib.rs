@@ -20,6 +20,7 @@ pub mod plot;
 pub mod results;
 pub mod run;
 pub mod scenario;
+pub mod stages;
 pub mod study;
 
 /// The controlled tests' modules under their former paths.

@@ -345,6 +345,7 @@ pub fn build_matrices_structure(
     if let Some(p) = &st.damping_mtx {
         files.push((MatrixRole::Damping, p));
     }
+    let read_start = crate::stages::StageClock::now();
     let mut read = Vec::with_capacity(files.len());
     for (role, path) in &files {
         read.push(read_matrix_triplets(*role, path, format).map_err(key)?);
@@ -387,6 +388,7 @@ pub fn build_matrices_structure(
         Some(_) => Some(sparse_of(2)?),
         None => None,
     };
+    let read_stage = read_start.sample("read");
     let damping = match (damping_matrix, st.rayleigh, st.damping_ratio) {
         (Some(c), _, _) => MatrixDamping::Matrix(c),
         (None, Some([alpha_per_s, beta_s]), _) => MatrixDamping::Rayleigh {
@@ -435,11 +437,18 @@ pub fn build_matrices_structure(
             }
         }
     }
+    let log = crate::stages::StageLog::default();
     let sparse = nlmode::structure::sparse::SparseOptions {
         memory_limit_bytes: st.memory_limit_bytes(),
+        ordering: st.ordering,
+        progress: Some(log.progress()),
         ..Default::default()
     };
     let mut ms = matrix_structure_sparse_with(&opts, &sparse).map_err(key)?;
+    if let Some(t) = ms.timings.as_mut() {
+        t.read_s = read_stage.wall_s;
+        t.stages = std::iter::once(read_stage).chain(log.take()).collect();
+    }
     if let Some(full) = ms.full.as_mut() {
         add_nonlinearities(sc, full)?;
     }

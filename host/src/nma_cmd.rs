@@ -185,7 +185,7 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
     let basis_d =
         Arc::new(ModalBasis::new(&setup.model, false).map_err(|e| anyhow::anyhow!("nma: {e}"))?);
     let table_path = out.join("modal_table.json");
-    table.write(&table_path)?;
+    write_table(&table, &table_path, &setup)?;
     // backbones through the loops
     let bb = BackboneOptions {
         harmonics: h,
@@ -278,6 +278,24 @@ pub fn nma(path: Option<&Path>, out: &Path) -> Result<()> {
         out.display()
     );
     Ok(())
+}
+
+/// `modal_table.json`: the table, and for FE matrices reduced on the sparse
+/// path a `provenance` object with the structure's stage times
+/// (`structure_stages`, as in `summary.json`), a field that the table's
+/// readers ignore.
+fn write_table(table: &nlmode::nma::ModalTable, path: &Path, setup: &Setup) -> Result<()> {
+    let Some(t) = &setup.structure_timings else {
+        return Ok(table.write(path)?);
+    };
+    let mut v = serde_json::to_value(table)?;
+    v["provenance"] = serde_json::json!({
+        "full_ndof": setup.full_ndof,
+        "omega0_rad_s": setup.omega0_rad_s,
+        "structure_stages": t,
+    });
+    std::fs::write(path, serde_json::to_string_pretty(&v)?)
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// The kinetic-energy share of each harmonic along the first branch

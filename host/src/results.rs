@@ -112,6 +112,11 @@ pub struct Summary {
     pub omega0_rad_s: f64,
     /// Wall time of `reference` over that of `nlmode` (null unless both ran).
     pub speedup_nlmode_over_reference: Option<f64>,
+    /// The large-model path's stage times (read, check, order, factor,
+    /// eigen, constraint modes, project), `nnz(L)`, the ordering and the
+    /// memory estimate: FE matrices reduced on the sparse path only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure_stages: Option<nlmode::structure::sparse::StageTimings>,
     pub sweep: SweepSettings,
     pub title: String,
     /// Validity checks of the single-mode theory with attachments (quasi-steady

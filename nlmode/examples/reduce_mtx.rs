@@ -7,6 +7,7 @@
 //!
 //! ```text
 //! cargo run --release -p nlmode --example reduce_mtx -- DIR [--threads N] [--memory-limit-gb X]
+//!     [--ordering auto|amd|nested-dissection]
 //! ```
 //!
 //! The memory limit defaults to 75 % of `MemAvailable` in `/proc/meminfo`
@@ -63,11 +64,18 @@ fn run() -> Result<(), String> {
                 let gb: f64 = value()?.parse().map_err(|e| format!("{a}: {e}"))?;
                 sparse.memory_limit_bytes = Some((gb * 1e9) as u64);
             }
+            "--ordering" => {
+                let v = value()?;
+                sparse.ordering = serde_json::from_value(serde_json::json!(v))
+                    .map_err(|_| format!("{a}: {v} is not auto, amd or nested-dissection"))?;
+            }
             _ if dir.is_none() => dir = Some(PathBuf::from(a)),
             _ => return Err(format!("unknown argument {a}")),
         }
     }
-    let dir = dir.ok_or("usage: reduce_mtx DIR [--threads N] [--memory-limit-gb X]")?;
+    let dir = dir.ok_or(
+        "usage: reduce_mtx DIR [--threads N] [--memory-limit-gb X] [--ordering auto|amd|nested-dissection]",
+    )?;
     let points = std::fs::read_to_string(dir.join("points.json")).map_err(|e| e.to_string())?;
     let points: serde_json::Value = serde_json::from_str(&points).map_err(|e| e.to_string())?;
     let dof = |k: &str| {
@@ -108,7 +116,10 @@ fn run() -> Result<(), String> {
         allow_rigid_body_modes: false,
     };
     let t1 = Instant::now();
-    let s = matrix_structure_sparse_cb_with(&opts, &sparse).map_err(|e| e.to_string())?;
+    let mut s = matrix_structure_sparse_cb_with(&opts, &sparse).map_err(|e| e.to_string())?;
+    if let Some(t) = s.timings.as_mut() {
+        t.read_s = read_s;
+    }
     let reduce_s = t1.elapsed().as_secs_f64();
     let out = serde_json::json!({
         "ndof": s.full_ndof,

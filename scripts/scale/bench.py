@@ -1,29 +1,38 @@
 """Scale benchmark (docs/performance.md, issue 27): for each size, write the
-hexahedral cantilever plate (nlmode example `hex_plate`), reduce it with
-nlmode's large-model path (example `reduce_mtx`: stage times and peak memory
-per stage) and run scipy's shift-invert `eigsh` for the 10 lowest modes of the
-same matrices, each under /usr/bin/time -v (wall, CPU, peak memory).
+hexahedral cantilever plate (nlmode example `hex_plate`), run `host nma` on it
+once per fill-reducing ordering (`[structure] ordering`: stage times, CPU and
+peak memory per stage from modal_table.json's `provenance`) and scipy's
+shift-invert `eigsh` for the 10 lowest modes of the same matrices, each under
+/usr/bin/time -v (wall, CPU, peak memory of the whole run).
 
-    python3 scripts/scale/bench.py [--profile release|dev] [--threads N] 100000 300000 1000000
+    python3 scripts/scale/bench.py [--profile release|dev] [--orderings amd,nested-dissection]
+                                   [--no-scipy] 100000 300000 1000000
 
 Needs numpy and scipy (the venv of tests/run.sh has them). Models are cached
 in $SCALE_DIR (default /tmp/nlmode-scale). A size whose memory estimate exceeds
-the limit (75 % of MemAvailable, or --memory-limit-gb) is refused by nlmode
-before factorising: the row says so. Timings are not asserted anywhere.
+the limit (75 % of MemAvailable, or --memory-limit-gb) is refused by the host
+before factorising (exit 2): the row says so. Timings are not asserted anywhere.
 """
 import argparse
 import json
 import os
 import re
+import resource
 import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def timed(cmd, log):
-    """Runs cmd under /usr/bin/time -v: (stdout, stderr, wall s, cpu s, peak GB)."""
-    p = subprocess.run(["/usr/bin/time", "-v", *cmd], capture_output=True, text=True, cwd=ROOT)
+def timed(cmd, log, limit_gb=None):
+    """Runs cmd under /usr/bin/time -v (its address space capped at limit_gb):
+    (exit code, stdout, stderr, wall s, cpu s, peak GB)."""
+    def cap():
+        if limit_gb:
+            lim = int(float(limit_gb) * 1e9)
+            resource.setrlimit(resource.RLIMIT_AS, (lim, lim))
+    p = subprocess.run(["/usr/bin/time", "-v", *cmd], capture_output=True, text=True, cwd=ROOT,
+                       preexec_fn=cap)
     with open(log, "w") as f:
         f.write(p.stdout + "\n" + p.stderr)
     err = p.stderr
@@ -40,65 +49,104 @@ def timed(cmd, log):
     return p.returncode, p.stdout, err, wall_s, cpu_s, peak_gb
 
 
+def scenario_with(src, dst, ordering, limit_gb):
+    """plate.toml with `ordering` (and `memory_limit_gb`) under [structure]."""
+    text = open(src).read()
+    extra = f'ordering = "{ordering}"\n'
+    if limit_gb:
+        extra += f"memory_limit_gb = {limit_gb}\n"
+    text = text.replace("[structure]\n", "[structure]\n" + extra, 1)
+    with open(dst, "w") as f:
+        f.write(text)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("sizes", nargs="*", type=int, default=[100_000, 300_000, 1_000_000])
     ap.add_argument("--profile", default="release")
-    ap.add_argument("--threads", default="0")
+    ap.add_argument("--orderings", default="amd,nested-dissection")
     ap.add_argument("--memory-limit-gb", default=None)
     ap.add_argument("--no-scipy", action="store_true")
+    ap.add_argument("--scipy-limit-gb", default="16",
+                    help="address-space cap of the scipy run (it has no memory estimate)")
     ap.add_argument("--python", default=sys.executable)
     a = ap.parse_args()
     base = os.environ.get("SCALE_DIR", "/tmp/nlmode-scale")
     prof = ["--release"] if a.profile == "release" else ["--profile", a.profile]
-    subprocess.run(["cargo", "build", "-q", "-p", "nlmode", *prof, "--example", "hex_plate",
-                    "--example", "reduce_mtx"], check=True, cwd=ROOT)
+    subprocess.run(["cargo", "build", "-q", *prof, "-p", "nlmode", "--example", "hex_plate"],
+                   check=True, cwd=ROOT)
+    subprocess.run(["cargo", "build", "-q", *prof, "-p", "host", "--bin", "host"],
+                   check=True, cwd=ROOT)
     tdir = "release" if a.profile == "release" else ("debug" if a.profile == "dev" else a.profile)
-    exe = lambda name: os.path.join(ROOT, "target", tdir, "examples", name)
+    exe = lambda name: os.path.join(ROOT, "target", tdir, name)
     rows = []
     for size in a.sizes:
         d = os.path.join(base, f"plate{size}")
         if not os.path.exists(os.path.join(d, "points.json")):
-            subprocess.run([exe("hex_plate"), "--dofs", str(size), "--out", d], check=True)
-        cmd = [exe("reduce_mtx"), d, "--threads", a.threads]
-        if a.memory_limit_gb:
-            cmd += ["--memory-limit-gb", a.memory_limit_gb]
-        rc, out, err, wall, cpu, peak = timed(cmd, os.path.join(d, "reduce.log"))
-        print(err.split("\tCommand being timed")[0], file=sys.stderr)
-        if rc != 0:
-            rows.append((size, f"nlmode refused/failed (exit {rc}): {err.splitlines()[0]}"))
-            continue
-        res = json.loads(out.strip().splitlines()[-1])
-        row = {"ndof": res["ndof"], "wall_s": wall, "cpu_s": cpu, "peak_gb": peak,
-               "read_s": res["read_s"], **{k: v for k, v in res["timings"].items()},
-               "omega0_rad_s": res["omega0_rad_s"]}
+            subprocess.run([exe("examples/hex_plate"), "--dofs", str(size), "--out", d], check=True)
+        for ordering in a.orderings.split(","):
+            sc = os.path.join(d, f"plate_{ordering}.toml")
+            scenario_with(os.path.join(d, "plate.toml"), sc, ordering, a.memory_limit_gb)
+            out = os.path.join(d, f"nma_{ordering}")
+            rc, _, err, wall, cpu, peak = timed([exe("host"), "nma", sc, "-o", out],
+                                                os.path.join(d, f"nma_{ordering}.log"))
+            if rc != 0:
+                msg = next((l for l in err.splitlines() if "error" in l.lower()), "see the log")
+                rows.append((size, ordering, f"host nma failed (exit {rc}): {msg}"))
+                continue
+            table = json.load(open(os.path.join(out, "modal_table.json")))
+            t = table["provenance"]["structure_stages"]
+            row = {"ndof": table["provenance"]["full_ndof"], "ordering": t["ordering"],
+                   "wall_s": wall, "cpu_s": cpu, "peak_gb": peak,
+                   "omega0_rad_s": table["provenance"]["omega0_rad_s"], **t}
+            rows.append((size, ordering, row))
+            print(json.dumps(row), flush=True)
         if not a.no_scipy:
             rc, out, err, swall, scpu, speak = timed(
                 [a.python, os.path.join(ROOT, "scripts/scale/scipy_eigsh.py"), d],
-                os.path.join(d, "scipy.log"))
+                os.path.join(d, "scipy.log"), a.scipy_limit_gb)
             if rc == 0:
                 s = json.loads(out.strip().splitlines()[-1])
-                row.update(scipy_wall_s=swall, scipy_cpu_s=scpu, scipy_peak_gb=speak,
-                           scipy_eigsh_s=s["eigsh_s"], scipy_omega0_rad_s=s["omega_rad_s"][0],
-                           omega0_rel_diff=abs(s["omega_rad_s"][0] - row["omega0_rad_s"])
-                           / s["omega_rad_s"][0])
+                row = {"scipy_wall_s": swall, "scipy_cpu_s": scpu, "scipy_peak_gb": speak,
+                       "scipy_eigsh_s": s["eigsh_s"], "scipy_omega0_rad_s": s["omega_rad_s"][0]}
             else:
-                row.update(scipy=f"failed (exit {rc})")
-        rows.append((size, row))
-        print(json.dumps(row))
-    print("\n| DOFs | wall s | CPU s | peak GB | read | order | factor | eigen | constraint | "
-          "nnz(L) | scipy eigsh s | scipy peak GB | omega0 rel. diff |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for size, r in rows:
+                row = f"scipy failed (exit {rc}; MemoryError above --scipy-limit-gb?)"
+            rows.append((size, "scipy", row))
+            print(json.dumps(row), flush=True)
+    print("\n| DOFs | ordering | wall s | CPU s | peak GB | read | order | factor | eigen | "
+          "constraint | nnz(L) | estimate GB | omega0 rad/s | vs scipy |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    scipy = {size: r["scipy_omega0_rad_s"] for size, o, r in rows
+             if o == "scipy" and isinstance(r, dict)}
+    for size, ordering, r in rows:
+        if isinstance(r, str):
+            print(f"| {size} | {ordering} | {r} |")
+            continue
+        if ordering == "scipy":
+            continue
+        g = lambda k, f="{:.1f}": f.format(r[k]) if k in r else "-"
+        w, s = r["omega0_rad_s"], scipy.get(size)
+        diff = f"{abs(w - s) / s:.1e}" if s else "-"
+        print(f"| {r['ndof']} | {r['ordering']} | {g('wall_s')} | {g('cpu_s')} | "
+              f"{g('peak_gb', '{:.2f}')} | {g('read_s')} | {g('order_s')} | {g('factor_s')} | "
+              f"{g('eigen_s')} | {g('constraint_modes_s', '{:.2f}')} | {g('factor_nnz', '{:.3g}')} | "
+              f"{r['memory_estimate_bytes'] / 1e9:.2f} | {w:.9f} | {diff} |")
+    print("\nPer stage (wall s / CPU s / peak GB after it):")
+    for size, ordering, r in rows:
+        if isinstance(r, dict) and "stages" in r:
+            st = ", ".join(f"{s['stage']} {s['wall_s']:.1f}/{s['cpu_s']:.1f}/"
+                           f"{s['peak_rss_bytes'] / 1e9:.2f}" for s in r["stages"])
+            print(f"- {size} {ordering}: {st}")
+    print("\n| DOFs | scipy wall s | scipy CPU s | scipy peak GB | scipy omega0 rad/s |")
+    print("|---|---|---|---|---|")
+    for size, ordering, r in rows:
+        if ordering != "scipy":
+            continue
         if isinstance(r, str):
             print(f"| {size} | {r} |")
             continue
-        g = lambda k, f="{:.1f}": f.format(r[k]) if k in r else "-"
-        print(f"| {r['ndof']} | {g('wall_s')} | {g('cpu_s')} | {g('peak_gb', '{:.2f}')} | "
-              f"{g('read_s')} | {g('order_s')} | {g('factor_s')} | {g('eigen_s')} | "
-              f"{g('constraint_modes_s', '{:.2f}')} | {g('factor_nnz', '{:.3g}')} | "
-              f"{g('scipy_eigsh_s')} | {g('scipy_peak_gb', '{:.2f}')} | "
-              f"{g('omega0_rel_diff', '{:.1e}')} |")
+        print(f"| {size} | {r['scipy_wall_s']:.1f} | {r['scipy_cpu_s']:.1f} | "
+              f"{r['scipy_peak_gb']:.2f} | {r['scipy_omega0_rad_s']:.9f} |")
 
 
 if __name__ == "__main__":

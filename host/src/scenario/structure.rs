@@ -47,6 +47,7 @@ struct RawStructure {
     allow_rigid_body_modes: Option<bool>,
     memory_limit_gb: Option<f64>,
     matrix_format: Option<MatrixFormat>,
+    ordering: Option<nlmode::structure::sparse::Ordering>,
 }
 
 impl<'de> Deserialize<'de> for StructureSpec {
@@ -77,6 +78,7 @@ impl<'de> Deserialize<'de> for StructureSpec {
                         ("allow_rigid_body_modes", r.allow_rigid_body_modes.is_some()),
                         ("memory_limit_gb", r.memory_limit_gb.is_some()),
                         ("matrix_format", r.matrix_format.is_some()),
+                        ("ordering", r.ordering.is_some()),
                     ],
                 )?;
                 let b = BeamStructureSpec::default();
@@ -129,6 +131,7 @@ impl<'de> Deserialize<'de> for StructureSpec {
                     allow_rigid_body_modes: r.allow_rigid_body_modes.unwrap_or(false),
                     memory_limit_gb: r.memory_limit_gb,
                     matrix_format: r.matrix_format.unwrap_or_default(),
+                    ordering: r.ordering.unwrap_or_default(),
                 }))
             }
         }
@@ -304,6 +307,14 @@ pub struct MatricesStructureSpec {
     /// The format of `mass_mtx`, `stiffness_mtx`, `damping_mtx` (default: detected).
     #[serde(skip_serializing_if = "MatrixFormat::is_auto")]
     pub matrix_format: MatrixFormat,
+    /// The fill-reducing ordering of the sparse Cholesky factorisations
+    /// (`auto`, `amd`, `nested-dissection`).
+    #[serde(skip_serializing_if = "is_auto_ordering")]
+    pub ordering: nlmode::structure::sparse::Ordering,
+}
+
+fn is_auto_ordering(o: &nlmode::structure::sparse::Ordering) -> bool {
+    *o == nlmode::structure::sparse::Ordering::Auto
 }
 
 /// 75 % of `MemAvailable` (Linux `/proc/meminfo`), `None` where unknown: the
@@ -514,6 +525,16 @@ impl Scenario {
         }
         if let Some(gb) = st.memory_limit_gb {
             positive("structure.memory_limit_gb", gb)?;
+        }
+        {
+            use nlmode::structure::ordering::{Ordering, NESTED_DISSECTION_AVAILABLE};
+            if st.ordering == Ordering::NestedDissection && !NESTED_DISSECTION_AVAILABLE {
+                return Err(bad(
+                    "structure.ordering",
+                    "nested-dissection needs METIS, which this build of host leaves out \
+                     (nlmode's cargo feature `metis`): use \"auto\" or \"amd\"",
+                ));
+            }
         }
         if let Some(m) = &st.cb_masters {
             for (i, p) in m.iter().enumerate() {

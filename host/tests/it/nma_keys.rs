@@ -315,6 +315,31 @@ fn large_matrices_report_timings_and_respect_the_memory_limit() {
         so.contains("sparse reduction:") && so.contains("memory estimate"),
         "{so}"
     );
+    // the stage times in summary.json, from the read on
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/summary.json")).unwrap())
+            .unwrap();
+    let st = &summary["structure_stages"];
+    assert!(st["read_s"].as_f64().unwrap() >= 0.0, "{st}");
+    assert_eq!(st["ordering"], "amd", "auto is AMD below 20,000 DOFs");
+    assert!(st["factor_nnz"].as_u64().unwrap() > 0);
+    let stages: Vec<&str> = st["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(stages.first(), Some(&"read"), "{stages:?}");
+    for name in ["order", "factor", "eigen", "constraint_modes", "project"] {
+        assert!(stages.contains(&name), "{name} in {stages:?}");
+    }
+    // a bad ordering names the key and the values
+    expect_failure(
+        &dir,
+        "run",
+        &text("ordering = \"metis\"\n"),
+        &["structure.ordering", "nested-dissection"],
+    );
 }
 
 /// NLvib's friction-contact chain through full slip (nlmode's

@@ -413,9 +413,19 @@ pub fn craig_bampton_sparse_with(
         let par = opts.par();
         let solver = match k_factor {
             Some(f) => InteriorSolver::bordered(f, n, masters),
-            None => timings.time(Stage::Factor, opts, || {
-                InteriorSolver::clamped(stiffness, None, masters, par)
-            }),
+            None => {
+                // K with the masters decoupled has K's pattern: its ordering
+                // is K's (from the options' cache when K was ordered before)
+                let sym = timings
+                    .time(Stage::Order, opts, || {
+                        SymbolicFactor::with_options(stiffness, opts)
+                    })
+                    .ok_or_else(singular)?;
+                timings.ordering = sym.ordering().name().into();
+                timings.time(Stage::Factor, opts, || {
+                    InteriorSolver::clamped(stiffness, Some(&sym), masters, par)
+                })
+            }
         }
         .ok_or_else(singular)?;
         let pencil = Pencil {

@@ -874,7 +874,9 @@ pub fn matrix_structure_sparse_cb_with(
         .map(|name| dof_of(&opts.points, "cb_masters", name))
         .collect::<Result<Vec<_>, _>>()?;
     let par = sparse.par();
-    let sym = timings.time(Stage::Order, sparse, || SymbolicFactor::new(k));
+    let sym = timings.time(Stage::Order, sparse, || {
+        SymbolicFactor::with_options(k, sparse)
+    });
     let mut held = vec![m, k];
     held.extend(c_matrix);
     let estimate = sym.as_ref().map(|s| {

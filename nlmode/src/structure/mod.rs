@@ -144,6 +144,7 @@ pub mod lanczos;
 pub mod laws;
 pub mod matrices;
 pub mod modal;
+pub mod ordering;
 pub mod paper;
 pub mod solid;
 pub mod sparse;

@@ -2,7 +2,8 @@
 //! structure, [`super::matrices::matrix_structure_sparse`]): compressed-column
 //! storage (faer), products with dense blocks, and the sparse Cholesky
 //! factorisation `A = L L^T` (faer's supernodal factorisation after a
-//! fill-reducing ordering, with its parallelism) with a memory estimate from the
+//! fill-reducing ordering, [`super::ordering`]: AMD or nested dissection, with
+//! its parallelism) with a memory estimate from the
 //! symbolic factorisation taken before any numeric work
 //! ([`MemoryEstimate`], [`SparseOptions::memory_limit_bytes`]).
 //!
@@ -14,6 +15,7 @@
 //! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m`, dense blocks
 //! `8 n r` a few times. Nothing of size `n x n` is formed; one factorisation is
 //! alive at a time.
+pub use super::ordering::Ordering;
 use super::{Result, StructureError};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{
@@ -24,7 +26,7 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Accum, Conj, MatMut, MatRef, Par, Side};
 use nalgebra::DMatrix;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// A sparse square matrix in compressed-column storage (faer).
@@ -280,7 +282,18 @@ pub struct SparseOptions {
     pub threads: usize,
     /// Called after each stage (e.g. a progress bar).
     pub progress: Option<Progress>,
+    /// The fill-reducing ordering of the factorisations of `K` and `K_ii`.
+    pub ordering: Ordering,
+    /// The last symbolic factorisation made by [`SymbolicFactor::with_options`],
+    /// reused for a matrix of the same pattern (`K` with the masters decoupled
+    /// is ordered once, with `K`).
+    pub symbolic_cache: SymbolicCache,
 }
+
+/// See [`SparseOptions::symbolic_cache`]: the pattern's fingerprint and its
+/// symbolic factorisation.
+#[derive(Clone, Default)]
+pub struct SymbolicCache(Arc<Mutex<Option<(u64, SymbolicFactor)>>>);
 
 impl std::fmt::Debug for SparseOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -288,6 +301,7 @@ impl std::fmt::Debug for SparseOptions {
             .field("memory_limit_bytes", &self.memory_limit_bytes)
             .field("threads", &self.threads)
             .field("progress", &self.progress.is_some())
+            .field("ordering", &self.ordering)
             .finish()
     }
 }
@@ -318,6 +332,30 @@ pub struct StageTimings {
     pub memory_estimate_bytes: u64,
     /// Lanczos basis sizes at convergence: full model, fixed-interface modes.
     pub lanczos_basis: Vec<usize>,
+    /// Reading the matrix files (the caller's, e.g. the host's; 0 when the
+    /// matrices came from memory).
+    #[serde(default)]
+    pub read_s: f64,
+    /// The fill-reducing ordering used ([`Ordering::name`], `auto` resolved).
+    #[serde(default)]
+    pub ordering: String,
+    /// Each stage in order with its wall and CPU time and the process' peak
+    /// memory after it, where the caller measures them (the host: from
+    /// `read` on; empty otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stages: Vec<StageSample>,
+}
+
+/// One stage of [`StageTimings::stages`].
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StageSample {
+    /// [`Stage::name`], or `read`.
+    pub stage: String,
+    pub wall_s: f64,
+    /// CPU time of the process over the stage (all threads) [s].
+    pub cpu_s: f64,
+    /// Peak resident memory of the process at the end of the stage [bytes].
+    pub peak_rss_bytes: u64,
 }
 
 impl StageTimings {
@@ -347,28 +385,103 @@ impl StageTimings {
 }
 
 /// The symbolic Cholesky factorisation of a sparsity pattern (lower triangle
-/// read): faer's approximate minimum degree ordering, the elimination tree and
+/// read): the fill-reducing ordering ([`Ordering`]), the elimination tree and
 /// the supernodal structure. Shared by every matrix of that pattern.
 #[derive(Debug, Clone)]
 pub struct SymbolicFactor {
     inner: Arc<SymbolicCholesky<usize>>,
+    ordering: Ordering,
+}
+
+/// A fingerprint of a sparsity pattern (size, column pointers, row indices).
+fn pattern_fingerprint(a: &SparseMatrix) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let sym = a.symbolic();
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    (sym.nrows(), sym.ncols()).hash(&mut h);
+    for c in 0..sym.ncols() {
+        sym.row_idx()[sym.col_range(c)].hash(&mut h);
+    }
+    h.finish()
 }
 
 impl SymbolicFactor {
-    /// The symbolic factorisation of `a`'s pattern; `None` when faer runs out
-    /// of memory or index range.
+    /// The symbolic factorisation of `a`'s pattern with faer's AMD ordering;
+    /// `None` when faer runs out of memory or index range.
     pub fn new(a: &SparseMatrix) -> Option<Self> {
+        Self::with_ordering(a, Ordering::Amd)
+    }
+
+    /// As [`SymbolicFactor::new`] with the ordering `ordering` (`auto`
+    /// resolved by the size, [`Ordering::resolve`]). Where the nested
+    /// dissection fails (METIS reports an error, or is not built in) the
+    /// ordering is AMD, and [`SymbolicFactor::ordering`] says so.
+    pub fn with_ordering(a: &SparseMatrix, ordering: Ordering) -> Option<Self> {
         let params = CholeskySymbolicParams {
             // supernodal unless the factor is very sparse (faer's own choice)
             supernodal_flop_ratio_threshold: SupernodalThreshold::AUTO,
             ..Default::default()
         };
-        let inner =
-            factorize_symbolic_cholesky(a.symbolic(), Side::Lower, SymmetricOrdering::Amd, params)
-                .ok()?;
+        let mut ordering = ordering.resolve(a.nrows());
+        let nd = match ordering {
+            Ordering::NestedDissection => super::ordering::nested_dissection(a),
+            _ => None,
+        };
+        if nd.is_none() {
+            ordering = Ordering::Amd;
+        }
+        let inner = match nd {
+            Some(fwd) => {
+                let mut inv = vec![0usize; fwd.len()];
+                for (new, &old) in fwd.iter().enumerate() {
+                    inv[old] = new;
+                }
+                let perm = faer::perm::PermRef::new_checked(&fwd, &inv, fwd.len());
+                factorize_symbolic_cholesky(
+                    a.symbolic(),
+                    Side::Lower,
+                    SymmetricOrdering::Custom(perm),
+                    params,
+                )
+            }
+            None => factorize_symbolic_cholesky(
+                a.symbolic(),
+                Side::Lower,
+                SymmetricOrdering::Amd,
+                params,
+            ),
+        }
+        .ok()?;
         Some(Self {
             inner: Arc::new(inner),
+            ordering,
         })
+    }
+
+    /// As [`SymbolicFactor::with_ordering`] with `opts.ordering`, reusing the
+    /// symbolic factorisation in `opts.symbolic_cache` when `a` has its
+    /// pattern (and storing the new one there otherwise).
+    pub fn with_options(a: &SparseMatrix, opts: &SparseOptions) -> Option<Self> {
+        let key = pattern_fingerprint(a);
+        let mut cache = opts
+            .symbolic_cache
+            .0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        if let Some((k, s)) = cache.as_ref() {
+            if *k == key && s.inner.nrows() == a.nrows() {
+                return Some(s.clone());
+            }
+        }
+        *cache = None;
+        let s = Self::with_ordering(a, opts.ordering)?;
+        *cache = Some((key, s.clone()));
+        Some(s)
+    }
+
+    /// The ordering used (`auto` resolved).
+    pub fn ordering(&self) -> Ordering {
+        self.ordering
     }
 
     /// Non-zeros of the factor `L` (supernodal: with the dense supernode blocks).
