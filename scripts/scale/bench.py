@@ -75,7 +75,7 @@ def main():
     prof = ["--release"] if a.profile == "release" else ["--profile", a.profile]
     subprocess.run(["cargo", "build", "-q", *prof, "-p", "nlmode", "--example", "hex_plate"],
                    check=True, cwd=ROOT)
-    subprocess.run(["cargo", "build", "-q", *prof, "-p", "host", "--bin", "host"],
+    subprocess.run(["cargo", "build", "-q", *prof, "-p", "host", "--features", "metis", "--bin", "host"],
                    check=True, cwd=ROOT)
     tdir = "release" if a.profile == "release" else ("debug" if a.profile == "dev" else a.profile)
     exe = lambda name: os.path.join(ROOT, "target", tdir, name)

@@ -532,7 +532,7 @@ impl Scenario {
                 return Err(bad(
                     "structure.ordering",
                     "nested-dissection needs METIS, which this build of host leaves out \
-                     (nlmode's cargo feature `metis`): use \"auto\" or \"amd\"",
+                     (build it with `cargo build --release -p host --features metis`): use \"auto\" or \"amd\"",
                 ));
             }
         }

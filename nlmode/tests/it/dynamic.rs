@@ -179,7 +179,13 @@ fn dynamic_tmd_follows_the_exact_linear_transient() {
 #[test]
 fn far_attachment_pole_gives_eq_nm_plus_its_rate_term() {
     let c = 0.5; // N s/m: adds D = c/(2 m W0) = 0.25 %
-    let sweep = LinearSweep::new(0.9 * W0, 1.1 * W0, 0.02 * W0 * W0 / std::f64::consts::TAU, 1.0).unwrap();
+    let sweep = LinearSweep::new(
+        0.9 * W0,
+        1.1 * W0,
+        0.02 * W0 * W0 / std::f64::consts::TAU,
+        1.0,
+    )
+    .unwrap();
     let (mut to_rate_model, mut to_eq_nm) = (Vec::new(), Vec::new());
     for ratio in [10.0, 100.0, 1000.0] {
         let p = ratio * W0;
