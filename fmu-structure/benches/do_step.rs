@@ -59,6 +59,7 @@ fn paper_like_table() -> ModalTable {
         coordinates: vec![],
         truncated_at_fold: None,
         accuracy: None,
+        linear_modes: None,
     }
 }
 

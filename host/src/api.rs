@@ -69,6 +69,9 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
     let mut ctx = methods::RunContext::new(sc, &setup, out, opts.echo);
     if listed.iter().any(|m| m.needs_mode(sc)) {
         let (n, _) = methods::nma_table(&setup, sc, false)?;
+        sc.slowflow
+            .check_residual_modes(&n.table)
+            .with_context(|| format!("scenario {source}"))?;
         say!(opts, "{}", n.note);
         ctx.nma = Some(n);
     }

@@ -74,6 +74,7 @@ fn duffing(
         coordinates: vec![],
         truncated_at_fold: None,
         accuracy: None,
+        linear_modes: None,
     }
 }
 

@@ -94,6 +94,7 @@ mod imposed;
 mod output;
 mod post;
 pub mod problems;
+mod residual;
 mod steady;
 mod sweep;
 
@@ -102,6 +103,7 @@ pub use dynamic::AttachmentStates;
 pub use imposed::ForceEnvelope;
 pub use output::SampleFields;
 pub use post::TimeSignals;
+pub use residual::ResidualModes;
 pub use steady::{LinearSteady, SteadyFrequency, SteadyPoint};
 pub use sweep::{
     Envelope, SlowFlowOptions, SlowFlowResult, SlowFlowSample, SweepRun, SweepSink, SweepStatus,
@@ -166,6 +168,8 @@ pub enum ReducedError {
     },
     #[error("attachment '{attachment}': its states cannot be carried in the slow flow (attachments = \"dynamic\"): {why}")]
     AttachmentStates { attachment: String, why: String },
+    #[error("residual_modes = {requested}: {why}")]
+    ResidualModes { requested: usize, why: String },
     #[error("the slow-flow result has no samples")]
     EmptyResult,
     #[error("imposed force at '{point}': {found} imposed forces, at most {max} are supported")]
@@ -350,6 +354,8 @@ pub struct ReducedModel {
     pub(crate) a_scale: f64,
     /// Size of the channel vector (all ports).
     pub(crate) nch: usize,
+    /// Residual modes ([`Self::with_residual_modes`]); `None`: `eq:NM`.
+    pub(crate) residual: Option<residual::Residual>,
 }
 
 /// Maximum number of interface points over all attachments handled without
@@ -383,6 +389,7 @@ impl ReducedModel {
             frequency_error: FrequencyError::default(),
             nch: 0,
             a_scale: *table.amplitude.last().unwrap(),
+            residual: None,
         })
     }
 
@@ -394,6 +401,15 @@ impl ReducedModel {
         model: Arc<dyn InterfaceModel>,
         input_per_unit: &[Complex64],
     ) -> Result<Self, ReducedError> {
+        if self.residual.is_some() {
+            return Err(ReducedError::ResidualModes {
+                requested: self.residual_modes().map_or(0, |r| r.len()),
+                why: format!(
+                    "attachment '{}' added after the residual modes (they merge every attachment: add them last)",
+                    model.name()
+                ),
+            });
+        }
         if input_per_unit.len() != model.ninput() {
             return Err(ReducedError::InputCount {
                 attachment: model.name().into(),
@@ -556,6 +572,7 @@ impl ReducedModel {
         m.imposed = self.imposed.clone();
         m.frequency_error = self.frequency_error;
         m.a_scale = self.a_scale;
+        m.residual = self.residual.clone();
         Ok(m)
     }
 

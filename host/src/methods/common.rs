@@ -232,3 +232,31 @@ pub fn add_slowflow_exciter_forces(
     r.add_exciter_forces(&setup.exciter_names, &forces);
     Ok(())
 }
+
+/// With residual modes (`[slowflow] residual_modes`): their number in the
+/// summary (`residual_modes`) and a warning for each residual mode near an
+/// integer multiple `k >= 2` of the sweep band: through the nonlinear element
+/// it would exchange energy with the nonlinear mode (a `k:1` internal
+/// resonance), which a linear residual mode does not carry.
+pub fn note_residual_modes(
+    r: &mut MethodResult,
+    setup: &Setup,
+    model: &nlmode::reduced::ReducedModel,
+) {
+    let Some(m) = model.residual_modes() else {
+        return;
+    };
+    r.summary.set("residual_modes", m.len() as u64);
+    let (a, b) = (setup.sweep.omega_start_rad_s, setup.sweep.omega_end_rad_s);
+    let harmonics = model.table().harmonics().max(3);
+    for (mode, k) in m.internal_resonances(a.min(b), a.max(b), harmonics, 0.05) {
+        r.summary.warnings.push(format!(
+            "{}: residual mode {} ({:.1} rad/s) lies within 5 % of {k} x the sweep band: a {k}:1 internal \
+             resonance through the nonlinear element needs a second nonlinear mode; the residual \
+             mode carries only its linear forced response",
+            r.name,
+            mode + 1,
+            m.omega_rad_s()[mode]
+        ));
+    }
+}

@@ -62,9 +62,12 @@ impl super::Method for ImposedForce {
         {
             model = model.with_linear_attachment(att, u)?;
         }
-        let model = model.with_frequency_error(ctx.frequency_error())?;
+        let model = model
+            .with_frequency_error(ctx.frequency_error())?
+            .with_residual_modes(ctx.table(), ctx.sc.slowflow.residual_modes)?;
         let id = MethodId::ImposedForce;
         let (mut r, res) = slow_flow(id.name(), setup, &model, &ctx.sc.slowflow.options(id))?;
+        super::common::note_residual_modes(&mut r, setup, &model);
         // several exciters: the forces imposed, per exciter
         if setup.shakers.len() > 1 {
             let forces = envelopes

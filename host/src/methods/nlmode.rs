@@ -28,8 +28,11 @@ impl super::Method for Nlmode {
 
     fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
         let opts = ctx.sc.slowflow.options(MethodId::Nlmode);
-        let model = reduced_model(ctx.setup, ctx.table(), None)?;
-        let (r, flow) = exciter_slow_flow(MethodId::Nlmode.name(), ctx.setup, &model, &opts)?;
+        let n_res = ctx.sc.slowflow.residual_modes;
+        let model =
+            reduced_model(ctx.setup, ctx.table(), None)?.with_residual_modes(ctx.table(), n_res)?;
+        let (mut r, flow) = exciter_slow_flow(MethodId::Nlmode.name(), ctx.setup, &model, &opts)?;
+        super::common::note_residual_modes(&mut r, ctx.setup, &model);
         let mut out = MethodOutput {
             results: vec![r],
             flow: Some(flow),
@@ -37,7 +40,8 @@ impl super::Method for Nlmode {
         let error = ctx.frequency_error();
         let has_error = error.eps != 0.0 || error.offset_rad_s != 0.0;
         if has_error && ctx.sc.imposed_force.apply_to_nlmode && ctx.published(MethodId::Nlmode) {
-            let model = reduced_model(ctx.setup, ctx.table(), Some(error))?;
+            let model = reduced_model(ctx.setup, ctx.table(), Some(error))?
+                .with_residual_modes(ctx.table(), n_res)?;
             let (r, _) = exciter_slow_flow("nlmode-freq-error", ctx.setup, &model, &opts)?;
             out.results.push(r);
         }

@@ -204,6 +204,15 @@ pub fn nma_table(
         },
     };
     warnings.extend(res.warnings.iter().map(|w| format!("nma: {w}")));
+    // the other linear modes, for residual modes (`[slowflow] residual_modes`),
+    // with the structure's damping also for a conservative table
+    let linear_modes = if conservative {
+        ModalBasis::new(&setup.model, false)
+            .ok()
+            .and_then(|b| b.linear_modes(&setup.model, res.mode_index, &res.point_names))
+    } else {
+        basis.linear_modes(&setup.model, res.mode_index, &res.point_names)
+    };
     let table = res
         .refined_table(
             &setup.model,
@@ -213,6 +222,8 @@ pub fn nma_table(
             &RefineOptions::default(),
         )
         .map_err(nma_error)?;
+    let mut table = table;
+    table.linear_modes = linear_modes;
     if let Some(acc) = &table.accuracy {
         warnings.extend(acc.warnings());
     }

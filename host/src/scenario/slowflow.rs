@@ -15,6 +15,10 @@ pub struct SlowFlowSpec {
     /// `"dynamic"` (their states carried beside the modal amplitude,
     /// `nlmode::reduced::dynamic`).
     pub attachments: nlmode::reduced::AttachmentStates,
+    /// Linear modes of the structure kept beside the nonlinear mode by
+    /// `nlmode` and `imposed-force` (`nlmode::reduced::ResidualModes`); 0:
+    /// the paper's model.
+    pub residual_modes: usize,
 }
 
 impl Default for SlowFlowSpec {
@@ -25,6 +29,7 @@ impl Default for SlowFlowSpec {
             imposed_force_rtol: 1e-5,
             output_samples: lib.output_samples,
             attachments: lib.attachments,
+            residual_modes: 0,
         }
     }
 }
@@ -56,6 +61,27 @@ impl SlowFlowSpec {
                 return Err(bad(k, format!("expected a number in (0, 0.1), got {v}")));
             }
         }
+        if self.residual_modes > nlmode::table::MAX_LINEAR_MODES {
+            return Err(bad(
+                "slowflow.residual_modes",
+                format!(
+                    "expected 0 to {} (the linear modes a modal table carries), got {}",
+                    nlmode::table::MAX_LINEAR_MODES,
+                    self.residual_modes
+                ),
+            ));
+        }
+        if self.residual_modes > 0 && self.attachments == nlmode::reduced::AttachmentStates::Dynamic
+        {
+            return Err(bad(
+                "slowflow.residual_modes",
+                format!(
+                    "{} residual modes together with attachments = \"dynamic\" are not available \
+                     (the two are not coupled in one slow flow yet): use one of the two",
+                    self.residual_modes
+                ),
+            ));
+        }
         if self.output_samples < 2 {
             return Err(bad(
                 "slowflow.output_samples",
@@ -63,5 +89,38 @@ impl SlowFlowSpec {
             ));
         }
         Ok(())
+    }
+}
+
+impl SlowFlowSpec {
+    /// `residual_modes` against the linear modes `table` carries (after the
+    /// modal analysis; the key and the limit named).
+    pub fn check_residual_modes(
+        &self,
+        table: &nlmode::nma::ModalTable,
+    ) -> Result<(), ScenarioError> {
+        let n = self.residual_modes;
+        if n == 0 {
+            return Ok(());
+        }
+        match &table.linear_modes {
+            Some(lm) if n <= lm.len() => Ok(()),
+            Some(lm) => Err(bad(
+                "slowflow.residual_modes",
+                format!(
+                    "expected at most {} (the structure's linear modes besides the nonlinear mode that the \
+                     modal table carries), got {n}",
+                    lm.len()
+                ),
+            )),
+            None => Err(bad(
+                "slowflow.residual_modes",
+                format!(
+                    "{n} residual modes need the linear modes in the modal table (`linear_modes`), which \
+                     this table does not carry (a measured table, or one written before they were \
+                     stored: recompute it with `host nma`)"
+                ),
+            )),
+        }
     }
 }

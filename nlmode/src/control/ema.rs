@@ -244,6 +244,7 @@ pub fn modal_table_from_phase_resonance(
         coordinates: Vec::new(),
         truncated_at_fold: None,
         accuracy: None,
+        linear_modes: None,
     };
     Ok(MeasuredModalTable {
         table,

@@ -57,6 +57,7 @@ pub fn table_from_measured_csv(text: &str, point_name: &str) -> Result<ModalTabl
         coordinates: vec![],
         truncated_at_fold: None,
         accuracy: None,
+        linear_modes: None,
     };
     for (ln, line) in lines {
         let vals: Vec<&str> = line.split(',').map(|v| v.trim()).collect();

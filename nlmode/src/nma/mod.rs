@@ -54,8 +54,8 @@ pub mod modal_basis;
 pub mod problems;
 
 pub use crate::table::{
-    ModalTable, PointShape, TableAccuracy, TableDiscontinuity, HIGHEST_HARMONIC_SHARE_WARNING,
-    MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION,
+    LinearModeShape, LinearModes, ModalTable, PointShape, TableAccuracy, TableDiscontinuity,
+    HIGHEST_HARMONIC_SHARE_WARNING, MODAL_TABLE_FORMAT, MODAL_TABLE_VERSION,
 };
 pub use continuation::{ContinuationOptions, StopReason};
 pub use driver::{

@@ -130,6 +130,46 @@ impl ModalBasis {
         self.cm[(k, k)] / (2.0 * self.omega(k))
     }
 
+    /// The modes other than `mode_index` (the one a nonlinear mode continues),
+    /// at most [`crate::table::MAX_LINEAR_MODES`] of the lowest, with their
+    /// shapes at the model's points `names` (a table's points), for residual
+    /// modes ([`crate::reduced::ResidualModes`]). The damping ratios are the
+    /// diagonal of `Phi^T C Phi` (zero for a conservative basis; an off-diagonal
+    /// modal damping coupling is not carried). `None` if a name is not a point
+    /// of `model`.
+    pub fn linear_modes(
+        &self,
+        model: &StructuralModel,
+        mode_index: usize,
+        names: &[String],
+    ) -> Option<crate::table::LinearModes> {
+        let modes: Vec<usize> = (0..self.n_modes())
+            .filter(|&k| k != mode_index)
+            .take(crate::table::MAX_LINEAR_MODES)
+            .collect();
+        let points = names
+            .iter()
+            .map(|name| {
+                let p = model.points.iter().find(|p| &p.name == name)?;
+                Some(crate::table::LinearModeShape {
+                    name: name.clone(),
+                    shape: modes
+                        .iter()
+                        .map(|&k| self.phi.column(k).dot(&p.direction))
+                        .collect(),
+                })
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some(crate::table::LinearModes {
+            omega_rad_s: modes.iter().map(|&k| self.omega(k)).collect(),
+            damping_ratio: modes
+                .iter()
+                .map(|&k| self.damping_ratio(k).max(0.0))
+                .collect(),
+            points,
+        })
+    }
+
     /// Row scales of the harmonic residual: `max(omega_k^2, (n omega_ref)^2)`.
     pub(super) fn row_scale(&self, harmonics: usize, omega_ref: f64) -> DVector<f64> {
         let n = self.n_modes();

@@ -321,6 +321,7 @@ impl NmaResult {
             coordinates,
             truncated_at_fold: truncated,
             accuracy: None,
+            linear_modes: None,
         }
     }
 }

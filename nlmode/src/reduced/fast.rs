@@ -189,6 +189,7 @@ mod tests {
             coordinates: vec![],
             truncated_at_fold: None,
             accuracy: None,
+            linear_modes: None,
         };
         let ip = t.interpolator().unwrap();
         let f = FastTable::new(&ip);

@@ -170,11 +170,15 @@ impl ReducedModel {
         let amplitude_m = |phi: &[Complex64]| -> Vec<f64> {
             phi.iter().zip(&a).map(|(p, a)| a * modulus(p)).collect()
         };
-        let tip = amplitude_m(&phi[0]);
-        let drive = if all {
-            amplitude_m(&phi[1])
+        let (tip, drive) = if self.residual.is_some() {
+            self.residual_tip_drive(s, &locs, &phi, all)?
         } else {
-            vec![f64::NAN; n]
+            let drive = if all {
+                amplitude_m(&phi[1])
+            } else {
+                vec![f64::NAN; n]
+            };
+            (amplitude_m(&phi[0]), drive)
         };
         let force: Vec<f64> = f.iter().map(modulus).collect();
         let out = (0..n)
@@ -191,6 +195,49 @@ impl ReducedModel {
             })
             .collect();
         Ok(out)
+    }
+}
+
+impl ReducedModel {
+    /// Tip and drive-point fundamental amplitudes with the residual modes'
+    /// displacement added ([`super::residual`]); `phi[0]`, `phi[1]`: the
+    /// fundamental shapes at tip and drive point per sample.
+    fn residual_tip_drive(
+        &self,
+        s: &OutputStates,
+        locs: &[super::fast::Loc],
+        phi: &[Vec<Complex64>],
+        all: bool,
+    ) -> Result<(Vec<f64>, Vec<f64>), ReducedError> {
+        let n = s.len();
+        let nch = self.nch;
+        let (mut tip, mut drive) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        let mut phi_g = [Complex64::new(0.0, 0.0); super::MAX_PHI];
+        let points: &[usize] = self.ports.first().map_or(&[], |p| &p.points);
+        for i in 0..n {
+            let w = s.omega_rad_s[i];
+            let amp = s.amplitude[i];
+            for (g, &pt) in phi_g.iter_mut().zip(points) {
+                *g = self.phi1(locs[i], pt);
+            }
+            let ch = &s.channels[i * nch..(i + 1) * nch];
+            let fi = self.imposed_at(w)?;
+            let [dt, dd] = self.residual_displacements(
+                w,
+                ch,
+                &phi_g[..points.len()],
+                amp,
+                fi,
+                [self.tip, self.drive],
+            );
+            tip.push((amp * phi[0][i] + dt).norm());
+            drive.push(if all {
+                (amp * phi[1][i] + dd).norm()
+            } else {
+                f64::NAN
+            });
+        }
+        Ok((tip, drive))
     }
 }
 
@@ -267,6 +314,7 @@ mod tests {
             coordinates: vec![],
             truncated_at_fold: None,
             accuracy: None,
+            linear_modes: None,
         }
     }
 

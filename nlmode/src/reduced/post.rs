@@ -64,7 +64,7 @@ impl ReducedModel {
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         self.fill_channels(omega_rad_s, amplitude, &mut ch)?;
         let a = amp.norm();
-        let mut out = Vec::with_capacity(self.ports.len());
+        let mut out: Vec<Vec<Complex64>> = Vec::with_capacity(self.ports.len());
         for port in &self.ports {
             let nc = port.points.len();
             let u = port
@@ -83,6 +83,17 @@ impl ReducedModel {
                     })
                     .collect(),
             );
+        }
+        // residual modes merge every attachment into one port: split it again
+        if let Some(res) = &self.residual {
+            if let Some(merged) = out.pop() {
+                let mut rest = merged.as_slice();
+                for &k in &res.split {
+                    let (head, tail) = rest.split_at(k.min(rest.len()));
+                    out.push(head.to_vec());
+                    rest = tail;
+                }
+            }
         }
         Ok(out)
     }

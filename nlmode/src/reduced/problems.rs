@@ -59,6 +59,7 @@ pub fn duffing_table(
         coordinates: Vec::new(),
         truncated_at_fold: None,
         accuracy: None,
+        linear_modes: None,
     }
 }
 

@@ -9,4 +9,5 @@ mod nma;
 mod nma_nonsmooth;
 mod reduced;
 mod reference;
+mod residual;
 mod structure;

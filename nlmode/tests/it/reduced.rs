@@ -629,7 +629,7 @@ fn default_tolerances_are_converged_on_case_a() {
 // The paper's benchmark: modal table of the beam by NMA, against the reference
 // ---------------------------------------------------------------------------
 
-mod paper {
+pub mod paper {
     use super::*;
     use nlmode::nma::{nonlinear_modal_analysis, TablePolicy};
     use nlmode::reference::{simulate_sweep as reference_sweep, ReferenceOptions, SweepResult};
@@ -661,6 +661,37 @@ mod paper {
         let k = x.partition_point(|&v| v <= x0).clamp(1, x.len() - 1);
         let s = (x0 - x[k - 1]) / (x[k] - x[k - 1]);
         Some(y[k - 1] + s * (y[k] - y[k - 1]))
+    }
+
+    /// RMS differences of the tip and force envelopes of `ours` against the
+    /// reference over `eta >= 0.85` (at the reference's points), relative to
+    /// the reference's peaks: `(tip, force)`.
+    pub fn rms_differences(
+        ours: &nlmode::reduced::Envelope,
+        env: &nlmode::reference::Envelope,
+        w0: f64,
+    ) -> (f64, f64) {
+        let p_ref = env.tip_amplitude_m.iter().cloned().fold(0.0, f64::max);
+        let fpeak = env.force_amplitude_n.iter().cloned().fold(0.0, f64::max);
+        let (mut se_tip, mut se_f, mut n) = (0.0, 0.0, 0usize);
+        for (k, &w) in env.omega_rad_s.iter().enumerate() {
+            if w < 0.85 * w0 {
+                continue;
+            }
+            let (Some(tip), Some(f)) = (
+                interp(&ours.omega_rad_s, &ours.tip_amplitude_m, w),
+                interp(&ours.omega_rad_s, &ours.force_amplitude_n, w),
+            ) else {
+                continue;
+            };
+            se_tip += (tip - env.tip_amplitude_m[k]).powi(2);
+            se_f += (f - env.force_amplitude_n[k]).powi(2);
+            n += 1;
+        }
+        (
+            (se_tip / n as f64).sqrt() / p_ref,
+            (se_f / n as f64).sqrt() / fpeak,
+        )
     }
 
     /// (peak, its Omega, jump-down Omega) of an envelope: steepest fall after the peak.
@@ -707,23 +738,7 @@ fn paper_case_a_nlmode_agrees_with_the_full_order_reference() {
     // RMS envelope differences over eta >= 0.85, relative to the reference peaks
     let ours = r.envelope();
     let fpeak = env.force_amplitude_n.iter().cloned().fold(0.0, f64::max);
-    let (mut se_tip, mut se_f, mut n) = (0.0, 0.0, 0usize);
-    for (k, &w) in env.omega_rad_s.iter().enumerate() {
-        if w < 0.85 * w0 {
-            continue;
-        }
-        let (Some(tip), Some(f)) = (
-            paper::interp(&ours.omega_rad_s, &ours.tip_amplitude_m, w),
-            paper::interp(&ours.omega_rad_s, &ours.force_amplitude_n, w),
-        ) else {
-            continue;
-        };
-        se_tip += (tip - env.tip_amplitude_m[k]).powi(2);
-        se_f += (f - env.force_amplitude_n[k]).powi(2);
-        n += 1;
-    }
-    let rms_tip = (se_tip / n as f64).sqrt() / p_ref;
-    let rms_f = (se_f / n as f64).sqrt() / fpeak;
+    let (rms_tip, rms_f) = paper::rms_differences(&ours, env, w0);
     // the force phase of the reference (its complex fundamental) against the
     // slow flow's, below the jump (both on the same branch) where the force is
     // not near its minimum (there the phase swings by pi within a few rad/s and
