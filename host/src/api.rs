@@ -87,7 +87,12 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
         .as_ref()
         .map(|n| n.table.harmonics)
         .unwrap_or(sc.nma.harmonics_or_min());
-    let mut validity = setup.validity_warnings(harmonics, table_omega, sc.slowflow.attachments);
+    let checked = setup
+        .validity(harmonics, table_omega, sc.slowflow.attachments)
+        .without_applied(&sc.slowflow);
+    ctx.remedies = checked.distinct_kinds();
+    let remedies_found = checked.remedies;
+    let mut validity = checked.warnings;
     for w in &validity {
         say!(opts, "warning: {w}");
     }
@@ -113,6 +118,17 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
     }
     let mut summary = summary(sc, &setup, &done, &failed);
     summary.warnings = validity;
+    summary.remedies = remedies_found
+        .iter()
+        .map(|r| crate::validity::RemedyEntry {
+            remedy: r.clone(),
+            setting: r.setting(),
+            result: done
+                .iter()
+                .any(|d| d.name == r.result_name())
+                .then(|| r.result_name()),
+        })
+        .collect();
     Ok(Computed {
         setup,
         results: done,
@@ -275,6 +291,7 @@ pub fn summary(
         structure_stages: setup.structure_timings.clone(),
         failed_methods: failed.iter().cloned().collect(),
         warnings: Vec::new(),
+        remedies: Vec::new(),
     }
 }
 

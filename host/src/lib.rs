@@ -22,6 +22,7 @@ pub mod run;
 pub mod scenario;
 pub mod stages;
 pub mod study;
+pub mod validity;
 
 /// The controlled tests' modules under their former paths.
 pub use methods::phase_resonance as controlled;

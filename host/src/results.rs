@@ -110,6 +110,11 @@ pub struct Summary {
     pub methods: BTreeMap<String, MethodSummary>,
     pub model_ndof: usize,
     pub omega0_rad_s: f64,
+    /// The remedies of the validity checks that fired (`warnings`): the
+    /// `[slowflow]` setting of each and, with `[slowflow] remedies = "run"`,
+    /// the result it was run as.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub remedies: Vec<crate::validity::RemedyEntry>,
     /// Wall time of `reference` over that of `nlmode` (null unless both ran).
     pub speedup_nlmode_over_reference: Option<f64>,
     /// The large-model path's stage times (read, check, order, factor,

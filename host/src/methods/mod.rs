@@ -201,6 +201,9 @@ pub struct RunContext<'a> {
     pub nma: Option<Nma>,
     /// The structure and shaker FMUs (`cosim`), when available.
     pub fmus: Option<(PathBuf, PathBuf)>,
+    /// The remedies of the validity checks that fired, once per kind (for
+    /// `[slowflow] remedies = "run"`).
+    pub remedies: Vec<crate::validity::Remedy>,
     cache: RefCell<HashMap<MethodId, Rc<MethodOutput>>>,
 }
 
@@ -213,6 +216,7 @@ impl<'a> RunContext<'a> {
             echo,
             nma: None,
             fmus: None,
+            remedies: Vec::new(),
             cache: RefCell::default(),
         }
     }

@@ -4,6 +4,9 @@
 //! (`nlmode-freq-error`).
 use super::common::{exciter_slow_flow, reduced_model};
 use super::{MethodId, MethodOutput, RunContext};
+use crate::results::MethodResult;
+use crate::scenario::{RemedyPolicy, REMEDY_RESIDUAL_MODES};
+use crate::validity::Remedy;
 use anyhow::Result;
 
 /// `nlmode` (options: `[slowflow]`).
@@ -45,6 +48,44 @@ impl super::Method for Nlmode {
             let (r, _) = exciter_slow_flow("nlmode-freq-error", ctx.setup, &model, &opts)?;
             out.results.push(r);
         }
+        if ctx.sc.slowflow.remedies == RemedyPolicy::Run && ctx.published(MethodId::Nlmode) {
+            for remedy in &ctx.remedies {
+                if let Some(r) = run_remedy(ctx, remedy, &opts)? {
+                    out.results.push(r);
+                }
+            }
+        }
         Ok(out)
     }
+}
+
+/// `nlmode` with `remedy` applied, as the result [`Remedy::result_name`];
+/// `None` for residual modes when the table carries no linear modes.
+fn run_remedy(
+    ctx: &RunContext,
+    remedy: &Remedy,
+    opts: &nlmode::reduced::SlowFlowOptions,
+) -> Result<Option<MethodResult>> {
+    let name = remedy.result_name();
+    let base = reduced_model(ctx.setup, ctx.table(), None)?;
+    let (model, opts) = match remedy {
+        Remedy::DynamicAttachments { .. } => (
+            base,
+            nlmode::reduced::SlowFlowOptions {
+                attachments: nlmode::reduced::AttachmentStates::Dynamic,
+                ..*opts
+            },
+        ),
+        Remedy::ResidualModes { .. } => {
+            let available = ctx.table().linear_modes.as_ref().map_or(0, |m| m.len());
+            let n = available.min(REMEDY_RESIDUAL_MODES);
+            if n == 0 {
+                return Ok(None);
+            }
+            (base.with_residual_modes(ctx.table(), n)?, *opts)
+        }
+    };
+    let (mut r, _) = exciter_slow_flow(name, ctx.setup, &model, &opts)?;
+    super::common::note_residual_modes(&mut r, ctx.setup, &model);
+    Ok(Some(r))
 }

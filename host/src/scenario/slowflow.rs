@@ -19,7 +19,26 @@ pub struct SlowFlowSpec {
     /// `nlmode` and `imposed-force` (`nlmode::reduced::ResidualModes`); 0:
     /// the paper's model.
     pub residual_modes: usize,
+    /// What the remedies of fired validity checks do: `"name"` lists them in
+    /// `summary.json` (`remedies`); `"run"` also runs `nlmode` with each
+    /// beside the plain one (`nlmode-dynamic`, `nlmode-residual-modes`).
+    pub remedies: RemedyPolicy,
 }
+
+/// `[slowflow] remedies`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RemedyPolicy {
+    /// Name them in `summary.json`.
+    #[default]
+    Name,
+    /// Name them and run `nlmode` with each beside the plain one.
+    Run,
+}
+
+/// Residual modes `[slowflow] remedies = "run"` uses: all the table carries,
+/// at most this many (on the paper beam the tenth changes the tip by 1e-5).
+pub const REMEDY_RESIDUAL_MODES: usize = 10;
 
 impl Default for SlowFlowSpec {
     fn default() -> Self {
@@ -30,6 +49,7 @@ impl Default for SlowFlowSpec {
             output_samples: lib.output_samples,
             attachments: lib.attachments,
             residual_modes: 0,
+            remedies: RemedyPolicy::Name,
         }
     }
 }

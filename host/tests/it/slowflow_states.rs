@@ -59,7 +59,13 @@ fn comparison(c: &Computed) -> nlmode::envelope::EnvelopeComparison {
 /// the model's floor without the TMD.
 #[test]
 fn lightly_damped_tmd_needs_its_states_in_the_slow_flow() {
-    let quasi = run(TMD_CASE, "quasi-steady", "tmd-qs");
+    // the quasi-steady run names its remedy and runs it beside
+    let quasi = run_text(
+        &format!(
+            "{TMD_CASE}{NO_TMD}[slowflow]\nattachments = \"quasi-steady\"\nremedies = \"run\"\n"
+        ),
+        "tmd-qs",
+    );
     let cq = comparison(&quasi);
     let dynamic = run(TMD_CASE, "dynamic", "tmd-dyn");
     let cd = comparison(&dynamic);
@@ -74,6 +80,30 @@ fn lightly_damped_tmd_needs_its_states_in_the_slow_flow() {
             .any(|w| w.contains("'tmd'") && w.contains("attachments = \"dynamic\"")),
         "{:?}",
         quasi.summary.warnings
+    );
+    // summary.json: the remedy, its setting and the result it ran as, which
+    // is the dynamic run's `nlmode` bit for bit
+    let json = serde_json::to_value(&quasi.summary).unwrap();
+    let remedies = json["remedies"].as_array().unwrap();
+    eprintln!("remedies: {remedies:?}");
+    assert!(
+        remedies.iter().any(|r| r["remedy"] == "dynamic-attachments"
+            && r["attachment"] == "tmd"
+            && r["setting"] == "[slowflow] attachments = \"dynamic\""
+            && r["result"] == "nlmode-dynamic"),
+        "{remedies:?}"
+    );
+    let env = |c: &Computed, n: &str| {
+        c.results
+            .iter()
+            .find(|r| r.name == n)
+            .unwrap()
+            .envelope
+            .clone()
+    };
+    assert_eq!(
+        env(&quasi, "nlmode-dynamic").tip_amplitude_m,
+        env(&dynamic, "nlmode").tip_amplitude_m
     );
     assert!(!dynamic
         .summary
