@@ -132,6 +132,8 @@ pub enum OscillatorError {
     BadFrequencyError(f64),
     #[error("oscillator state {field} = {value}: must be finite")]
     BadState { field: &'static str, value: f64 },
+    #[error("{0}")]
+    ResidualModes(String),
 }
 
 /// The end of the [`OscillatorError::AboveRange`] message: the likely causes.
@@ -247,7 +249,13 @@ pub struct ModalOscillator {
     h_max_s: f64,
     a_max: f64,
     state: OscillatorState,
+    /// Residual modes ([`Self::with_residual_modes`]; module `residual`).
+    residual: Option<residual::Residual>,
+    /// Their state `[q_1, q_1', q_2, q_2', ...]` \[m / (sqrt(kg) m) * sqrt(kg) m, /s\].
+    residual_state: Vec<f64>,
 }
+
+mod residual;
 
 impl ModalOscillator {
     /// Oscillator for `table`, driven at the named point, with modal frequency
@@ -277,7 +285,59 @@ impl ModalOscillator {
             h_max_s: 2.0 * PI / (omega_max * STEPS_PER_PERIOD),
             a_max,
             state: OscillatorState::default(),
+            residual: None,
+            residual_state: Vec::new(),
         })
+    }
+
+    /// Adds the lowest `n` linear modes `table` carries as residual modes
+    /// (module `residual`: exact linear modal oscillators driven by the
+    /// drive-point force, added to every output), at rest. `n = 0`: the
+    /// single nonlinear mode, unchanged. `table` must be the table the
+    /// oscillator was made from.
+    pub fn with_residual_modes(
+        mut self,
+        table: &ModalTable,
+        n: usize,
+    ) -> Result<Self, OscillatorError> {
+        if n == 0 {
+            return Ok(self);
+        }
+        let modes = crate::reduced::ResidualModes::from_table(table, n)
+            .map_err(|e| OscillatorError::ResidualModes(e.to_string()))?;
+        self.residual = Some(residual::Residual::new(modes, self.drive));
+        self.residual_state = vec![0.0; 2 * n];
+        Ok(self)
+    }
+
+    /// Number of residual modes.
+    pub fn residual_modes(&self) -> usize {
+        self.residual.as_ref().map_or(0, |r| r.len())
+    }
+
+    /// The residual modes' state `[q_1, q_1', q_2, q_2', ...]` (empty without).
+    pub fn residual_state(&self) -> &[f64] {
+        &self.residual_state
+    }
+
+    /// Replace the residual modes' state (rollback): `2 n` finite numbers.
+    pub fn set_residual_state(&mut self, q: &[f64]) -> Result<(), OscillatorError> {
+        if q.len() != self.residual_state.len() {
+            return Err(OscillatorError::ResidualModes(format!(
+                "residual_modes: a state of {} numbers given, {} residual modes need {}",
+                q.len(),
+                self.residual_modes(),
+                self.residual_state.len()
+            )));
+        }
+        if let Some(&value) = q.iter().find(|v| !v.is_finite()) {
+            return Err(OscillatorError::BadState {
+                field: "residual mode state",
+                value,
+            });
+        }
+        self.residual_state.copy_from_slice(q);
+        Ok(())
     }
 
     /// The interpolated table.
@@ -392,7 +452,15 @@ impl ModalOscillator {
                 step_s: Some(dt_s),
             },
             e => e,
-        })
+        })?;
+        if let Some(res) = &self.residual {
+            res.advance(
+                &mut self.residual_state,
+                dt_s,
+                [input.c0, input.c1, input.c2],
+            );
+        }
+        Ok(())
     }
 
     /// [`Self::step`] in `n` equal RK4 sub-steps.
@@ -515,6 +583,11 @@ impl ModalOscillator {
                 v -= n as f64 * w_rad_s * term.im;
                 wn *= unit;
             }
+            if let Some(res) = &self.residual {
+                let (xr, vr) = res.response(&self.residual_state, point);
+                x += xr;
+                v += vr;
+            }
             *o = PointResponse { x_m: x, v_m_s: v };
         }
         Ok(ModalSnapshot {
@@ -611,6 +684,14 @@ impl ModalOscillator {
                     x_m: (p.x_m - m.x_m) / (2.0 * eps),
                     v_m_s: (p.v_m_s - m.v_m_s) / (2.0 * eps),
                 };
+            }
+            // the residual modes' part cancels in the difference: exactly
+            if let Some(res) = &self.residual {
+                for (o, &k) in out.iter_mut().zip(points) {
+                    let (dx, dv) = res.response_rate(&self.residual_state, k, c_n);
+                    o.x_m += dx;
+                    o.v_m_s += dv;
+                }
             }
         }
         if a == 0.0 {

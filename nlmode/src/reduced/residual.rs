@@ -117,6 +117,16 @@ impl ResidualModes {
         &self.omega_rad_s
     }
 
+    /// `(omega_r, zeta_r)` of mode `r` \[rad/s, -\].
+    pub(crate) fn mode(&self, r: usize) -> (f64, f64) {
+        (self.omega_rad_s[r], self.damping_ratio[r])
+    }
+
+    /// Mode `r` at table point `p` \[m / (sqrt(kg) m)\].
+    pub(crate) fn shape(&self, p: usize, r: usize) -> f64 {
+        self.shapes[p][r]
+    }
+
     /// Modal receptance `h_r(W)` and its derivative `dh_r/dW`.
     #[inline]
     fn modal(&self, r: usize, w: f64) -> (Complex64, Complex64) {
