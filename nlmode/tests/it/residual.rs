@@ -30,6 +30,15 @@ fn linear_table(model: &StructuralModel) -> ModalTable {
     t
 }
 
+/// The paper beam without its cubic spring (Craig-Bampton, 11 DOFs).
+fn linear_beam() -> nlmode::structure::PaperStructure {
+    paper_structure(&PaperStructureOptions {
+        k3_n_per_m3: 0.0,
+        ..Default::default()
+    })
+    .unwrap()
+}
+
 /// Tip amplitude and drive-point force of the assembled linear structure with
 /// the shaker at `drive` (`(K - W^2 M + i W C + Z_G d d^T) x = d T_G u`): an
 /// independent complex solve of the full model.
@@ -50,11 +59,7 @@ fn assembled(model: &StructuralModel, drive: &str, w: f64, volts: f64) -> (f64, 
 
 #[test]
 fn with_every_other_mode_the_linear_limit_is_the_assembled_frequency_response() {
-    let ps = paper_structure(&PaperStructureOptions {
-        k3_n_per_m3: 0.0,
-        ..Default::default()
-    })
-    .unwrap();
+    let ps = linear_beam();
     let model = &ps.model;
     let table = linear_table(model);
     let all = table.linear_modes.as_ref().unwrap().len();
@@ -206,11 +211,7 @@ fn case_a_with_residual_modes_is_closer_to_the_full_order_reference() {
 #[test]
 fn oscillator_with_every_other_mode_follows_the_full_linear_model_in_time() {
     use nlmode::oscillator::{InputPolynomial, ModalOscillator};
-    let ps = paper_structure(&PaperStructureOptions {
-        k3_n_per_m3: 0.0,
-        ..Default::default()
-    })
-    .unwrap();
+    let ps = linear_beam();
     let model = &ps.model;
     let table = linear_table(model);
     let w = 3.0 * ps.omega0_rad_s;
