@@ -169,6 +169,59 @@ impl ReducedModel {
         Ok(out)
     }
 
+    /// Adds the residual modes' displacement at every harmonic `n` to the tip
+    /// and drive-point harmonics: `G(n Omega) F_G,n` with the interface
+    /// forces `F_G,n = delta_{n1} T_G u_hat - Z_G(n Omega) u_G,n` of the
+    /// merged port (`chs[n]`, the residual flexibility already in them) and
+    /// the imposed forces at `n = 1` ([`super::residual`]).
+    fn add_residual_harmonics(
+        &self,
+        chs: &[Vec<Complex64>],
+        amp: Complex64,
+        fi: ImposedForces,
+        omega: f64,
+        tip: &mut [Complex64],
+        drive: &mut [Complex64],
+    ) -> Result<(), ReducedError> {
+        let Some(res) = &self.residual else {
+            return Ok(());
+        };
+        let h = self.table.harmonics();
+        let mut add = |n: usize, point: usize, f: Complex64| {
+            let w = n as f64 * omega;
+            tip[n] += res.modes.receptance(self.tip, point, w) * f;
+            drive[n] += res.modes.receptance(self.drive, point, w) * f;
+        };
+        if let Some(port) = self.ports.first() {
+            let nc = port.points.len();
+            let u = port
+                .points
+                .iter()
+                .map(|&p| self.harmonics_at(p, amp))
+                .collect::<Result<Vec<_>, _>>()?;
+            for (r, &pr) in port.points.iter().enumerate() {
+                for n in 0..=h {
+                    let ch = &chs[n];
+                    let mut f = if n == 1 {
+                        ch[port.offset + nc * nc + r]
+                    } else {
+                        Complex64::new(0.0, 0.0)
+                    };
+                    for (c, uc) in u.iter().enumerate() {
+                        f -= ch[port.offset + r * nc + c] * uc[n];
+                    }
+                    add(n, pr, f);
+                }
+            }
+        }
+        if h >= 1 {
+            for (imp, &f) in self.imposed.iter().zip(fi.forces()) {
+                add(1, imp.point, f);
+            }
+        }
+        Ok(())
+    }
+
     /// Time signals with all harmonics at the times `t_s` (inside the
     /// result's time span): `A(t)` interpolated linearly between the output
     /// samples, `Phi(t)` exact from the sweep, displacements from `eq:ansatz`,
@@ -225,11 +278,15 @@ impl ReducedModel {
                     .map(|(n, x)| (x * phase.powu(n as u32)).re)
                     .sum::<f64>()
             };
+            let mut tip = self.harmonics_at(self.tip, amp)?;
+            let mut drive = self.harmonics_at(self.drive, amp)?;
+            if self.residual.is_some() {
+                self.add_residual_harmonics(&chs, amp, fi, w, &mut tip, &mut drive)?;
+            }
             out.t_s.push(t);
             out.omega_rad_s.push(w);
-            out.tip_m.push(synth(&self.harmonics_at(self.tip, amp)?));
-            out.drive_m
-                .push(synth(&self.harmonics_at(self.drive, amp)?));
+            out.tip_m.push(synth(&tip));
+            out.drive_m.push(synth(&drive));
             out.force_n.push(synth(&fh));
         }
         Ok(out)
