@@ -55,13 +55,20 @@
 //! }
 //! fmi2_export::export_fmu!(Gain);
 //! ```
+pub mod description;
 pub mod ffi;
 pub mod model;
 pub mod package;
+pub mod render;
+pub mod testing;
 pub mod xml;
 
 pub use fmi2::{types, uri};
 
+pub use description::{
+    BaseUnit, Capabilities, DefaultExperiment, Dependencies, ModelInfo, ModelStructure, Unit,
+    LOG_CATEGORY_DESCRIPTIONS,
+};
 pub use model::{
     Causality, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError, Start,
     StateReader, StateWriter, VarType, Variability, Variable, LOG_CATEGORIES,
