@@ -1,12 +1,13 @@
-//! The structure FMU (FMI 2.0 Co-Simulation and Model Exchange): the time-domain nonlinear-mode
-//! oscillator of DESIGN.md section 4 ([`nlmode::oscillator`]) driven by the
-//! force of an attachment at one point of the modal table.
+//! # structure — the nonlinear-mode oscillator as an FMI 2.0 CS and ME FMU
+//!
+//! The time-domain nonlinear-mode oscillator of DESIGN.md section 4
+//! ([`nlmode::oscillator`]) driven by the force of an attachment at one point
+//! of the modal table.
 //!
 //! Physics in [`nlmode::oscillator`]; [`model`] only maps the FMI variables
-//! (table [`model::VARIABLES`], the single source of the modelDescription)
 //! onto it. See `README.md` for the equations and the variable table;
 //! `modelDescription/structure/` holds the modelDescription.xml rendered
-//! from the code.
+//! from [`model::VARIABLES`] and [`model::INFO`].
 //!
 //! * input `F` [N]: force on the structure at the drive point, positive along
 //!   positive displacement; over a step it is `F + F' s + F'' s^2/2` with the
