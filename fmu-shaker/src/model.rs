@@ -74,117 +74,59 @@ pub const DEFAULT_OMEGA_END: f64 = 641.0;
 pub const DEFAULT_OMEGA_RATE: f64 = 404.0;
 pub const DEFAULT_U_HAT: f64 = 10.0;
 
-/// All variables (the modelDescription.xml is tested against this table).
+/// All variables, in the order of their indices (the single source of the
+/// modelDescription's `<ModelVariables>`).
 pub const VARIABLES: &[Variable] = &[
-    Variable::real("L", VR_L, C::Parameter, V::Fixed, Some(bm::SHAKER_L_H), "H").describe("coil inductance"),
-    Variable::real(
-        "R",
-        VR_R,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_R_OHM),
-        "Ohm",
-    ).describe("coil resistance"),
-    Variable::real(
-        "G",
-        VR_G,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_G_N_PER_A),
-        "N/A",
-    ).describe("force constant (= back-EMF constant)"),
-    Variable::real(
-        "m_a",
-        VR_M_A,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_MA_KG),
-        "kg",
-    ).describe("armature mass"),
-    Variable::real(
-        "k_a",
-        VR_K_A,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_KA_N_PER_M),
-        "N/m",
-    ).describe("armature suspension stiffness"),
-    Variable::real(
-        "D_a",
-        VR_D_A_RATIO,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_DA),
-        "1",
-    ).describe("total armature damping ratio, 2 D_a sqrt(k_a m_a) = d_a + G^2/R (electro-mechanical damping included)"),
-    Variable::real(
-        "k_s",
-        VR_K_S,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::STINGER_KS_N_PER_M),
-        "N/m",
-    ).describe("stinger (push rod) stiffness"),
-    Variable::real(
-        "u_hat",
-        VR_U_HAT,
-        C::Parameter,
-        V::Fixed,
-        Some(DEFAULT_U_HAT),
-        "V",
-    ).describe("amplitude of the internal sine-sweep voltage"),
-    Variable::real(
-        "Omega_start",
-        VR_OMEGA_START,
-        C::Parameter,
-        V::Fixed,
-        Some(DEFAULT_OMEGA_START),
-        "rad/s",
-    ).describe("start frequency of the internal sweep"),
-    Variable::real(
-        "Omega_end",
-        VR_OMEGA_END,
-        C::Parameter,
-        V::Fixed,
-        Some(DEFAULT_OMEGA_END),
-        "rad/s",
-    ).describe("end frequency of the internal sweep (held afterwards)"),
-    Variable::real(
-        "Omega_rate",
-        VR_OMEGA_RATE,
-        C::Parameter,
-        V::Fixed,
-        Some(DEFAULT_OMEGA_RATE),
-        "rad/s2",
-    ).describe("magnitude of dOmega/dt of the internal sweep (0: fixed sine at Omega_start)"),
-    Variable::boolean_parameter("use_external_voltage", VR_USE_EXTERNAL, false).describe("true: the applied voltage is the input u_ext instead of the internal sweep"),
-    Variable::real(
-        "d_a",
-        VR_D_A,
-        C::CalculatedParameter,
-        V::Fixed,
-        None,
-        "N.s/m",
-    ).describe("mechanical armature damping d_a = 2 D_a sqrt(k_a m_a) - G^2/R"),
-    Variable::real("x", VR_X, C::Input, V::Continuous, Some(0.0), "m").describe("structure displacement at the drive point (stinger end)"),
-    Variable::real("v", VR_V, C::Input, V::Continuous, Some(0.0), "m/s").describe("structure velocity at the drive point (extrapolates x inside the step)"),
-    Variable::real("u_ext", VR_U_EXT, C::Input, V::Continuous, Some(0.0), "V").describe("external voltage (used when use_external_voltage = true)"),
-    Variable::real("F", VR_F, C::Output, V::Continuous, None, "N").describe("stinger force on the structure k_s (q_a - x), positive along positive x"),
-    Variable::real("I", VR_I, C::Output, V::Continuous, None, "A").describe("coil current"),
-    Variable::real("q_a", VR_Q_A, C::Output, V::Continuous, None, "m").describe("armature displacement"),
-    Variable::real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s").describe("armature velocity"),
-    Variable::real("u", VR_U, C::Output, V::Continuous, None, "V").describe("applied voltage (internal sweep or u_ext)"),
-    Variable::real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s").describe("instantaneous excitation frequency of the internal sweep (0 with external voltage)"),
-    Variable::real("der(I)", VR_DER_I, C::Local, V::Continuous, None, "A/s").describe("coil current rate (u - R I - G v_a)/L"),
-    Variable::real("der(q_a)", VR_DER_Q_A, C::Local, V::Continuous, None, "m/s").describe("armature velocity v_a (rate of q_a)"),
-    Variable::real(
-        "der(v_a)",
-        VR_DER_V_A,
-        C::Local,
-        V::Continuous,
-        None,
-        "m/s2",
-    ).describe("armature acceleration (G I - d_a v_a - k_a q_a - k_s (q_a - x))/m_a"),
+    Variable::real("L", VR_L, C::Parameter, V::Fixed, Some(bm::SHAKER_L_H), "H")
+        .describe("coil inductance"),
+    Variable::real("R", VR_R, C::Parameter, V::Fixed, Some(bm::SHAKER_R_OHM), "Ohm")
+        .describe("coil resistance"),
+    Variable::real("G", VR_G, C::Parameter, V::Fixed, Some(bm::SHAKER_G_N_PER_A), "N/A")
+        .describe("force constant (= back-EMF constant)"),
+    Variable::real("m_a", VR_M_A, C::Parameter, V::Fixed, Some(bm::SHAKER_MA_KG), "kg")
+        .describe("armature mass"),
+    Variable::real("k_a", VR_K_A, C::Parameter, V::Fixed, Some(bm::SHAKER_KA_N_PER_M), "N/m")
+        .describe("armature suspension stiffness"),
+    Variable::real("D_a", VR_D_A_RATIO, C::Parameter, V::Fixed, Some(bm::SHAKER_DA), "1")
+        .describe("total armature damping ratio, 2 D_a sqrt(k_a m_a) = d_a + G^2/R (electro-mechanical damping included)"),
+    Variable::real("k_s", VR_K_S, C::Parameter, V::Fixed, Some(bm::STINGER_KS_N_PER_M), "N/m")
+        .describe("stinger (push rod) stiffness"),
+    Variable::real("u_hat", VR_U_HAT, C::Parameter, V::Fixed, Some(DEFAULT_U_HAT), "V")
+        .describe("amplitude of the internal sine-sweep voltage"),
+    Variable::real("Omega_start", VR_OMEGA_START, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_START), "rad/s")
+        .describe("start frequency of the internal sweep"),
+    Variable::real("Omega_end", VR_OMEGA_END, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_END), "rad/s")
+        .describe("end frequency of the internal sweep (held afterwards)"),
+    Variable::real("Omega_rate", VR_OMEGA_RATE, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_RATE), "rad/s2")
+        .describe("magnitude of dOmega/dt of the internal sweep (0: fixed sine at Omega_start)"),
+    Variable::boolean_parameter("use_external_voltage", VR_USE_EXTERNAL, false)
+        .describe("true: the applied voltage is the input u_ext instead of the internal sweep"),
+    Variable::real("d_a", VR_D_A, C::CalculatedParameter, V::Fixed, None, "N.s/m")
+        .describe("mechanical armature damping d_a = 2 D_a sqrt(k_a m_a) - G^2/R"),
+    Variable::real("x", VR_X, C::Input, V::Continuous, Some(0.0), "m")
+        .describe("structure displacement at the drive point (stinger end)"),
+    Variable::real("v", VR_V, C::Input, V::Continuous, Some(0.0), "m/s")
+        .describe("structure velocity at the drive point (extrapolates x inside the step)"),
+    Variable::real("u_ext", VR_U_EXT, C::Input, V::Continuous, Some(0.0), "V")
+        .describe("external voltage (used when use_external_voltage = true)"),
+    Variable::real("F", VR_F, C::Output, V::Continuous, None, "N")
+        .describe("stinger force on the structure k_s (q_a - x), positive along positive x"),
+    Variable::real("I", VR_I, C::Output, V::Continuous, None, "A")
+        .describe("coil current"),
+    Variable::real("q_a", VR_Q_A, C::Output, V::Continuous, None, "m")
+        .describe("armature displacement"),
+    Variable::real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s")
+        .describe("armature velocity"),
+    Variable::real("u", VR_U, C::Output, V::Continuous, None, "V")
+        .describe("applied voltage (internal sweep or u_ext)"),
+    Variable::real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s")
+        .describe("instantaneous excitation frequency of the internal sweep (0 with external voltage)"),
+    Variable::real("der(I)", VR_DER_I, C::Local, V::Continuous, None, "A/s")
+        .describe("coil current rate (u - R I - G v_a)/L"),
+    Variable::real("der(q_a)", VR_DER_Q_A, C::Local, V::Continuous, None, "m/s")
+        .describe("armature velocity v_a (rate of q_a)"),
+    Variable::real("der(v_a)", VR_DER_V_A, C::Local, V::Continuous, None, "m/s2")
+        .describe("armature acceleration (G I - d_a v_a - k_a q_a - k_s (q_a - x))/m_a"),
 ];
 
 /// The rest of the modelDescription. `<ModelStructure>`: `F = k_s (q_a - x)`
