@@ -459,12 +459,46 @@ pub fn start_text(s: &Start) -> String {
 }
 
 /// A Real as an XML double: the shortest text that reads back to the same
-/// value, in exponent form only for very small or large magnitudes.
+/// value, in exponent form only for very small or large magnitudes, written
+/// as C's `%g` and Python's `repr` write it (`1e-05`, `2.5e+20`).
 pub fn real_text(x: f64) -> String {
     let a = x.abs();
-    if a != 0.0 && !(1e-4..1e16).contains(&a) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
+    if a == 0.0 || (1e-4..1e16).contains(&a) {
+        return format!("{x}");
+    }
+    let s = format!("{x:e}");
+    match s.split_once('e') {
+        Some((mantissa, exp)) => {
+            let (sign, digits) = match exp.strip_prefix('-') {
+                Some(d) => ('-', d),
+                None => ('+', exp),
+            };
+            format!("{mantissa}e{sign}{digits:0>2}")
+        }
+        None => s,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::real_text;
+
+    #[test]
+    fn reals_are_written_like_c_and_python() {
+        for (x, t) in [
+            (0.0, "0"),
+            (1.0, "1"),
+            (0.9, "0.9"),
+            (-3.5, "-3.5"),
+            (0.00014, "0.00014"),
+            (26e6, "26000000"),
+            (1e-5, "1e-05"),
+            (-2.5e-7, "-2.5e-07"),
+            (2.5e20, "2.5e+20"),
+            (1e-300, "1e-300"),
+        ] {
+            assert_eq!(real_text(x), t);
+            assert_eq!(t.parse::<f64>().unwrap(), x);
+        }
     }
 }

@@ -3,8 +3,6 @@
 //! version-neutral [`Layout`]. The text is deterministic (one variable per
 //! line, its index in a comment), so that a checked-in copy can be compared
 //! byte for byte ([`crate::testing::check_model_description_file`]).
-use std::fmt::Write;
-
 use crate::description::{real_text, start_text, DescriptionError, Layout, Unknown};
 use crate::model::{CoSimModel, VarType, LOG_CATEGORIES};
 
@@ -24,41 +22,62 @@ fn esc(s: &str) -> String {
 
 /// Write the FMI 2.0 XML of a resolved description.
 pub fn fmi2(l: &Layout) -> String {
+    [
+        header(l),
+        interfaces(l),
+        unit_definitions(l),
+        log_categories(l),
+        default_experiment(l),
+        model_variables(l),
+        model_structure(l),
+    ]
+    .concat()
+}
+
+/// The XML declaration, the note that the file is generated and the
+/// attributes of `<fmiModelDescription>`.
+fn header(l: &Layout) -> String {
     let info = &l.info;
-    let caps = &info.capabilities;
-    let id = esc(l.model_identifier);
-    let mut x = String::new();
-    // `write!` into a String cannot fail
-    let mut w = |s: String| x.push_str(&s);
-    w("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n".into());
-    w(format!(
-        "<!-- Generated from the code of the FMU {id} (its variable table and ModelInfo) by\n     \
+    let mut x = format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
+         <!-- Generated from the code of the FMU {} (its variable table and ModelInfo) by\n     \
          fmi2_export::render; do not edit. A test of the FMU crate compares this file with the\n     \
-         code; `UPDATE_MODEL_DESCRIPTION=1 cargo test` rewrites it. -->\n"
-    ));
-    w("<fmiModelDescription\n  fmiVersion=\"2.0\"\n".into());
-    w(format!("  modelName=\"{}\"\n", esc(info.name)));
-    w(format!("  guid=\"{}\"\n", esc(l.guid)));
-    w(format!("  description=\"{}\"\n", esc(info.description)));
+         code; `UPDATE_MODEL_DESCRIPTION=1 cargo test` rewrites it. -->\n\
+         <fmiModelDescription\n  fmiVersion=\"2.0\"\n  modelName=\"{}\"\n  guid=\"{}\"\n  \
+         description=\"{}\"\n",
+        esc(l.model_identifier),
+        esc(info.name),
+        esc(l.guid),
+        esc(info.description)
+    );
     if let Some(v) = info.version {
-        w(format!("  version=\"{}\"\n", esc(v)));
+        x += &format!("  version=\"{}\"\n", esc(v));
     }
-    w(format!(
-        "  generationTool=\"{}\"\n",
+    x + &format!(
+        "  generationTool=\"{}\"\n  variableNamingConvention=\"flat\"\n  \
+         numberOfEventIndicators=\"0\">\n\n",
         esc(info.generation_tool)
-    ));
-    w("  variableNamingConvention=\"flat\"\n  numberOfEventIndicators=\"0\">\n\n".into());
+    )
+}
+
+/// `<ModelExchange>` (with continuous states) and `<CoSimulation>`: the
+/// model's [`Capabilities`](crate::description::Capabilities), the rest what
+/// the export layer gives every model.
+fn interfaces(l: &Layout) -> String {
+    let caps = &l.info.capabilities;
+    let id = esc(l.model_identifier);
     let dd = caps.provides_directional_derivative;
+    let mut x = String::new();
     if l.model_exchange {
-        w(format!(
+        x += &format!(
             "  <ModelExchange\n    modelIdentifier=\"{id}\"\n    needsExecutionTool=\"false\"\n    \
              completedIntegratorStepNotNeeded=\"true\"\n    \
              canBeInstantiatedOnlyOncePerProcess=\"false\"\n    \
              canNotUseMemoryManagementFunctions=\"true\"\n    canGetAndSetFMUstate=\"true\"\n    \
              canSerializeFMUstate=\"true\"\n    providesDirectionalDerivative=\"{dd}\"/>\n\n"
-        ));
+        );
     }
-    w(format!(
+    x + &format!(
         "  <CoSimulation\n    modelIdentifier=\"{id}\"\n    needsExecutionTool=\"false\"\n    \
          canHandleVariableCommunicationStepSize=\"{}\"\n    canInterpolateInputs=\"{}\"\n    \
          maxOutputDerivativeOrder=\"{}\"\n    canRunAsynchronuously=\"false\"\n    \
@@ -68,36 +87,51 @@ pub fn fmi2(l: &Layout) -> String {
         caps.can_handle_variable_communication_step_size,
         caps.can_interpolate_inputs,
         caps.max_output_derivative_order,
-    ));
-    if !l.units.is_empty() {
-        w("  <UnitDefinitions>\n".into());
-        for u in &l.units {
-            let base = u.base.map(|b| {
-                let attrs: Vec<String> = b
+    )
+}
+
+/// `<UnitDefinitions>`: the units the variables use.
+fn unit_definitions(l: &Layout) -> String {
+    if l.units.is_empty() {
+        return String::new();
+    }
+    let mut x = String::from("  <UnitDefinitions>\n");
+    for u in &l.units {
+        match u.base {
+            Some(b) => {
+                let attrs: String = b
                     .exponents()
                     .iter()
                     .filter(|(_, e)| *e != 0)
                     .map(|(n, e)| format!(" {n}=\"{e}\""))
                     .collect();
-                format!("<BaseUnit{}/>", attrs.concat())
-            });
-            match base {
-                Some(b) => w(format!("    <Unit name=\"{}\">{b}</Unit>\n", esc(u.name))),
-                None => w(format!("    <Unit name=\"{}\"/>\n", esc(u.name))),
+                x += &format!(
+                    "    <Unit name=\"{}\"><BaseUnit{attrs}/></Unit>\n",
+                    esc(u.name)
+                );
             }
+            None => x += &format!("    <Unit name=\"{}\"/>\n", esc(u.name)),
         }
-        w("  </UnitDefinitions>\n\n".into());
     }
-    w("  <LogCategories>\n".into());
-    for (name, d) in LOG_CATEGORIES.iter().zip(info.log_categories) {
-        w(format!(
+    x + "  </UnitDefinitions>\n\n"
+}
+
+/// `<LogCategories>`: the layer's categories with the model's descriptions.
+fn log_categories(l: &Layout) -> String {
+    let mut x = String::from("  <LogCategories>\n");
+    for (name, d) in LOG_CATEGORIES.iter().zip(l.info.log_categories) {
+        x += &format!(
             "    <Category name=\"{name}\" description=\"{}\"/>\n",
             esc(d)
-        ));
+        );
     }
-    w("  </LogCategories>\n\n".into());
-    let e = &info.default_experiment;
-    let attrs: Vec<String> = [
+    x + "  </LogCategories>\n\n"
+}
+
+/// `<DefaultExperiment>` with the attributes the model gives.
+fn default_experiment(l: &Layout) -> String {
+    let e = &l.info.default_experiment;
+    let attrs: String = [
         ("startTime", e.start_time),
         ("stopTime", e.stop_time),
         ("tolerance", e.tolerance),
@@ -106,25 +140,30 @@ pub fn fmi2(l: &Layout) -> String {
     .iter()
     .filter_map(|(n, v)| v.map(|v| format!(" {n}=\"{}\"", real_text(v))))
     .collect();
-    if !attrs.is_empty() {
-        w(format!("  <DefaultExperiment{}/>\n\n", attrs.concat()));
+    if attrs.is_empty() {
+        return String::new();
     }
-    w("  <ModelVariables>\n".into());
+    format!("  <DefaultExperiment{attrs}/>\n\n")
+}
+
+/// `<ModelVariables>`, one line per variable with its index in a comment.
+fn model_variables(l: &Layout) -> String {
+    let mut x = String::from("  <ModelVariables>\n");
     for (i, v) in l.variables.iter().enumerate() {
         let initial = Layout::initial(v)
             .map(|k| format!(" initial=\"{}\"", k.name()))
             .unwrap_or_default();
         let mut ty = String::new();
         if !v.unit.is_empty() && v.ty == VarType::Real {
-            let _ = write!(ty, " unit=\"{}\"", esc(v.unit));
+            ty += &format!(" unit=\"{}\"", esc(v.unit));
         }
         if let Some(s) = &v.start {
-            let _ = write!(ty, " start=\"{}\"", esc(&start_text(s)));
+            ty += &format!(" start=\"{}\"", esc(&start_text(s)));
         }
         if let Some(state) = l.derivative_of[i] {
-            let _ = write!(ty, " derivative=\"{}\"", state + 1);
+            ty += &format!(" derivative=\"{}\"", state + 1);
         }
-        w(format!(
+        x += &format!(
             "    <!-- {} --><ScalarVariable name=\"{}\" valueReference=\"{}\" causality=\"{}\" \
              variability=\"{}\"{initial} description=\"{}\"><{}{ty}/></ScalarVariable>\n",
             i + 1,
@@ -134,10 +173,15 @@ pub fn fmi2(l: &Layout) -> String {
             v.variability.name(),
             esc(v.description),
             v.ty.name(),
-        ));
+        );
     }
-    w("  </ModelVariables>\n\n".into());
-    w("  <ModelStructure>\n".into());
+    x + "  </ModelVariables>\n\n"
+}
+
+/// `<ModelStructure>`: `<Outputs>`, `<Derivatives>`, `<InitialUnknowns>`
+/// (each left out when empty).
+fn model_structure(l: &Layout) -> String {
+    let mut x = String::from("  <ModelStructure>\n");
     for (tag, list) in [
         ("Outputs", &l.outputs),
         ("Derivatives", &l.derivatives),
@@ -146,14 +190,13 @@ pub fn fmi2(l: &Layout) -> String {
         if list.is_empty() {
             continue;
         }
-        w(format!("    <{tag}>\n"));
+        x += &format!("    <{tag}>\n");
         for u in list {
-            w(format!("      {}\n", unknown(u)));
+            x += &format!("      {}\n", unknown(u));
         }
-        w(format!("    </{tag}>\n"));
+        x += &format!("    </{tag}>\n");
     }
-    w("  </ModelStructure>\n</fmiModelDescription>\n".into());
-    x
+    x + "  </ModelStructure>\n</fmiModelDescription>\n"
 }
 
 /// One `<Unknown>` (indices are positions + 1).
