@@ -77,23 +77,21 @@ macro_rules! repo_fmu {
     };
 }
 
-/// This repository's FMUs, in the order `host package` writes them. Adding
-/// an FMU crate (a copy of the template, see CONTRIBUTING.md) adds one line here.
-pub const FMUS: &[RepoFmu] = &[
-    repo_fmu!("structure", "fmu-structure", Packaging::WithModalTable),
-    repo_fmu!("shaker", "fmu-shaker", Packaging::Required),
-    repo_fmu!("controller", "fmu-controller", Packaging::Optional),
-];
-
 /// The structure FMU (crate `fmu-structure`).
-pub const STRUCTURE: RepoFmu = FMUS[0];
+pub const STRUCTURE: RepoFmu = repo_fmu!("structure", "fmu-structure", Packaging::WithModalTable);
 
 /// The shaker FMU (crate `fmu-shaker`).
-pub const SHAKER: RepoFmu = FMUS[1];
+pub const SHAKER: RepoFmu = repo_fmu!("shaker", "fmu-shaker", Packaging::Required);
 
 /// The controller FMU (crate `fmu-controller`): the phase-locked loop of
 /// phase-resonant testing, packaged on its own ([`package_controller_fmu`]).
-pub const CONTROLLER: RepoFmu = FMUS[2];
+pub const CONTROLLER: RepoFmu = repo_fmu!("controller", "fmu-controller", Packaging::Optional);
+
+/// This repository's FMUs, in the order `host package` writes them. Adding
+/// an FMU crate (a copy of the template, see CONTRIBUTING.md) adds one line
+/// here, `repo_fmu!("<id>", "fmu-<id>", Packaging::Optional),` (a named
+/// constant like the ones above only where host code pairs it with others).
+pub const FMUS: &[RepoFmu] = &[STRUCTURE, SHAKER, CONTROLLER];
 
 /// Why the repository's FMUs could not be packaged.
 #[derive(Debug, thiserror::Error)]
