@@ -1,22 +1,30 @@
 //! # fmi2-export — the FMI 2.0 Co-Simulation and Model Exchange export layer, written once
 //!
-//! Both FMUs of this workspace (`fmu-shaker`, `fmu-structure`) are thin
-//! models on top of this crate. It holds the export side's `unsafe` code and
-//! FFI (the importer's is in `fmi2-import`): every FMI 2.0 Co-Simulation and
-//! (event-free) Model Exchange function with the standard's state machines, argument checks, logging and
-//! `catch_unwind` ([`ffi`]), the check that a modelDescription.xml matches the
-//! code ([`xml`], on the one schema of [`fmi2::schema`]) and the `.fmu`
-//! packager ([`package`]). The C ABI types ([`types`]) and resource-URI
-//! decoding ([`uri`]) are the FMI core's (`fmi2`), re-exported here.
+//! The FMUs of this workspace (`fmu-structure`, `fmu-shaker`,
+//! `fmu-controller`) are thin models on top of this crate. It holds the
+//! export side's `unsafe` code and FFI (the importer's is in `fmi2-import`):
+//! every FMI 2.0 Co-Simulation and (event-free) Model Exchange function with
+//! the standard's state machines, argument checks, logging and
+//! `catch_unwind` ([`ffi`]), the modelDescription.xml rendered from the code
+//! ([`description`], version-neutral, and [`render`], FMI 2.0), the checks
+//! that an XML and a model agree ([`xml`], on the one schema of
+//! [`fmi2::schema`]), the checks every FMU crate's tests run ([`testing`])
+//! and the `.fmu` packager ([`package`]). The C ABI types ([`types`]) and
+//! resource-URI decoding ([`uri`]) are the FMI core's (`fmi2`), re-exported here.
 //!
 //! ## How to implement a model
 //!
 //! 1. Write a `Clone` struct with all the model's state (no statics: several
 //!    instances share one library and may step on different threads).
 //! 2. Implement [`CoSimModel`]:
-//!    * `MODEL_IDENTIFIER` (= the cdylib's lib name), `GUID` (= the XML's guid),
-//!    * `VARIABLES`: one [`Variable`] per `<ScalarVariable>`, with value
-//!      reference, type, causality, variability, start value and unit,
+//!    * `MODEL_IDENTIFIER` (= the cdylib's lib name), `GUID` (written only
+//!      there: the XML is rendered from it),
+//!    * `VARIABLES`: one [`Variable`] per `<ScalarVariable>`, in index order,
+//!      with value reference, type, causality, variability, start value, unit
+//!      and description (`Variable::real(...).describe("...")`),
+//!    * `INFO`: the rest of the modelDescription ([`ModelInfo`]: name,
+//!      description, [`Capabilities`], units beyond [`description::UNITS`],
+//!      default experiment, the [`ModelStructure`] dependencies by name),
 //!    * `instantiate` (start values; `ctx.resource_dir` is the decoded
 //!      `resources/` folder), `get_real` / `set_real` (and the other types if
 //!      declared), `do_step(t, h)`, `serialize_state` / `deserialize_state`,
@@ -26,8 +34,8 @@
 //!    * optionally Model Exchange: `CONTINUOUS_STATES` (state and derivative
 //!      value references, nominals), `set_time`, `set_continuous_states`,
 //!      `derivatives` (the model is then instantiable as `fmi2ModelExchange`,
-//!      without events; declare `<ModelExchange>` and `<Derivatives>` in the XML
-//!      and test them with [`xml::check_model_exchange`]),
+//!      without events; the rendered XML gets `<ModelExchange>`, the
+//!      `derivative` attributes and `<Derivatives>`),
 //!    * the layer has already checked value references, settability, finite
 //!      inputs, pointers, the call sequence and `h > 0` before it calls you;
 //!      return [`ModelError`] for failures (any `std::error::Error` converts).
@@ -35,9 +43,11 @@
 //!    every `fmi2*` symbol of the shared library.
 //! 4. Never build an FMU with `panic = "abort"`: the layer relies on
 //!    unwinding to turn a panic into `fmi2Error` instead of killing the importer.
-//! 5. Test the XML against the table:
-//!    `fmi2_export::xml::check_model_description(xml, MyModel::MODEL_IDENTIFIER, MyModel::GUID, MyModel::VARIABLES)`
-//!    and the start values with [`xml::check_start_values`].
+//! 5. Test with [`testing`]: `check_model_description_file::<MyModel>(path)`
+//!    keeps `modelDescription/<id>/modelDescription.xml` the rendered one
+//!    (`UPDATE_MODEL_DESCRIPTION=1` writes it), [`xml::check_dependencies`]
+//!    holds `<ModelStructure>` to the code, `check_capabilities` the declared
+//!    capabilities, [`xml::check_start_values`] the start values.
 //!
 //! ```ignore
 //! #[derive(Clone)]
@@ -46,6 +56,7 @@
 //!     const MODEL_IDENTIFIER: &'static str = "gain";
 //!     const GUID: &'static str = "{...}";
 //!     const VARIABLES: &'static [fmi2_export::Variable] = &[/* k, u, y */];
+//!     const INFO: fmi2_export::ModelInfo = fmi2_export::ModelInfo { /* ... */ };
 //!     fn instantiate(_: &fmi2_export::InstantiateContext) -> Result<Self, fmi2_export::ModelError> { Ok(Gain { k: 2.0, u: 0.0 }) }
 //!     fn get_real(&self, vr: u32) -> f64 { match vr { 0 => self.k, 1 => self.u, _ => self.k * self.u } }
 //!     fn set_real(&mut self, vr: u32, v: f64) -> Result<(), fmi2_export::ModelError> { if vr == 0 { self.k = v } else { self.u = v }; Ok(()) }
@@ -55,13 +66,20 @@
 //! }
 //! fmi2_export::export_fmu!(Gain);
 //! ```
+pub mod description;
 pub mod ffi;
 pub mod model;
 pub mod package;
+pub mod render;
+pub mod testing;
 pub mod xml;
 
 pub use fmi2::{types, uri};
 
+pub use description::{
+    BaseUnit, Capabilities, DefaultExperiment, Dependencies, ModelInfo, ModelStructure, Unit,
+    LOG_CATEGORY_DESCRIPTIONS,
+};
 pub use model::{
     Causality, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError, Start,
     StateReader, StateWriter, VarType, Variability, Variable, LOG_CATEGORIES,

@@ -17,8 +17,11 @@ pub enum Start {
     String(&'static str),
 }
 
-/// One `<ScalarVariable>` as the code sees it. The modelDescription.xml is
-/// checked against this table by [`crate::xml::check_model_description`].
+/// One scalar variable as the code sees it: the single source of the
+/// modelDescription's `<ScalarVariable>` (rendered by
+/// [`crate::render::model_description`]; its index is the position in
+/// [`CoSimModel::VARIABLES`] + 1). A table entry reads
+/// `Variable::real(...).describe("...")`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Variable {
     pub name: &'static str,
@@ -27,8 +30,11 @@ pub struct Variable {
     pub causality: Causality,
     pub variability: Variability,
     pub start: Option<Start>,
-    /// Unit name as declared in the XML (`""` for none).
+    /// Unit name (`""` for none); defined in [`crate::description::UNITS`]
+    /// or the model's [`crate::ModelInfo::units`].
     pub unit: &'static str,
+    /// The `description` attribute (required by the renderer).
+    pub description: &'static str,
 }
 
 impl Variable {
@@ -52,7 +58,14 @@ impl Variable {
                 None => None,
             },
             unit,
+            description: "",
         }
+    }
+
+    /// The same variable with its description.
+    pub const fn describe(mut self, description: &'static str) -> Self {
+        self.description = description;
+        self
     }
 
     /// A fixed Integer parameter with its start value.
@@ -65,6 +78,7 @@ impl Variable {
             variability: Variability::Fixed,
             start: Some(Start::Integer(start)),
             unit: "",
+            description: "",
         }
     }
 
@@ -78,6 +92,21 @@ impl Variable {
             variability: Variability::Fixed,
             start: Some(Start::Boolean(start)),
             unit: "",
+            description: "",
+        }
+    }
+
+    /// A fixed String parameter with its start value.
+    pub const fn string_parameter(name: &'static str, vr: u32, start: &'static str) -> Self {
+        Self {
+            name,
+            vr,
+            ty: VarType::String,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            start: Some(Start::String(start)),
+            unit: "",
+            description: "",
         }
     }
 
@@ -91,6 +120,7 @@ impl Variable {
             variability: Variability::Discrete,
             start: None,
             unit: "",
+            description: "",
         }
     }
 
@@ -382,10 +412,15 @@ impl<'a> StateReader<'a> {
 pub trait CoSimModel: Clone + Sized + 'static {
     /// `modelIdentifier` (the shared library's name without extension).
     const MODEL_IDENTIFIER: &'static str;
-    /// `guid` of the modelDescription (checked at instantiation).
+    /// `guid` of the modelDescription (checked at instantiation); written
+    /// only here, the XML is rendered from it.
     const GUID: &'static str;
-    /// All scalar variables, the single source the XML is tested against.
+    /// All scalar variables in the order of their indices: the single source
+    /// of the modelDescription's `<ModelVariables>`.
     const VARIABLES: &'static [Variable];
+    /// Everything else the modelDescription says (name, texts, capabilities,
+    /// units, default experiment, `<ModelStructure>` dependencies).
+    const INFO: crate::description::ModelInfo;
 
     /// Build the model with the modelDescription start values.
     fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError>;

@@ -47,6 +47,7 @@ impl CoSimModel for Lag {
             variability: Variability::Fixed,
             start: Some(Start::Real(0.5)),
             unit: "s",
+            description: "time constant",
         },
         Variable {
             name: "u",
@@ -56,6 +57,7 @@ impl CoSimModel for Lag {
             variability: Variability::Continuous,
             start: Some(Start::Real(0.0)),
             unit: "",
+            description: "input",
         },
         Variable {
             name: "y",
@@ -65,6 +67,7 @@ impl CoSimModel for Lag {
             variability: Variability::Continuous,
             start: None,
             unit: "",
+            description: "output",
         },
         Variable {
             name: "d",
@@ -74,6 +77,7 @@ impl CoSimModel for Lag {
             variability: Variability::Tunable,
             start: Some(Start::Real(2.0)),
             unit: "",
+            description: "feedthrough",
         },
         Variable {
             name: "n",
@@ -83,6 +87,7 @@ impl CoSimModel for Lag {
             variability: Variability::Fixed,
             start: Some(Start::Integer(3)),
             unit: "",
+            description: "n",
         },
         Variable {
             name: "on",
@@ -92,6 +97,7 @@ impl CoSimModel for Lag {
             variability: Variability::Fixed,
             start: Some(Start::Boolean(true)),
             unit: "",
+            description: "on",
         },
         Variable {
             name: "resources",
@@ -101,8 +107,34 @@ impl CoSimModel for Lag {
             variability: Variability::Continuous,
             start: None,
             unit: "",
+            description: "decoded resource folder",
         },
     ];
+    const INFO: ModelInfo = ModelInfo {
+        name: "lag",
+        description: "first-order lag with feedthrough",
+        version: None,
+        generation_tool: "fmi2-export tests",
+        capabilities: Capabilities {
+            can_handle_variable_communication_step_size: true,
+            can_interpolate_inputs: false,
+            max_output_derivative_order: 0,
+            provides_directional_derivative: false,
+        },
+        units: &[],
+        log_categories: LOG_CATEGORY_DESCRIPTIONS,
+        default_experiment: DefaultExperiment {
+            start_time: Some(0.0),
+            stop_time: Some(1.0),
+            tolerance: None,
+            step_size: Some(0.1),
+        },
+        model_structure: ModelStructure {
+            outputs: &[Dependencies::fixed("y", &["u"])],
+            derivatives: &[],
+            initial_unknowns: &[Dependencies::on("y", &["u", "d"])],
+        },
+    };
     fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
         let resources = ctx
             .resource_dir
@@ -832,4 +864,66 @@ fn corrupted_serialized_states_are_refused() {
         );
         assert_eq!(fmi2FreeFMUstate(j.c, &mut s3), Status::Ok);
     }
+}
+
+/// The modelDescription rendered from the code passes the drift check, and
+/// tables that disagree are refused with the name at fault.
+#[test]
+fn rendered_model_description_agrees_with_the_code() {
+    let xml = fmi2_export::render::model_description::<Lag>().unwrap();
+    let md = fmi2_export::xml::check_model_description(&xml, "lag", Lag::GUID, Lag::VARIABLES)
+        .unwrap_or_else(|e| panic!("{e:#?}\n{xml}"));
+    assert!(md.model_exchange.is_none());
+    assert_eq!(md.outputs[0].dependencies, Some(vec![2]));
+    assert!(xml.contains(r#"<Unknown index="3" dependencies="2" dependenciesKind="fixed"/>"#));
+    assert!(
+        xml.contains(r#"<Unknown index="3" dependencies="2 4"/>"#),
+        "{xml}"
+    );
+    assert!(xml.contains(r#"<Real unit="s" start="0.5"/>"#), "{xml}");
+    assert!(
+        xml.contains(r#"<Unit name="s"><BaseUnit s="1"/></Unit>"#),
+        "{xml}"
+    );
+    assert!(xml.contains(r#"<DefaultExperiment startTime="0" stopTime="1" stepSize="0.1"/>"#));
+    assert_eq!(md.guid, "{lag-test}");
+    // a dependency on an output, an unknown unit: errors naming them
+    let layout = fmi2_export::description::Layout::of::<Lag>().unwrap();
+    assert_eq!(layout.units.len(), 1);
+    #[derive(Clone)]
+    struct Bad(Lag);
+    impl CoSimModel for Bad {
+        const MODEL_IDENTIFIER: &'static str = "bad";
+        const GUID: &'static str = "{bad}";
+        const VARIABLES: &'static [Variable] = &[Variable::real(
+            "y",
+            0,
+            Causality::Output,
+            Variability::Continuous,
+            None,
+            "furlong",
+        )
+        .describe("y")];
+        const INFO: ModelInfo = Lag::INFO;
+        fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
+            Lag::instantiate(ctx).map(Bad)
+        }
+        fn get_real(&self, vr: u32) -> f64 {
+            self.0.get_real(vr)
+        }
+        fn set_real(&mut self, vr: u32, v: f64) -> Result<(), ModelError> {
+            self.0.set_real(vr, v)
+        }
+        fn do_step(&mut self, t: f64, h: f64, log: &Logger) -> Result<(), ModelError> {
+            self.0.do_step(t, h, log)
+        }
+        fn serialize_state(&self, w: &mut StateWriter) {
+            self.0.serialize_state(w)
+        }
+        fn deserialize_state(&mut self, r: &mut StateReader<'_>) -> Result<(), ModelError> {
+            self.0.deserialize_state(r)
+        }
+    }
+    let e = fmi2_export::render::model_description::<Bad>().unwrap_err();
+    assert!(e.to_string().contains("furlong"), "{e}");
 }

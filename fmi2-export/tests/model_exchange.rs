@@ -44,6 +44,7 @@ const fn real(name: &'static str, vr: u32, causality: Causality, start: Option<f
             None => None,
         },
         unit: "",
+        description: name,
     }
 }
 
@@ -61,6 +62,31 @@ impl CoSimModel for Lag {
         derivative_vr: VR_DER_Y,
         nominal: 2.0,
     }];
+    const INFO: ModelInfo = ModelInfo {
+        name: "lag",
+        description: "x' = (u - x)/tau, y = x",
+        version: None,
+        generation_tool: "fmi2-export tests",
+        capabilities: Capabilities {
+            can_handle_variable_communication_step_size: true,
+            can_interpolate_inputs: false,
+            max_output_derivative_order: 0,
+            provides_directional_derivative: false,
+        },
+        units: &[],
+        log_categories: LOG_CATEGORY_DESCRIPTIONS,
+        default_experiment: DefaultExperiment {
+            start_time: None,
+            stop_time: None,
+            tolerance: None,
+            step_size: None,
+        },
+        model_structure: ModelStructure {
+            outputs: &[],
+            derivatives: &[Dependencies::on("der(y)", &["u", "y"])],
+            initial_unknowns: &[],
+        },
+    };
     fn instantiate(_: &InstantiateContext<'_>) -> Result<Self, ModelError> {
         Ok(Lag {
             tau: 0.5,
@@ -369,4 +395,19 @@ fn cs_instance_refuses_me_functions_and_states_do_not_cross() {
         );
         assert_eq!(fmi2FreeFMUstate(me2.c, &mut s2), Status::Ok);
     }
+}
+
+/// The rendered modelDescription of a Model Exchange model: `<ModelExchange>`,
+/// the `derivative` attribute and `<Derivatives>` agree with the code.
+#[test]
+fn rendered_model_description_declares_model_exchange() {
+    let xml = fmi2_export::render::model_description::<Lag>().unwrap();
+    let md = fmi2_export::xml::check_model_description(&xml, "lag", Lag::GUID, Lag::VARIABLES)
+        .unwrap_or_else(|e| panic!("{e:#?}\n{xml}"));
+    assert!(fmi2_export::xml::check_model_exchange::<Lag>(&md).is_empty());
+    assert_eq!(md.variables[3].derivative, Some(3));
+    assert_eq!(md.derivatives[0].dependencies, Some(vec![2, 3]));
+    // initial unknowns: the output (a state) and the derivative
+    let iu: Vec<usize> = md.initial_unknowns.iter().map(|u| u.index).collect();
+    assert_eq!(iu, [3, 4]);
 }

@@ -16,7 +16,8 @@
 //! start of each step), so the loop with the shaker forms no algebraic loop.
 //!
 //! See `README.md` for the variable table; `modelDescription/controller/`
-//! holds the modelDescription.xml, tested against [`model::VARIABLES`].
+//! holds the modelDescription.xml rendered from [`model::VARIABLES`] and
+//! [`model::INFO`].
 pub mod model;
 
 pub use model::Controller;

@@ -1,12 +1,13 @@
 //! The controller FMU's variables, parameters and FMU state, mapped onto
 //! [`nlmode::control::StreamingPll`].
 use fmi2_export::{
-    Causality as C, CoSimModel, InstantiateContext, Logger, ModelError, StateReader, StateWriter,
-    VarType as T, Variability as V, Variable,
+    Capabilities, Causality as C, CoSimModel, DefaultExperiment, Dependencies, InstantiateContext,
+    Logger, ModelError, ModelInfo, ModelStructure, StateReader, StateWriter, VarType as T,
+    Variability as V, Variable, LOG_CATEGORY_DESCRIPTIONS,
 };
 use nlmode::control::{PllLevel, PllOptions, StreamEvent, StreamSample, StreamingPll};
 
-/// GUID of `modelDescription/controller/modelDescription.xml`.
+/// GUID of the FMU (written here only; the modelDescription is rendered from it).
 pub const GUID: &str = "{3e9b7c21-5d4a-4f08-b6e2-9a1c7d30f5b8}";
 
 // Value references. Parameters (Real 0-7, Integer 8-11), inputs (Real 20-23),
@@ -61,110 +62,174 @@ pub const fn vr_harmonic(s: u32, h: u32) -> u32 {
     VR_HARMONICS_BASE + 12 * s + 2 * h
 }
 
-/// All variables (the modelDescription.xml is tested against this table).
+/// All variables, in the order of their indices (the single source of the
+/// modelDescription's `<ModelVariables>`).
 pub const VARIABLES: &[Variable] = &[
-    Variable::real("u_hat", 0, C::Parameter, V::Tunable, Some(1.0), "V"),
-    Variable::real(
-        "omega_start",
-        1,
-        C::Parameter,
-        V::Fixed,
-        Some(356.2),
-        "rad/s",
-    ),
-    Variable::real("kp", 2, C::Parameter, V::Fixed, Some(0.001), "1/rad"),
-    Variable::real("ki", 3, C::Parameter, V::Fixed, Some(0.001), "1/rad"),
-    Variable::real(
-        "max_step_ratio",
-        4,
-        C::Parameter,
-        V::Fixed,
-        Some(0.002),
-        "1",
-    ),
-    Variable::real(
-        "phase_tolerance",
-        5,
-        C::Parameter,
-        V::Fixed,
-        Some(0.001),
-        "rad",
-    ),
-    Variable::real(
-        "amplitude_tolerance",
-        6,
-        C::Parameter,
-        V::Fixed,
-        Some(0.0001),
-        "1",
-    ),
-    Variable::real(
-        "drive_modal_mass",
-        7,
-        C::Parameter,
-        V::Fixed,
-        Some(1.0),
-        "kg",
-    ),
-    Variable::integer_parameter("settle_periods", 8, 10),
-    Variable::integer_parameter("max_periods_per_level", 9, 3000),
-    Variable::integer_parameter("harmonics", 10, 5),
-    Variable::integer_parameter("samples_per_period", 11, 40),
-    Variable::real("F_meas", 20, C::Input, V::Continuous, Some(0.0), "N"),
-    Variable::real("x_drive", 21, C::Input, V::Continuous, Some(0.0), "m"),
-    Variable::real("x_tip", 22, C::Input, V::Continuous, Some(0.0), "m"),
-    Variable::real("I_meas", 23, C::Input, V::Continuous, Some(0.0), "A"),
-    Variable::real("u_ext", 30, C::Output, V::Continuous, None, "V"),
-    Variable::real("Omega", 31, C::Output, V::Continuous, None, "rad/s"),
-    Variable::real("theta", 32, C::Output, V::Continuous, None, "rad"),
-    Variable::real("phase_error", 33, C::Output, V::Continuous, None, "rad"),
-    Variable::real("amplitude_change", 34, C::Output, V::Continuous, None, "1"),
-    Variable::real("damping_ratio", 35, C::Output, V::Continuous, None, "1"),
-    Variable::real("power", 36, C::Output, V::Continuous, None, "W"),
-    Variable::real("I_amplitude", 37, C::Output, V::Continuous, None, "A"),
-    Variable::real("record_voltage", 38, C::Output, V::Continuous, None, "V"),
-    Variable::real("record_Omega", 39, C::Output, V::Continuous, None, "rad/s"),
-    Variable::real("record_time", 40, C::Output, V::Continuous, None, "s"),
-    Variable::discrete_output("settled", 41, T::Boolean),
-    Variable::discrete_output("level_done", 42, T::Boolean),
-    Variable::discrete_output("periods", 43, T::Integer),
-    Variable::real("F_h0_re", 100, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h0_im", 101, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h1_re", 102, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h1_im", 103, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h2_re", 104, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h2_im", 105, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h3_re", 106, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h3_im", 107, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h4_re", 108, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h4_im", 109, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h5_re", 110, C::Output, V::Continuous, None, "N"),
-    Variable::real("F_h5_im", 111, C::Output, V::Continuous, None, "N"),
-    Variable::real("x_drive_h0_re", 112, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h0_im", 113, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h1_re", 114, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h1_im", 115, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h2_re", 116, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h2_im", 117, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h3_re", 118, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h3_im", 119, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h4_re", 120, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h4_im", 121, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h5_re", 122, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_drive_h5_im", 123, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h0_re", 124, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h0_im", 125, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h1_re", 126, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h1_im", 127, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h2_re", 128, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h2_im", 129, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h3_re", 130, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h3_im", 131, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h4_re", 132, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h4_im", 133, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h5_re", 134, C::Output, V::Continuous, None, "m"),
-    Variable::real("x_tip_h5_im", 135, C::Output, V::Continuous, None, "m"),
+    Variable::real("u_hat", VR_U_HAT, C::Parameter, V::Tunable, Some(1.0), "V")
+        .describe("voltage amplitude of the level (applied from the next period start; a new value starts a new level)"),
+    Variable::real("omega_start", VR_OMEGA_START, C::Parameter, V::Fixed, Some(356.2), "rad/s")
+        .describe("start frequency of the loop (e.g. the linear natural frequency)"),
+    Variable::real("kp", VR_KP, C::Parameter, V::Fixed, Some(0.001), "1/rad")
+        .describe("proportional gain k_p: relative frequency change per rad of phase-error change"),
+    Variable::real("ki", VR_KI, C::Parameter, V::Fixed, Some(0.001), "1/rad")
+        .describe("integral gain k_i: relative frequency change per rad of phase error per period"),
+    Variable::real("max_step_ratio", VR_MAX_STEP_RATIO, C::Parameter, V::Fixed, Some(0.002), "1")
+        .describe("largest relative frequency change per period"),
+    Variable::real("phase_tolerance", VR_PHASE_TOL, C::Parameter, V::Fixed, Some(0.001), "rad")
+        .describe("phase-error tolerance of the settle criterion"),
+    Variable::real("amplitude_tolerance", VR_AMPLITUDE_TOL, C::Parameter, V::Fixed, Some(0.0001), "1")
+        .describe("tolerance on the relative change of |x_drive,1| per period"),
+    Variable::real("drive_modal_mass", VR_DRIVE_MASS, C::Parameter, V::Fixed, Some(1.0), "kg")
+        .describe("modal mass at the drive point 1/|phi_d|^2 of the power-balance damping"),
+    Variable::integer_parameter("settle_periods", VR_SETTLE_PERIODS, 10)
+        .describe("consecutive periods inside both tolerances to count as settled"),
+    Variable::integer_parameter("max_periods_per_level", VR_MAX_PERIODS, 3000)
+        .describe("periods per level before it is given up as not settled"),
+    Variable::integer_parameter("harmonics", VR_HARMONICS, 5)
+        .describe("harmonics demodulated (1..5; the outputs above it are 0)"),
+    Variable::integer_parameter("samples_per_period", VR_SAMPLES, 40)
+        .describe("uniform phases N per period of the demodulation (2 (harmonics + 1)..1000)"),
+    Variable::real("F_meas", VR_F_MEAS, C::Input, V::Continuous, Some(0.0), "N")
+        .describe("measured force on the structure at the drive point (force sensor; positive along positive x_drive)"),
+    Variable::real("x_drive", VR_X_DRIVE, C::Input, V::Continuous, Some(0.0), "m")
+        .describe("measured drive-point displacement"),
+    Variable::real("x_tip", VR_X_TIP, C::Input, V::Continuous, Some(0.0), "m")
+        .describe("response-point displacement (recorded only)"),
+    Variable::real("I_meas", VR_I_MEAS, C::Input, V::Continuous, Some(0.0), "A")
+        .describe("coil current (recorded only)"),
+    Variable::real("u_ext", VR_U_EXT, C::Output, V::Continuous, None, "V")
+        .describe("voltage command u_hat cos(theta) for the shaker's external voltage input"),
+    Variable::real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s")
+        .describe("excitation frequency of the running period"),
+    Variable::real("theta", VR_THETA, C::Output, V::Continuous, None, "rad")
+        .describe("excitation phase within the running period"),
+    Variable::real("phase_error", VR_PHASE_ERROR, C::Output, V::Continuous, None, "rad")
+        .describe("phase error pi/2 - (arg F_1 - arg x_drive,1) of the last period"),
+    Variable::real("amplitude_change", VR_AMPLITUDE_CHANGE, C::Output, V::Continuous, None, "1")
+        .describe("relative change of |x_drive,1| in the last period"),
+    Variable::real("damping_ratio", VR_DAMPING, C::Output, V::Continuous, None, "1")
+        .describe("modal damping ratio from the power balance of the last period"),
+    Variable::real("power", VR_POWER, C::Output, V::Continuous, None, "W")
+        .describe("mean input power at the drive point in the last period"),
+    Variable::real("I_amplitude", VR_I_AMPLITUDE, C::Output, V::Continuous, None, "A")
+        .describe("fundamental amplitude of the coil current in the last period"),
+    Variable::real("record_voltage", VR_RECORD_VOLTAGE, C::Output, V::Continuous, None, "V")
+        .describe("voltage amplitude of the last period"),
+    Variable::real("record_Omega", VR_RECORD_OMEGA, C::Output, V::Continuous, None, "rad/s")
+        .describe("excitation frequency of the last period"),
+    Variable::real("record_time", VR_RECORD_TIME, C::Output, V::Continuous, None, "s")
+        .describe("time at the end of the last period"),
+    Variable::discrete_output("settled", VR_SETTLED, T::Boolean)
+        .describe("the last period met the settle criterion"),
+    Variable::discrete_output("level_done", VR_LEVEL_DONE, T::Boolean)
+        .describe("the level settled or ran out of periods (latched until u_hat changes)"),
+    Variable::discrete_output("periods", VR_PERIODS, T::Integer)
+        .describe("periods completed on the running level"),
+    Variable::real("F_h0_re", vr_harmonic(0, 0), C::Output, V::Continuous, None, "N")
+        .describe("real part of harmonic 0 of the force F_meas over the last period"),
+    Variable::real("F_h0_im", vr_harmonic(0, 0) + 1, C::Output, V::Continuous, None, "N")
+        .describe("imaginary part of harmonic 0 of the force F_meas over the last period"),
+    Variable::real("F_h1_re", vr_harmonic(0, 1), C::Output, V::Continuous, None, "N")
+        .describe("real part of harmonic 1 of the force F_meas over the last period"),
+    Variable::real("F_h1_im", vr_harmonic(0, 1) + 1, C::Output, V::Continuous, None, "N")
+        .describe("imaginary part of harmonic 1 of the force F_meas over the last period"),
+    Variable::real("F_h2_re", vr_harmonic(0, 2), C::Output, V::Continuous, None, "N")
+        .describe("real part of harmonic 2 of the force F_meas over the last period"),
+    Variable::real("F_h2_im", vr_harmonic(0, 2) + 1, C::Output, V::Continuous, None, "N")
+        .describe("imaginary part of harmonic 2 of the force F_meas over the last period"),
+    Variable::real("F_h3_re", vr_harmonic(0, 3), C::Output, V::Continuous, None, "N")
+        .describe("real part of harmonic 3 of the force F_meas over the last period"),
+    Variable::real("F_h3_im", vr_harmonic(0, 3) + 1, C::Output, V::Continuous, None, "N")
+        .describe("imaginary part of harmonic 3 of the force F_meas over the last period"),
+    Variable::real("F_h4_re", vr_harmonic(0, 4), C::Output, V::Continuous, None, "N")
+        .describe("real part of harmonic 4 of the force F_meas over the last period"),
+    Variable::real("F_h4_im", vr_harmonic(0, 4) + 1, C::Output, V::Continuous, None, "N")
+        .describe("imaginary part of harmonic 4 of the force F_meas over the last period"),
+    Variable::real("F_h5_re", vr_harmonic(0, 5), C::Output, V::Continuous, None, "N")
+        .describe("real part of harmonic 5 of the force F_meas over the last period"),
+    Variable::real("F_h5_im", vr_harmonic(0, 5) + 1, C::Output, V::Continuous, None, "N")
+        .describe("imaginary part of harmonic 5 of the force F_meas over the last period"),
+    Variable::real("x_drive_h0_re", vr_harmonic(1, 0), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 0 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h0_im", vr_harmonic(1, 0) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 0 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h1_re", vr_harmonic(1, 1), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 1 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h1_im", vr_harmonic(1, 1) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 1 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h2_re", vr_harmonic(1, 2), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 2 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h2_im", vr_harmonic(1, 2) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 2 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h3_re", vr_harmonic(1, 3), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 3 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h3_im", vr_harmonic(1, 3) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 3 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h4_re", vr_harmonic(1, 4), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 4 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h4_im", vr_harmonic(1, 4) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 4 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h5_re", vr_harmonic(1, 5), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 5 of the drive-point displacement over the last period"),
+    Variable::real("x_drive_h5_im", vr_harmonic(1, 5) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 5 of the drive-point displacement over the last period"),
+    Variable::real("x_tip_h0_re", vr_harmonic(2, 0), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 0 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h0_im", vr_harmonic(2, 0) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 0 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h1_re", vr_harmonic(2, 1), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 1 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h1_im", vr_harmonic(2, 1) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 1 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h2_re", vr_harmonic(2, 2), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 2 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h2_im", vr_harmonic(2, 2) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 2 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h3_re", vr_harmonic(2, 3), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 3 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h3_im", vr_harmonic(2, 3) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 3 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h4_re", vr_harmonic(2, 4), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 4 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h4_im", vr_harmonic(2, 4) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 4 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h5_re", vr_harmonic(2, 5), C::Output, V::Continuous, None, "m")
+        .describe("real part of harmonic 5 of the response-point displacement over the last period"),
+    Variable::real("x_tip_h5_im", vr_harmonic(2, 5) + 1, C::Output, V::Continuous, None, "m")
+        .describe("imaginary part of harmonic 5 of the response-point displacement over the last period"),
 ];
+
+/// The rest of the modelDescription. `<ModelStructure>`: the inputs are
+/// sampled at the start of a step, so no output feeds through; at the start
+/// `u_ext = u_hat cos(0)`, `Omega = omega_start` and the records are 0.
+pub const INFO: ModelInfo = ModelInfo {
+    name: "controller",
+    description: "Phase-locked loop for phase-resonant testing (Scheel 2018): demodulates the measured force and drive-point displacement over each excitation period and drives the shaker's external voltage u_ext = u_hat cos(theta) towards 90 degrees lag; Krack, exciter-structure interaction, issue 16",
+    version: Some("0.1.0"),
+    generation_tool: "fmi2 (Rust workspace nlmode)",
+    capabilities: Capabilities {
+        can_handle_variable_communication_step_size: true,
+        can_interpolate_inputs: false,
+        max_output_derivative_order: 1,
+        provides_directional_derivative: true,
+    },
+    units: &[],
+    log_categories: LOG_CATEGORY_DESCRIPTIONS,
+    default_experiment: DefaultExperiment {
+        start_time: Some(0.0),
+        stop_time: Some(2.0),
+        tolerance: None,
+        step_size: Some(1e-5),
+    },
+    model_structure: ModelStructure {
+        outputs: &[],
+        derivatives: &[],
+        initial_unknowns: &[
+            Dependencies::on("u_ext", &["u_hat"]),
+            Dependencies::on("Omega", &["omega_start"]),
+        ],
+    },
+};
 
 /// Range of each Real parameter, checked at `fmi2ExitInitializationMode`
 /// (value reference, name, min, max, unit).
@@ -315,6 +380,7 @@ impl CoSimModel for Controller {
     const MODEL_IDENTIFIER: &'static str = "controller";
     const GUID: &'static str = GUID;
     const VARIABLES: &'static [Variable] = VARIABLES;
+    const INFO: ModelInfo = INFO;
 
     fn instantiate(_ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
         Ok(Self::new())

@@ -19,8 +19,9 @@
 //! sweep voltage is followed with sub-steps of at most
 //! [`model::MAX_PHASE_PER_SUBSTEP`] rad of excitation phase.
 //!
-//! See `README.md` for the variable table; `modelDescription/shaker/` holds
-//! the modelDescription.xml, tested against [`model::VARIABLES`].
+//! See `README.md` for the variable table; `modelDescription/shaker/`
+//! holds the modelDescription.xml rendered from [`model::VARIABLES`] and
+//! [`model::INFO`].
 pub mod model;
 
 pub use model::Shaker;

@@ -3,8 +3,9 @@
 //! [`nlmode::excitation::LinearSweep`], the physics and its exact stepping
 //! are [`nlmode::attachment::ShakerStepper`].
 use fmi2_export::{
-    Causality as C, CoSimModel, ContinuousState, InstantiateContext, Logger, ModelError,
-    StateReader, StateWriter, Variability as V, Variable,
+    Capabilities, Causality as C, CoSimModel, ContinuousState, DefaultExperiment, Dependencies,
+    InstantiateContext, Logger, ModelError, ModelInfo, ModelStructure, StateReader, StateWriter,
+    Variability as V, Variable, LOG_CATEGORY_DESCRIPTIONS,
 };
 use nalgebra::{Matrix3, Matrix3x2, Vector2, Vector3};
 pub use nlmode::attachment::MAX_PHASE_PER_SUBSTEP;
@@ -14,7 +15,7 @@ use nlmode::attachment::{
 use nlmode::benchmark as bm;
 use nlmode::excitation::{LinearSweep, SweepEnd, SweepError};
 
-/// GUID of `modelDescription/shaker/modelDescription.xml`.
+/// GUID of the FMU (written here only; the modelDescription is rendered from it).
 pub const GUID: &str = "{8c4d2f6e-1b7a-4e3d-9f15-2a6b0c9e7d41}";
 
 // Value references (Real unless noted). Tested against the XML.
@@ -73,118 +74,105 @@ pub const DEFAULT_OMEGA_END: f64 = 641.0;
 pub const DEFAULT_OMEGA_RATE: f64 = 404.0;
 pub const DEFAULT_U_HAT: f64 = 10.0;
 
-/// All variables (the modelDescription.xml is tested against this table).
+/// All variables, in the order of their indices (the single source of the
+/// modelDescription's `<ModelVariables>`).
 pub const VARIABLES: &[Variable] = &[
-    Variable::real("L", VR_L, C::Parameter, V::Fixed, Some(bm::SHAKER_L_H), "H"),
-    Variable::real(
-        "R",
-        VR_R,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_R_OHM),
-        "Ohm",
-    ),
-    Variable::real(
-        "G",
-        VR_G,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_G_N_PER_A),
-        "N/A",
-    ),
-    Variable::real(
-        "m_a",
-        VR_M_A,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_MA_KG),
-        "kg",
-    ),
-    Variable::real(
-        "k_a",
-        VR_K_A,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_KA_N_PER_M),
-        "N/m",
-    ),
-    Variable::real(
-        "D_a",
-        VR_D_A_RATIO,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::SHAKER_DA),
-        "1",
-    ),
-    Variable::real(
-        "k_s",
-        VR_K_S,
-        C::Parameter,
-        V::Fixed,
-        Some(bm::STINGER_KS_N_PER_M),
-        "N/m",
-    ),
-    Variable::real(
-        "u_hat",
-        VR_U_HAT,
-        C::Parameter,
-        V::Fixed,
-        Some(DEFAULT_U_HAT),
-        "V",
-    ),
-    Variable::real(
-        "Omega_start",
-        VR_OMEGA_START,
-        C::Parameter,
-        V::Fixed,
-        Some(DEFAULT_OMEGA_START),
-        "rad/s",
-    ),
-    Variable::real(
-        "Omega_end",
-        VR_OMEGA_END,
-        C::Parameter,
-        V::Fixed,
-        Some(DEFAULT_OMEGA_END),
-        "rad/s",
-    ),
-    Variable::real(
-        "Omega_rate",
-        VR_OMEGA_RATE,
-        C::Parameter,
-        V::Fixed,
-        Some(DEFAULT_OMEGA_RATE),
-        "rad/s2",
-    ),
-    Variable::boolean_parameter("use_external_voltage", VR_USE_EXTERNAL, false),
-    Variable::real(
-        "d_a",
-        VR_D_A,
-        C::CalculatedParameter,
-        V::Fixed,
-        None,
-        "N.s/m",
-    ),
-    Variable::real("x", VR_X, C::Input, V::Continuous, Some(0.0), "m"),
-    Variable::real("v", VR_V, C::Input, V::Continuous, Some(0.0), "m/s"),
-    Variable::real("u_ext", VR_U_EXT, C::Input, V::Continuous, Some(0.0), "V"),
-    Variable::real("F", VR_F, C::Output, V::Continuous, None, "N"),
-    Variable::real("I", VR_I, C::Output, V::Continuous, None, "A"),
-    Variable::real("q_a", VR_Q_A, C::Output, V::Continuous, None, "m"),
-    Variable::real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s"),
-    Variable::real("u", VR_U, C::Output, V::Continuous, None, "V"),
-    Variable::real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s"),
-    Variable::real("der(I)", VR_DER_I, C::Local, V::Continuous, None, "A/s"),
-    Variable::real("der(q_a)", VR_DER_Q_A, C::Local, V::Continuous, None, "m/s"),
-    Variable::real(
-        "der(v_a)",
-        VR_DER_V_A,
-        C::Local,
-        V::Continuous,
-        None,
-        "m/s2",
-    ),
+    Variable::real("L", VR_L, C::Parameter, V::Fixed, Some(bm::SHAKER_L_H), "H")
+        .describe("coil inductance"),
+    Variable::real("R", VR_R, C::Parameter, V::Fixed, Some(bm::SHAKER_R_OHM), "Ohm")
+        .describe("coil resistance"),
+    Variable::real("G", VR_G, C::Parameter, V::Fixed, Some(bm::SHAKER_G_N_PER_A), "N/A")
+        .describe("force constant (= back-EMF constant)"),
+    Variable::real("m_a", VR_M_A, C::Parameter, V::Fixed, Some(bm::SHAKER_MA_KG), "kg")
+        .describe("armature mass"),
+    Variable::real("k_a", VR_K_A, C::Parameter, V::Fixed, Some(bm::SHAKER_KA_N_PER_M), "N/m")
+        .describe("armature suspension stiffness"),
+    Variable::real("D_a", VR_D_A_RATIO, C::Parameter, V::Fixed, Some(bm::SHAKER_DA), "1")
+        .describe("total armature damping ratio, 2 D_a sqrt(k_a m_a) = d_a + G^2/R (electro-mechanical damping included)"),
+    Variable::real("k_s", VR_K_S, C::Parameter, V::Fixed, Some(bm::STINGER_KS_N_PER_M), "N/m")
+        .describe("stinger (push rod) stiffness"),
+    Variable::real("u_hat", VR_U_HAT, C::Parameter, V::Fixed, Some(DEFAULT_U_HAT), "V")
+        .describe("amplitude of the internal sine-sweep voltage"),
+    Variable::real("Omega_start", VR_OMEGA_START, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_START), "rad/s")
+        .describe("start frequency of the internal sweep"),
+    Variable::real("Omega_end", VR_OMEGA_END, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_END), "rad/s")
+        .describe("end frequency of the internal sweep (held afterwards)"),
+    Variable::real("Omega_rate", VR_OMEGA_RATE, C::Parameter, V::Fixed, Some(DEFAULT_OMEGA_RATE), "rad/s2")
+        .describe("magnitude of dOmega/dt of the internal sweep (0: fixed sine at Omega_start)"),
+    Variable::boolean_parameter("use_external_voltage", VR_USE_EXTERNAL, false)
+        .describe("true: the applied voltage is the input u_ext instead of the internal sweep"),
+    Variable::real("d_a", VR_D_A, C::CalculatedParameter, V::Fixed, None, "N.s/m")
+        .describe("mechanical armature damping d_a = 2 D_a sqrt(k_a m_a) - G^2/R"),
+    Variable::real("x", VR_X, C::Input, V::Continuous, Some(0.0), "m")
+        .describe("structure displacement at the drive point (stinger end)"),
+    Variable::real("v", VR_V, C::Input, V::Continuous, Some(0.0), "m/s")
+        .describe("structure velocity at the drive point (extrapolates x inside the step)"),
+    Variable::real("u_ext", VR_U_EXT, C::Input, V::Continuous, Some(0.0), "V")
+        .describe("external voltage (used when use_external_voltage = true)"),
+    Variable::real("F", VR_F, C::Output, V::Continuous, None, "N")
+        .describe("stinger force on the structure k_s (q_a - x), positive along positive x"),
+    Variable::real("I", VR_I, C::Output, V::Continuous, None, "A")
+        .describe("coil current"),
+    Variable::real("q_a", VR_Q_A, C::Output, V::Continuous, None, "m")
+        .describe("armature displacement"),
+    Variable::real("v_a", VR_V_A, C::Output, V::Continuous, None, "m/s")
+        .describe("armature velocity"),
+    Variable::real("u", VR_U, C::Output, V::Continuous, None, "V")
+        .describe("applied voltage (internal sweep or u_ext)"),
+    Variable::real("Omega", VR_OMEGA, C::Output, V::Continuous, None, "rad/s")
+        .describe("instantaneous excitation frequency of the internal sweep (0 with external voltage)"),
+    Variable::real("der(I)", VR_DER_I, C::Local, V::Continuous, None, "A/s")
+        .describe("coil current rate (u - R I - G v_a)/L"),
+    Variable::real("der(q_a)", VR_DER_Q_A, C::Local, V::Continuous, None, "m/s")
+        .describe("armature velocity v_a (rate of q_a)"),
+    Variable::real("der(v_a)", VR_DER_V_A, C::Local, V::Continuous, None, "m/s2")
+        .describe("armature acceleration (G I - d_a v_a - k_a q_a - k_s (q_a - x))/m_a"),
 ];
+
+/// The rest of the modelDescription. `<ModelStructure>`: `F = k_s (q_a - x)`
+/// feeds through from `x`, `u` from `u_ext` (with `use_external_voltage`),
+/// nothing else; the states start at rest (`I = q_a = v_a = 0`), so at the
+/// start `d_a` follows from `R, G, m_a, k_a, D_a`, `F = k_s (0 - x)`,
+/// `u = u_ext` or `u_hat cos(0)`, `Omega = Omega_start` or 0.
+pub const INFO: ModelInfo = ModelInfo {
+    name: "shaker",
+    description: "Electrodynamic exciter (B&K V4808 by default) with elastic stinger, voltage driven, integrated exactly (matrix exponential, inputs linear in time); Krack, exciter-structure interaction, Section 4",
+    version: Some("0.1.0"),
+    generation_tool: "fmi2 (Rust workspace nlmode)",
+    capabilities: Capabilities {
+        can_handle_variable_communication_step_size: true,
+        can_interpolate_inputs: true,
+        max_output_derivative_order: 1,
+        provides_directional_derivative: true,
+    },
+    units: &[],
+    log_categories: LOG_CATEGORY_DESCRIPTIONS,
+    default_experiment: DefaultExperiment {
+        start_time: Some(0.0),
+        stop_time: Some(0.9),
+        tolerance: None,
+        step_size: Some(1e-5),
+    },
+    model_structure: ModelStructure {
+        outputs: &[
+            Dependencies::fixed("F", &["x"]),
+            Dependencies::fixed("u", &["u_ext"]),
+        ],
+        derivatives: &[
+            Dependencies::fixed("der(I)", &["u_ext", "I", "v_a"]),
+            Dependencies::fixed("der(q_a)", &["v_a"]),
+            Dependencies::fixed("der(v_a)", &["x", "I", "q_a", "v_a"]),
+        ],
+        initial_unknowns: &[
+            Dependencies::on("d_a", &["R", "G", "m_a", "k_a", "D_a"]),
+            Dependencies::on("F", &["k_s", "x"]),
+            Dependencies::on("u", &["u_hat", "use_external_voltage", "u_ext"]),
+            Dependencies::on("Omega", &["Omega_start", "use_external_voltage"]),
+            Dependencies::on("der(I)", &["L", "u_hat", "use_external_voltage", "u_ext"]),
+            Dependencies::on("der(v_a)", &["m_a", "k_s", "x"]),
+        ],
+    },
+};
 
 /// Physical range of each Real parameter, checked at
 /// `fmi2ExitInitializationMode` (value reference, name, min, max, unit).
@@ -427,6 +415,7 @@ impl CoSimModel for Shaker {
     const GUID: &'static str = GUID;
     const VARIABLES: &'static [Variable] = VARIABLES;
     const CONTINUOUS_STATES: &'static [ContinuousState] = CONTINUOUS_STATES;
+    const INFO: ModelInfo = INFO;
 
     fn instantiate(_ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
         Ok(Self::new())

@@ -1,36 +1,22 @@
-//! The modelDescription.xml and the code cannot drift: names, value
-//! references, types, causality, variability, start values, units and the
-//! ModelStructure (checked by perturbation) against `controller::model::VARIABLES`.
+//! The modelDescription and the code cannot drift: the checked-in
+//! `modelDescription/controller/modelDescription.xml` is the one rendered
+//! from the code, its `<ModelStructure>` matches the code's dependencies
+//! (checked by perturbation), the declared capabilities work and the start
+//! values are the model's.
+use std::path::Path;
+
 use crate::model::fresh;
 use controller::model::*;
-use fmi2_export::CoSimModel;
-
-const XML: &str = include_str!("../../../modelDescription/controller/modelDescription.xml");
+use fmi2_export::{CoSimModel, Logger};
 
 #[test]
-fn xml_matches_the_code() {
-    let md = fmi2_export::xml::check_model_description(
-        XML,
-        Controller::MODEL_IDENTIFIER,
-        Controller::GUID,
-        Controller::VARIABLES,
-    )
-    .unwrap_or_else(|e| {
-        panic!(
-            "modelDescription.xml drifted from the code:\n{}",
-            e.join("\n")
-        )
-    });
-    let flag = |k: &str| {
-        md.cosim_flags
-            .iter()
-            .find(|(n, _)| n == k)
-            .map(|(_, v)| v.as_str())
-    };
-    assert_eq!(flag("canHandleVariableCommunicationStepSize"), Some("true"));
-    assert_eq!(flag("canGetAndSetFMUstate"), Some("true"));
-    assert_eq!(flag("canSerializeFMUstate"), Some("true"));
-    assert_eq!(flag("maxOutputDerivativeOrder"), Some("1"));
+fn model_description_is_the_one_the_code_gives() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../modelDescription")
+        .join(Controller::MODEL_IDENTIFIER)
+        .join("modelDescription.xml");
+    let md = fmi2_export::testing::check_model_description_file::<Controller>(&path)
+        .unwrap_or_else(|e| panic!("{e}"));
     // every output is listed, with no direct dependency on an input
     let outputs: Vec<usize> = md
         .variables
@@ -47,7 +33,8 @@ fn xml_matches_the_code() {
 
 #[test]
 fn model_structure_dependencies_match_the_code() {
-    let md = fmi2_export::xml::ModelDescription::parse(XML).unwrap();
+    let xml = fmi2_export::render::model_description::<Controller>().unwrap();
+    let md = fmi2_export::xml::ModelDescription::parse(&xml).unwrap();
     // configuration 1: inputs away from zero
     let errs = fmi2_export::xml::check_dependencies(&md, 2, |k| {
         let mut m = fresh();
@@ -58,14 +45,22 @@ fn model_structure_dependencies_match_the_code() {
         m
     });
     assert!(errs.is_empty(), "{errs:#?}");
-    for u in &md.initial_unknowns {
-        assert!(u.dependencies.is_some(), "initial unknown {}", u.index);
-    }
 }
 
 #[test]
-fn model_starts_from_the_xml_start_values() {
-    let m = fresh();
-    let errs = fmi2_export::xml::check_start_values(&m);
+fn capabilities_are_backed_by_the_code() {
+    let log = Logger::silent();
+    let mut m = fresh();
+    m.setup_experiment(0.0, None).unwrap();
+    m.enter_initialization_mode(&log).unwrap();
+    m.exit_initialization_mode(&log).unwrap();
+    m.set_real(VR_F_MEAS, 1.0).unwrap();
+    let errs = fmi2_export::testing::check_capabilities(&m, 1e-4);
+    assert!(errs.is_empty(), "{errs:#?}");
+}
+
+#[test]
+fn model_starts_from_the_start_values() {
+    let errs = fmi2_export::xml::check_start_values(&fresh());
     assert!(errs.is_empty(), "{errs:?}");
 }

@@ -2,5 +2,4 @@
 //! graph instead of one per file): `cargo test -p fmu-shaker --test it [module::]`.
 mod cosim_damping;
 mod model_description;
-mod model_structure;
 mod physics;

@@ -1,18 +1,32 @@
-//! The modelDescription.xml and the code cannot drift: names, value
-//! references, types, causality, variability, start values, units and the
-//! ModelStructure are checked against `shaker::model::VARIABLES`.
+//! The modelDescription and the code cannot drift: the checked-in
+//! `modelDescription/shaker/modelDescription.xml` is the one rendered from
+//! the code, its `<ModelStructure>` matches the code's dependencies (issue
+//! 14, item 1: `F = k_s (q_a - x)` feeds through from `x`, `u` from `u_ext`
+//! with `use_external_voltage`, nothing else), the declared capabilities
+//! work and the start values are the model's.
+use std::path::Path;
+
 use fmi2_export::{CoSimModel, InstantiateContext, Logger};
 use shaker::model::*;
 
-const XML: &str = include_str!("../../../modelDescription/shaker/modelDescription.xml");
+fn fresh() -> Shaker {
+    Shaker::instantiate(&InstantiateContext {
+        instance_name: "s",
+        resource_dir: None,
+        logger: &Logger::silent(),
+    })
+    .unwrap()
+}
 
 #[test]
-fn model_exchange_part_matches_the_code() {
-    let md = fmi2_export::xml::ModelDescription::parse(XML).unwrap();
-    let errs = fmi2_export::xml::check_model_exchange::<Shaker>(&md);
-    assert!(errs.is_empty(), "{errs:#?}");
+fn model_description_is_the_one_the_code_gives() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../modelDescription")
+        .join(Shaker::MODEL_IDENTIFIER)
+        .join("modelDescription.xml");
+    let md = fmi2_export::testing::check_model_description_file::<Shaker>(&path)
+        .unwrap_or_else(|e| panic!("{e}"));
     let me = md.model_exchange.as_ref().expect("<ModelExchange>");
-    assert_eq!(me.model_identifier, "shaker");
     // the Jacobian of the derivatives (A, B) is provided
     assert!(me.provides_directional_derivative);
     let names: Vec<&str> = md
@@ -21,24 +35,7 @@ fn model_exchange_part_matches_the_code() {
         .map(|u| md.variables[u.index - 1].name.as_str())
         .collect();
     assert_eq!(names, ["der(I)", "der(q_a)", "der(v_a)"]);
-}
-
-#[test]
-fn xml_matches_the_code() {
-    let md = fmi2_export::xml::check_model_description(
-        XML,
-        Shaker::MODEL_IDENTIFIER,
-        Shaker::GUID,
-        Shaker::VARIABLES,
-    )
-    .unwrap_or_else(|e| {
-        panic!(
-            "modelDescription.xml drifted from the code:\n{}",
-            e.join("\n")
-        )
-    });
     let index = |name: &str| md.variables.iter().find(|v| v.name == name).unwrap().index;
-    // F = k_s (q_a - x) depends directly on x only; u on u_ext; the rest on no input
     let deps = |name: &str| {
         md.outputs
             .iter()
@@ -52,50 +49,43 @@ fn xml_matches_the_code() {
     for n in ["I", "q_a", "v_a", "Omega"] {
         assert_eq!(deps(n), Some(vec![]), "{n}");
     }
-    // initial unknowns: the calculated parameter, every output and (Model
-    // Exchange) every state derivative, ascending
-    let mut expect: Vec<usize> = md
-        .variables
-        .iter()
-        .filter(|v| {
-            v.causality == "output"
-                || v.causality == "calculatedParameter"
-                || v.derivative.is_some()
-        })
-        .map(|v| v.index)
-        .collect();
-    expect.sort();
-    assert_eq!(
-        md.initial_unknowns
-            .iter()
-            .map(|u| u.index)
-            .collect::<Vec<_>>(),
-        expect
-    );
-    // capability flags that the implementation backs
-    let flag = |k: &str| {
-        md.cosim_flags
-            .iter()
-            .find(|(n, _)| n == k)
-            .map(|(_, v)| v.as_str())
-    };
-    assert_eq!(flag("canHandleVariableCommunicationStepSize"), Some("true"));
-    assert_eq!(flag("canGetAndSetFMUstate"), Some("true"));
-    assert_eq!(flag("canSerializeFMUstate"), Some("true"));
-    assert_eq!(flag("providesDirectionalDerivative"), Some("true"));
-    assert_eq!(flag("maxOutputDerivativeOrder"), Some("1"));
-    assert_eq!(flag("canBeInstantiatedOnlyOncePerProcess"), Some("false"));
 }
 
 #[test]
-fn model_starts_from_the_xml_start_values() {
+fn model_structure_dependencies_match_the_code() {
+    let xml = fmi2_export::render::model_description::<Shaker>().unwrap();
+    let md = fmi2_export::xml::ModelDescription::parse(&xml).unwrap();
+    // configuration 0: internal sweep; 1: external voltage; 2: x = 1 um (F = -k_s x)
+    let errs = fmi2_export::xml::check_dependencies(&md, 3, |k| {
+        let mut m = fresh();
+        m.set_boolean(VR_USE_EXTERNAL, k == 1).unwrap();
+        if k == 2 {
+            m.set_real(VR_X, 1e-6).unwrap();
+        }
+        m
+    });
+    assert!(errs.is_empty(), "{errs:#?}");
+}
+
+#[test]
+fn capabilities_are_backed_by_the_code() {
     let log = Logger::silent();
-    let m = Shaker::instantiate(&InstantiateContext {
-        instance_name: "s",
-        resource_dir: None,
-        logger: &log,
-    })
-    .unwrap();
+    for external in [false, true] {
+        let mut m = fresh();
+        m.set_boolean(VR_USE_EXTERNAL, external).unwrap();
+        m.setup_experiment(0.0, None).unwrap();
+        m.enter_initialization_mode(&log).unwrap();
+        m.exit_initialization_mode(&log).unwrap();
+        m.set_real(VR_X, 1e-6).unwrap();
+        m.set_real(VR_U_EXT, 1.0).unwrap();
+        let errs = fmi2_export::testing::check_capabilities(&m, 1e-4);
+        assert!(errs.is_empty(), "external voltage {external}: {errs:#?}");
+    }
+}
+
+#[test]
+fn model_starts_from_the_start_values() {
+    let m = fresh();
     let errs = fmi2_export::xml::check_start_values(&m);
     assert!(errs.is_empty(), "{errs:?}");
     // the calculated d_a follows the paper's relation (1.067 N s/m, see nlmode::benchmark)

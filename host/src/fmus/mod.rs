@@ -1,21 +1,25 @@
 //! This repository's FMUs and their pairing (the `cosim` crate is the generic
 //! master; what is specific to these FMUs is here).
 //!
-//! * [`STRUCTURE`], [`SHAKER`], [`CONTROLLER`]: the FMU list;
+//! * [`FMUS`]: the FMU list (one line per FMU crate; [`STRUCTURE`],
+//!   [`SHAKER`], [`CONTROLLER`] name its entries for the pairings);
 //! * [`structure_shaker`]: the structure + shaker pairing of the `cosim`
 //!   method, written as a co-simulation file like any user's.
 //!
-//! The repository's own FMUs, `structure.fmu` and `shaker.fmu`, are packaged at
-//! run time from parts fixed at build time: the shared libraries
-//! `libstructure.so` / `libshaker.so` are *found*, never built (a workspace
-//! `cargo build [--release]` puts them in `target/<profile>/`, beside the
-//! `host` binary), and everything else an `.fmu` holds (the
+//! The repository's own FMUs are packaged at run time from parts fixed at
+//! build time: the shared libraries `lib<id>.so` are *found*, never built (a
+//! workspace `cargo build [--release]` puts them in `target/<profile>/`,
+//! beside the `host` binary), and everything else an `.fmu` holds (the
 //! modelDescription.xml of `modelDescription/<id>/` and the FMU crate's
 //! README.md as documentation) is embedded in the host at compile time, so
 //! that an installed binary needs neither the source tree nor a toolchain.
-//! `modelDescription/<id>/` holds no `resources/` or `documentation/` folder
-//! (a test keeps it so); the structure FMU's modal table is added by the
-//! caller ([`package_repo_fmus`]).
+//! The modelDescription.xml is rendered from the FMU crate's code
+//! (`fmi2_export::render`) and checked in; the crate's tests keep the two
+//! identical. (The host embeds the file rather than rendering it: linking
+//! the FMU crates would put every FMU's `fmi2*` symbols into the host and
+//! the Python extension.) `modelDescription/<id>/` holds no `resources/` or
+//! `documentation/` folder (a test keeps it so); the structure FMU's modal
+//! table is added by the caller ([`fmu_resources`]).
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
@@ -33,34 +37,61 @@ pub struct RepoFmu {
     pub id: &'static str,
     /// The cargo package that builds the library.
     pub package: &'static str,
+    /// `modelDescription/<id>/modelDescription.xml` (rendered from the FMU
+    /// crate's code and checked by its tests to be so).
     pub model_description: &'static str,
+    /// The FMU crate's README.md (the `.fmu`'s documentation).
     pub readme: &'static str,
+    /// How `host package` treats it.
+    pub packaging: Packaging,
+}
+
+/// How `host package` ships an FMU of [`FMUS`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Packaging {
+    /// Its library must be found (before the modal analysis runs).
+    Required,
+    /// Required, with the paper beam's modal table as `resources/modal_table.json`.
+    WithModalTable,
+    /// Left out with a warning when its library is not found (an
+    /// installation may ship only the required ones).
+    Optional,
+}
+
+/// A [`RepoFmu`] from its identifier, its cargo package and its
+/// [`Packaging`]; the modelDescription and the README are embedded from
+/// `modelDescription/<id>/` and `<package>/`.
+macro_rules! repo_fmu {
+    ($id:literal, $package:literal, $packaging:expr) => {
+        RepoFmu {
+            id: $id,
+            package: $package,
+            model_description: include_str!(concat!(
+                "../../../modelDescription/",
+                $id,
+                "/modelDescription.xml"
+            )),
+            readme: include_str!(concat!("../../../", $package, "/README.md")),
+            packaging: $packaging,
+        }
+    };
 }
 
 /// The structure FMU (crate `fmu-structure`).
-pub const STRUCTURE: RepoFmu = RepoFmu {
-    id: "structure",
-    package: "fmu-structure",
-    model_description: include_str!("../../../modelDescription/structure/modelDescription.xml"),
-    readme: include_str!("../../../fmu-structure/README.md"),
-};
+pub const STRUCTURE: RepoFmu = repo_fmu!("structure", "fmu-structure", Packaging::WithModalTable);
 
 /// The shaker FMU (crate `fmu-shaker`).
-pub const SHAKER: RepoFmu = RepoFmu {
-    id: "shaker",
-    package: "fmu-shaker",
-    model_description: include_str!("../../../modelDescription/shaker/modelDescription.xml"),
-    readme: include_str!("../../../fmu-shaker/README.md"),
-};
+pub const SHAKER: RepoFmu = repo_fmu!("shaker", "fmu-shaker", Packaging::Required);
 
 /// The controller FMU (crate `fmu-controller`): the phase-locked loop of
 /// phase-resonant testing, packaged on its own ([`package_controller_fmu`]).
-pub const CONTROLLER: RepoFmu = RepoFmu {
-    id: "controller",
-    package: "fmu-controller",
-    model_description: include_str!("../../../modelDescription/controller/modelDescription.xml"),
-    readme: include_str!("../../../fmu-controller/README.md"),
-};
+pub const CONTROLLER: RepoFmu = repo_fmu!("controller", "fmu-controller", Packaging::Optional);
+
+/// This repository's FMUs, in the order `host package` writes them. Adding
+/// an FMU crate (a copy of the template, see CONTRIBUTING.md) adds one line
+/// here, `repo_fmu!("<id>", "fmu-<id>", Packaging::Optional),` (a named
+/// constant like the ones above only where host code pairs it with others).
+pub const FMUS: &[RepoFmu] = &[STRUCTURE, SHAKER, CONTROLLER];
 
 /// Why the repository's FMUs could not be packaged.
 #[derive(Debug, thiserror::Error)]
@@ -162,22 +193,52 @@ pub fn locate_library(fmu_dir: Option<&Path>, fmu: &RepoFmu) -> Result<PathBuf, 
     })
 }
 
-/// Write `out_dir/controller.fmu` from its library and the embedded parts.
-pub fn package_controller_fmu(library: &Path, out_dir: &Path) -> Result<PathBuf, RepoFmuError> {
+/// Write `out_dir/<id>.fmu` from its library and the embedded parts, with
+/// `resources` (path inside `resources/`, contents).
+pub fn package_fmu(
+    fmu: &RepoFmu,
+    library: &Path,
+    out_dir: &Path,
+    resources: Vec<(String, Vec<u8>)>,
+) -> Result<PathBuf, RepoFmuError> {
     std::fs::create_dir_all(out_dir).map_err(|source| RepoFmuError::Dir {
         path: out_dir.into(),
         source,
     })?;
     let spec = FmuSpec {
-        model_identifier: CONTROLLER.id.into(),
-        model_description: CONTROLLER.model_description.into(),
+        model_identifier: fmu.id.into(),
+        model_description: fmu.model_description.into(),
         library: library.into(),
-        resources: Vec::new(),
-        documentation: readme_documentation(CONTROLLER.id, CONTROLLER.readme),
+        resources,
+        documentation: readme_documentation(fmu.id, fmu.readme),
     };
-    let path = out_dir.join("controller.fmu");
+    let path = out_dir.join(format!("{}.fmu", fmu.id));
     write_fmu(&spec, &path)?;
     Ok(path)
+}
+
+/// The `resources/` of an FMU packaged with `modal_table` (if given): the
+/// table as `modal_table.json` for [`Packaging::WithModalTable`], nothing
+/// for the others.
+pub fn fmu_resources(
+    fmu: &RepoFmu,
+    modal_table: Option<&Path>,
+) -> Result<Vec<(String, Vec<u8>)>, RepoFmuError> {
+    match (fmu.packaging, modal_table) {
+        (Packaging::WithModalTable, Some(t)) => {
+            let bytes = std::fs::read(t).map_err(|source| PackageError::Read {
+                path: t.into(),
+                source,
+            })?;
+            Ok(vec![("modal_table.json".to_string(), bytes)])
+        }
+        _ => Ok(Vec::new()),
+    }
+}
+
+/// Write `out_dir/controller.fmu` from its library and the embedded parts.
+pub fn package_controller_fmu(library: &Path, out_dir: &Path) -> Result<PathBuf, RepoFmuError> {
+    package_fmu(&CONTROLLER, library, out_dir, Vec::new())
 }
 
 /// Write `out_dir/structure.fmu` and `out_dir/shaker.fmu` from `libs` and
@@ -188,32 +249,13 @@ pub fn package_repo_fmus(
     out_dir: &Path,
     modal_table: Option<&Path>,
 ) -> Result<(PathBuf, PathBuf), RepoFmuError> {
-    std::fs::create_dir_all(out_dir).map_err(|source| RepoFmuError::Dir {
-        path: out_dir.into(),
-        source,
-    })?;
-    let mut resources = Vec::new();
-    if let Some(t) = modal_table {
-        let bytes = std::fs::read(t).map_err(|source| PackageError::Read {
-            path: t.into(),
-            source,
-        })?;
-        resources.push(("modal_table.json".to_string(), bytes));
-    }
-    let write = |fmu: &RepoFmu, library: &Path, resources| -> Result<PathBuf, RepoFmuError> {
-        let spec = FmuSpec {
-            model_identifier: fmu.id.into(),
-            model_description: fmu.model_description.into(),
-            library: library.into(),
-            resources,
-            documentation: readme_documentation(fmu.id, fmu.readme),
-        };
-        let path = out_dir.join(format!("{}.fmu", fmu.id));
-        write_fmu(&spec, &path)?;
-        Ok(path)
-    };
-    let structure = write(&STRUCTURE, &libs.structure, resources)?;
-    let shaker = write(&SHAKER, &libs.shaker, Vec::new())?;
+    let structure = package_fmu(
+        &STRUCTURE,
+        &libs.structure,
+        out_dir,
+        fmu_resources(&STRUCTURE, modal_table)?,
+    )?;
+    let shaker = package_fmu(&SHAKER, &libs.shaker, out_dir, Vec::new())?;
     Ok((structure, shaker))
 }
 
@@ -224,7 +266,7 @@ mod tests {
     #[test]
     fn model_description_folders_hold_only_what_is_embedded() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        for fmu in [STRUCTURE, SHAKER, CONTROLLER] {
+        for fmu in FMUS {
             let dir = root.join("modelDescription").join(fmu.id);
             let names: Vec<String> = std::fs::read_dir(&dir)
                 .unwrap()

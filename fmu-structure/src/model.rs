@@ -1,0 +1,668 @@
+//! The structure FMU's variables, parameters and FMU state, mapped onto the
+//! oscillator of [`nlmode::oscillator`] (loaded from a modal table).
+use std::cell::{Cell, RefCell};
+use std::path::PathBuf;
+
+use fmi2_export::{
+    Capabilities, Causality as C, CoSimModel, ContinuousState, DefaultExperiment, Dependencies,
+    InstantiateContext, Logger, ModelError, ModelInfo, ModelStructure, StateReader, StateWriter,
+    Unit, Variability as V, Variable,
+};
+use nlmode::nma::ModalTable;
+use nlmode::oscillator::{InputPolynomial, ModalOscillator, OscillatorState, PointResponse};
+
+/// Value references (Real).
+pub mod vr {
+    pub const F: u32 = 0;
+    pub const X: u32 = 1;
+    pub const V: u32 = 2;
+    pub const X_TIP: u32 = 3;
+    pub const A: u32 = 4;
+    pub const OMEGA: u32 = 5;
+    pub const FREQUENCY_ERROR: u32 = 6;
+    /// Model Exchange: the states `eta`, `u = eta'/omega(a)` and their derivatives.
+    pub const ETA: u32 = 7;
+    pub const U: u32 = 8;
+    pub const DER_ETA: u32 = 9;
+    pub const DER_U: u32 = 10;
+    /// String parameters.
+    pub const DRIVE_POINT: u32 = 0;
+    pub const MODAL_TABLE: u32 = 1;
+    /// Integer parameter.
+    pub const DRIVE_POINT_INDEX: u32 = 0;
+}
+
+/// File name of the modal table in the FMU's `resources/` folder.
+pub const RESOURCE_TABLE: &str = "modal_table.json";
+/// Name of the tip point in the table.
+pub const TIP_POINT: &str = "tip";
+/// Default drive point (the paper's exciter at `2l/3`).
+pub const DEFAULT_DRIVE_POINT: &str = "2l3";
+
+/// GUID of the FMU (written here only; the modelDescription is rendered from it).
+pub const GUID: &str = "{60aa93fb-2eb2-4b1e-a6da-f73a230326bf}";
+
+/// All variables, in the order of their indices (the single source of the
+/// modelDescription's `<ModelVariables>`).
+pub const VARIABLES: &[Variable] = &[
+    Variable::real("F", vr::F, C::Input, V::Continuous, Some(0.0), "N")
+        .describe("Force on the structure at the drive point, positive along positive displacement (from the attachment, e.g. the shaker's stinger)"),
+    Variable::real("x", vr::X, C::Output, V::Continuous, None, "m")
+        .describe("Displacement of the drive point, Re(a sum_n phi_n,ex(a) e^(i n psi))"),
+    Variable::real("v", vr::V, C::Output, V::Continuous, None, "m/s")
+        .describe("Velocity of the drive point along the mode's periodic motion, Re(a sum_n i n omega phi_n,ex(a) e^(i n psi))"),
+    Variable::real("x_tip", vr::X_TIP, C::Output, V::Continuous, None, "m")
+        .describe("Displacement of the beam tip (point 'tip' of the modal table), all harmonics"),
+    Variable::real("a", vr::A, C::Output, V::Continuous, None, "sqrt(kg).m")
+        .describe("Modal amplitude a = |eta - i eta'/omega(a)| (mass-normalized fundamental harmonic)"),
+    Variable::real("omega", vr::OMEGA, C::Output, V::Continuous, None, "rad/s")
+        .describe("Modal frequency (1 + frequency_error) omega(a) at the current amplitude"),
+    Variable::real("frequency_error", vr::FREQUENCY_ERROR, C::Parameter, V::Fixed, Some(0.0), "")
+        .describe("Relative natural-frequency error eps: the oscillator uses (1 + eps) omega(a) (paper's frequency-error study)"),
+    Variable::string_parameter("drive_point", vr::DRIVE_POINT, DEFAULT_DRIVE_POINT)
+        .describe("Name of the drive point in the modal table (the paper's beam: l3 or 2l3); used when drive_point_index is negative"),
+    Variable::integer_parameter("drive_point_index", vr::DRIVE_POINT_INDEX, -1)
+        .describe("0-based index of the drive point among the modal table's points; -1: use drive_point"),
+    Variable::string_parameter("modal_table", vr::MODAL_TABLE, "")
+        .describe("Path of the modal-table file (nlmode-modal-table JSON); empty: modal_table.json in the FMU's resources folder"),
+    Variable::real("eta", vr::ETA, C::Local, V::Continuous, None, "sqrt(kg).m")
+        .describe("Modal coordinate eta = a cos(psi) (continuous state; 0 at the start)"),
+    Variable::real("u", vr::U, C::Local, V::Continuous, None, "sqrt(kg).m")
+        .describe("Normalized modal velocity u = eta'/omega(a), a = sqrt(eta^2 + u^2) (continuous state; 0 at the start)"),
+    Variable::real("der(eta)", vr::DER_ETA, C::Local, V::Continuous, None, "sqrt(kg).m/s")
+        .describe("eta' = omega(a) u"),
+    Variable::real("der(u)", vr::DER_U, C::Local, V::Continuous, None, "sqrt(kg).m/s")
+        .describe("u' = -omega(a) eta - 2 D(a) omega(a) u + |phi_ex(a)| F / omega(a)"),
+];
+
+/// The normal-form state `(eta, u)` of [`nlmode::oscillator`] (nominal:
+/// the paper's modal amplitudes, up to about 4.5e-3 sqrt(kg) m).
+pub const CONTINUOUS_STATES: &[ContinuousState] = &[
+    ContinuousState {
+        state_vr: vr::ETA,
+        derivative_vr: vr::DER_ETA,
+        nominal: 1e-3,
+    },
+    ContinuousState {
+        state_vr: vr::U,
+        derivative_vr: vr::DER_U,
+        nominal: 1e-3,
+    },
+];
+
+/// The rest of the modelDescription. `<ModelStructure>`: no output depends
+/// directly on `F` (no algebraic loop with an attachment whose force depends
+/// directly on `x`); the state starts at rest (`eta = u = 0`), so `x`, `v`,
+/// `x_tip`, `a` start at 0 whatever the knowns, `omega = (1 +
+/// frequency_error) omega_table(0)` depends on `frequency_error` and the
+/// table (`modal_table`), `der(u)` on `F` and everything that selects the
+/// table and the drive point.
+pub const INFO: ModelInfo = ModelInfo {
+    name: "structure",
+    description: "Nonlinear structure as a single nonlinear modal oscillator (Krack, single-nonlinear-mode theory): eta'' + 2 D(a) omega(a) eta' + omega(a)^2 eta = |phi_ex(a)| F, outputs synthesized with all harmonics of the modal table",
+    version: None,
+    generation_tool: "nlmode fmu-structure",
+    capabilities: Capabilities {
+        can_handle_variable_communication_step_size: true,
+        can_interpolate_inputs: true,
+        max_output_derivative_order: 1,
+        provides_directional_derivative: false,
+    },
+    units: &[
+        Unit {
+            name: "sqrt(kg).m",
+            base: None,
+        },
+        Unit {
+            name: "sqrt(kg).m/s",
+            base: None,
+        },
+    ],
+    log_categories: &[
+        "informative messages (table loaded, parameters)",
+        "messages with status fmi2Warning",
+        "messages with status fmi2Discard",
+        "messages with status fmi2Error",
+        "messages with status fmi2Fatal",
+        "all messages",
+    ],
+    // stepSize: stable when coupled explicitly to the paper's shaker (stinger
+    // k_s = 2.6e7 N/m: about 2e-5 s at most)
+    default_experiment: DefaultExperiment {
+        start_time: Some(0.0),
+        stop_time: Some(1.0),
+        tolerance: None,
+        step_size: Some(1e-5),
+    },
+    model_structure: ModelStructure {
+        outputs: &[],
+        derivatives: &[
+            Dependencies::on("der(eta)", &["eta", "u"]),
+            Dependencies::on("der(u)", &["F", "eta", "u"]),
+        ],
+        initial_unknowns: &[
+            Dependencies::on("omega", &["frequency_error", "modal_table"]),
+            Dependencies::on(
+                "der(u)",
+                &["F", "frequency_error", "drive_point", "drive_point_index", "modal_table"],
+            ),
+        ],
+    },
+};
+
+/// Outputs at the current communication point.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Outputs {
+    x: f64,
+    v: f64,
+    x_tip: f64,
+    a: f64,
+    omega: f64,
+}
+
+/// First time derivatives of the outputs along the flow at the current state
+/// and input (`fmi2GetRealOutputDerivatives`), computed together once.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct OutputRates {
+    x: f64,
+    v: f64,
+    x_tip: f64,
+    a: f64,
+    omega: f64,
+}
+
+/// One structure FMU instance.
+#[derive(Clone)]
+pub struct Structure {
+    resource_dir: Option<PathBuf>,
+    start_time_s: f64,
+    frequency_error: f64,
+    drive_point: String,
+    drive_point_index: i32,
+    modal_table: String,
+    /// `F` at the start of the next step and its first two time derivatives.
+    force: InputPolynomial,
+    /// The oscillator from `fmi2ExitInitializationMode` on.
+    osc: Option<ModalOscillator>,
+    tip: usize,
+    out: Outputs,
+    /// Before that (Initialization Mode): the oscillator the current
+    /// parameters give, at the start state `eta = u = 0`, with its tip index,
+    /// built at the first read that needs it (so that `omega`, the outputs
+    /// and `der(eta)`, `der(u)` are readable at the start values) and
+    /// dropped whenever a parameter or the start time changes.
+    preview: RefCell<Option<Result<(ModalOscillator, usize), ModelError>>>,
+    /// Output derivatives for the current state and `force.c0`, computed at the
+    /// first request (a master asks for them variable by variable); emptied by
+    /// everything that changes the state or `F`.
+    rates: Cell<Option<OutputRates>>,
+}
+
+impl Structure {
+    /// Path of the modal table from the parameter or the resources folder.
+    fn table_path(&self) -> Result<PathBuf, ModelError> {
+        if !self.modal_table.is_empty() {
+            return Ok(PathBuf::from(&self.modal_table));
+        }
+        match &self.resource_dir {
+            Some(dir) => Ok(dir.join(RESOURCE_TABLE)),
+            None => Err(ModelError::error(format!(
+                "no modal table: parameter modal_table is empty and the importer gave no resource location \
+                 (expected resources/{RESOURCE_TABLE})"
+            ))),
+        }
+    }
+
+    /// Load the table and build the oscillator at the start state `eta = u = 0`
+    /// from the current parameters; returns it with the tip's point index.
+    fn load(&self) -> Result<(ModalOscillator, usize), ModelError> {
+        let path = self.table_path()?;
+        // the key the importer can change: the parameter, or the resource file
+        let source = if self.modal_table.is_empty() {
+            format!(
+                "modal table resources/{RESOURCE_TABLE} ({})",
+                path.display()
+            )
+        } else {
+            format!("parameter modal_table = \"{}\"", self.modal_table)
+        };
+        match std::fs::metadata(&path) {
+            Err(_) => {
+                return Err(ModelError::error(format!(
+                    "{source}: the file does not exist; expected a modal-table JSON file"
+                )))
+            }
+            // a device such as /dev/zero would be read without end
+            Ok(m) if !m.is_file() => {
+                return Err(ModelError::error(format!(
+                    "{source}: not a regular file; expected a modal-table JSON file"
+                )))
+            }
+            Ok(_) => {}
+        }
+        let table = ModalTable::read(&path)?;
+        let drive = if self.drive_point_index >= 0 {
+            let i = self.drive_point_index as usize;
+            let names: Vec<&str> = table.points.iter().map(|p| p.name.as_str()).collect();
+            names.get(i).map(|s| s.to_string()).ok_or_else(|| {
+                ModelError::error(format!(
+                    "drive_point_index = {i} but the table has {} points ({})",
+                    names.len(),
+                    names.join(", ")
+                ))
+            })?
+        } else {
+            self.drive_point.clone()
+        };
+        let mut osc = ModalOscillator::new(&table, &drive, self.frequency_error)?;
+        let tip = osc.point_index(TIP_POINT)?;
+        osc.set_state(OscillatorState {
+            time_s: self.start_time_s,
+            eta: 0.0,
+            u: 0.0,
+        })?;
+        Ok((osc, tip))
+    }
+
+    /// Build the oscillator (at `fmi2ExitInitializationMode`), reusing the
+    /// one Initialization Mode built from the same parameters.
+    fn build(&mut self) -> Result<(), ModelError> {
+        let (osc, tip) = match self.preview.take() {
+            Some(Ok(p)) => p,
+            _ => self.load()?,
+        };
+        self.tip = tip;
+        self.osc = Some(osc);
+        self.update_outputs()
+    }
+
+    /// A parameter or the start time changed: the preview oscillator and the
+    /// cached rates no longer hold.
+    fn parameters_changed(&mut self) {
+        self.preview.replace(None);
+        self.rates.set(None);
+    }
+
+    /// `f` on the oscillator and the tip index: the live one after
+    /// initialization, before it the preview of the current parameters.
+    fn with_oscillator<R>(
+        &self,
+        f: impl FnOnce(&ModalOscillator, usize) -> Result<R, ModelError>,
+    ) -> Result<R, ModelError> {
+        if let Some(osc) = &self.osc {
+            return f(osc, self.tip);
+        }
+        let mut preview = self.preview.borrow_mut();
+        match preview.get_or_insert_with(|| self.load()) {
+            Ok((osc, tip)) => f(osc, *tip),
+            Err(e) => Err(ModelError::error(format!(
+                "cannot evaluate the model at the start values: {}",
+                e.message
+            ))),
+        }
+    }
+
+    /// The outputs: after initialization those of the last step or state set,
+    /// before it those of the start state under the current parameters.
+    fn current_outputs(&self) -> Result<Outputs, ModelError> {
+        if self.osc.is_some() {
+            return Ok(self.out);
+        }
+        self.with_oscillator(Self::outputs_of)
+    }
+
+    fn outputs_of(osc: &ModalOscillator, tip: usize) -> Result<Outputs, ModelError> {
+        let mut r = [PointResponse {
+            x_m: 0.0,
+            v_m_s: 0.0,
+        }; 2];
+        let m = osc.outputs(&[osc.drive_index(), tip], &mut r)?;
+        Ok(Outputs {
+            x: r[0].x_m,
+            v: r[0].v_m_s,
+            x_tip: r[1].x_m,
+            a: m.amplitude,
+            omega: m.omega_rad_s,
+        })
+    }
+
+    fn update_outputs(&mut self) -> Result<(), ModelError> {
+        self.rates.set(None);
+        let Some(osc) = &self.osc else { return Ok(()) };
+        self.out = Self::outputs_of(osc, self.tip)?;
+        Ok(())
+    }
+
+    /// All output derivatives at the current state and input (cached).
+    fn output_rates(&self) -> Result<OutputRates, ModelError> {
+        if let Some(r) = self.rates.get() {
+            return Ok(r);
+        }
+        let mut p = [PointResponse {
+            x_m: 0.0,
+            v_m_s: 0.0,
+        }; 2];
+        let (a, omega) = self.with_oscillator(|osc, tip| {
+            Ok(osc.output_rates(&[osc.drive_index(), tip], self.force.c0, &mut p)?)
+        })?;
+        let r = OutputRates {
+            x: p[0].x_m,
+            v: p[0].v_m_s,
+            x_tip: p[1].x_m,
+            a,
+            omega,
+        };
+        self.rates.set(Some(r));
+        Ok(r)
+    }
+
+    /// `(eta', u')` at the current state under the input `F` (its value now);
+    /// before initialization at the start state `eta = u = 0`.
+    fn state_rate(&self) -> Result<(f64, f64), ModelError> {
+        self.with_oscillator(|osc, _| Ok(osc.state_rate(self.force.c0)?))
+    }
+
+    fn oscillator(&self) -> Result<&ModalOscillator, ModelError> {
+        self.osc.as_ref().ok_or_else(|| {
+            ModelError::error("the modal table is loaded at fmi2ExitInitializationMode")
+        })
+    }
+}
+
+impl CoSimModel for Structure {
+    const MODEL_IDENTIFIER: &'static str = "structure";
+    const GUID: &'static str = GUID;
+    const VARIABLES: &'static [Variable] = VARIABLES;
+    const INFO: ModelInfo = INFO;
+
+    const CONTINUOUS_STATES: &'static [ContinuousState] = CONTINUOUS_STATES;
+
+    fn instantiate(ctx: &InstantiateContext<'_>) -> Result<Self, ModelError> {
+        if ctx.resource_dir.is_none() {
+            ctx.logger.info(
+                "no resource location given: set the parameter modal_table to a modal-table file",
+            );
+        }
+        Ok(Structure {
+            resource_dir: ctx.resource_dir.clone(),
+            start_time_s: 0.0,
+            frequency_error: 0.0,
+            drive_point: DEFAULT_DRIVE_POINT.into(),
+            drive_point_index: -1,
+            modal_table: String::new(),
+            force: InputPolynomial::default(),
+            osc: None,
+            tip: 0,
+            out: Outputs::default(),
+            rates: Cell::new(None),
+            preview: RefCell::new(None),
+        })
+    }
+
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        _stop_time: Option<f64>,
+    ) -> Result<(), ModelError> {
+        self.start_time_s = start_time;
+        self.parameters_changed();
+        Ok(())
+    }
+
+    fn exit_initialization_mode(&mut self, log: &Logger) -> Result<(), ModelError> {
+        self.build()?;
+        let osc = self.oscillator()?;
+        let (a_min, a_max) = osc.table().amplitude_range();
+        log.info(&format!(
+            "modal table {} loaded: a in [{a_min:e}, {a_max:e}] sqrt(kg) m, H = {}, drive point index {}, \
+             frequency factor {}, RK4 sub-step <= {:e} s",
+            self.table_path()?.display(),
+            osc.table().harmonics(),
+            osc.drive_index(),
+            1.0 + self.frequency_error,
+            osc.max_substep_s()
+        ));
+        Ok(())
+    }
+
+    fn get_real(&self, vr: u32) -> f64 {
+        // a failure (no table, out of the table's range) is NaN here and a
+        // message in `try_get_real`
+        self.try_get_real(vr).unwrap_or(f64::NAN)
+    }
+
+    /// Every variable is readable in Initialization Mode too: the outputs and
+    /// `der(eta)`, `der(u)` are then those of the start state `eta = u = 0`
+    /// under the current parameters and `F` (the modal table is read for
+    /// them); the error says why when the parameters do not give a model.
+    fn try_get_real(&self, vr: u32) -> Result<f64, ModelError> {
+        let out = || self.current_outputs();
+        Ok(match vr {
+            vr::F => self.force.c0,
+            vr::X => out()?.x,
+            vr::V => out()?.v,
+            vr::X_TIP => out()?.x_tip,
+            vr::A => out()?.a,
+            vr::OMEGA => out()?.omega,
+            vr::FREQUENCY_ERROR => self.frequency_error,
+            vr::ETA => self.osc.as_ref().map_or(0.0, |o| o.state().eta),
+            vr::U => self.osc.as_ref().map_or(0.0, |o| o.state().u),
+            vr::DER_ETA => self.state_rate()?.0,
+            vr::DER_U => self.state_rate()?.1,
+            _ => unreachable!("the layer checks value references"),
+        })
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
+        match vr {
+            vr::F => {
+                self.force.c0 = value;
+                self.rates.set(None);
+            }
+            vr::FREQUENCY_ERROR => {
+                if 1.0 + value <= 0.0 {
+                    return Err(ModelError::error(format!(
+                        "frequency_error = {value}: the factor 1 + frequency_error must be positive"
+                    )));
+                }
+                self.frequency_error = value;
+                self.parameters_changed();
+            }
+            _ => unreachable!("the layer checks settability"),
+        }
+        Ok(())
+    }
+
+    fn get_integer(&self, vr: u32) -> Result<i32, ModelError> {
+        match vr {
+            vr::DRIVE_POINT_INDEX => Ok(self.drive_point_index),
+            _ => Err(ModelError::error(format!(
+                "no Integer variable with value reference {vr}"
+            ))),
+        }
+    }
+
+    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), ModelError> {
+        match vr {
+            vr::DRIVE_POINT_INDEX => {
+                self.drive_point_index = value;
+                self.parameters_changed();
+                Ok(())
+            }
+            _ => Err(ModelError::error(format!(
+                "no Integer variable with value reference {vr}"
+            ))),
+        }
+    }
+
+    fn get_string(&self, vr: u32) -> Result<String, ModelError> {
+        match vr {
+            vr::DRIVE_POINT => Ok(self.drive_point.clone()),
+            vr::MODAL_TABLE => Ok(self.modal_table.clone()),
+            _ => Err(ModelError::error(format!(
+                "no String variable with value reference {vr}"
+            ))),
+        }
+    }
+
+    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), ModelError> {
+        match vr {
+            vr::DRIVE_POINT => self.drive_point = value.to_string(),
+            vr::MODAL_TABLE => self.modal_table = value.to_string(),
+            _ => {
+                return Err(ModelError::error(format!(
+                    "no String variable with value reference {vr}"
+                )))
+            }
+        }
+        self.parameters_changed();
+        Ok(())
+    }
+
+    fn do_step(&mut self, _t: f64, h: f64, _log: &Logger) -> Result<(), ModelError> {
+        let osc = self
+            .osc
+            .as_mut()
+            .ok_or_else(|| ModelError::error("not initialized"))?;
+        osc.step(h, self.force)?;
+        // the input continues from the polynomial's end value until the master sets it;
+        // derivatives apply to one step only
+        let p = self.force;
+        self.force = InputPolynomial::constant(p.c0 + h * (p.c1 + 0.5 * h * p.c2));
+        self.update_outputs()
+    }
+
+    /// Model Exchange: the oscillator is autonomous; the time only stamps
+    /// its error messages.
+    fn set_time(&mut self, t: f64) -> Result<(), ModelError> {
+        let osc = self
+            .osc
+            .as_mut()
+            .ok_or_else(|| ModelError::error("not initialized"))?;
+        let s = osc.state();
+        osc.set_state(OscillatorState { time_s: t, ..s })?;
+        Ok(())
+    }
+
+    /// Model Exchange: `[eta, u]`; an amplitude above the table's range is an error.
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        let osc = self
+            .osc
+            .as_mut()
+            .ok_or_else(|| ModelError::error("not initialized"))?;
+        let s = osc.state();
+        osc.set_state(OscillatorState {
+            time_s: s.time_s,
+            eta: x[0],
+            u: x[1],
+        })?;
+        self.update_outputs()
+    }
+
+    /// Model Exchange: `[eta', u']` of the normal form under the input `F`
+    /// ([`ModalOscillator::state_rate`]).
+    fn derivatives(&self, dx: &mut [f64]) -> Result<(), ModelError> {
+        let (de, du) = self.state_rate()?;
+        dx[0] = de;
+        dx[1] = du;
+        Ok(())
+    }
+
+    fn set_real_input_derivative(
+        &mut self,
+        vr: u32,
+        order: u32,
+        value: f64,
+    ) -> Result<(), ModelError> {
+        match (vr, order) {
+            (vr::F, 1) => self.force.c1 = value,
+            (vr::F, 2) => self.force.c2 = value,
+            _ => {
+                return Err(ModelError::error(format!(
+                    "input derivative of order {order} of value reference {vr} is not supported (F: orders 1 and 2)"
+                )))
+            }
+        }
+        Ok(())
+    }
+
+    fn get_real_output_derivative(&self, vr: u32, order: u32) -> Result<f64, ModelError> {
+        if order != 1 {
+            return Err(ModelError::error(format!(
+                "output derivatives of order {order} are not supported (only 1)"
+            )));
+        }
+        let r = self.output_rates()?;
+        Ok(match vr {
+            vr::X => r.x,
+            vr::V => r.v,
+            vr::X_TIP => r.x_tip,
+            vr::A => r.a,
+            vr::OMEGA => r.omega,
+            _ => {
+                return Err(ModelError::error(format!(
+                    "value reference {vr} is not an output"
+                )))
+            }
+        })
+    }
+
+    fn partial_derivative(&self, unknown: u32, known: u32) -> Result<f64, ModelError> {
+        // no output depends directly on the input F (ModelStructure dependencies="")
+        if known == vr::F && matches!(unknown, vr::X | vr::V | vr::X_TIP | vr::A | vr::OMEGA) {
+            return Ok(0.0);
+        }
+        Err(ModelError::error(format!(
+            "directional derivative d(vr {unknown})/d(vr {known}) is not available (only outputs w.r.t. F)"
+        )))
+    }
+
+    fn serialize_state(&self, w: &mut StateWriter) {
+        w.f64(self.force.c0);
+        w.f64(self.force.c1);
+        w.f64(self.force.c2);
+        w.f64(self.frequency_error);
+        w.bool(self.osc.is_some());
+        if let Some(osc) = &self.osc {
+            let s = osc.state();
+            w.u64(osc.drive_index() as u64);
+            w.f64(s.time_s);
+            w.f64(s.eta);
+            w.f64(s.u);
+        }
+    }
+
+    fn deserialize_state(&mut self, r: &mut StateReader<'_>) -> Result<(), ModelError> {
+        self.force = InputPolynomial {
+            c0: r.f64()?,
+            c1: r.f64()?,
+            c2: r.f64()?,
+        };
+        let eps = r.f64()?;
+        let initialized = r.bool()?;
+        if eps != self.frequency_error || initialized != self.osc.is_some() {
+            return Err(ModelError::error(format!(
+                "FMU state from another configuration (frequency_error {eps}, initialized {initialized}; \
+                 this instance: {}, {})",
+                self.frequency_error,
+                self.osc.is_some()
+            )));
+        }
+        if let Some(osc) = &mut self.osc {
+            let drive = r.u64()? as usize;
+            if drive != osc.drive_index() {
+                return Err(ModelError::error(format!(
+                    "FMU state for drive point index {drive}, this instance drives point {}",
+                    osc.drive_index()
+                )));
+            }
+            let s = OscillatorState {
+                time_s: r.f64()?,
+                eta: r.f64()?,
+                u: r.f64()?,
+            };
+            osc.set_state(s)?;
+        }
+        self.update_outputs()
+    }
+}

@@ -1,0 +1,4 @@
+//! fmu-structure's integration tests, one test binary (one link of the dependency
+//! graph instead of one per file): `cargo test -p fmu-structure --test it [module::]`.
+mod model;
+mod model_description;
