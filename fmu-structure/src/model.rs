@@ -28,8 +28,9 @@ pub mod vr {
     /// String parameters.
     pub const DRIVE_POINT: u32 = 0;
     pub const MODAL_TABLE: u32 = 1;
-    /// Integer parameter.
+    /// Integer parameters.
     pub const DRIVE_POINT_INDEX: u32 = 0;
+    pub const RESIDUAL_MODES: u32 = 1;
 }
 
 /// File name of the modal table in the FMU's `resources/` folder.
@@ -73,6 +74,8 @@ pub const VARIABLES: &[Variable] = &[
         .describe("eta' = omega(a) u"),
     Variable::real("der(u)", vr::DER_U, C::Local, V::Continuous, None, "sqrt(kg).m/s")
         .describe("u' = -omega(a) eta - 2 D(a) omega(a) u + |phi_ex(a)| F / omega(a)"),
+    Variable::integer_parameter("residual_modes", vr::RESIDUAL_MODES, 0)
+        .describe("Linear modes of the structure (the modal table's linear_modes, lowest first) carried beside the nonlinear mode as linear modal oscillators driven by F; x, v, x_tip include them. 0: the single nonlinear mode. Co-Simulation only"),
 ];
 
 /// The normal-form state `(eta, u)` of [`nlmode::oscillator`] (nominal:
@@ -179,6 +182,8 @@ pub struct Structure {
     frequency_error: f64,
     drive_point: String,
     drive_point_index: i32,
+    /// Residual modes ([`ModalOscillator::with_residual_modes`]).
+    residual_modes: i32,
     modal_table: String,
     /// `F` at the start of the next step and its first two time derivatives.
     force: InputPolynomial,
@@ -254,7 +259,14 @@ impl Structure {
         } else {
             self.drive_point.clone()
         };
-        let mut osc = ModalOscillator::new(&table, &drive, self.frequency_error)?;
+        let n = usize::try_from(self.residual_modes).map_err(|_| {
+            ModelError::error(format!(
+                "residual_modes = {}: expected 0 or more",
+                self.residual_modes
+            ))
+        })?;
+        let mut osc = ModalOscillator::new(&table, &drive, self.frequency_error)?
+            .with_residual_modes(&table, n)?;
         let tip = osc.point_index(TIP_POINT)?;
         osc.set_state(OscillatorState {
             time_s: self.start_time_s,
@@ -362,6 +374,19 @@ impl Structure {
         self.with_oscillator(|osc, _| Ok(osc.state_rate(self.force.c0)?))
     }
 
+    /// Model Exchange has the two states `eta`, `u`: residual modes (states
+    /// of their own, integrated exactly per step) run in Co-Simulation only.
+    fn single_mode_for_model_exchange(&self) -> Result<(), ModelError> {
+        if self.residual_modes > 0 {
+            return Err(ModelError::error(format!(
+                "residual_modes = {}: residual modes are available in Co-Simulation only (Model Exchange \
+                 has the two states eta, u); set residual_modes = 0 or import the FMU as Co-Simulation",
+                self.residual_modes
+            )));
+        }
+        Ok(())
+    }
+
     fn oscillator(&self) -> Result<&ModalOscillator, ModelError> {
         self.osc.as_ref().ok_or_else(|| {
             ModelError::error("the modal table is loaded at fmi2ExitInitializationMode")
@@ -389,6 +414,7 @@ impl CoSimModel for Structure {
             frequency_error: 0.0,
             drive_point: DEFAULT_DRIVE_POINT.into(),
             drive_point_index: -1,
+            residual_modes: 0,
             modal_table: String::new(),
             force: InputPolynomial::default(),
             osc: None,
@@ -415,10 +441,11 @@ impl CoSimModel for Structure {
         let (a_min, a_max) = osc.table().amplitude_range();
         log.info(&format!(
             "modal table {} loaded: a in [{a_min:e}, {a_max:e}] sqrt(kg) m, H = {}, drive point index {}, \
-             frequency factor {}, RK4 sub-step <= {:e} s",
+             {} residual modes, frequency factor {}, RK4 sub-step <= {:e} s",
             self.table_path()?.display(),
             osc.table().harmonics(),
             osc.drive_index(),
+            osc.residual_modes(),
             1.0 + self.frequency_error,
             osc.max_substep_s()
         ));
@@ -476,6 +503,7 @@ impl CoSimModel for Structure {
     fn get_integer(&self, vr: u32) -> Result<i32, ModelError> {
         match vr {
             vr::DRIVE_POINT_INDEX => Ok(self.drive_point_index),
+            vr::RESIDUAL_MODES => Ok(self.residual_modes),
             _ => Err(ModelError::error(format!(
                 "no Integer variable with value reference {vr}"
             ))),
@@ -486,6 +514,16 @@ impl CoSimModel for Structure {
         match vr {
             vr::DRIVE_POINT_INDEX => {
                 self.drive_point_index = value;
+                self.parameters_changed();
+                Ok(())
+            }
+            vr::RESIDUAL_MODES => {
+                if value < 0 {
+                    return Err(ModelError::error(format!(
+                        "residual_modes = {value}: expected 0 or more (at most the modal table's linear modes)"
+                    )));
+                }
+                self.residual_modes = value;
                 self.parameters_changed();
                 Ok(())
             }
@@ -546,6 +584,7 @@ impl CoSimModel for Structure {
 
     /// Model Exchange: `[eta, u]`; an amplitude above the table's range is an error.
     fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        self.single_mode_for_model_exchange()?;
         let osc = self
             .osc
             .as_mut()
@@ -562,6 +601,7 @@ impl CoSimModel for Structure {
     /// Model Exchange: `[eta', u']` of the normal form under the input `F`
     /// ([`ModalOscillator::state_rate`]).
     fn derivatives(&self, dx: &mut [f64]) -> Result<(), ModelError> {
+        self.single_mode_for_model_exchange()?;
         let (de, du) = self.state_rate()?;
         dx[0] = de;
         dx[1] = du;
@@ -629,6 +669,11 @@ impl CoSimModel for Structure {
             w.f64(s.time_s);
             w.f64(s.eta);
             w.f64(s.u);
+            let q = osc.residual_state();
+            w.u64(q.len() as u64);
+            for &v in q {
+                w.f64(v);
+            }
         }
     }
 
@@ -662,6 +707,16 @@ impl CoSimModel for Structure {
                 u: r.f64()?,
             };
             osc.set_state(s)?;
+            let nq = r.u64()?;
+            if nq != osc.residual_state().len() as u64 {
+                return Err(ModelError::error(format!(
+                    "FMU state with {nq} residual-mode states, this instance has {} ({} residual modes)",
+                    osc.residual_state().len(),
+                    osc.residual_modes()
+                )));
+            }
+            let q = (0..nq).map(|_| r.f64()).collect::<Result<Vec<f64>, _>>()?;
+            osc.set_residual_state(&q)?;
         }
         self.update_outputs()
     }

@@ -448,3 +448,112 @@ fn every_real_is_readable_in_initialization_mode() {
         "{e}"
     );
 }
+
+/// `residual_modes`: the FMU steps the oscillator of `nlmode` with the
+/// table's linear modes (bit for bit), restores their states with the FMU
+/// state, and refuses what it cannot do with the key named.
+#[test]
+fn residual_modes_follow_the_oscillator_round_trip_and_bad_values_are_named() {
+    use nlmode::nma::{LinearModeShape, LinearModes};
+    use nlmode::oscillator::{InputPolynomial, ModalOscillator};
+    let dir = tempfile::tempdir().unwrap();
+    let path = linear_table(dir.path());
+    let mut t = ModalTable::read(&path).unwrap();
+    let shape = |name: &str, v: f64| LinearModeShape {
+        name: name.into(),
+        shape: vec![v],
+    };
+    t.linear_modes = Some(LinearModes {
+        omega_rad_s: vec![2000.0],
+        damping_ratio: vec![0.01],
+        points: vec![shape("tip", 0.8), shape("l3", 0.5), shape("2l3", 0.6)],
+    });
+    t.write(&path).unwrap();
+    let log = Logger::silent();
+    let make = |n: i32| {
+        let mut m = instantiate(None);
+        m.set_string(vr::MODAL_TABLE, path.to_str().unwrap())
+            .unwrap();
+        m.set_integer(vr::RESIDUAL_MODES, n).unwrap();
+        m
+    };
+    let mut m = make(1);
+    assert_eq!(m.get_integer(vr::RESIDUAL_MODES).unwrap(), 1);
+    m.exit_initialization_mode(&log).unwrap();
+    let mut osc = ModalOscillator::new(&t, "2l3", 0.0)
+        .unwrap()
+        .with_residual_modes(&t, 1)
+        .unwrap();
+    let tip = osc.point_index("tip").unwrap();
+    let force = |k: usize| 3.0 * (700.0 * k as f64 * 1e-4).sin();
+    let mut state = None;
+    let mut at_save = (0.0, 0.0);
+    for k in 0..400 {
+        m.set_real(vr::F, force(k)).unwrap();
+        m.do_step(k as f64 * 1e-4, 1e-4, &log).unwrap();
+        osc.step(1e-4, InputPolynomial::constant(force(k))).unwrap();
+        assert_eq!(
+            m.get_real(vr::X),
+            osc.point_response(osc.drive_index()).unwrap().x_m
+        );
+        assert_eq!(m.get_real(vr::X_TIP), osc.point_response(tip).unwrap().x_m);
+        if k == 200 {
+            let mut w = StateWriter::new();
+            m.serialize_state(&mut w);
+            state = Some(w.into_bytes());
+            at_save = (m.get_real(vr::X), m.get_real(vr::V));
+        }
+    }
+    // the residual mode is in the output: the largest difference to the
+    // single mode under the same force is the mode's response, forced
+    // 0.6^2 * 3 N / (2000^2 - 700^2) = 3.1e-7 m plus its start transient
+    // (from rest, at most 700/2000 of that again): within [0.6, 1.5] x 3.1e-7
+    let mut m0 = make(0);
+    m0.exit_initialization_mode(&log).unwrap();
+    let mut m1 = make(1);
+    m1.exit_initialization_mode(&log).unwrap();
+    let mut largest: f64 = 0.0;
+    for k in 0..400 {
+        m0.set_real(vr::F, force(k)).unwrap();
+        m1.set_real(vr::F, force(k)).unwrap();
+        m0.do_step(k as f64 * 1e-4, 1e-4, &log).unwrap();
+        m1.do_step(k as f64 * 1e-4, 1e-4, &log).unwrap();
+        largest = largest.max((m1.get_real(vr::X) - m0.get_real(vr::X)).abs());
+    }
+    let forced = 0.36 * 3.0 / (2000f64.powi(2) - 700f64.powi(2));
+    assert!(
+        largest > 0.6 * forced && largest < 1.5 * forced,
+        "{largest} vs {forced}"
+    );
+    // restore: the residual state comes back with the rest
+    let state = state.unwrap();
+    m.deserialize_state(&mut StateReader::new(&state)).unwrap();
+    assert_eq!((m.get_real(vr::X), m.get_real(vr::V)), at_save);
+    // a state of the single-mode configuration is refused
+    let mut one = make(0);
+    one.exit_initialization_mode(&log).unwrap();
+    let e = one
+        .deserialize_state(&mut StateReader::new(&state))
+        .unwrap_err();
+    assert!(e.message.contains("residual-mode states"), "{}", e.message);
+    // Model Exchange has eta and u only
+    let mut dx = [0.0; 2];
+    let e = m.derivatives(&mut dx).unwrap_err();
+    assert!(
+        e.message.contains("residual_modes = 1") && e.message.contains("Co-Simulation"),
+        "{}",
+        e.message
+    );
+    // more than the table carries, and negative values
+    let mut two = make(2);
+    let e = two.exit_initialization_mode(&log).unwrap_err();
+    assert!(
+        e.message.contains("residual_modes = 2") && e.message.contains("1 to 1"),
+        "{}",
+        e.message
+    );
+    let e = instantiate(None)
+        .set_integer(vr::RESIDUAL_MODES, -1)
+        .unwrap_err();
+    assert!(e.message.contains("residual_modes = -1"), "{}", e.message);
+}
