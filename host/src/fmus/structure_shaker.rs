@@ -53,6 +53,8 @@ pub struct CosimParams {
     pub modal_table: Option<PathBuf>,
     /// Relative natural-frequency error of the structure FMU.
     pub frequency_error: f64,
+    /// The structure FMU's `residual_modes` (0: not set, the FMU's default).
+    pub residual_modes: usize,
     /// End time [s]; `None`: the sweep duration.
     pub stop_time_s: Option<f64>,
     /// Sample interval of the time series [s], rounded to a multiple of the
@@ -76,6 +78,7 @@ impl CosimParams {
             drive_point: "2l3".into(),
             modal_table: None,
             frequency_error: 0.0,
+            residual_modes: 0,
             stop_time_s: None,
             output_interval_s: 0.0,
             iteration_rtol: 1e-6,
@@ -177,6 +180,12 @@ pub fn parameters(p: &CosimParams) -> Result<Vec<(String, ParamValue)>, CosimErr
         "structure.drive_point".into(),
         ParamValue::String(p.drive_point.clone()),
     ));
+    if p.residual_modes > 0 {
+        v.push((
+            "structure.residual_modes".into(),
+            ParamValue::Integer(i32::try_from(p.residual_modes).unwrap_or(i32::MAX)),
+        ));
+    }
     if let Some(t) = &p.modal_table {
         v.push((
             "structure.modal_table".into(),

@@ -43,6 +43,7 @@ pub fn cosim(
     };
     p.macro_step_s = sc.cosim.macro_step_s;
     p.drive_point = setup.exciter_points[0].clone();
+    p.residual_modes = sc.cosim.residual_modes;
     if let Some((table, out)) = table {
         let mut t = table.clone();
         let tip = nlmode::structure::paper::TIP;
@@ -63,6 +64,19 @@ pub fn cosim(
             alias.name = tip.into();
             t.points.retain(|q| q.name != tip);
             t.points.push(alias);
+            // the linear modes' shapes in the same order
+            if let Some(lm) = &mut t.linear_modes {
+                if let Some(mut a) = lm
+                    .points
+                    .iter()
+                    .find(|q| q.name == setup.response_point)
+                    .cloned()
+                {
+                    a.name = tip.into();
+                    lm.points.retain(|q| q.name != tip);
+                    lm.points.push(a);
+                }
+            }
         }
         let path = out.join("cosim_modal_table.json");
         t.write(&path)?;

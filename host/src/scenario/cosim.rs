@@ -10,6 +10,9 @@ pub struct CosimSpec {
     pub macro_step_s: f64,
     pub structure_fmu: Option<String>,
     pub shaker_fmu: Option<String>,
+    /// The structure FMU's `residual_modes` (its linear modes beside the
+    /// nonlinear mode) in `cosim` and `phase-resonance` with `model = "cosim"`.
+    pub residual_modes: usize,
 }
 
 /// Co-simulation master algorithm (`cosim.algorithm`).
@@ -32,6 +35,7 @@ impl Default for CosimSpec {
             macro_step_s: 1e-5,
             structure_fmu: None,
             shaker_fmu: None,
+            residual_modes: 0,
         }
     }
 }
@@ -40,6 +44,16 @@ impl CosimSpec {
     /// Check the co-simulation options.
     pub(crate) fn validate(&self) -> Result<(), ScenarioError> {
         positive("cosim.macro_step_s", self.macro_step_s)?;
+        if self.residual_modes > nlmode::table::MAX_LINEAR_MODES {
+            return Err(bad(
+                "cosim.residual_modes",
+                format!(
+                    "expected 0 to {} (the linear modes a modal table carries), got {}",
+                    nlmode::table::MAX_LINEAR_MODES,
+                    self.residual_modes
+                ),
+            ));
+        }
         Ok(())
     }
 }

@@ -31,10 +31,17 @@ use host::scenario::{PhaseResonanceModel, Scenario};
 use std::time::Instant;
 
 #[allow(clippy::needless_range_loop)] // the levels of two envelopes and their tolerances
-fn compare(algorithm: &str, macro_step_s: f64, levels: [f64; 2], force_tol: [f64; 2]) {
+fn compare(
+    algorithm: &str,
+    macro_step_s: f64,
+    levels: [f64; 2],
+    force_tol: [f64; 2],
+    residual_modes: usize,
+) {
     let text = format!(
         "[run]\nmethods = [\"phase-resonance\"]\n[[exciter]]\nlocation = \"2l/3\"\n\
          [output]\nplots = false\n[cosim]\nalgorithm = \"{algorithm}\"\nmacro_step_s = {macro_step_s}\n\
+         residual_modes = {residual_modes}\n\
          [phase_resonance]\nvoltage_levels_v = [{}, {}]\n",
         levels[0], levels[1]
     );
@@ -82,13 +89,29 @@ fn compare(algorithm: &str, macro_step_s: f64, levels: [f64; 2], force_tol: [f64
 
 #[test]
 fn three_fmu_loop_matches_the_reference_pll() {
-    compare("iterative", 2e-5, [0.5, 1.0], [0.01, 0.01]);
+    compare("iterative", 2e-5, [0.5, 1.0], [0.01, 0.01], 0);
 }
 
 #[test]
 #[ignore = "about 45 s in the test profile"]
 fn three_fmu_loop_matches_the_reference_pll_up_the_backbone() {
-    compare("iterative", 1e-5, [1.0, 5.0], [0.01, 0.03]);
+    compare("iterative", 1e-5, [1.0, 5.0], [0.01, 0.03], 0);
+}
+
+/// The structure FMU with its ten residual modes (`[cosim] residual_modes`,
+/// issue 25): the stinger force's higher harmonics drive the beam's other
+/// modes. Measured (test profile): 1 V omega -2.9e-6, q_tip -3.8e-4, F_1
+/// -4.5e-4; 5 V omega 7.1e-5, q_tip 2.2e-4, **F_1 -2.45e-2**, the same as
+/// the single mode to 1e-5. So the force fundamental's deficit at 5 V is not
+/// the other modes' linear response to the force harmonics (the residual
+/// modes carry that, and it is small: their receptance at 3 Omega is a few
+/// per cent of the mode's at resonance) but power the nonlinear element
+/// exchanges with them, which a linear residual mode cannot carry (a second
+/// nonlinear mode would). The tolerances stay those of the single mode.
+#[test]
+#[ignore = "about 60 s in the test profile"]
+fn three_fmu_loop_with_residual_modes_up_the_backbone() {
+    compare("iterative", 1e-5, [1.0, 5.0], [0.01, 0.03], 10);
 }
 
 /// More harmonics than the controller FMU outputs: an error naming the key,

@@ -263,6 +263,7 @@ fn set_parameters(m: &mut Master, setup: &Setup, sc: &Scenario) -> Result<()> {
     let spec = &sc.phase_resonance;
     let mut p = CosimParams::new(setup.shakers[0], setup.sweep);
     p.drive_point = setup.exciter_points[0].clone();
+    p.residual_modes = sc.cosim.residual_modes;
     let mut params = parameters(&p)?;
     params.retain(|(n, _)| n != "shaker.use_external_voltage");
     params.push((
