@@ -139,18 +139,13 @@ impl ReducedModel {
                 && s.channels.len() == nch * n
                 && (s.imposed_n.is_empty() || s.imposed_n.len() == n)
         );
-        if scratch.plan.is_none() {
-            scratch.plan = Some(self.force_plan());
-        }
         let OutputScratch {
             plan,
             locs,
             omega,
             phi,
         } = scratch;
-        let Some(plan) = plan.as_ref() else {
-            return Ok(());
-        };
+        let plan = &*plan.get_or_insert_with(|| self.force_plan());
         // |z| by a plain sqrt (vectorizes; hypot's overflow guard is not needed)
         let modulus = |z: &Complex64| (z.re * z.re + z.im * z.im).sqrt();
         locs.clear();
