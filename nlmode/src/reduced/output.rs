@@ -108,6 +108,28 @@ impl ReducedModel {
         s: &OutputStates,
         fields: SampleFields,
     ) -> Result<Vec<SlowFlowSample>, ReducedError> {
+        let mut out = Vec::with_capacity(s.len());
+        self.output_fields_into(s, fields, &mut OutputScratch::default(), &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Self::output_fields`] appended to `out`, with the work space of
+    /// `scratch` (a sweep keeps both across its batches: no allocation per
+    /// batch). On an error `out` is left as it was.
+    ///
+    /// The amplitudes are located in the table first (in sample order, so
+    /// the first sample outside the table is the error, as before), then
+    /// the detuned frequencies checked, then each sample is computed in one
+    /// pass. Each quantity is the same expression as before, element by
+    /// element (the same operations in the same order): the numbers do not
+    /// change by a bit.
+    pub(crate) fn output_fields_into(
+        &self,
+        s: &OutputStates,
+        fields: SampleFields,
+        scratch: &mut OutputScratch,
+        out: &mut Vec<SlowFlowSample>,
+    ) -> Result<(), ReducedError> {
         let all = fields == SampleFields::All;
         let n = s.len();
         let nch = self.nch;
@@ -117,128 +139,129 @@ impl ReducedModel {
                 && s.channels.len() == nch * n
                 && (s.imposed_n.is_empty() || s.imposed_n.len() == n)
         );
-        let plan = self.force_plan();
-        // One loop per quantity rather than one fused loop per sample: the
-        // fused loop chains two square roots and the table lookups of a
-        // sample into one dependency chain (measured ~10 % slower).
+        let OutputScratch {
+            plan,
+            locs,
+            omega,
+            phi,
+        } = scratch;
+        let plan = &*plan.get_or_insert_with(|| self.force_plan());
         // |z| by a plain sqrt (vectorizes; hypot's overflow guard is not needed)
         let modulus = |z: &Complex64| (z.re * z.re + z.im * z.im).sqrt();
-        let a: Vec<f64> = s.amplitude.iter().map(modulus).collect();
-        let mut locs = Vec::with_capacity(n);
-        for &a in &a {
-            locs.push(self.fast.locate(a)?);
+        locs.clear();
+        locs.reserve(n);
+        for z in s.amplitude {
+            let a = modulus(z);
+            locs.push((a, self.fast.locate(a)?));
         }
-        let mut omega: Vec<f64> = if all {
-            locs.iter().map(|&l| self.fast.value(l, 0)).collect()
-        } else {
-            vec![f64::NAN; n]
-        };
-        let fe = self.frequency_error;
-        if all && (fe.eps != 0.0 || fe.offset_rad_s != 0.0) {
-            for (w, &a) in omega.iter_mut().zip(&a) {
-                *w = self.detuned_omega(*w, a)?;
+        omega.clear();
+        if all {
+            omega.extend(locs.iter().map(|&(_, l)| self.fast.value(l, 0)));
+            let fe = self.frequency_error;
+            if fe.eps != 0.0 || fe.offset_rad_s != 0.0 {
+                for (w, &(a, _)) in omega.iter_mut().zip(locs.iter()) {
+                    *w = self.detuned_omega(*w, a)?;
+                }
             }
         }
-        let phi: Vec<Vec<Complex64>> = plan
-            .points
+        phi.clear();
+        phi.resize(plan.points.len(), Complex64::new(0.0, 0.0));
+        out.reserve(n);
+        let zero = Complex64::new(0.0, 0.0);
+        // (iterators rather than indices: no bounds check per sample)
+        let states = s
+            .t_s
             .iter()
-            .map(|&pt| locs.iter().map(|&l| self.phi1(l, pt)).collect())
-            .collect();
-        // the force, term by term
-        let mut f: Vec<Complex64> = if s.imposed_n.is_empty() {
-            vec![Complex64::new(0.0, 0.0); n]
-        } else {
-            s.imposed_n.to_vec()
-        };
-        let mut z = vec![Complex64::new(0.0, 0.0); n];
-        if nch > 0 {
-            let rows = s.channels.chunks_exact(nch);
-            for &t in &plan.t_channels {
-                for (f, row) in f.iter_mut().zip(rows.clone()) {
-                    *f += row[t];
+            .zip(s.omega_rad_s)
+            .zip(s.amplitude)
+            .zip(locs.iter());
+        for (i, (((&t_s, &omega_rad_s), &amp), &(a, loc))) in states.enumerate() {
+            for (p, &pt) in phi.iter_mut().zip(&plan.points) {
+                *p = self.phi1(loc, pt);
+            }
+            // eq:fc1, term by term
+            let mut f = s.imposed_n.get(i).copied().unwrap_or(zero);
+            let mut z = zero;
+            if nch > 0 {
+                let row = &s.channels[i * nch..(i + 1) * nch];
+                for &t in &plan.t_channels {
+                    f += row[t];
+                }
+                for &(c, p) in &plan.z_terms {
+                    z += row[c] * phi[p];
                 }
             }
-            for &(c, p) in &plan.z_terms {
-                for ((z, row), phi) in z.iter_mut().zip(rows.clone()).zip(&phi[p]) {
-                    *z += row[c] * phi;
-                }
-            }
-        }
-        for ((f, z), amp) in f.iter_mut().zip(&z).zip(s.amplitude) {
-            *f -= z * amp;
-        }
-        let amplitude_m = |phi: &[Complex64]| -> Vec<f64> {
-            phi.iter().zip(&a).map(|(p, a)| a * modulus(p)).collect()
-        };
-        let (tip, drive) = if self.residual.is_some() {
-            self.residual_tip_drive(s, &locs, &phi, all)?
-        } else {
-            let drive = if all {
-                amplitude_m(&phi[1])
+            f -= z * amp;
+            let (tip, drive) = (phi[0], phi[1]);
+            let (tip_m, drive_m) = if self.residual.is_some() {
+                // the residual modes' displacement G F added (super::residual)
+                let row = &s.channels[i * nch..(i + 1) * nch];
+                let [dt, dd] = match self.residual_at(omega_rad_s, row, loc, amp) {
+                    Ok(d) => d,
+                    Err(e) => {
+                        out.truncate(out.len() - i);
+                        return Err(e);
+                    }
+                };
+                ((amp * tip + dt).norm(), (amp * drive + dd).norm())
             } else {
-                vec![f64::NAN; n]
+                (a * modulus(&tip), a * modulus(&drive))
             };
-            (amplitude_m(&phi[0]), drive)
-        };
-        let force: Vec<f64> = f.iter().map(modulus).collect();
-        let out = (0..n)
-            .map(|i| SlowFlowSample {
-                t_s: s.t_s[i],
-                omega_rad_s: s.omega_rad_s[i],
-                a: a[i],
-                amplitude: s.amplitude[i],
-                modal_frequency_rad_s: omega[i],
-                tip_amplitude_m: tip[i],
-                drive_amplitude_m: drive[i],
-                force_amplitude_n: force[i],
-                force_n: f[i],
-            })
-            .collect();
-        Ok(out)
+            out.push(SlowFlowSample {
+                t_s,
+                omega_rad_s,
+                a,
+                amplitude: amp,
+                modal_frequency_rad_s: if all { omega[i] } else { f64::NAN },
+                tip_amplitude_m: tip_m,
+                drive_amplitude_m: if all { drive_m } else { f64::NAN },
+                force_amplitude_n: modulus(&f),
+                force_n: f,
+            });
+        }
+        Ok(())
     }
 }
 
 impl ReducedModel {
-    /// Tip and drive-point fundamental amplitudes with the residual modes'
-    /// displacement added ([`super::residual`]); `phi[0]`, `phi[1]`: the
-    /// fundamental shapes at tip and drive point per sample.
-    fn residual_tip_drive(
+    /// The residual modes' displacement `[tip, drive]` of one output sample
+    /// (channel row `row` at `Omega`, table location `loc`, amplitude `amp`).
+    fn residual_at(
         &self,
-        s: &OutputStates,
-        locs: &[super::fast::Loc],
-        phi: &[Vec<Complex64>],
-        all: bool,
-    ) -> Result<(Vec<f64>, Vec<f64>), ReducedError> {
-        let n = s.len();
-        let nch = self.nch;
-        let (mut tip, mut drive) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        omega_rad_s: f64,
+        row: &[Complex64],
+        loc: super::fast::Loc,
+        amp: Complex64,
+    ) -> Result<[Complex64; 2], ReducedError> {
         let mut phi_g = [Complex64::new(0.0, 0.0); super::MAX_PHI];
         let points: &[usize] = self.ports.first().map_or(&[], |p| &p.points);
-        for i in 0..n {
-            let w = s.omega_rad_s[i];
-            let amp = s.amplitude[i];
-            for (g, &pt) in phi_g.iter_mut().zip(points) {
-                *g = self.phi1(locs[i], pt);
-            }
-            let ch = &s.channels[i * nch..(i + 1) * nch];
-            let fi = self.imposed_at(w)?;
-            let [dt, dd] = self.residual_displacements(
-                w,
-                ch,
-                &phi_g[..points.len()],
-                amp,
-                fi,
-                [self.tip, self.drive],
-            );
-            tip.push((amp * phi[0][i] + dt).norm());
-            drive.push(if all {
-                (amp * phi[1][i] + dd).norm()
-            } else {
-                f64::NAN
-            });
+        for (g, &pt) in phi_g.iter_mut().zip(points) {
+            *g = self.phi1(loc, pt);
         }
-        Ok((tip, drive))
+        let fi = self.imposed_at(omega_rad_s)?;
+        Ok(self.residual_displacements(
+            omega_rad_s,
+            row,
+            &phi_g[..points.len()],
+            amp,
+            fi,
+            [self.tip, self.drive],
+        ))
     }
+}
+
+/// Work space of [`ReducedModel::output_fields_into`], kept by a sweep
+/// across its output batches (one model per sweep: the force plan is the
+/// model's).
+#[derive(Debug, Default)]
+pub(crate) struct OutputScratch {
+    plan: Option<ForcePlan>,
+    /// `(a, table location)` of each sample.
+    locs: Vec<(f64, super::fast::Loc)>,
+    /// Modal frequency of each sample (with [`SampleFields::All`]).
+    omega: Vec<f64>,
+    /// Fundamental shapes at the plan's points, of the current sample.
+    phi: Vec<Complex64>,
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! `linear-slowflow`, `imposed-force`).
 use super::dynamic::AttachmentStates;
 use super::fast::Breaks;
-use super::output::{OutputStates, SampleFields};
+use super::output::{OutputScratch, OutputStates, SampleFields};
 use super::{ReducedError, ReducedModel, MAX_PHI};
 use crate::dopri::{integrate, Controller, ErrorScale, IntegratorStats, Stop, Tolerances};
 use crate::excitation::LinearSweep;
@@ -415,12 +415,13 @@ impl OmegaCache {
         self.nodes.len()
     }
 
-    /// Interpolated channels at each of `w`, one row of `nch` after the other.
-    pub fn eval_rows(&self, w: &[f64]) -> Vec<Complex64> {
-        let mut out = Vec::with_capacity(self.nch * w.len());
+    /// Interpolated channels at each of `w`, one row of `nch` after the
+    /// other, appended to `out`.
+    pub fn eval_rows_into(&self, w: &[f64], out: &mut Vec<Complex64>) {
         if self.nch == 0 {
-            return out;
+            return;
         }
+        out.reserve(self.nch * w.len());
         let (lo, hi) = (self.nodes.first(), self.nodes.last());
         for &w in w {
             let loc = self.nodes.locate(w.clamp(lo, hi));
@@ -431,7 +432,6 @@ impl OmegaCache {
                     .map(|c| c[0] + (c[1] + (c[2] + c[3] * t) * t) * t),
             );
         }
-        out
     }
 
     /// Interpolated channels at `w` (clamped to the tabulated range).
@@ -542,12 +542,7 @@ impl ReducedModel {
             Ok(())
         };
         let n = opts.output_samples;
-        let mut batch = OutputBatch {
-            ts: Vec::with_capacity(SWEEP_BATCH),
-            amps: Vec::with_capacity(SWEEP_BATCH),
-            emitted: 0,
-            last_t: None,
-        };
+        let mut batch = OutputBatch::new();
         let mut next = 0usize;
         let dt = duration / (n - 1) as f64;
         let sample_t = |j: usize| if j + 1 == n { duration } else { j as f64 * dt };
@@ -664,7 +659,8 @@ pub struct SweepRun {
     pub samples: usize,
 }
 
-/// The states of the output samples not yet handed to the sink.
+/// The states of the output samples not yet handed to the sink, and the
+/// buffers of their output quantities (reused from batch to batch).
 struct OutputBatch {
     ts: Vec<f64>,
     amps: Vec<Complex64>,
@@ -672,9 +668,27 @@ struct OutputBatch {
     emitted: usize,
     /// Time of the last sample taken.
     last_t: Option<f64>,
+    /// Excitation frequency and attachment channels of the pending samples.
+    w: Vec<f64>,
+    channels: Vec<Complex64>,
+    scratch: OutputScratch,
+    samples: Vec<SlowFlowSample>,
 }
 
 impl OutputBatch {
+    fn new() -> Self {
+        Self {
+            ts: Vec::with_capacity(SWEEP_BATCH),
+            amps: Vec::with_capacity(SWEEP_BATCH),
+            emitted: 0,
+            last_t: None,
+            w: Vec::with_capacity(SWEEP_BATCH),
+            channels: Vec::new(),
+            scratch: OutputScratch::default(),
+            samples: Vec::with_capacity(SWEEP_BATCH),
+        }
+    }
+
     fn push(&mut self, t: f64, a: Complex64) {
         self.ts.push(t);
         self.amps.push(a);
@@ -692,9 +706,25 @@ impl OutputBatch {
         if self.ts.is_empty() {
             return Ok(());
         }
-        let w: Vec<f64> = self.ts.iter().map(|&t| sweep.omega_rad_s(t)).collect();
-        let channels = cache.eval_rows(&w);
-        emit(model, &self.ts, &w, &self.amps, &channels, sink)?;
+        self.w.clear();
+        self.w.extend(self.ts.iter().map(|&t| sweep.omega_rad_s(t)));
+        self.channels.clear();
+        cache.eval_rows_into(&self.w, &mut self.channels);
+        let imposed_n = model.drive_imposed_n(&self.w)?;
+        self.samples.clear();
+        model.output_fields_into(
+            &OutputStates {
+                t_s: &self.ts,
+                omega_rad_s: &self.w,
+                amplitude: &self.amps,
+                channels: &self.channels,
+                imposed_n: &imposed_n,
+            },
+            sink.fields(),
+            &mut self.scratch,
+            &mut self.samples,
+        )?;
+        sink.samples(&self.samples)?;
         self.emitted += self.ts.len();
         self.ts.clear();
         self.amps.clear();

@@ -263,9 +263,9 @@ impl<'a> InteriorSolver<'a> {
         for &d in masters {
             is_master[d] = true;
         }
-        let mut kt = k.clone();
-        let (col_ptr, row_idx) = (k.symbolic().col_ptr().to_vec(), k.symbolic().row_idx());
-        let vals = kt.val_mut();
+        // K's values with the masters decoupled, on K's pattern (not copied)
+        let (col_ptr, row_idx) = (k.symbolic().col_ptr(), k.symbolic().row_idx());
+        let mut vals = k.val().to_vec();
         for c in 0..k.ncols() {
             for p in col_ptr[c]..col_ptr[c + 1] {
                 let r = row_idx[p];
@@ -280,11 +280,11 @@ impl<'a> InteriorSolver<'a> {
         let symbolic = match symbolic {
             Some(s) => s,
             None => {
-                own = SymbolicFactor::new(&kt)?;
+                own = SymbolicFactor::new(k)?;
                 &own
             }
         };
-        let factor = SparseCholesky::with_symbolic(symbolic, &kt, par)?;
+        let factor = SparseCholesky::with_values(symbolic, k, &vals, par)?;
         Some(Self::Clamped { factor, masters })
     }
 

@@ -13,8 +13,10 @@
 //! full symmetric matrices, `nnz(L)` of the factor, `m` the Lanczos basis,
 //! `r` the reduced size): `M`, `K` (and a `C` file) `16 nnz(A)` bytes each, the
 //! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m`, dense blocks
-//! `8 n r` a few times. Nothing of size `n x n` is formed; one factorisation is
-//! alive at a time.
+//! `8 n r` a few times, and for the fixed-interface problem the values of `K`
+//! with the masters decoupled (`8 nnz(A)`, on `K`'s pattern:
+//! [`SparseCholesky::with_values`]). Nothing of size `n x n` is formed; one
+//! factorisation is alive at a time.
 pub use super::ordering::Ordering;
 use super::{Result, StructureError};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -23,7 +25,7 @@ use faer::sparse::linalg::cholesky::{
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::{SparseColMat, Triplet};
+use faer::sparse::{SparseColMat, SparseColMatRef, Triplet};
 use faer::{Accum, Conj, MatMut, MatRef, Par, Side};
 use nalgebra::DMatrix;
 use std::sync::{Arc, Mutex};
@@ -190,11 +192,17 @@ pub fn sparse_mul_par(a: &SparseMatrix, x: &DMatrix<f64>, par: Par) -> DMatrix<f
     assert_eq!(a.ncols(), x.nrows(), "sparse_mul: sizes");
     let (nr, nc) = (a.nrows(), x.ncols());
     let mut y = DMatrix::zeros(nr, nc);
-    mul_into(a, x.as_slice(), y.as_mut_slice(), nc, par.degree());
+    mul_into(a.as_ref(), x.as_slice(), y.as_mut_slice(), nc, par.degree());
     y
 }
 
-fn mul_into(a: &SparseMatrix, x: &[f64], y: &mut [f64], nc: usize, threads: usize) {
+fn mul_into(
+    a: SparseColMatRef<'_, usize, f64>,
+    x: &[f64],
+    y: &mut [f64],
+    nc: usize,
+    threads: usize,
+) {
     let (nr, nx) = (a.nrows(), a.ncols());
     if threads > 1 && nc > 1 {
         let h = nc / 2;
@@ -210,7 +218,7 @@ fn mul_into(a: &SparseMatrix, x: &[f64], y: &mut [f64], nc: usize, threads: usiz
     faer::sparse::linalg::matmul::sparse_dense_matmul(
         MatMut::from_column_major_slice_mut(y, nr, nc),
         Accum::Replace,
-        a.as_ref(),
+        a,
         MatRef::from_column_major_slice(x, nx, nc),
         1.0,
         Par::Seq,
@@ -551,6 +559,35 @@ impl SparseCholesky {
     /// As [`SparseCholesky::new`] with the symbolic factorisation of `a`'s
     /// pattern and the parallelism `par` (of the factorisation and the solves).
     pub fn with_symbolic(symbolic: &SymbolicFactor, a: &SparseMatrix, par: Par) -> Option<Self> {
+        Self::factor(symbolic, a.as_ref(), par)
+    }
+
+    /// As [`SparseCholesky::with_symbolic`] for the matrix of `pattern`'s
+    /// sparsity pattern with the stored values `values` (in `pattern`'s
+    /// order): a matrix that differs from another only in its values (`K`
+    /// with the masters decoupled) is factorised without a copy of the
+    /// pattern (at 10^6 DOFs of hexahedra, 0.65 GB of row indices).
+    pub fn with_values(
+        symbolic: &SymbolicFactor,
+        pattern: &SparseMatrix,
+        values: &[f64],
+        par: Par,
+    ) -> Option<Self> {
+        if values.len() != pattern.val().len() {
+            return None;
+        }
+        Self::factor(
+            symbolic,
+            SparseColMatRef::new(pattern.symbolic(), values),
+            par,
+        )
+    }
+
+    fn factor(
+        symbolic: &SymbolicFactor,
+        a: SparseColMatRef<'_, usize, f64>,
+        par: Par,
+    ) -> Option<Self> {
         let sym = &symbolic.inner;
         if sym.nrows() != a.nrows() {
             return None;
@@ -562,7 +599,7 @@ impl SparseCholesky {
         let mut mem = MemBuffer::try_new(req).ok()?;
         sym.factorize_numeric_llt(
             &mut values,
-            a.as_ref(),
+            a,
             Side::Lower,
             Default::default(),
             par,
@@ -577,7 +614,9 @@ impl SparseCholesky {
             par,
         };
         let z = Xorshift(0x2545_f491_4f6c_dd1d).block(a.nrows(), 1);
-        let mut x = sparse_mul(a, &z);
+        // A z (as `sparse_mul`)
+        let mut x = DMatrix::zeros(a.nrows(), 1);
+        mul_into(a, z.as_slice(), x.as_mut_slice(), 1, 1);
         f.solve_in_place(&mut x);
         let err = (x - &z).amax() / z.amax();
         (err <= SINGULAR_PROBE_RTOL).then_some(f)
@@ -728,6 +767,28 @@ mod tests {
                 assert!(e < 1e-7, "{nodes} nodes, shape {j}: {e:e}");
             }
         }
+    }
+
+    #[test]
+    fn a_factor_from_other_values_on_a_pattern_is_that_matrix_s_factor() {
+        let (_, k) = beam(21, BoundaryCondition::ClampedFree);
+        let sym = SymbolicFactor::new(&k).unwrap();
+        // K scaled and shifted on its own pattern, against a copy holding these values
+        let vals: Vec<f64> = k.val().iter().map(|v| 2.0 * v).collect();
+        let mut copy = k.clone();
+        copy.val_mut().copy_from_slice(&vals);
+        let a = SparseCholesky::with_values(&sym, &k, &vals, Par::Seq).unwrap();
+        let b = SparseCholesky::with_symbolic(&sym, &copy, Par::Seq).unwrap();
+        assert_eq!(a.values, b.values);
+        let mut x = Xorshift(7).block(k.nrows(), 2);
+        let mut y = x.clone();
+        a.solve_in_place(&mut x);
+        b.solve_in_place(&mut y);
+        assert_eq!(x, y);
+        // wrong length, or not positive definite
+        assert!(SparseCholesky::with_values(&sym, &k, &vals[1..], Par::Seq).is_none());
+        let neg: Vec<f64> = vals.iter().map(|v| -v).collect();
+        assert!(SparseCholesky::with_values(&sym, &k, &neg, Par::Seq).is_none());
     }
 
     #[test]
