@@ -150,18 +150,9 @@ impl Setup {
         v
     }
 
-    fn checks(
-        &self,
-        harmonics: usize,
-        table_omega: Option<(f64, f64)>,
-        attachments: nlmode::reduced::AttachmentStates,
-        v: &mut Validity,
-    ) {
+    /// Check 1: every attachment's fixed-interface poles against the sweep.
+    fn quasi_steady_checks(&self, v: &mut Validity) {
         let w = &mut v.warnings;
-        if self.attachments.is_empty() {
-            return;
-        }
-        // 1. quasi-steady
         let rate = self.sweep.signed_rate_rad_s2().abs();
         let t_mod = 2.0 * self.d0 * self.omega0_rad_s / rate;
         let (w_lo, w_hi) = (
@@ -169,11 +160,7 @@ impl Setup {
             self.sweep.omega_start_rad_s.max(self.sweep.omega_end_rad_s),
         );
         let limit = QUASI_STEADY_FACTOR / t_mod;
-        // carried as states, a pole this close to the band is followed in time
-        // (a pole within 5 / T_mod is far inside the dynamic slow flow's
-        // `fast_pole_factor * Omega_max`)
-        let quasi_steady = attachments == nlmode::reduced::AttachmentStates::QuasiSteady;
-        for att in self.attachments.iter().filter(|_| quasi_steady) {
+        for att in &self.attachments {
             match att.fixed_interface_poles() {
                 Ok(poles) => {
                     // distance of s from the segment i [w_lo, w_hi] of the imaginary axis
@@ -201,6 +188,25 @@ impl Setup {
                 )),
             }
         }
+    }
+
+    fn checks(
+        &self,
+        harmonics: usize,
+        table_omega: Option<(f64, f64)>,
+        attachments: nlmode::reduced::AttachmentStates,
+        v: &mut Validity,
+    ) {
+        if self.attachments.is_empty() {
+            return;
+        }
+        // 1. quasi-steady (carried as states, a pole near the band is
+        // followed in time: within 5 / T_mod is far inside the dynamic slow
+        // flow's `fast_pole_factor * Omega_max`)
+        if attachments == nlmode::reduced::AttachmentStates::QuasiSteady {
+            self.quasi_steady_checks(v);
+        }
+        let w = &mut v.warnings;
         // 2./3. linear modes of the assembly
         let sys = match nlmode::reference::AssembledSystem::new(
             &self.model,

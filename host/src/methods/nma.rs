@@ -117,6 +117,25 @@ pub fn initial_slider_note(sc: &crate::scenario::Scenario) -> Option<String> {
 /// "auto"` the order is chosen by [`nlmode::nma::auto_harmonics`].
 ///
 /// [`RefineOptions`]: nlmode::nma::RefineOptions
+/// The structure's other linear modes at the table's points, for residual
+/// modes (`[slowflow] residual_modes`), with the structure's damping also
+/// for a conservative table.
+fn linear_modes(
+    setup: &Setup,
+    basis: &nlmode::nma::modal_basis::ModalBasis,
+    res: &nlmode::nma::NmaResult,
+    conservative: bool,
+) -> Option<nlmode::nma::LinearModes> {
+    use nlmode::nma::modal_basis::ModalBasis;
+    if conservative {
+        ModalBasis::new(&setup.model, false)
+            .ok()
+            .and_then(|b| b.linear_modes(&setup.model, res.mode_index, &res.point_names))
+    } else {
+        basis.linear_modes(&setup.model, res.mode_index, &res.point_names)
+    }
+}
+
 pub fn nma_table(
     setup: &Setup,
     sc: &crate::scenario::Scenario,
@@ -204,15 +223,7 @@ pub fn nma_table(
         },
     };
     warnings.extend(res.warnings.iter().map(|w| format!("nma: {w}")));
-    // the other linear modes, for residual modes (`[slowflow] residual_modes`),
-    // with the structure's damping also for a conservative table
-    let linear_modes = if conservative {
-        ModalBasis::new(&setup.model, false)
-            .ok()
-            .and_then(|b| b.linear_modes(&setup.model, res.mode_index, &res.point_names))
-    } else {
-        basis.linear_modes(&setup.model, res.mode_index, &res.point_names)
-    };
+    let linear_modes = linear_modes(setup, &basis, &res, conservative);
     let table = res
         .refined_table(
             &setup.model,
