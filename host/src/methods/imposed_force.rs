@@ -99,7 +99,7 @@ fn forces(ctx: &RunContext) -> Result<Vec<ForceEnvelope>> {
     let per_exciter = |r: &MethodResult, key: &str| -> Result<Vec<ForceEnvelope>> {
         let cols = results::envelope_columns(r);
         let picked = results::pick_columns(&cols, &columns).context(key.to_string())?;
-        Ok(results::exciter_force_envelopes(&picked).context(key.to_string())?)
+        results::exciter_force_envelopes(&picked).context(key.to_string())
     };
     match &ctx.sc.imposed_force.source {
         ForceSource::Nlmode => {

@@ -64,8 +64,6 @@ impl Default for ImposedForceSpec {
     }
 }
 
-/// Integration of the slow flow (`nlmode`, `linear-slowflow`, `imposed-force`).
-
 impl ImposedForceSpec {
     /// Check the imposed force's options.
     pub(crate) fn validate(&self) -> Result<(), ScenarioError> {
