@@ -382,9 +382,13 @@ impl ReducedModel {
             return out;
         };
         let modes = &res.modes;
+        // the modal forces phi_r^T F of the residual modes, then
+        // sum_r phi_r(target) h_r(Omega) phi_r^T F: each h_r once
+        let mut g = [Complex64::new(0.0, 0.0); crate::table::MAX_LINEAR_MODES];
+        let g = &mut g[..modes.len()];
         let mut add = |point: usize, force: Complex64| {
-            for (o, &p) in out.iter_mut().zip(&targets) {
-                *o += modes.receptance(p, point, omega_rad_s) * force;
+            for (r, g) in g.iter_mut().enumerate() {
+                *g += modes.shapes[point][r] * force;
             }
         };
         if let Some(port) = self.ports.first() {
@@ -399,6 +403,12 @@ impl ReducedModel {
         }
         for (imp, &f) in self.imposed.iter().zip(imposed.forces()) {
             add(imp.point, f);
+        }
+        for (r, g) in g.iter().enumerate() {
+            let hg = modes.modal(r, omega_rad_s).0 * g;
+            for (o, &p) in out.iter_mut().zip(&targets) {
+                *o += modes.shapes[p][r] * hg;
+            }
         }
         out
     }
@@ -473,6 +483,23 @@ mod tests {
         t.linear_modes = None;
         let e = ResidualModes::from_table(&t, 1).unwrap_err().to_string();
         assert!(e.contains("no linear modes"), "{e}");
+    }
+
+    #[test]
+    fn absurd_table_values_are_refused_not_stepped_into_nan() {
+        for (z, w) in [
+            (1e300, 600.0),
+            (0.02, 1e300),
+            (-0.1, 600.0),
+            (f64::NAN, 600.0),
+        ] {
+            let mut t = table(1);
+            let lm = t.linear_modes.as_mut().unwrap();
+            lm.damping_ratio[0] = z;
+            lm.omega_rad_s[0] = w;
+            let e = ResidualModes::from_table(&t, 1).unwrap_err().to_string();
+            assert!(e.contains("linear_modes."), "{e}");
+        }
     }
 
     #[test]

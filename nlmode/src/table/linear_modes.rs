@@ -31,6 +31,14 @@ pub struct LinearModeShape {
 /// far above any band a single nonlinear mode describes).
 pub const MAX_LINEAR_MODES: usize = 50;
 
+/// Largest natural frequency of a stored linear mode \[rad/s\] (far above any
+/// structural mode; bounds `omega^2 zeta^2` in the residual modes' exact
+/// stepping, so that no input overflows it to NaN).
+pub const MAX_OMEGA_RAD_S: f64 = 1e9;
+/// Largest damping ratio of a stored linear mode (an over-damped mode beyond it
+/// is a static flexibility; the bound keeps the stepping finite).
+pub const MAX_DAMPING_RATIO: f64 = 1e3;
+
 impl LinearModes {
     /// Number of modes.
     pub fn len(&self) -> usize {
@@ -71,13 +79,23 @@ impl LinearModes {
         };
         for (r, &w) in self.omega_rad_s.iter().enumerate() {
             let prev = if r == 0 { 0.0 } else { self.omega_rad_s[r - 1] };
-            if !(w.is_finite() && w > 0.0 && w >= prev) {
-                return bad("linear_modes.omega_rad_s (ascending)", r, w, " positive");
+            if !(w.is_finite() && w > 0.0 && w >= prev && w <= MAX_OMEGA_RAD_S) {
+                return bad(
+                    "linear_modes.omega_rad_s (ascending)",
+                    r,
+                    w,
+                    " positive (at most 1e9 rad/s)",
+                );
             }
         }
         for (r, &z) in self.damping_ratio.iter().enumerate() {
-            if !(z.is_finite() && z >= 0.0) {
-                return bad("linear_modes.damping_ratio", r, z, " non-negative");
+            if !(z.is_finite() && (0.0..=MAX_DAMPING_RATIO).contains(&z)) {
+                return bad(
+                    "linear_modes.damping_ratio",
+                    r,
+                    z,
+                    " non-negative (at most 1e3)",
+                );
             }
         }
         if self.points.len() != points.len()
