@@ -10,12 +10,15 @@ use serde::Serialize;
 
 /// The `[slowflow]` setting that addresses a fired validity check.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-#[serde(tag = "remedy", rename_all = "kebab-case")]
+#[serde(tag = "remedy")]
 pub enum Remedy {
-    /// `[slowflow] attachments = "dynamic"`: the attachment's states carried.
+    /// `[slowflow] attachments = "dynamic"`: the attachment's states carried
+    /// (`"remedy": "dynamic"`, the spelling).
+    #[serde(rename = "dynamic")]
     DynamicAttachments { attachment: String },
     /// `[slowflow] residual_modes`: the structure's other modes beside the
-    /// nonlinear mode.
+    /// nonlinear mode (`"remedy": "residual_modes"`).
+    #[serde(rename = "residual_modes")]
     ResidualModes { check: String },
 }
 

@@ -87,7 +87,7 @@ fn lightly_damped_tmd_needs_its_states_in_the_slow_flow() {
     let remedies = json["remedies"].as_array().unwrap();
     eprintln!("remedies: {remedies:?}");
     assert!(
-        remedies.iter().any(|r| r["remedy"] == "dynamic-attachments"
+        remedies.iter().any(|r| r["remedy"] == "dynamic"
             && r["attachment"] == "tmd"
             && r["setting"] == "[slowflow] attachments = \"dynamic\""
             && r["result"] == "nlmode-dynamic"),
