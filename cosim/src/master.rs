@@ -1,5 +1,6 @@
-//! Co-simulation master for FMI 2.0 Co-Simulation FMUs connected by a list of
-//! scalar Real connections `unit.output -> unit.input`.
+//! Co-simulation master for FMI 2.0 and FMI 3.0 Co-Simulation FMUs (mixed
+//! freely: `fmi2-import` drives both through one `Instance`) connected by a
+//! list of scalar Real (`Float64`) connections `unit.output -> unit.input`.
 //!
 //! ## Notation
 //! Macro step `h` from `t_n` to `t_{n+1} = t0 + (n+1) h` (time is counted, not
@@ -41,8 +42,12 @@
 //!   unit with inputs linear from `y(t_n)` to `Y` and reads `G(Y)`, the
 //!   outputs at `t_{n+1}`. The interface residual `R(Y) = G(Y) - Y` is driven
 //!   to zero by a quasi-Newton iteration `Y <- Y - J^{-1} R` whose Jacobian
-//!   `J = dR/dY` is built by finite differences on the first step (and again
-//!   whenever the iteration stalls) and kept up to date by Broyden's ("good")
+//!   `J = dR/dY` is built on the first step from the units' directional
+//!   derivatives where the FMUs provide them (FMI 3.0
+//!   `fmi3GetDirectionalDerivative`: `J = D - I` with `D` the direct
+//!   feedthrough of each unit's connected outputs on its connected inputs; no
+//!   extra evaluation), otherwise, and again whenever the iteration stalls,
+//!   by finite differences and kept up to date by Broyden's ("good")
 //!   rank-one update; it carries over from step to step, so a converged step
 //!   usually costs two evaluations.
 use std::time::Instant;
@@ -242,9 +247,13 @@ pub struct MasterStats {
     pub steps: usize,
     /// Unit step evaluations (every `fmi2DoStep` call, rollbacks included).
     pub do_steps: usize,
-    /// Iterative coupling: interface evaluations and Jacobian rebuilds.
+    /// Iterative coupling: interface evaluations and Jacobian rebuilds by
+    /// finite differences.
     pub evaluations: usize,
     pub jacobian_builds: usize,
+    /// Iterative coupling: Jacobians built from the units' directional
+    /// derivatives (no extra evaluation).
+    pub directional_jacobians: usize,
 }
 
 /// The master over a set of units and connections.
@@ -267,6 +276,9 @@ pub struct Master {
     buf: Vec<f64>,
     orders: Vec<i32>,
     jac: Option<DMatrix<f64>>,
+    /// Iterative coupling: the units asked for directional derivatives when
+    /// a Jacobian is built (`None`: finite differences only).
+    directional: Option<Vec<bool>>,
     stepped: Vec<bool>,
     pub stats: MasterStats,
 }
@@ -372,6 +384,45 @@ fn resolve_links(
     Ok((links, feeds))
 }
 
+/// Which units the iterative master asks for directional derivatives
+/// (`fmi3GetDirectionalDerivative`) of their connected outputs with respect
+/// to their connected inputs: those that provide them (FMI 3.0 with
+/// `providesDirectionalDerivatives`) and have both. `None` when a unit has a
+/// direct dependency between a connected output and input (its
+/// `<ModelStructure>`) but does not provide them: the Jacobian is then built
+/// by finite differences. A unit without such a dependency contributes zero.
+fn directional_units(us: &[Unit], links: &[Link]) -> Option<Vec<bool>> {
+    let mut ask = vec![false; us.len()];
+    for (ui, u) in us.iter().enumerate() {
+        let md = &u.fmu.md;
+        let index = |vr: u32| md.variables.iter().position(|v| v.value_reference == vr);
+        let outs: Vec<usize> = links
+            .iter()
+            .filter(|l| l.src == ui)
+            .filter_map(|l| index(l.src_vr))
+            .collect();
+        let ins: Vec<usize> = links
+            .iter()
+            .filter(|l| l.dst == ui)
+            .filter_map(|l| index(l.dst_vr))
+            .collect();
+        if outs.is_empty() || ins.is_empty() {
+            continue;
+        }
+        let provides = u.inst.version() == crate::import::Version::Fmi3
+            && md.co_simulation.provides_directional_derivative;
+        let feedthrough = outs
+            .iter()
+            .any(|&o| ins.iter().any(|&i| md.output_depends_on(o, i)));
+        if provides {
+            ask[ui] = true;
+        } else if feedthrough {
+            return None;
+        }
+    }
+    ask.iter().any(|&a| a).then_some(ask)
+}
+
 /// Exchange order: Kahn's topological sort on direct feedthrough (`feeds`
 /// of [`resolve_links`]), stable in the given unit order; units in an
 /// algebraic loop keep their order.
@@ -447,6 +498,7 @@ impl Master {
                 }
             }
         }
+        let directional = directional_units(&us, &links);
         let nc = links.len();
         let nunits = us.len();
         let nmax = links.len().max(1);
@@ -468,6 +520,7 @@ impl Master {
             buf: vec![0.0; nmax],
             orders: vec![1; nmax],
             jac: None,
+            directional,
             stepped: vec![false; nunits],
             stats: MasterStats::default(),
         })
@@ -743,6 +796,40 @@ impl Master {
         Ok(j)
     }
 
+    /// `J = dR/dY = D - I` from the units' directional derivatives at the
+    /// current point (after an evaluation): `D[c][d]` is the partial
+    /// derivative of link `c`'s source output with respect to link `d`'s
+    /// input when both belong to one unit (its direct feedthrough, e.g. the
+    /// shaker's `dF/dx = -k_s`), zero otherwise. This neglects the change of
+    /// the states over one step (order `h`), which Broyden's update then
+    /// corrects; a stalled iteration rebuilds by finite differences.
+    fn directional_jacobian(&mut self, ask: &[bool]) -> Result<DMatrix<f64>, MasterError> {
+        let nc = self.links.len();
+        let mut j = -DMatrix::<f64>::identity(nc, nc);
+        for (ui, unit) in self.units.iter_mut().enumerate() {
+            if !ask[ui] {
+                continue;
+            }
+            let outs: Vec<usize> = (0..nc).filter(|&c| self.links[c].src == ui).collect();
+            let ins: Vec<usize> = (0..nc).filter(|&d| self.links[d].dst == ui).collect();
+            let unknowns: Vec<u32> = outs.iter().map(|&c| self.links[c].src_vr).collect();
+            let knowns: Vec<u32> = ins.iter().map(|&d| self.links[d].dst_vr).collect();
+            let mut seed = vec![0.0; ins.len()];
+            let mut sens = vec![0.0; outs.len()];
+            for (k, &d) in ins.iter().enumerate() {
+                seed.fill(0.0);
+                seed[k] = 1.0;
+                unit.inst
+                    .directional_derivative(&unknowns, &knowns, &seed, &mut sens)?;
+                for (i, &c) in outs.iter().enumerate() {
+                    j[(c, d)] += sens[i];
+                }
+            }
+        }
+        self.stats.directional_jacobians += 1;
+        Ok(j)
+    }
+
     fn iterate(&mut self, t: f64, h: f64) -> Result<(), MasterError> {
         let nc = self.links.len();
         for u in &mut self.units {
@@ -753,6 +840,8 @@ impl Master {
         self.evaluate(t, h, &guess, false)?;
         let mut r = self.residual(&guess);
         let mut rebuilt = false;
+        // the directional-derivative Jacobian is tried once per step, first
+        let mut directional_tried = false;
         let mut it = 0;
         loop {
             let rn = self.rel_norm(&r, &guess);
@@ -771,9 +860,17 @@ impl Master {
                 it = 0;
             }
             if self.jac.is_none() {
-                let j = self.fd_jacobian(t, h, &guess, &r)?;
+                let j = match self.directional.clone() {
+                    Some(ask) if !directional_tried => {
+                        directional_tried = true;
+                        self.directional_jacobian(&ask)?
+                    }
+                    _ => {
+                        rebuilt = true;
+                        self.fd_jacobian(t, h, &guess, &r)?
+                    }
+                };
                 self.jac = Some(j);
-                rebuilt = true;
             }
             let j = self.jac.as_ref().expect("built above");
             let Some(dx) = j.clone().lu().solve(&(-&r)) else {

@@ -50,7 +50,7 @@ pub enum FmuError {
     },
     #[error("{path}: no modelDescription.xml at the archive root")]
     NoModelDescription { path: PathBuf },
-    #[error("FMU '{model}': binary {path} is missing (platform linux64, modelIdentifier '{identifier}')")]
+    #[error("FMU '{model}': binary {path} is missing (modelIdentifier '{identifier}', this platform's folder)")]
     MissingBinary {
         model: String,
         identifier: String,
@@ -63,12 +63,15 @@ pub enum FmuError {
     },
     #[error("{path}: missing FMI function {name}")]
     Symbol { path: PathBuf, name: &'static str },
-    #[error("{path}: fmi2GetVersion returns \"{found}\", expected \"2.0\"")]
-    BinaryVersion { path: PathBuf, found: String },
-    #[error(
-        "fmi2Instantiate of '{instance}' (model '{model}', GUID {guid}) failed; FMU log: {log}"
-    )]
+    #[error("{path}: fmi*GetVersion returns \"{found}\", expected \"{expected}\" (the modelDescription's fmiVersion)")]
+    BinaryVersion {
+        path: PathBuf,
+        found: String,
+        expected: &'static str,
+    },
+    #[error("{function} of '{instance}' (model '{model}', GUID {guid}) failed; FMU log: {log}")]
     Instantiate {
+        function: &'static str,
         instance: String,
         model: String,
         guid: String,

@@ -1,6 +1,10 @@
-//! FMI 2.0 Co-Simulation import: unpack a `.fmu`, read its
-//! `modelDescription.xml`, load `binaries/linux64/<modelIdentifier>.so` and
-//! drive instances through the C API.
+//! FMI 2.0 and FMI 3.0 Co-Simulation import: unpack a `.fmu`, read its
+//! `modelDescription.xml` (either version, into one schema), load
+//! `binaries/linux64/<modelIdentifier>.so` (FMI 2.0) or
+//! `binaries/x86_64-linux/<modelIdentifier>.so` (FMI 3.0) and drive instances
+//! through the C API with the same [`Instance`] calls ([`Version`] tells
+//! which; FMI 3.0 without event mode, early return or intermediate update,
+//! and with `fmi3GetDirectionalDerivative` for masters that use it).
 //!
 //! Together with `fmi2-export` the only crate with `unsafe` code and FFI. The
 //! rules it keeps:
@@ -43,5 +47,5 @@ pub use fmi2::schema::{
     Causality, CoSimCapabilities, DefaultExperiment, ModelDescription, Problem, ScalarVariable,
     SchemaError, Unknown, VarType, Variability,
 };
-pub use instance::{Fmu, Instance};
+pub use instance::{Fmu, Instance, Version};
 pub use logger::LogRecord;

@@ -1,6 +1,8 @@
-//! The FMU log: the C shim `csrc/logger.c` (the FMI logger is C-variadic,
-//! which stable Rust cannot define) formats each message and hands it to
-//! [`host_fmi2_log_message`], which keeps the instance's recent messages.
+//! The FMU log: for FMI 2.0 the C shim `csrc/logger.c` (the FMI 2.0 logger
+//! is C-variadic, which stable Rust cannot define) formats each message and
+//! hands it to [`host_fmi2_log_message`]; FMI 3.0 calls
+//! [`host_fmi3_log_message`] with the message formatted. Both keep the
+//! instance's recent messages.
 use std::collections::VecDeque;
 use std::ffi::{c_char, c_int, c_void, CStr};
 use std::sync::Mutex;
@@ -60,7 +62,7 @@ pub unsafe extern "C" fn host_fmi2_log_message(
     // Never unwind into C.
     let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let rec = LogRecord {
-            status: status_name(status),
+            status: status_name("fmi2", status),
             category,
             message,
         };
@@ -72,9 +74,56 @@ pub unsafe extern "C" fn host_fmi2_log_message(
     }));
 }
 
-/// The standard's name of a status received as a plain `int`.
-pub(crate) fn status_name(s: c_int) -> &'static str {
-    Status::from_raw(s).map_or("unknown status", Status::name)
+/// The FMI 3.0 logger (`fmi3LogMessageCallback`, not variadic): the
+/// message arrives formatted, the instance is the sink's.
+///
+/// # Safety
+/// `env` is the `LogSink` the instance was created with (or null); the strings
+/// are NUL-terminated or null.
+pub(crate) unsafe extern "C" fn host_fmi3_log_message(
+    env: *mut c_void,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+) {
+    let s = |p: *const c_char| {
+        if p.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr(p).to_string_lossy().into_owned()
+        }
+    };
+    let (category, message) = (s(category), s(message));
+    // Never unwind into C.
+    let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let rec = LogRecord {
+            status: status_name("fmi3", status),
+            category,
+            message,
+        };
+        if env.is_null() {
+            eprintln!("[fmu] {}: {}", rec.status, rec.message);
+        } else {
+            let sink = &*(env as *const LogSink);
+            sink.push(&sink.instance, rec);
+        }
+    }));
+}
+
+/// The standard's name of a status received as a plain `int`, for FMI
+/// version prefix `"fmi2"` or `"fmi3"` (the two enumerations agree on
+/// 0..=4; `fmi2Pending` has no FMI 3.0 counterpart).
+pub(crate) fn status_name(prefix: &str, s: c_int) -> &'static str {
+    let name = Status::from_raw(s).map_or("unknown status", Status::name);
+    match (prefix, s) {
+        ("fmi3", 0) => "fmi3OK",
+        ("fmi3", 1) => "fmi3Warning",
+        ("fmi3", 2) => "fmi3Discard",
+        ("fmi3", 3) => "fmi3Error",
+        ("fmi3", 4) => "fmi3Fatal",
+        ("fmi3", _) => "unknown status",
+        _ => name,
+    }
 }
 
 /// One message an FMU sent to the logger.
@@ -89,13 +138,15 @@ pub struct LogRecord {
 pub(crate) struct LogSink {
     pub(crate) records: Mutex<VecDeque<LogRecord>>,
     pub(crate) echo: bool,
+    /// The instance name (FMI 3.0 messages do not carry it).
+    pub(crate) instance: String,
 }
 
 pub(crate) const LOG_KEEP: usize = 64;
 
 impl LogSink {
     pub(crate) fn push(&self, instance: &str, rec: LogRecord) {
-        if self.echo && rec.status != "fmi2OK" {
+        if self.echo && !rec.status.ends_with("OK") {
             eprintln!(
                 "[fmu {instance}] {} ({}): {}",
                 rec.status, rec.category, rec.message

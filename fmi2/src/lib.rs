@@ -8,6 +8,8 @@
 //!   modelDescription.xml schema ([`ModelDescription::parse`], linear in the
 //!   size of the file) with [`ModelDescription::validate`] (fmpy-like problems
 //!   with the XML line);
+//! * [`schema3`]: the FMI 3.0 reader into the same types (scalar variables
+//!   a master exchanges; arrays and other types listed by name);
 //! * [`uri`]: `fmuResourceLocation` decoding;
 //! * [`archive`]: the deflated zip writer (an `.fmu` and an `.ssp` are zips);
 //! * [`file`]: bounded reading of regular files only (no pipe or device).
@@ -15,13 +17,14 @@
 pub mod archive;
 pub mod file;
 pub mod schema;
+pub mod schema3;
 pub mod types;
 pub mod uri;
 
 pub use archive::{write_zip, ZipWriteError};
 pub use file::{open_regular, read_regular, read_regular_to_string, FileError};
 pub use schema::{
-    Causality, CoSimCapabilities, DefaultExperiment, ModelDescription, Problem, ScalarVariable,
-    SchemaError, Unknown, VarType, Variability,
+    Causality, CoSimCapabilities, DefaultExperiment, ModelDescription, OtherVariable, Problem,
+    ScalarVariable, SchemaError, Unknown, VarType, Variability,
 };
 pub use types::Status;

@@ -58,7 +58,7 @@ impl Causality {
         }
     }
 
-    fn from_name(s: &str) -> Option<Self> {
+    pub(crate) fn from_name(s: &str) -> Option<Self> {
         Some(match s {
             "parameter" => Causality::Parameter,
             "calculatedParameter" => Causality::CalculatedParameter,
@@ -100,7 +100,7 @@ impl Variability {
         }
     }
 
-    fn from_name(s: &str) -> Option<Self> {
+    pub(crate) fn from_name(s: &str) -> Option<Self> {
         Some(match s {
             "constant" => Variability::Constant,
             "fixed" => Variability::Fixed,
@@ -125,7 +125,9 @@ impl PartialEq<&str> for Variability {
 pub enum SchemaError {
     #[error("modelDescription.xml line {line}: {message}")]
     Xml { line: usize, message: String },
-    #[error("modelDescription.xml: fmiVersion is \"{found}\", but this host imports FMI 2.0 only")]
+    #[error(
+        "modelDescription.xml: fmiVersion is \"{found}\", but this host imports FMI 2.0 and 3.0"
+    )]
     Version { found: String },
     #[error("modelDescription.xml of '{model}': no <CoSimulation> element (Model Exchange only?); the host needs FMI 2.0 Co-Simulation")]
     NoCoSimulation { model: String },
@@ -163,6 +165,19 @@ pub struct ScalarVariable {
     pub line: usize,
 }
 
+/// An FMI 3.0 variable outside [`ModelDescription::variables`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct OtherVariable {
+    pub name: String,
+    pub value_reference: u32,
+    /// The element (`Float32`, `UInt64`, `Binary`, `Clock`, ...).
+    pub element: String,
+    /// Whether it has `<Dimension>` children (an array).
+    pub array: bool,
+    pub causality: Causality,
+    pub line: usize,
+}
+
 /// The `<CoSimulation>` capabilities.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct CoSimCapabilities {
@@ -175,6 +190,12 @@ pub struct CoSimCapabilities {
     pub provides_directional_derivative: bool,
     pub needs_execution_tool: bool,
     pub can_be_instantiated_only_once_per_process: bool,
+    /// FMI 3.0 `providesIntermediateUpdate` (false in FMI 2.0).
+    pub provides_intermediate_update: bool,
+    /// FMI 3.0 `mightReturnEarlyFromDoStep` (false in FMI 2.0).
+    pub might_return_early_from_do_step: bool,
+    /// FMI 3.0 `hasEventMode` (false in FMI 2.0).
+    pub has_event_mode: bool,
 }
 
 /// The `<ModelExchange>` capabilities (present when the FMU also provides
@@ -223,7 +244,14 @@ pub struct ModelDescription {
     /// `numberOfEventIndicators` of the root element (0 when absent).
     pub number_of_event_indicators: usize,
     pub default_experiment: DefaultExperiment,
+    /// The scalar variables of the types a master exchanges (FMI 3.0:
+    /// `Float64` as `Real`, `Int32` as `Integer`, `Boolean`, `String`,
+    /// `Enumeration`), in the file's order.
     pub variables: Vec<ScalarVariable>,
+    /// FMI 3.0 variables of other types or with dimensions (arrays), which
+    /// this importer does not exchange: named so that a connection to one is
+    /// refused with what it is. Empty for FMI 2.0.
+    pub other_variables: Vec<OtherVariable>,
     pub outputs: Vec<Unknown>,
     pub derivatives: Vec<Unknown>,
     pub initial_unknowns: Vec<Unknown>,
@@ -248,14 +276,22 @@ impl std::fmt::Display for Problem {
 
 /// Byte offset -> line number, advanced monotonically (the parser reads
 /// forward), so that all line numbers together cost one pass over the text.
-struct Lines<'a> {
+pub(crate) struct Lines<'a> {
     text: &'a [u8],
     pos: usize,
     line: usize,
 }
 
 impl Lines<'_> {
-    fn at(&mut self, pos: usize) -> usize {
+    pub(crate) fn new(text: &str) -> Lines<'_> {
+        Lines {
+            text: text.as_bytes(),
+            pos: 0,
+            line: 1,
+        }
+    }
+
+    pub(crate) fn at(&mut self, pos: usize) -> usize {
         let end = pos.min(self.text.len());
         if end < self.pos {
             // never happens for forward reading; stay correct anyway
@@ -271,7 +307,7 @@ impl Lines<'_> {
     }
 }
 
-fn parse_bool(v: &str, attr: &str, line: usize) -> Result<bool> {
+pub(crate) fn parse_bool(v: &str, attr: &str, line: usize) -> Result<bool> {
     match v {
         "true" | "1" => Ok(true),
         "false" | "0" => Ok(false),
@@ -282,7 +318,12 @@ fn parse_bool(v: &str, attr: &str, line: usize) -> Result<bool> {
     }
 }
 
-fn parse_num<T: std::str::FromStr>(v: &str, attr: &str, line: usize, what: &str) -> Result<T> {
+pub(crate) fn parse_num<T: std::str::FromStr>(
+    v: &str,
+    attr: &str,
+    line: usize,
+    what: &str,
+) -> Result<T> {
     v.trim().parse::<T>().map_err(|_| SchemaError::Xml {
         line,
         message: format!("attribute {attr}=\"{v}\": expected {what}"),
@@ -290,7 +331,7 @@ fn parse_num<T: std::str::FromStr>(v: &str, attr: &str, line: usize, what: &str)
 }
 
 /// Attributes of an element as (name, unescaped value).
-fn attrs(e: &BytesStart<'_>, line: usize) -> Result<Vec<(String, String)>> {
+pub(crate) fn attrs(e: &BytesStart<'_>, line: usize) -> Result<Vec<(String, String)>> {
     let mut out = Vec::new();
     for a in e.attributes() {
         let a = a.map_err(|err| SchemaError::Xml {
@@ -310,7 +351,7 @@ fn attrs(e: &BytesStart<'_>, line: usize) -> Result<Vec<(String, String)>> {
     Ok(out)
 }
 
-fn get<'a>(a: &'a [(String, String)], k: &str) -> Option<&'a str> {
+pub(crate) fn get<'a>(a: &'a [(String, String)], k: &str) -> Option<&'a str> {
     a.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str())
 }
 
@@ -342,7 +383,7 @@ fn type_element(name: &str) -> Option<VarType> {
 }
 
 /// The attributes of `<DefaultExperiment>`.
-fn default_experiment(a: &[(String, String)], line: usize) -> Result<DefaultExperiment> {
+pub(crate) fn default_experiment(a: &[(String, String)], line: usize) -> Result<DefaultExperiment> {
     let f = |k: &str| -> Result<Option<f64>> {
         get(a, k)
             .map(|v| parse_num::<f64>(v, k, line, "a number"))
@@ -356,72 +397,142 @@ fn default_experiment(a: &[(String, String)], line: usize) -> Result<DefaultExpe
     })
 }
 
+/// One element event of [`walk`].
+pub(crate) enum Walk<'a> {
+    /// A start or empty element: its parent's local name (`""` at the root),
+    /// its local name, its attributes and line.
+    Start {
+        parent: &'a str,
+        name: &'a str,
+        attrs: Vec<(String, String)>,
+        line: usize,
+        empty: bool,
+    },
+    /// The end of a (non-empty) element.
+    End { name: &'a str, line: usize },
+}
+
+/// The `fmiVersion` of the root element, if the file starts with one (the
+/// parser of that version then reads the whole file).
+fn root_version(text: &str) -> Option<String> {
+    let mut reader = quick_xml::Reader::from_str(text);
+    loop {
+        match reader.read_event() {
+            Ok(Event::Start(e)) | Ok(Event::Empty(e)) => {
+                let a = attrs(&e, 0).ok()?;
+                return get(&a, "fmiVersion").map(|v| v.trim().to_string());
+            }
+            Ok(Event::Eof) | Err(_) => return None,
+            _ => {}
+        }
+    }
+}
+
+/// Read `text` in one pass (quick-xml, line numbers counted incrementally)
+/// and hand every element start and end to `visit`; malformed XML, a root
+/// other than `<fmiModelDescription>` and a file that ends inside an element
+/// are [`SchemaError::Xml`] with the line. Shared by the FMI 2.0 and FMI 3.0
+/// readers.
+pub(crate) fn walk(text: &str, mut visit: impl FnMut(Walk<'_>) -> Result<()>) -> Result<()> {
+    let mut reader = quick_xml::Reader::from_str(text);
+    reader.config_mut().trim_text(true);
+    let mut lines = Lines::new(text);
+    let mut stack: Vec<String> = Vec::new();
+    loop {
+        let pos = reader.buffer_position() as usize;
+        let ev = match reader.read_event() {
+            Ok(ev) => ev,
+            Err(e) => {
+                let at = (reader.error_position() as usize).max(pos);
+                return Err(SchemaError::Xml {
+                    line: lines.at(at),
+                    message: e.to_string(),
+                });
+            }
+        };
+        // The event starts at the first non-blank byte after `pos`.
+        let start = pos
+            + text.as_bytes()[pos.min(text.len())..]
+                .iter()
+                .take_while(|b| b.is_ascii_whitespace())
+                .count();
+        let line = lines.at(start);
+        let (e, empty) = match &ev {
+            Event::Start(e) => (e.clone(), false),
+            Event::Empty(e) => (e.clone(), true),
+            Event::End(_) => {
+                let name = stack.pop().unwrap_or_default();
+                visit(Walk::End { name: &name, line })?;
+                continue;
+            }
+            Event::Eof => break,
+            _ => continue,
+        };
+        let name = String::from_utf8_lossy(e.local_name().as_ref()).into_owned();
+        let a = attrs(&e, line)?;
+        let parent = stack.last().map(String::as_str).unwrap_or("");
+        if parent.is_empty() && name != "fmiModelDescription" {
+            return Err(SchemaError::Xml {
+                line,
+                message: format!("root element is <{name}>, expected <fmiModelDescription>"),
+            });
+        }
+        visit(Walk::Start {
+            parent,
+            name: &name,
+            attrs: a,
+            line,
+            empty,
+        })?;
+        if !empty {
+            stack.push(name);
+        }
+    }
+    if let Some(open) = stack.last() {
+        // quick-xml accepts a document that ends inside an element
+        return Err(SchemaError::Xml {
+            line: lines.at(text.len()),
+            message: format!("end of file inside <{open}>: the element is not closed"),
+        });
+    }
+    Ok(())
+}
+
 impl ModelDescription {
-    /// Parse the text of a `modelDescription.xml`. Malformed XML and invalid
-    /// attributes are [`SchemaError::Xml`] with the line; a version other than
-    /// 2.0 is [`SchemaError::Version`]; a missing `<CoSimulation>` is
+    /// Parse the text of a `modelDescription.xml` of FMI 2.0 or FMI 3.0 (the
+    /// latter read by [`crate::schema3`] into the same types). Malformed XML
+    /// and invalid attributes are [`SchemaError::Xml`] with the line; another
+    /// version is [`SchemaError::Version`]; a missing `<CoSimulation>` is
     /// [`SchemaError::NoCoSimulation`].
     pub fn parse(text: &str) -> Result<Self> {
-        let mut reader = quick_xml::Reader::from_str(text);
-        reader.config_mut().trim_text(true);
-        let mut lines = Lines {
-            text: text.as_bytes(),
-            pos: 0,
-            line: 1,
-        };
+        if root_version(text).is_some_and(|v| v.starts_with("3.")) {
+            return crate::schema3::parse(text);
+        }
         let mut md = ModelDescription::default();
         let mut has_root = false;
         let mut has_cs = false;
-        let mut stack: Vec<String> = Vec::new();
         let mut current: Option<PendingVariable> = None;
         let mut names = std::collections::HashSet::new();
-        loop {
-            let pos = reader.buffer_position() as usize;
-            let ev = match reader.read_event() {
-                Ok(ev) => ev,
-                Err(e) => {
-                    let at = (reader.error_position() as usize).max(pos);
-                    return Err(SchemaError::Xml {
-                        line: lines.at(at),
-                        message: e.to_string(),
-                    });
-                }
-            };
-            // The event starts at the first non-blank byte after `pos`.
-            let start = pos
-                + text.as_bytes()[pos.min(text.len())..]
-                    .iter()
-                    .take_while(|b| b.is_ascii_whitespace())
-                    .count();
-            let line = lines.at(start);
-            let (e, empty) = match &ev {
-                Event::Start(e) => (e.clone(), false),
-                Event::Empty(e) => (e.clone(), true),
-                Event::End(_) => {
-                    let name = stack.pop().unwrap_or_default();
+        walk(text, |ev| {
+            let (parent, name, a, line, empty) = match ev {
+                Walk::End { name, line } => {
                     if name == "ScalarVariable" {
                         md.finish_variable(current.take(), line, &mut names)?;
                     }
-                    continue;
+                    return Ok(());
                 }
-                Event::Eof => break,
-                _ => continue,
+                Walk::Start {
+                    parent,
+                    name,
+                    attrs: a,
+                    line,
+                    empty,
+                } => (parent, name, a, line, empty),
             };
-            let name = String::from_utf8_lossy(e.local_name().as_ref()).into_owned();
-            let a = attrs(&e, line)?;
-            let parent = stack.last().map(String::as_str).unwrap_or("");
-            match (parent, name.as_str()) {
+            match (parent, name) {
                 ("", "fmiModelDescription") => {
                     has_root = true;
                     md.root(&a, line)?;
-                }
-                ("", other) => {
-                    return Err(SchemaError::Xml {
-                        line,
-                        message: format!(
-                            "root element is <{other}>, expected <fmiModelDescription>"
-                        ),
-                    })
                 }
                 ("fmiModelDescription", "CoSimulation") => {
                     has_cs = true;
@@ -461,17 +572,8 @@ impl ModelDescription {
                 }
                 _ => {}
             }
-            if !empty {
-                stack.push(name);
-            }
-        }
-        if let Some(open) = stack.last() {
-            // quick-xml accepts a document that ends inside an element
-            return Err(SchemaError::Xml {
-                line: lines.at(text.len()),
-                message: format!("end of file inside <{open}>: the element is not closed"),
-            });
-        }
+            Ok(())
+        })?;
         if !has_root {
             return Err(SchemaError::Xml {
                 line: 1,
@@ -612,6 +714,19 @@ impl ModelDescription {
 
     /// The variable called `name`.
     pub fn variable(&self, name: &str) -> Result<&ScalarVariable> {
+        if let Some(o) = self.other_variables.iter().find(|v| v.name == name) {
+            return Err(SchemaError::WrongVariable {
+                model: self.model_name.clone(),
+                name: name.into(),
+                found: format!(
+                    "{}{} (line {})",
+                    o.element,
+                    if o.array { " array" } else { "" },
+                    o.line
+                ),
+                expected: "a scalar Float64, Int32, Boolean or String",
+            });
+        }
         self.variables
             .iter()
             .find(|v| v.name == name)
