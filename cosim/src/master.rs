@@ -197,6 +197,9 @@ pub struct MasterOptions {
     /// to the largest magnitude the connection has carried so far).
     pub iteration_rtol: f64,
     pub iteration_max: usize,
+    /// Iterative coupling: build the Jacobian from the units' directional
+    /// derivatives where they provide them (else finite differences only).
+    pub directional_derivatives: bool,
 }
 
 impl Default for MasterOptions {
@@ -208,6 +211,7 @@ impl Default for MasterOptions {
             order: None,
             iteration_rtol: 1e-6,
             iteration_max: 20,
+            directional_derivatives: true,
         }
     }
 }
@@ -498,7 +502,7 @@ impl Master {
                 }
             }
         }
-        let directional = directional_units(&us, &links);
+        let directional = directional_units(&us, &links).filter(|_| opts.directional_derivatives);
         let nc = links.len();
         let nunits = us.len();
         let nmax = links.len().max(1);

@@ -68,6 +68,7 @@ struct MasterSpec {
     algorithm: String,
     macro_step_s: f64,
     extrapolate: bool,
+    directional_derivatives: bool,
     start_time_s: f64,
     stop_time_s: f64,
     record_every: usize,
@@ -79,6 +80,7 @@ impl Default for MasterSpec {
             algorithm: "jacobi".into(),
             macro_step_s: 1e-5,
             extrapolate: true,
+            directional_derivatives: true,
             start_time_s: 0.0,
             stop_time_s: 1.0,
             record_every: 1,
@@ -179,6 +181,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<GenericSpec, SpecError> {
             algorithm,
             macro_step_s: m.macro_step_s,
             extrapolate: m.extrapolate,
+            directional_derivatives: m.directional_derivatives,
             ..Default::default()
         },
         start_time_s: m.start_time_s,

@@ -1,5 +1,5 @@
 //! `host cosim SPEC -o DIR`: the generic mode of the co-simulation master:
-//! any FMI 2.0 Co-Simulation FMUs, connections and parameters from a TOML file
+//! any FMI 2.0 or FMI 3.0 Co-Simulation FMUs (mixed freely), connections and parameters from a TOML file
 //! (format in `docs/cosim.md`, read by [`cosim::spec`]), recorded variables
 //! written to `cosim.csv`.
 use crate::results::write_csv;
@@ -20,8 +20,16 @@ pub fn cosim(path: &Path, out: &Path) -> Result<()> {
         cols.push(v);
     }
     write_csv(&out.join("cosim.csv"), &header, &cols)?;
+    let iterative = if g.options.algorithm == cosim::Algorithm::Iterative {
+        format!(
+            ", {} interface evaluations, Jacobians: {} by finite differences, {} from directional derivatives",
+            rec.stats.evaluations, rec.stats.jacobian_builds, rec.stats.directional_jacobians
+        )
+    } else {
+        String::new()
+    };
     println!(
-        "{} macro steps of {} s ({} unit steps) in {:.3} s; wrote {}",
+        "{} macro steps of {} s ({} unit steps{iterative}) in {:.3} s; wrote {}",
         rec.stats.steps,
         g.options.macro_step_s,
         rec.stats.do_steps,

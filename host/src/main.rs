@@ -62,7 +62,7 @@ enum Command {
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
     },
-    /// Generic co-simulation: any FMI 2.0 CS FMUs and connections from a TOML file (docs/cosim.md).
+    /// Generic co-simulation: any FMI 2.0 or 3.0 CS FMUs and connections from a TOML file (docs/cosim.md).
     Cosim {
         /// Co-simulation file (TOML).
         spec: PathBuf,
