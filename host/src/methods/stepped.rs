@@ -39,6 +39,14 @@ pub const STEP_COLUMNS: [&str; 11] = [
     "current_amplitude_A",
 ];
 
+/// The frequencies' range (the band the plant's carried attachment states
+/// are selected for).
+fn band(omegas: &[f64]) -> (f64, f64) {
+    omegas
+        .iter()
+        .fold((f64::INFINITY, 0.0), |(lo, hi), &w| (lo.min(w), hi.max(w)))
+}
+
 fn omegas(spec: &SteppedSpec, omega0: f64) -> Vec<f64> {
     let n = spec.steps;
     (0..n)
@@ -153,10 +161,18 @@ pub fn force_controlled(
     let force_set_n = stepped.force_set_n();
     let w0 = setup.omega0_rad_s;
     let t0 = Instant::now();
-    let mut p = plant(setup, sc, table, stepped.model, stepped.samples_per_period)?;
+    let ws = omegas(stepped, w0);
+    let mut p = plant(
+        setup,
+        sc,
+        table,
+        stepped.model,
+        stepped.samples_per_period,
+        band(&ws),
+    )?;
     let res = force_controlled_stepped_sine(
         p.as_plant(),
-        &omegas(stepped, w0),
+        &ws,
         force_set_n,
         stepped.voltage_start_v,
         &stepped.control,
@@ -220,10 +236,18 @@ pub fn response_controlled(
     let mut results = Vec::with_capacity(stepped.response_levels_m().len());
     let mut warns = Vec::new();
     for &x in stepped.response_levels_m() {
-        let mut p = plant(setup, sc, table, stepped.model, stepped.samples_per_period)?;
+        let ws = omegas(stepped, w0);
+        let mut p = plant(
+            setup,
+            sc,
+            table,
+            stepped.model,
+            stepped.samples_per_period,
+            band(&ws),
+        )?;
         let res = response_controlled_stepped_sine(
             p.as_plant(),
-            &omegas(stepped, w0),
+            &ws,
             x,
             stepped.voltage_start_v,
             &stepped.control,

@@ -181,3 +181,38 @@ fn residual_modes_bring_nlmode_closer_and_bad_counts_name_the_key() {
         &["slowflow.residual_modes", "dynamic"],
     );
 }
+
+/// The PLL's `nlmode` plant with `[slowflow] attachments = "dynamic"`: the
+/// TMD's slow mode (340 rad/s, inside the backbone's band) is carried
+/// (`summary.json` `attachment_states`), and since the carried states only
+/// change the transients, the settled levels are the quasi-steady plant's
+/// (the same steady state, `eq:NM`) within the loop's settling accuracy.
+/// The plant's transient itself is checked against the exact 2-DOF envelope
+/// in `nlmode/tests/it/dynamic.rs`.
+#[test]
+fn the_pll_plant_carries_the_tmd_states() {
+    let pll = |states: &str, name: &str| {
+        let text = format!(
+            "{TMD_CASE}[[exciter]]\nlocation = \"2l/3\"\n[run]\nmethods = [\"phase-resonance\"]\n\
+             [phase_resonance]\nmodel = \"nlmode\"\nvoltage_levels_v = [1.0, 2.0]\n\
+             [slowflow]\nattachments = \"{states}\"\n"
+        );
+        let c = run_text(&text, name);
+        c.results
+            .into_iter()
+            .find(|r| r.name == "phase-resonance")
+            .unwrap()
+    };
+    let (dynamic, quasi) = (pll("dynamic", "pll-dyn"), pll("quasi-steady", "pll-qs"));
+    let carried: Option<u64> = dynamic.summary.get("attachment_states");
+    assert_eq!(carried, Some(1), "{:?}", dynamic.summary.extra);
+    assert!(quasi.summary.get::<u64>("attachment_states").is_none());
+    let (d, q) = (&dynamic.envelope, &quasi.envelope);
+    assert_eq!(d.omega_rad_s.len(), 2);
+    for i in 0..2 {
+        let dw = (d.omega_rad_s[i] / q.omega_rad_s[i] - 1.0).abs();
+        let dx = (d.tip_amplitude_m[i] / q.tip_amplitude_m[i] - 1.0).abs();
+        eprintln!("level {i}: settled frequency {dw:.1e}, tip {dx:.1e} apart");
+        assert!(dw < 1e-4 && dx < 1e-3, "level {i}: {dw:e} {dx:e}");
+    }
+}

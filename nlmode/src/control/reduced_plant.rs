@@ -35,8 +35,29 @@
 //!   reference.
 //! - The coil current is not a state of the reduced model: it is not sampled
 //!   (reported as 0).
+//!
+//! # Attachment states ([`ReducedPlant::with_attachment_states`])
+//!
+//! With `[slowflow] attachments = "dynamic"` the attachments' slow internal
+//! states `y` (poles near the band; [`crate::reduced::dynamic`]) are carried
+//! beside `A`: over a period the pair `z = [A; y]` obeys the linear system
+//! with constant coefficients (frozen at the period's amplitude, as `K`)
+//!
+//! ```text
+//! A' = -i (phi^H f_ex(y) - K A) / (2 Omega),     y' = -P1 y - P2 U + p,   U = phi_G A,
+//! ```
+//!
+//! (the force on the structure taking `F_G = -Q1 U - Q2 y + q`), i.e.
+//! `z' = M z + b`, stepped exactly with the exponential of the augmented
+//! matrix `[[M, b], [0, 0]] T`. `M` and `b` are read off the slow flow's own
+//! right-hand side (affine in `z`: one evaluation at `z = 0` and one per
+//! unit vector), so the plant and the `dynamic` sweep integrate the same
+//! equations. A model whose attachments have no pole near the band carries
+//! nothing and is the quasi-steady plant bit for bit.
 use super::{ControlError, PeriodSamples, Plant};
+use crate::reduced::dynamic::StatePort;
 use crate::reduced::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
+use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 /// The single-nonlinear-mode model as a [`Plant`], from rest (`A = 0`).
@@ -59,6 +80,18 @@ pub struct ReducedPlant {
     phasors: Vec<Complex64>,
     /// Channels at `(Omega, U)` of the key (`f64` bits), and the imposed force there.
     channels: Option<((u64, u64), Vec<Complex64>, ImposedForces)>,
+    /// The attachments' carried states (module docs), if any.
+    carried: Option<Carried>,
+}
+
+/// The attachments whose slow states the plant carries, and the states.
+#[derive(Debug, Clone)]
+struct Carried {
+    ports: Vec<StatePort>,
+    /// Standard plus the ports' extra channels.
+    nch_total: usize,
+    /// The carried complex states, ports in order (zero from rest).
+    y: Vec<Complex64>,
 }
 
 /// Errors of the reduced model inside the controlled tests.
@@ -96,7 +129,56 @@ impl ReducedPlant {
             },
             phasors,
             channels: None,
+            carried: None,
         })
+    }
+
+    /// Carry the internal states of the attachments with a pole within
+    /// `fast_pole_factor * omega_hi_rad_s` of the band `[omega_lo_rad_s,
+    /// omega_hi_rad_s]` the test covers (`[slowflow] attachments =
+    /// "dynamic"`; module docs). Refused, naming the attachment, for one
+    /// given by its frequency response only or with a state without
+    /// dynamics. Without such a pole the plant stays the quasi-steady one.
+    pub fn with_attachment_states(
+        mut self,
+        omega_lo_rad_s: f64,
+        omega_hi_rad_s: f64,
+        fast_pole_factor: f64,
+    ) -> Result<Self, ControlError> {
+        let (lo, hi) = (omega_lo_rad_s, omega_hi_rad_s);
+        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi >= lo) {
+            return Err(ControlError::BadOption {
+                name: "omega band",
+                value: format!("[{lo}, {hi}] rad/s"),
+                expected: "0 < omega_lo <= omega_hi, finite",
+            });
+        }
+        if !(fast_pole_factor.is_finite() && fast_pole_factor > 0.0) {
+            return Err(ControlError::BadOption {
+                name: "fast_pole_factor",
+                value: fast_pole_factor.to_string(),
+                expected: "a positive number",
+            });
+        }
+        let ports = StatePort::select(&self.model, lo, hi, fast_pole_factor).map_err(reduced)?;
+        self.carried = if ports.is_empty() {
+            None
+        } else {
+            let ns = ports.iter().map(|p| p.ns).sum();
+            let nch_total = self.model.nch + ports.iter().map(StatePort::nextra).sum::<usize>();
+            Some(Carried {
+                ports,
+                nch_total,
+                y: vec![Complex64::new(0.0, 0.0); ns],
+            })
+        };
+        self.channels = None;
+        Ok(self)
+    }
+
+    /// Number of attachment states carried (0: the quasi-steady plant).
+    pub fn carried_states(&self) -> usize {
+        self.carried.as_ref().map_or(0, |c| c.y.len())
     }
 
     /// The complex modal amplitude `A = a e^{i theta}` now.
@@ -122,11 +204,16 @@ impl ReducedPlant {
             return Ok(());
         }
         let m = &self.model;
+        let n = self.carried.as_ref().map_or(m.nch, |c| c.nch_total);
         let mut ch = match self.channels.take() {
             Some((_, ch, _)) => ch,
-            None => vec![Complex64::new(0.0, 0.0); m.nch],
+            None => vec![Complex64::new(0.0, 0.0); n],
         };
-        m.fill_channels(omega, u, &mut ch).map_err(reduced)?;
+        m.fill_channels(omega, u, &mut ch[..m.nch])
+            .map_err(reduced)?;
+        for p in self.carried.iter().flat_map(|c| &c.ports) {
+            p.fill(m, omega, u, &mut ch).map_err(reduced)?;
+        }
         let fi = m.imposed_at(omega).map_err(reduced)?;
         self.channels = Some((key, ch, fi));
         Ok(())
@@ -153,6 +240,87 @@ impl ReducedPlant {
         let decay = (Complex64::new(0.0, 1.0) * k * (t / (2.0 * omega))).exp();
         let a_s = fm / k;
         Ok(a_s + (a0 - a_s) * decay)
+    }
+
+    /// `[A; y]` after one period from `(a0, y0)` with the linear system of
+    /// the module docs frozen at the amplitude `a`: `M`, `b` read off the
+    /// slow-flow right-hand side, stepped with the exponential of the
+    /// augmented matrix.
+    fn frozen_step_carried(
+        model: &ReducedModel,
+        carried: &Carried,
+        (ch, fi): (&[Complex64], ImposedForces),
+        (a0, y0): (Complex64, &[Complex64]),
+        a: f64,
+        omega: f64,
+    ) -> Result<(Complex64, Vec<Complex64>), ControlError> {
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        let props = model.gather(a, &mut phi).map_err(reduced)?;
+        let ns = y0.len();
+        let n = 1 + ns;
+        let zero = Complex64::new(0.0, 0.0);
+        let mut work = ch.to_vec();
+        let mut dy = vec![zero; ns];
+        // the right-hand side [A'; y'] at (amp, y): affine in both
+        let mut rhs = |amp: Complex64, y: &[Complex64], out: &mut [Complex64]| {
+            work.copy_from_slice(ch);
+            for p in &carried.ports {
+                let r = p.state_offset..p.state_offset + p.ns;
+                p.apply(model, &mut work, &phi, amp, &y[r.clone()], Some(&mut dy[r]));
+            }
+            let (k, fm, _) = model.terms_with(&props, &phi, omega, &work[..model.nch], fi);
+            out[0] = Complex64::new(0.0, -0.5 / omega) * (fm - k * amp);
+            out[1..].copy_from_slice(&dy);
+        };
+        let t = 2.0 * std::f64::consts::PI / omega;
+        // augmented [[M, b], [0, 0]] T
+        let mut e = DMatrix::<Complex64>::zeros(n + 1, n + 1);
+        let mut col = vec![zero; n];
+        let mut unit = vec![zero; ns];
+        rhs(zero, &unit, &mut col);
+        let b = col.clone();
+        for (i, bi) in b.iter().enumerate() {
+            e[(i, n)] = bi * t;
+        }
+        rhs(Complex64::new(1.0, 0.0), &unit, &mut col);
+        for i in 0..n {
+            e[(i, 0)] = (col[i] - b[i]) * t;
+        }
+        for j in 0..ns {
+            unit[j] = Complex64::new(1.0, 0.0);
+            rhs(zero, &unit, &mut col);
+            unit[j] = zero;
+            for i in 0..n {
+                e[(i, 1 + j)] = (col[i] - b[i]) * t;
+            }
+        }
+        let x = e.exp();
+        let mut z = vec![zero; n];
+        for (i, zi) in z.iter_mut().enumerate() {
+            *zi = x[(i, n)] + x[(i, 0)] * a0;
+            for j in 0..ns {
+                *zi += x[(i, 1 + j)] * y0[j];
+            }
+        }
+        Ok((z[0], z[1..].to_vec()))
+    }
+
+    /// The channels with each carried port's force channel including its
+    /// states (`q - Q2 y`), for [`Self::fundamentals`].
+    fn channels_with_states(
+        model: &ReducedModel,
+        carried: &Carried,
+        ch: &[Complex64],
+        amp: Complex64,
+    ) -> Result<Vec<Complex64>, ControlError> {
+        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        model.gather(amp.norm(), &mut phi).map_err(reduced)?;
+        let mut out = ch.to_vec();
+        for p in &carried.ports {
+            let r = p.state_offset..p.state_offset + p.ns;
+            p.apply(model, &mut out, &phi, amp, &carried.y[r], None);
+        }
+        Ok(out)
     }
 
     /// Fundamentals `(drive, tip, force at the drive point)` for the modal
@@ -212,15 +380,35 @@ impl Plant for ReducedPlant {
         let c = (ch.as_slice(), *fi);
         let m = &self.model;
         let a0 = self.amp;
-        let pred = Self::frozen_step(m, c, a0, a0.norm(), omega)?;
-        let next = Self::frozen_step(m, c, a0, (0.5 * (a0 + pred)).norm(), omega)?;
-        if !(next.re.is_finite() && next.im.is_finite()) {
+        let (next, states) = match &self.carried {
+            None => {
+                let pred = Self::frozen_step(m, c, a0, a0.norm(), omega)?;
+                let next = Self::frozen_step(m, c, a0, (0.5 * (a0 + pred)).norm(), omega)?;
+                (next, None)
+            }
+            Some(cs) => {
+                let z0 = (a0, cs.y.as_slice());
+                let (pred, _) = Self::frozen_step_carried(m, cs, c, z0, a0.norm(), omega)?;
+                let mid = (0.5 * (a0 + pred)).norm();
+                let (next, y) = Self::frozen_step_carried(m, cs, c, z0, mid, omega)?;
+                (next, Some(y))
+            }
+        };
+        let finite = |z: &Complex64| z.re.is_finite() && z.im.is_finite();
+        if !finite(&next) || !states.iter().flatten().all(finite) {
             return Err(ControlError::Reduced(format!(
-                "the modal amplitude is not finite after the period at t = {} s",
+                "the modal amplitude or an attachment state is not finite after the period at t = {} s",
                 self.time_s
             )));
         }
-        let (drive, tip, force) = Self::fundamentals(m, c, next)?;
+        let (drive, tip, force) = match (&mut self.carried, states) {
+            (Some(cs), Some(y)) => {
+                cs.y = y;
+                let with = Self::channels_with_states(m, cs, c.0, next)?;
+                Self::fundamentals(m, (&with, c.1), next)?
+            }
+            _ => Self::fundamentals(m, c, next)?,
+        };
         self.amp = next;
         let s = &mut self.samples;
         s.omega_rad_s = omega;

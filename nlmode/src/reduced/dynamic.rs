@@ -140,12 +140,12 @@ pub(crate) struct StatePort {
     t: CMat,
     t_inv: CMat,
     /// Slow (carried) components.
-    ns: usize,
+    pub(crate) ns: usize,
     ncon: usize,
     /// Offset of the port's interface shapes among the gathered shapes.
     phi_offset: usize,
     /// Offset of the port's slow states among the complex states after `A`.
-    state_offset: usize,
+    pub(crate) state_offset: usize,
     /// Offset of the port's extra channels (`P1`, `P2`, `p`, `Q2`) after the
     /// model's `nch` standard channels.
     extra_offset: usize,
@@ -233,7 +233,7 @@ impl StatePort {
 
     /// Number of extra channels: `P1` (`ns x ns`), `P2` (`ns x ncon`), `p`
     /// (`ns`), `Q2` (`ncon x ns`), each row major.
-    fn nextra(&self) -> usize {
+    pub(crate) fn nextra(&self) -> usize {
         let (s, c) = (self.ns, self.ncon);
         s * s + s * c + s + c * s
     }
@@ -241,7 +241,7 @@ impl StatePort {
     /// `Q1`, `q` into the port's standard channels (in place of `Z_G`,
     /// `T_G u_hat`) and `P1`, `P2`, `p`, `Q2` into the extra channels, at
     /// `Omega` for the input amplitudes `u_hat` (module docs).
-    fn fill(
+    pub(crate) fn fill(
         &self,
         model: &ReducedModel,
         omega: f64,
@@ -321,7 +321,7 @@ impl StatePort {
     /// channels give `F_G = -Q1 U + (q - Q2 y_s)`), for the modal amplitude
     /// `amp` and the gathered shapes `phi`.
     #[inline]
-    fn apply(
+    pub(crate) fn apply(
         &self,
         model: &ReducedModel,
         ch: &mut [Complex64],

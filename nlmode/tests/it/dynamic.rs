@@ -165,6 +165,58 @@ fn dynamic_tmd_follows_the_exact_linear_transient() {
     assert!((dynamic.samples[0].force_amplitude_n - 1.0).abs() < 1e-12);
 }
 
+/// The controllers' plant ([`nlmode::control::ReducedPlant`], the `nlmode`
+/// plant of the PLL and the stepped-sine controllers) with the TMD's states
+/// carried: the same 1 % TMD at resonance from rest, advanced one excitation
+/// period at a time by the exact exponential of the period's linear system
+/// (module docs of `control::reduced_plant`). The modal amplitude after every
+/// period (here the tip, `phi = 1`) follows the exact transient envelope of
+/// the 2-DOF system; the quasi-steady plant cannot beat and misses it. The
+/// tolerance is the averaging error of the test above (1 %; the per-period
+/// exponential adds no error for this linear model: `K` frozen at the
+/// amplitude is exact).
+#[test]
+fn the_controllers_plant_carries_the_tmd_states() {
+    use nlmode::control::{Plant, ReducedPlant};
+    use nlmode::reduced::dynamic::FAST_POLE_FACTOR;
+    let (m_t, zeta) = (0.01 * MS, 0.01);
+    let k_t = m_t * W0 * W0;
+    let c_t = 2.0 * zeta * (k_t * m_t).sqrt();
+    let model = with_tmd(m_t, k_t, c_t, &fixed_sine(W0, 0.5, 1.0));
+    let periods = (0.5 * W0 / std::f64::consts::TAU) as usize;
+    let run = |dynamic: bool| -> (Vec<f64>, Vec<f64>, usize) {
+        let mut plant = ReducedPlant::new(model.clone(), 16).unwrap();
+        if dynamic {
+            plant = plant
+                .with_attachment_states(0.95 * W0, 1.05 * W0, FAST_POLE_FACTOR)
+                .unwrap();
+        }
+        let carried = plant.carried_states();
+        plant.set_excitation(1.0, W0);
+        let (mut t, mut a) = (Vec::new(), Vec::new());
+        for _ in 0..periods {
+            plant.advance_period().unwrap();
+            t.push(plant.time_s());
+            a.push(plant.modal_amplitude().norm());
+        }
+        (t, a, carried)
+    };
+    let (t, dynamic, carried) = run(true);
+    let (_, quasi, none) = run(false);
+    assert_eq!((carried, none), (1, 0), "the TMD's slow mode is carried");
+    let exact = exact_envelope(m_t, k_t, c_t, W0, 1.0, &t);
+    let (e_dyn, e_qs) = (rel_max_diff(&dynamic, &exact), rel_max_diff(&quasi, &exact));
+    eprintln!("TMD transient, controllers' plant: dynamic {e_dyn:.3e}, quasi-steady {e_qs:.3e}");
+    assert!(e_dyn < 0.01, "dynamic {e_dyn}");
+    assert!(e_qs > 0.2, "quasi-steady {e_qs}");
+    // a band far below the TMD's pole carries nothing: the quasi-steady plant
+    let far = ReducedPlant::new(model.clone(), 16)
+        .unwrap()
+        .with_attachment_states(0.01 * W0, 0.02 * W0, FAST_POLE_FACTOR)
+        .unwrap();
+    assert_eq!(far.carried_states(), 0);
+}
+
 /// A first-order attachment (spring `k` in series with a grounded dashpot
 /// `c`, relaxation pole `s = -k/c`; the averaging is exact for it) with `c`
 /// fixed, its pole `p = k/c` moved away from the band, every state carried.

@@ -61,7 +61,13 @@ pub fn phase_resonance(
     }
     let t0 = Instant::now();
     let drive_mass = setup.modal_masses[0].0;
-    let mut plant = plant(setup, sc, table, spec.model, spec.samples_per_period)?;
+    // the loop starts at eta_start and follows the backbone
+    let start = spec.eta_start * setup.omega0_rad_s;
+    let band = table
+        .omega_rad_s
+        .iter()
+        .fold((start, start), |(lo, hi), &w| (lo.min(w), hi.max(w)));
+    let mut plant = plant(setup, sc, table, spec.model, spec.samples_per_period, band)?;
     let res = run_pll(
         plant.as_plant(),
         spec.eta_start * setup.omega0_rad_s,
@@ -82,9 +88,17 @@ pub fn phase_resonance(
         wall,
         "phase-resonance",
     )?;
-    if let ControlledPlant::Reference(p) = &plant {
-        r.summary.set("steps", p.stats().steps as u64);
-        r.summary.set("rejected_steps", p.stats().rejected as u64);
+    match &plant {
+        ControlledPlant::Reference(p) => {
+            r.summary.set("steps", p.stats().steps as u64);
+            r.summary.set("rejected_steps", p.stats().rejected as u64);
+        }
+        ControlledPlant::Nlmode(p) => {
+            if sc.slowflow.attachments == nlmode::reduced::AttachmentStates::Dynamic {
+                r.summary
+                    .set("attachment_states", p.carried_states() as u64);
+            }
+        }
     }
     Ok(r)
 }
@@ -110,13 +124,16 @@ impl ControlledPlant {
 /// The plant of the model `model`, sampled `samples_per_period` times per
 /// period, from rest: the reference assembly (`reference`, with the
 /// scenario's integrator and `rtol`) or the single-nonlinear-mode model on
-/// `table` (`nlmode`). `cosim` is refused with its reason.
+/// `table` (`nlmode`; with `[slowflow] attachments = "dynamic"` the
+/// attachments' states with a pole near `band_rad_s`, the frequencies the
+/// test covers, are carried). `cosim` is refused with its reason.
 pub fn plant(
     setup: &Setup,
     sc: &Scenario,
     table: &ModalTable,
     model: PhaseResonanceModel,
     samples_per_period: usize,
+    band_rad_s: (f64, f64),
 ) -> Result<ControlledPlant> {
     match model {
         PhaseResonanceModel::Reference => {
@@ -134,8 +151,17 @@ pub fn plant(
         PhaseResonanceModel::Nlmode => {
             let m = super::reduced_model(setup, table, None)
                 .context("controlled test on the nlmode model")?;
-            let p = ReducedPlant::new(m, samples_per_period)
+            let mut p = ReducedPlant::new(m, samples_per_period)
                 .context("controlled test on the nlmode model")?;
+            if sc.slowflow.attachments == nlmode::reduced::AttachmentStates::Dynamic {
+                p = p
+                    .with_attachment_states(
+                        band_rad_s.0,
+                        band_rad_s.1,
+                        nlmode::reduced::dynamic::FAST_POLE_FACTOR,
+                    )
+                    .context("[slowflow] attachments = \"dynamic\" in the controlled test")?;
+            }
             Ok(ControlledPlant::Nlmode(Box::new(p)))
         }
         PhaseResonanceModel::Cosim => Err(anyhow!(
