@@ -1,5 +1,5 @@
 /*
- * A tiny FMI 2.0 Co-Simulation FMU used only by the host's tests and benches
+ * A tiny FMI 2.0 (and, at the end, FMI 3.0) Co-Simulation FMU used only by the host's tests and benches
  * (it is never shipped): a mass-spring-damper
  *
  *     m x'' + d x' + k x = F(t),   F(t) = F + dF/dt (t - t_step)   (first-order input interpolation)
@@ -209,3 +209,150 @@ EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, fmi2StatusKind k, fmi2Real 
 EXPORT fmi2Status fmi2GetIntegerStatus(fmi2Component c, fmi2StatusKind k, fmi2Integer *v) { (void)c; (void)k; (void)v; return fmi2Discard; }
 EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, fmi2StatusKind k, fmi2Boolean *v) { (void)c; (void)k; (void)v; return fmi2Discard; }
 EXPORT fmi2Status fmi2GetStringStatus(fmi2Component c, fmi2StatusKind k, fmi2String *v) { (void)c; (void)k; (void)v; return fmi2Discard; }
+
+/*
+ * The same oscillator behind the FMI 3.0 Co-Simulation API (the importer's
+ * FMI 3.0 path is tested against this C implementation of the standard's
+ * header, independent of the workspace's own export layer). Value
+ * references as above, all Float64; instantiation token = the GUID. The FMI
+ * 3.0 logger is not variadic: messages are formatted here. DoStep answers
+ * fmi3Error past `fail_at_s` and fmi3Discard past `discard_at_s`.
+ * fmi3GetDirectionalDerivative gives the (zero) feedthrough of x, v on F.
+ */
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+typedef void *fmi3Instance;
+typedef void *fmi3InstanceEnvironment;
+typedef void *fmi3FMUState;
+typedef uint32_t fmi3ValueReference;
+typedef double fmi3Float64;
+typedef int32_t fmi3Int32;
+typedef bool fmi3Boolean;
+typedef const char *fmi3String;
+typedef enum { fmi3OK, fmi3Warning, fmi3Discard, fmi3Error, fmi3Fatal } fmi3Status;
+typedef void (*fmi3LogMessageCallback)(fmi3InstanceEnvironment, fmi3Status, fmi3String, fmi3String);
+
+typedef struct {
+    Inst base; /* base.logger unused: FMI 3.0 logs through log3 */
+    fmi3LogMessageCallback log3;
+    fmi3InstanceEnvironment env3;
+} Inst3;
+
+static void log3(Inst3 *i, fmi3Status st, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void log3(Inst3 *i, fmi3Status st, const char *fmt, ...) {
+    if (!i->log3) return;
+    char buf[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    i->log3(i->env3, st, "logAll", buf);
+}
+
+EXPORT const char *fmi3GetVersion(void) { return "3.0"; }
+
+EXPORT fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String res, fmi3Boolean vis,
+                                                fmi3Boolean logging, fmi3Boolean eventMode, fmi3Boolean earlyReturn,
+                                                const fmi3ValueReference req[], size_t nreq,
+                                                fmi3InstanceEnvironment env, fmi3LogMessageCallback logger,
+                                                void *intermediateUpdate) {
+    (void)res; (void)vis; (void)logging; (void)req; (void)nreq; (void)intermediateUpdate;
+    if (token == NULL || strcmp(token, GUID) != 0 || eventMode || earlyReturn) {
+        if (logger) {
+            char buf[256];
+            snprintf(buf, sizeof buf, "fmi3InstantiateCoSimulation: token mismatch: expected %s, got %s", GUID,
+                     token ? token : "(null)");
+            logger(env, fmi3Error, "logStatusError", buf);
+        }
+        return NULL;
+    }
+    Inst3 *c = calloc(1, sizeof(Inst3));
+    if (!c) return NULL;
+    c->log3 = logger;
+    c->env3 = env;
+    strncpy(c->base.name, name ? name : "?", sizeof c->base.name - 1);
+    c->base.s.r[0] = 1.0; c->base.s.r[1] = 100.0; c->base.s.r[2] = 0.0;
+    c->base.s.r[6] = INFINITY; c->base.s.r[7] = INFINITY; c->base.s.r[8] = 10.0;
+    return c;
+}
+
+EXPORT void fmi3FreeInstance(fmi3Instance c) { free(c); }
+EXPORT fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean td, fmi3Float64 tol, fmi3Float64 t0,
+                                              fmi3Boolean sd, fmi3Float64 stop) {
+    (void)td; (void)tol; (void)sd; (void)stop; ((Inst3 *)c)->base.s.t = t0; return fmi3OK;
+}
+EXPORT fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
+    Inst3 *i = c;
+    i->base.s.r[4] = i->base.s.r[9];
+    if (!(i->base.s.r[0] > 0.0)) { log3(i, fmi3Error, "mass must be positive, got %g kg", i->base.s.r[0]); return fmi3Error; }
+    return fmi3OK;
+}
+EXPORT fmi3Status fmi3Terminate(fmi3Instance c) { (void)c; return fmi3OK; }
+
+EXPORT fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Float64 v[], size_t nv) {
+    Inst3 *i = c;
+    if (nv != n) { log3(i, fmi3Error, "fmi3GetFloat64: %zu values for %zu value references", nv, n); return fmi3Error; }
+    for (size_t k = 0; k < n; k++) {
+        if (vr[k] >= NVR) { log3(i, fmi3Error, "fmi3GetFloat64: unknown value reference %u", vr[k]); return fmi3Error; }
+        v[k] = i->base.s.r[vr[k]];
+    }
+    return fmi3OK;
+}
+EXPORT fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Float64 v[], size_t nv) {
+    Inst3 *i = c;
+    if (nv != n) { log3(i, fmi3Error, "fmi3SetFloat64: %zu values for %zu value references", nv, n); return fmi3Error; }
+    for (size_t k = 0; k < n; k++) {
+        if (vr[k] >= NVR || vr[k] == 4 || vr[k] == 5) { log3(i, fmi3Error, "fmi3SetFloat64: value reference %u is not settable", vr[k]); return fmi3Error; }
+        i->base.s.r[vr[k]] = v[k];
+    }
+    return fmi3OK;
+}
+EXPORT fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Int32 v[], size_t nv) { (void)c; (void)vr; (void)v; (void)nv; return n ? fmi3Error : fmi3OK; }
+EXPORT fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Int32 v[], size_t nv) { (void)c; (void)vr; (void)v; (void)nv; return n ? fmi3Error : fmi3OK; }
+EXPORT fmi3Status fmi3GetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Boolean v[], size_t nv) { (void)c; (void)vr; (void)v; (void)nv; return n ? fmi3Error : fmi3OK; }
+EXPORT fmi3Status fmi3SetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Boolean v[], size_t nv) { (void)c; (void)vr; (void)v; (void)nv; return n ? fmi3Error : fmi3OK; }
+EXPORT fmi3Status fmi3SetString(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3String v[], size_t nv) { (void)c; (void)vr; (void)v; (void)nv; return n ? fmi3Error : fmi3OK; }
+
+EXPORT fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *s) { return fmi2GetFMUstate(&((Inst3 *)c)->base, s) == fmi2OK ? fmi3OK : fmi3Error; }
+EXPORT fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState s) { return fmi2SetFMUstate(&((Inst3 *)c)->base, s) == fmi2OK ? fmi3OK : fmi3Error; }
+EXPORT fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) { (void)c; if (s) { free(*s); *s = NULL; } return fmi3OK; }
+
+EXPORT fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[], size_t n,
+                                           const fmi3Int32 order[], fmi3Float64 v[], size_t nv) {
+    (void)c; (void)vr; (void)order; (void)v; (void)nv; return n ? fmi3Error : fmi3OK;
+}
+EXPORT fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nu,
+                                               const fmi3ValueReference knowns[], size_t nk, const fmi3Float64 seed[],
+                                               size_t ns, fmi3Float64 sens[], size_t nsens) {
+    Inst3 *i = c;
+    (void)seed;
+    if (ns != nk || nsens != nu) { log3(i, fmi3Error, "fmi3GetDirectionalDerivative: %zu seeds for %zu knowns, %zu sensitivities for %zu unknowns", ns, nk, nsens, nu); return fmi3Error; }
+    for (size_t k = 0; k < nk; k++)
+        if (knowns[k] != 3) { log3(i, fmi3Error, "fmi3GetDirectionalDerivative: only with respect to F (vr 3), got %u", knowns[k]); return fmi3Error; }
+    for (size_t u = 0; u < nu; u++) {
+        if (unknowns[u] != 4 && unknowns[u] != 5) { log3(i, fmi3Error, "fmi3GetDirectionalDerivative: only of x, v (vr 4, 5), got %u", unknowns[u]); return fmi3Error; }
+        sens[u] = 0.0; /* x and v are states: no feedthrough from F */
+    }
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean nsp, fmi3Boolean *event,
+                             fmi3Boolean *terminate, fmi3Boolean *early, fmi3Float64 *last) {
+    (void)nsp;
+    Inst3 *i = c;
+    State *s = &i->base.s;
+    *event = false; *terminate = false; *early = false; *last = t;
+    if (fabs(t - s->t) > 1e-9 * (1.0 + fabs(t))) {
+        log3(i, fmi3Error, "fmi3DoStep: expected currentCommunicationPoint = %.17g but was %.17g", s->t, t);
+        return fmi3Error;
+    }
+    if (t + h > s->r[6]) { log3(i, fmi3Error, "fmi3DoStep: injected failure at t = %g s (fail_at_s = %g)", t, s->r[6]); return fmi3Error; }
+    if (t + h > s->r[7]) { log3(i, fmi3Discard, "fmi3DoStep: injected discard at t = %g s (discard_at_s = %g)", t, s->r[7]); return fmi3Discard; }
+    s->dF = 0.0; /* FMI 3.0 has no input derivatives: inputs held over the step */
+    if (fmi2DoStep(&i->base, t, h, 0) != fmi2OK) return fmi3Error;
+    *last = t + h;
+    return fmi3OK;
+}
