@@ -32,7 +32,7 @@ pub enum SpecError {
     #[error("{path}: master.{0}", .source)]
     Steps {
         path: PathBuf,
-        source: crate::master::MasterError,
+        source: Box<crate::master::MasterError>,
     },
     #[error(transparent)]
     File(#[from] fmi2::FileError),
@@ -149,7 +149,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<GenericSpec, SpecError> {
     crate::master::macro_steps(m.start_time_s, m.stop_time_s, m.macro_step_s).map_err(
         |source| SpecError::Steps {
             path: path.into(),
-            source,
+            source: Box::new(source),
         },
     )?;
     if spec.units.is_empty() {
