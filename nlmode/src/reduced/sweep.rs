@@ -348,23 +348,41 @@ impl OmegaCache {
                 *s = s.max(x.norm());
             }
         }
+        // `done[k]`: interval k (pts[k]..pts[k+1]) has passed the midpoint
+        // test; it is not evaluated again (its endpoints do not change, so
+        // it would pass again: the nodes are those of testing every interval
+        // in every pass, at a fraction of the evaluations)
+        let mut done = vec![false; pts.len() - 1];
+        let mut exact = vec![Complex64::new(0.0, 0.0); nch];
         loop {
             let mut out = Vec::with_capacity(2 * pts.len());
+            let mut out_done = Vec::with_capacity(2 * done.len());
             let mut refined = false;
-            for k in 0..pts.len() - 1 {
-                let (w0, v0, d0) = &pts[k];
-                let (w1, v1, d1) = &pts[k + 1];
-                out.push(pts[k].clone());
+            let n = pts.len();
+            let mut it = pts.into_iter().peekable();
+            let mut k = 0;
+            while let Some(p0) = it.next() {
+                let Some(p1) = it.peek() else {
+                    out.push(p0);
+                    break;
+                };
+                if done[k] {
+                    out.push(p0);
+                    out_done.push(true);
+                    k += 1;
+                    continue;
+                }
+                let ((w0, v0, d0), (w1, v1, d1)) = (&p0, p1);
                 let wm = 0.5 * (w0 + w1);
                 let h = w1 - w0;
-                let mut exact = vec![Complex64::new(0.0, 0.0); nch];
                 value(wm, &mut exact)?;
                 let bad = (0..nch).any(|c| {
                     let herm = 0.5 * (v0[c] + v1[c]) + 0.125 * h * (d0[c] - d1[c]);
                     (herm - exact[c]).norm() > tol * scale[c]
                 });
+                out.push(p0);
                 if bad {
-                    if pts.len() + out.len() > 200_000 || h < 1e-9 * wm {
+                    if n + out.len() > 200_000 || h < 1e-9 * wm {
                         return Err(ReducedError::BadOption {
                             name: "channel_tol",
                             value: tol,
@@ -373,11 +391,15 @@ impl OmegaCache {
                     }
                     let (v, d) = node(wm)?;
                     out.push((wm, v, d));
+                    out_done.extend([false, false]);
                     refined = true;
+                } else {
+                    out_done.push(true);
                 }
+                k += 1;
             }
-            out.push(pts[pts.len() - 1].clone());
             pts = out;
+            done = out_done;
             if !refined {
                 break;
             }
