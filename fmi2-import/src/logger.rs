@@ -38,6 +38,18 @@ pub(crate) unsafe extern "C" fn free_memory(p: *mut c_void) {
     free(p)
 }
 
+/// A C string from the FMU as an owned string (empty for null).
+///
+/// # Safety
+/// `p` is null or NUL-terminated.
+unsafe fn c_string(p: *const c_char) -> String {
+    if p.is_null() {
+        String::new()
+    } else {
+        CStr::from_ptr(p).to_string_lossy().into_owned()
+    }
+}
+
 /// Receives every formatted FMU log message from the C shim.
 ///
 /// # Safety
@@ -51,14 +63,7 @@ pub unsafe extern "C" fn host_fmi2_log_message(
     category: *const c_char,
     message: *const c_char,
 ) {
-    let s = |p: *const c_char| {
-        if p.is_null() {
-            String::new()
-        } else {
-            CStr::from_ptr(p).to_string_lossy().into_owned()
-        }
-    };
-    let (instance, category, message) = (s(instance), s(category), s(message));
+    let (instance, category, message) = (c_string(instance), c_string(category), c_string(message));
     // Never unwind into C.
     let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let rec = LogRecord {
@@ -86,14 +91,7 @@ pub(crate) unsafe extern "C" fn host_fmi3_log_message(
     category: *const c_char,
     message: *const c_char,
 ) {
-    let s = |p: *const c_char| {
-        if p.is_null() {
-            String::new()
-        } else {
-            CStr::from_ptr(p).to_string_lossy().into_owned()
-        }
-    };
-    let (category, message) = (s(category), s(message));
+    let (category, message) = (c_string(category), c_string(message));
     // Never unwind into C.
     let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let rec = LogRecord {
