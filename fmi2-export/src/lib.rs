@@ -1,16 +1,32 @@
-//! # fmi2-export — the FMI 2.0 Co-Simulation and Model Exchange export layer, written once
+//! # fmi2-export — the FMI 2.0 and FMI 3.0 Co-Simulation and Model Exchange export layer, written once
 //!
 //! The FMUs of this workspace (`fmu-structure`, `fmu-shaker`,
-//! `fmu-controller`) are thin models on top of this crate. It holds the
-//! export side's `unsafe` code and FFI (the importer's is in `fmi2-import`):
-//! every FMI 2.0 Co-Simulation and (event-free) Model Exchange function with
-//! the standard's state machines, argument checks, logging and
-//! `catch_unwind` ([`ffi`]), the modelDescription.xml rendered from the code
-//! ([`description`], version-neutral, and [`render`], FMI 2.0), the checks
-//! that an XML and a model agree ([`xml`], on the one schema of
-//! [`fmi2::schema`]), the checks every FMU crate's tests run ([`testing`])
-//! and the `.fmu` packager ([`package`]). The C ABI types ([`types`]) and
-//! resource-URI decoding ([`uri`]) are the FMI core's (`fmi2`), re-exported here.
+//! `fmu-controller`) are thin models on top of this crate. It exports both
+//! FMI versions from the same model code: one `lib<id>.so` defines every
+//! `fmi2*` ([`export_fmu!`]) and every `fmi3*` ([`export_fmu3!`]) function
+//! (the names do not collide), and is packaged twice, as `<id>.fmu` (FMI
+//! 2.0, `binaries/linux64/`) and `<id>_fmi3.fmu` (FMI 3.0,
+//! `binaries/x86_64-linux/`). It holds the export side's `unsafe` code and
+//! FFI (the importer's is in `fmi2-import`): every FMI 2.0 Co-Simulation and
+//! (event-free) Model Exchange function with the standard's state machines,
+//! argument checks, logging and `catch_unwind` ([`ffi`]); the FMI 3.0 API
+//! ([`fmi3`]) on the same instance, state machine, checks, logging and
+//! FMU-state blob (only the signatures are translated; unsupported
+//! features — clocks, Scheduled Execution, Binary, other integer widths,
+//! Configuration Mode, adjoint derivatives, event mode in Co-Simulation —
+//! answer `fmi3Error` with the reason logged); the modelDescription.xml
+//! rendered from the code ([`description`], version-neutral, [`render`],
+//! FMI 2.0, and [`render3`], FMI 3.0: `instantiationToken` = the GUID, the
+//! independent variable `time` with value reference
+//! [`render3::TIME_VALUE_REFERENCE`], typed variable elements,
+//! `<ModelStructure>` by value reference); the checks that an XML and a
+//! model agree ([`xml`], on the one schema of [`fmi2::schema`]); the checks
+//! every FMU crate's tests run ([`testing`], and [`testing3`] for FMI 3.0:
+//! CS and ME equal to FMI 2.0 bit for bit, FMU-state round trip, directional
+//! derivatives against central differences, a fuzz campaign) and the `.fmu`
+//! packager ([`package`]: [`package::write_fmu`], [`package::write_fmu3`]).
+//! The C ABI types ([`types`]) and resource-URI decoding ([`uri`]) are the
+//! FMI core's (`fmi2`), re-exported here.
 //!
 //! ## How to implement a model
 //!
@@ -39,13 +55,15 @@
 //!    * the layer has already checked value references, settability, finite
 //!      inputs, pointers, the call sequence and `h > 0` before it calls you;
 //!      return [`ModelError`] for failures (any `std::error::Error` converts).
-//! 3. In the cdylib crate root: `fmi2_export::export_fmu!(MyModel);` — this defines
-//!    every `fmi2*` symbol of the shared library.
+//! 3. In the cdylib crate root: `fmi2_export::export_fmu!(MyModel);` and
+//!    `fmi2_export::export_fmu3!(MyModel);` — these define every `fmi2*` and
+//!    every `fmi3*` symbol of the shared library.
 //! 4. Never build an FMU with `panic = "abort"`: the layer relies on
 //!    unwinding to turn a panic into `fmi2Error` instead of killing the importer.
 //! 5. Test with [`testing`]: `check_model_description_file::<MyModel>(path)`
 //!    keeps `modelDescription/<id>/modelDescription.xml` the rendered one
-//!    (`UPDATE_MODEL_DESCRIPTION=1` writes it), [`xml::check_dependencies`]
+//!    (`UPDATE_MODEL_DESCRIPTION=1` writes it; `check_model_description_file3`
+//!    the FMI 3.0 one in `modelDescription/<id>_fmi3/`), [`xml::check_dependencies`]
 //!    holds `<ModelStructure>` to the code, `check_capabilities` the declared
 //!    capabilities, [`xml::check_start_values`] the start values.
 //!
