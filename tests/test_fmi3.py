@@ -68,3 +68,61 @@ def test_fmi3_co_simulation_equals_fmi2(fmu_dir, name):
     assert len(r3) == len(r2)
     for o in outputs:
         np.testing.assert_array_equal(np.asarray(r3[o], float), np.asarray(r2[o], float), err_msg=o)
+
+
+def _slave(fmu_dir, tmp_path, name):
+    from fmpy import extract
+    from fmpy.fmi3 import FMU3Slave
+
+    path = str(fmu_dir / f"{name}_fmi3.fmu")
+    md = read_model_description(path)
+    d = extract(path, str(tmp_path / name))
+    fmu = FMU3Slave(
+        guid=md.instantiationToken,
+        unzipDirectory=d,
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName=f"{name}-fmi3",
+    )
+    fmu.instantiate()
+    return md, fmu
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fmu_state_serializes_and_restores_through_the_c_api(fmu_dir, tmp_path, name):
+    md, fmu = _slave(fmu_dir, tmp_path, name)
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Float64"]
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+    h = 1e-4
+    for k in range(3):
+        ev, term, early, last = fmu.doStep(k * h, h)
+        assert (ev, term, early) == (False, False, False) and last == pytest.approx((k + 1) * h)
+    state = fmu.getFMUState()
+    blob = fmu.serializeFMUState(state)
+    fmu.doStep(3 * h, h)
+    reference = fmu.getFloat64(outs)
+    fmu.setFMUState(state)
+    fmu.doStep(3 * h, h)
+    assert fmu.getFloat64(outs) == reference
+    restored = fmu.deserializeFMUState(blob)
+    fmu.setFMUState(restored)
+    fmu.doStep(3 * h, h)
+    assert fmu.getFloat64(outs) == reference
+    assert fmu.getFloat64([999999999]) == [pytest.approx(4 * h)]
+    fmu.freeFMUState(state)
+    fmu.freeFMUState(restored)
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def test_shaker_directional_derivative_through_the_c_api(fmu_dir, tmp_path):
+    md, fmu = _slave(fmu_dir, tmp_path, "shaker")
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    k_s = [v.start for v in md.modelVariables if v.name == "k_s"][0]
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    fmu.doStep(0.0, 1e-5)
+    (dF,) = fmu.getDirectionalDerivative([vr["F"]], [vr["x"]], [1.0])
+    assert dF == -float(k_s)
+    fmu.terminate()
+    fmu.freeInstance()
