@@ -16,8 +16,8 @@
 //!
 //! The FMI 3.0 functions ([`crate::fmi3`]) run on the same [`Instance`],
 //! state machine, checks and FMU-state code: an instance created by
-//! `fmi3Instantiate*` is flagged [`Instance::fmi3`], which only changes the
-//! function names in its messages ([`fmi3_name`]), the value references of
+//! `fmi3Instantiate*` is flagged `Instance::fmi3`, which only changes the
+//! function names in its messages (`fmi3_name`), the value references of
 //! non-Float64 variables ([`crate::render3::fmi3_value_reference`]) and the
 //! logging callback.
 #![allow(clippy::missing_safety_doc)]

@@ -40,14 +40,22 @@ pub fn get_version() -> *const c_char {
     c"3.0".as_ptr()
 }
 
-/// An `fmi3Error` with `message` logged (the instance goes to the error state
-/// unless `keep_state`); `func` is checked against `allowed` first.
+/// An `fmi3Error` with `message` logged (the instance goes to the error state).
 unsafe fn refuse<M: CoSimModel>(c: Component, func: &str, message: String) -> Status {
     run::<M>(c, func, ALIVE, |_| Err(ModelError::error(message)))
 }
 
+/// More value references than any importer passes (a larger count is a
+/// corrupted argument; refused before a buffer of that size is allocated).
+const MAX_VALUE_REFERENCES: usize = 1 << 24;
+
 /// `nValues` must equal `nValueReferences` (every variable is a scalar).
 fn check_counts(n_vr: usize, n_values: usize) -> Result<(), ModelError> {
+    if n_vr > MAX_VALUE_REFERENCES {
+        return Err(ModelError::error(format!(
+            "nValueReferences = {n_vr} exceeds {MAX_VALUE_REFERENCES}"
+        )));
+    }
     if n_vr == n_values {
         Ok(())
     } else {
