@@ -70,7 +70,7 @@ def fmu_dir():
         return pathlib.Path(d)
     out = REPO / "target" / "fmus"
     subprocess.run(["cargo", "build", "--quiet", "--profile", CARGO_PROFILE], cwd=REPO, check=True)
-    subprocess.run([str(HOST), "package", "--out", str(out)], cwd=REPO, check=True)
+    subprocess.run([str(HOST), "package", "--fmi", "all", "--out", str(out)], cwd=REPO, check=True)
     return out
 
 

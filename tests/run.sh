@@ -40,7 +40,7 @@ PYO3_ENVIRONMENT_SIGNATURE="$("$PY_ABS" -c 'import platform, struct, sys; v = sy
 PYO3_BUILD_EXTENSION_MODULE=1 PYO3_PYTHON="$PY_ABS" PYTHON_SYS_EXECUTABLE="$PY_ABS" \
   cargo build --quiet --profile "$NLMODE_CARGO_PROFILE" --workspace
 echo "tests/run.sh: workspace built after ${SECONDS} s"
-"$BUILD_DIR/host" package --out "$FMU_DIR"
+"$BUILD_DIR/host" package --fmi all --out "$FMU_DIR"
 # the nlmode wheel: maturin builds python/ in the shared target/ with the same
 # profile (only the PyO3 crates and the module itself are compiled)
 rm -f target/wheels/nlmode-*.whl

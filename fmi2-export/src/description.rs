@@ -3,9 +3,10 @@
 //! variable table ([`CoSimModel::VARIABLES`], [`CoSimModel::CONTINUOUS_STATES`]),
 //! and [`Layout`], the resolved view of both (indices, units, initial
 //! unknowns, dependencies as variable positions) that a renderer writes out.
-//! The FMI 2.0 renderer is [`crate::render`]; an FMI 3.0 one would take the
-//! same [`Layout`] (it names variables by value reference where FMI 2.0
-//! uses indices, so positions are kept here, not indices).
+//! The FMI 2.0 renderer is [`crate::render`], the FMI 3.0 one
+//! [`crate::render3`]; both take the same [`Layout`] (FMI 3.0 names
+//! variables by value reference where FMI 2.0 uses indices, so positions are
+//! kept here, not indices).
 use crate::model::{Causality, CoSimModel, Start, VarType, Variable, LOG_CATEGORIES};
 
 /// The model-level part of a modelDescription.
@@ -219,6 +220,8 @@ pub enum DescriptionError {
         name: &'static str,
         what: &'static str,
     },
+    #[error("variable {name}: FMI 3.0 value reference {vr} is used twice (or is the one of time)")]
+    DuplicateValueReference3 { name: &'static str, vr: u32 },
     #[error("ModelInfo::log_categories has {found} descriptions, LOG_CATEGORIES {expected} names")]
     LogCategories { found: usize, expected: usize },
 }

@@ -5,6 +5,23 @@ use std::ffi::CString;
 use std::path::PathBuf;
 
 use crate::types::{CallbackLogger, ComponentEnvironment, Status};
+
+/// The FMI 3.0 `fmi3LogMessageCallback` (not variadic: the message is
+/// passed as is): `(instanceEnvironment, status, category, message)`.
+pub type LogMessage3 = unsafe extern "C" fn(
+    ComponentEnvironment,
+    Status,
+    *const std::os::raw::c_char,
+    *const std::os::raw::c_char,
+);
+
+/// The importer's logging function, FMI 2.0 or FMI 3.0.
+#[derive(Clone, Copy)]
+pub(crate) enum LogCallback {
+    None,
+    Fmi2(CallbackLogger),
+    Fmi3(LogMessage3),
+}
 pub use fmi2::{Causality, VarType, Variability};
 
 /// `start` attribute of a variable (must equal the model's value right after
@@ -202,7 +219,7 @@ pub const LOG_CATEGORIES: &[&str] = &[
 /// The instance name and category are never NULL, and a literal `%` is written
 /// `%%` because every master formats the message with `vsnprintf`.
 pub struct Logger {
-    callback: Option<CallbackLogger>,
+    callback: LogCallback,
     env: ComponentEnvironment,
     instance_name: CString,
     pub(crate) logging_on: bool,
@@ -217,6 +234,27 @@ fn c_string_lossy(s: &str) -> CString {
 impl Logger {
     pub(crate) fn new(
         callback: Option<CallbackLogger>,
+        env: ComponentEnvironment,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Self {
+        let callback = callback.map_or(LogCallback::None, LogCallback::Fmi2);
+        Self::with_callback(callback, env, instance_name, logging_on)
+    }
+
+    /// A logger calling the FMI 3.0 `logMessage` callback (NULL: none).
+    pub(crate) fn fmi3(
+        callback: Option<LogMessage3>,
+        env: ComponentEnvironment,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Self {
+        let callback = callback.map_or(LogCallback::None, LogCallback::Fmi3);
+        Self::with_callback(callback, env, instance_name, logging_on)
+    }
+
+    pub(crate) fn with_callback(
+        callback: LogCallback,
         env: ComponentEnvironment,
         instance_name: &str,
         logging_on: bool,
@@ -255,25 +293,46 @@ impl Logger {
 
     /// Send `message` with `status` and `category` to the importer.
     pub fn log(&self, status: Status, category: &str, message: &str) {
-        let Some(cb) = self.callback else { return };
+        if matches!(self.callback, LogCallback::None) {
+            return;
+        }
         let always = status >= Status::Warning;
         if !always && !self.category_enabled(category) {
             return;
         }
-        let msg = c_string_lossy(&message.replace('%', "%%"));
         let cat = c_string_lossy(category);
-        // SAFETY: the callback is the importer's fmi2CallbackLogger, called with
-        // valid NUL-terminated strings and no variadic arguments (the message has
-        // no unescaped conversion specifications).
-        unsafe {
-            cb(
-                self.env,
-                self.instance_name.as_ptr(),
-                status,
-                cat.as_ptr(),
-                msg.as_ptr(),
-            )
+        match self.callback {
+            LogCallback::None => {}
+            LogCallback::Fmi2(cb) => {
+                let msg = c_string_lossy(&message.replace('%', "%%"));
+                // SAFETY: the callback is the importer's fmi2CallbackLogger, called with
+                // valid NUL-terminated strings and no variadic arguments (the message has
+                // no unescaped conversion specifications).
+                unsafe {
+                    cb(
+                        self.env,
+                        self.instance_name.as_ptr(),
+                        status,
+                        cat.as_ptr(),
+                        msg.as_ptr(),
+                    )
+                }
+            }
+            LogCallback::Fmi3(cb) => {
+                // FMI 3.0: not variadic, the message goes as it is
+                let msg = c_string_lossy(message);
+                // SAFETY: the importer's fmi3LogMessageCallback with valid
+                // NUL-terminated strings.
+                unsafe { cb(self.env, status, cat.as_ptr(), msg.as_ptr()) }
+            }
         }
+    }
+
+    pub(crate) fn callback(&self) -> LogCallback {
+        self.callback
+    }
+    pub(crate) fn env(&self) -> ComponentEnvironment {
+        self.env
     }
 
     /// An informative message (category `logEvents`, status OK).

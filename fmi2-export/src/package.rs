@@ -1,6 +1,7 @@
 //! Writing `.fmu` archives (zip): `modelDescription.xml`,
-//! `binaries/linux64/<modelIdentifier>.so`, `resources/...` and
-//! `documentation/...`. Pure Rust (the `zip` crate).
+//! `binaries/linux64/<modelIdentifier>.so` (FMI 2.0, [`write_fmu`]) or
+//! `binaries/x86_64-linux/<modelIdentifier>.so` (FMI 3.0, [`write_fmu3`]),
+//! `resources/...` and `documentation/...`. Pure Rust (the `zip` crate).
 use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -100,13 +101,50 @@ pub fn write_fmu(spec: &FmuSpec, out: &Path) -> Result<(), PackageError> {
             expected: spec.model_identifier.clone(),
         });
     }
+    write_archive(spec, "linux64", out)
+}
+
+/// Write `spec` as an FMI 3.0 archive at `out` (the library in
+/// `binaries/x86_64-linux/`), after checking that the modelDescription is an
+/// FMI 3.0 one naming the same `modelIdentifier` (the same `lib<id>.so`
+/// serves both versions: it exports the `fmi2*` and the `fmi3*` functions).
+pub fn write_fmu3(spec: &FmuSpec, out: &Path) -> Result<(), PackageError> {
+    let md = &spec.model_description;
+    if !md.contains("fmiVersion=\"3.0\"") {
+        return Err(PackageError::BadModelDescription {
+            model: spec.model_identifier.clone(),
+            reason: "not an FMI 3.0 modelDescription (no fmiVersion=\"3.0\")".into(),
+        });
+    }
+    let ids: Vec<&str> = md
+        .split("modelIdentifier=\"")
+        .skip(1)
+        .filter_map(|rest| rest.split('"').next())
+        .collect();
+    if let Some(found) = ids.iter().find(|&&id| id != spec.model_identifier) {
+        return Err(PackageError::IdentifierMismatch {
+            found: found.to_string(),
+            expected: spec.model_identifier.clone(),
+        });
+    }
+    if ids.is_empty() {
+        return Err(PackageError::BadModelDescription {
+            model: spec.model_identifier.clone(),
+            reason: "no modelIdentifier".into(),
+        });
+    }
+    write_archive(spec, "x86_64-linux", out)
+}
+
+/// The archive with the library in `binaries/<platform>/`.
+fn write_archive(spec: &FmuSpec, platform: &str, out: &Path) -> Result<(), PackageError> {
     let mut entries = vec![
         (
             "modelDescription.xml".to_string(),
             spec.model_description.as_bytes().to_vec(),
         ),
         (
-            format!("binaries/linux64/{}.so", spec.model_identifier),
+            format!("binaries/{platform}/{}.so", spec.model_identifier),
             read(&spec.library)?,
         ),
     ];
@@ -191,6 +229,50 @@ mod tests {
         };
         assert!(matches!(
             write_fmu(&bad, &p("x.fmu")),
+            Err(PackageError::IdentifierMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn fmi3_archives_put_the_library_in_x86_64_linux() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = |n: &str| dir.path().join(n);
+        std::fs::write(p("libm.so"), b"\x7fELF...").unwrap();
+        let md = r#"<fmiModelDescription fmiVersion="3.0" modelName="m" instantiationToken="{g}"><CoSimulation modelIdentifier="m"/></fmiModelDescription>"#;
+        let spec = FmuSpec {
+            model_identifier: "m".into(),
+            model_description: md.into(),
+            library: p("libm.so"),
+            resources: vec![("t.json".into(), b"{}".to_vec())],
+            documentation: vec![("index.html".into(), b"a".to_vec())],
+        };
+        write_fmu3(&spec, &p("m.fmu")).unwrap();
+        let z = zip::ZipArchive::new(File::open(p("m.fmu")).unwrap()).unwrap();
+        let mut names: Vec<&str> = z.file_names().collect();
+        names.sort();
+        assert_eq!(
+            names,
+            [
+                "binaries/x86_64-linux/m.so",
+                "documentation/index.html",
+                "modelDescription.xml",
+                "resources/t.json"
+            ]
+        );
+        let fmi2 = FmuSpec {
+            model_description: md.replace("3.0", "2.0"),
+            ..spec.clone()
+        };
+        assert!(matches!(
+            write_fmu3(&fmi2, &p("x.fmu")),
+            Err(PackageError::BadModelDescription { .. })
+        ));
+        let other = FmuSpec {
+            model_identifier: "other".into(),
+            ..spec
+        };
+        assert!(matches!(
+            write_fmu3(&other, &p("x.fmu")),
             Err(PackageError::IdentifierMismatch { .. })
         ));
     }

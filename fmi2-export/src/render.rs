@@ -13,7 +13,7 @@ pub fn model_description<M: CoSimModel>() -> Result<String, DescriptionError> {
 }
 
 /// Escape a text for an attribute value in double quotes.
-fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -91,7 +91,7 @@ fn interfaces(l: &Layout) -> String {
 }
 
 /// `<UnitDefinitions>`: the units the variables use.
-fn unit_definitions(l: &Layout) -> String {
+pub(crate) fn unit_definitions(l: &Layout) -> String {
     if l.units.is_empty() {
         return String::new();
     }
@@ -117,7 +117,7 @@ fn unit_definitions(l: &Layout) -> String {
 }
 
 /// `<LogCategories>`: the layer's categories with the model's descriptions.
-fn log_categories(l: &Layout) -> String {
+pub(crate) fn log_categories(l: &Layout) -> String {
     let mut x = String::from("  <LogCategories>\n");
     for (name, d) in LOG_CATEGORIES.iter().zip(l.info.log_categories) {
         x += &format!(
@@ -129,7 +129,7 @@ fn log_categories(l: &Layout) -> String {
 }
 
 /// `<DefaultExperiment>` with the attributes the model gives.
-fn default_experiment(l: &Layout) -> String {
+pub(crate) fn default_experiment(l: &Layout) -> String {
     let e = &l.info.default_experiment;
     let attrs: String = [
         ("startTime", e.start_time),

@@ -34,17 +34,33 @@ pub fn check_model_description_file<M: CoSimModel>(
             errs.join("\n")
         ));
     }
+    compare_or_update(path, &xml)?;
+    Ok(md)
+}
+
+/// The FMI 3.0 counterpart of [`check_model_description_file`]: the file at
+/// `path` (`modelDescription/<id>_fmi3/modelDescription.xml`) is the one
+/// [`crate::render3::model_description`] renders from `M` (written instead
+/// with `UPDATE_MODEL_DESCRIPTION=1`). Returns the rendered text.
+pub fn check_model_description_file3<M: CoSimModel>(path: &Path) -> Result<String, String> {
+    let xml = crate::render3::model_description::<M>().map_err(|e| e.to_string())?;
+    compare_or_update(path, &xml)?;
+    Ok(xml)
+}
+
+/// Write `xml` to `path` with `UPDATE_MODEL_DESCRIPTION=1`, else compare.
+fn compare_or_update(path: &Path, xml: &str) -> Result<(), String> {
     if std::env::var(UPDATE_ENV).is_ok_and(|v| v == "1") {
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir)
                 .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
         }
-        std::fs::write(path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        return Ok(md);
+        std::fs::write(path, xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        return Ok(());
     }
     let on_disk = std::fs::read_to_string(path).unwrap_or_default();
     if on_disk == xml {
-        return Ok(md);
+        return Ok(());
     }
     let line = on_disk
         .lines()
@@ -61,7 +77,7 @@ pub fn check_model_description_file<M: CoSimModel>(
         path.display(),
         line + 1,
         show(&on_disk),
-        show(&xml),
+        show(xml),
     ))
 }
 

@@ -23,3 +23,4 @@ pub mod model;
 pub use model::Controller;
 
 fmi2_export::export_fmu!(model::Controller);
+fmi2_export::export_fmu3!(model::Controller);

@@ -27,3 +27,4 @@ pub mod model;
 pub use model::Shaker;
 
 fmi2_export::export_fmu!(model::Shaker);
+fmi2_export::export_fmu3!(model::Shaker);

@@ -24,3 +24,4 @@ pub mod model;
 pub use model::{vr, Structure, DEFAULT_DRIVE_POINT, RESOURCE_TABLE, TIP_POINT};
 
 fmi2_export::export_fmu!(model::Structure);
+fmi2_export::export_fmu3!(model::Structure);

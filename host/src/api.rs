@@ -226,7 +226,13 @@ fn fmus(
     if !(wants_cosim || (sc.output.fmus && opts.package_fmus)) {
         return given;
     }
-    match crate::package::package(&out.join("fmus"), opts.fmu_dir.as_deref()) {
+    // both versions: structure.fmu, shaker.fmu, ... first (cosim takes
+    // those), then structure_fmi3.fmu, ...
+    match crate::package::package_versions(
+        &out.join("fmus"),
+        opts.fmu_dir.as_deref(),
+        crate::fmus::FmiVersions::All,
+    ) {
         Ok(paths) => {
             say!(
                 opts,

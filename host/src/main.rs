@@ -61,6 +61,9 @@ enum Command {
         /// else beside this executable).
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
+        /// FMI version of the FMUs: 2 (<id>.fmu), 3 (<id>_fmi3.fmu) or all (both).
+        #[arg(long, default_value = "2", value_parser = ["2", "3", "all"])]
+        fmi: String,
     },
     /// Generic co-simulation: any FMI 2.0 or 3.0 CS FMUs and connections from a TOML file (docs/cosim.md).
     Cosim {
@@ -178,8 +181,9 @@ fn main() -> ExitCode {
             }
         }),
         Command::Cosim { spec, out } => cosim_cmd::cosim(&spec, &out).map(|()| ExitCode::SUCCESS),
-        Command::Package { out, fmu_dir } => {
-            package::package(&out, fmu_dir.as_deref()).map(|paths| {
+        Command::Package { out, fmu_dir, fmi } => {
+            let versions = host::fmus::FmiVersions::parse(&fmi).expect("clap checked --fmi");
+            package::package_versions(&out, fmu_dir.as_deref(), versions).map(|paths| {
                 for p in paths {
                     println!("wrote {}", p.display());
                 }

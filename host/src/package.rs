@@ -3,8 +3,10 @@
 //! there too, `controller.fmu`) from the built FMU libraries (found by
 //! [`crate::fmus::locate_library`]: `--fmu-dir`, `NLMODE_FMU_DIR` or beside
 //! this executable; never built here), with the paper beam's modal table in
-//! the structure FMU's `resources/`.
-use crate::fmus::{self, Packaging, RepoFmu, RepoFmuError};
+//! the structure FMU's `resources/`. With `--fmi 3` or `--fmi all`
+//! ([`package_versions`]) the FMI 3.0 FMUs `<id>_fmi3.fmu` too (the same
+//! libraries, the FMI 3.0 modelDescriptions).
+use crate::fmus::{self, FmiVersions, Packaging, RepoFmu, RepoFmuError};
 use crate::methods;
 use crate::model::Setup;
 use crate::scenario::Scenario;
@@ -22,6 +24,17 @@ pub const FMU_TABLE_HARMONICS: usize = 13;
 /// an installation may ship only the first two) it is left out with a
 /// warning on stderr.
 pub fn package(out: &Path, fmu_dir: Option<&Path>) -> Result<Vec<PathBuf>> {
+    package_versions(out, fmu_dir, FmiVersions::Fmi2)
+}
+
+/// [`package`] for the FMI versions `versions`: the FMI 2.0 FMUs
+/// (`<id>.fmu`) first, then the FMI 3.0 ones (`<id>_fmi3.fmu`), each in the
+/// order of [`crate::fmus::FMUS`].
+pub fn package_versions(
+    out: &Path,
+    fmu_dir: Option<&Path>,
+    versions: FmiVersions,
+) -> Result<Vec<PathBuf>> {
     let libs = locate(fmu_dir)?;
     let mut sc = Scenario::default_scenario();
     sc.nma.harmonics = crate::scenario::Harmonics::Fixed(FMU_TABLE_HARMONICS);
@@ -32,14 +45,19 @@ pub fn package(out: &Path, fmu_dir: Option<&Path>) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
     let table = tmp.join("modal_table.json");
     nma.table.write(&table)?;
-    let result: Result<Vec<PathBuf>, RepoFmuError> = libs
-        .iter()
-        .filter_map(|(fmu, lib)| lib.as_ref().ok().map(|l| (fmu, l)))
-        .map(|(fmu, lib)| {
-            let resources = fmus::fmu_resources(fmu, Some(&table))?;
-            fmus::package_fmu(fmu, lib, out, resources)
-        })
-        .collect();
+    let found = || {
+        libs.iter()
+            .filter_map(|(fmu, lib)| lib.as_ref().ok().map(|l| (fmu, l)))
+    };
+    let fmi2 = found().filter(|_| versions.fmi2()).map(|(fmu, lib)| {
+        let resources = fmus::fmu_resources(fmu, Some(&table))?;
+        fmus::package_fmu(fmu, lib, out, resources)
+    });
+    let fmi3 = found().filter(|_| versions.fmi3()).map(|(fmu, lib)| {
+        let resources = fmus::fmu_resources(fmu, Some(&table))?;
+        fmus::package_fmu3(fmu, lib, out, resources)
+    });
+    let result: Result<Vec<PathBuf>, RepoFmuError> = fmi2.chain(fmi3).collect();
     let _ = std::fs::remove_dir_all(&tmp);
     let paths = result?;
     for (fmu, lib) in &libs {

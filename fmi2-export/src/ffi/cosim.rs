@@ -20,10 +20,10 @@ pub unsafe fn get_directional_derivative<M: CoSimModel>(
         let dk = slice(dv_known, n_known).ok_or_else(|| null_arg("dvKnown"))?;
         let du = slice_mut(dv_unknown, n_unknown).ok_or_else(|| null_arg("dvUnknown"))?;
         for &kv in k {
-            find::<M>(kv, VarType::Real)?;
+            find::<M>(false, kv, VarType::Real)?;
         }
         for (o, &uv) in du.iter_mut().zip(u) {
-            find::<M>(uv, VarType::Real)?;
+            find::<M>(false, uv, VarType::Real)?;
             let mut s = 0.0;
             for (&kv, &d) in k.iter().zip(dk) {
                 s += inst.model.partial_derivative(uv, kv)? * d;
@@ -57,7 +57,7 @@ pub unsafe fn set_real_input_derivatives<M: CoSimModel>(
         let ord = slice(order, n).ok_or_else(|| null_arg("order"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
         for ((&v, &o), &x) in vrs.iter().zip(ord).zip(vals) {
-            let var = find::<M>(v, VarType::Real)?;
+            let var = find::<M>(false, v, VarType::Real)?;
             if var.causality != Causality::Input {
                 return Err(ModelError::error(format!(
                     "{} (value reference {v}) is not an input",
@@ -90,7 +90,7 @@ pub unsafe fn get_real_output_derivatives<M: CoSimModel>(
         let ord = slice(order, n).ok_or_else(|| null_arg("order"))?;
         let out = slice_mut(value, n).ok_or_else(|| null_arg("value"))?;
         for ((o, &v), &k) in out.iter_mut().zip(vrs).zip(ord) {
-            let var = find::<M>(v, VarType::Real)?;
+            let var = find::<M>(false, v, VarType::Real)?;
             if var.causality != Causality::Output {
                 return Err(ModelError::error(format!(
                     "{} (value reference {v}) is not an output",
@@ -115,44 +115,52 @@ pub unsafe fn do_step<M: CoSimModel>(
     h: f64,
     _no_set_prior: Boolean,
 ) -> Status {
-    run::<M>(c, "fmi2DoStep", STEP_COMPLETE, |inst| {
-        if !(h.is_finite() && h > 0.0) {
+    run::<M>(c, "fmi2DoStep", STEP_COMPLETE, |inst| step(inst, t, h))
+}
+
+/// The step of `fmi2DoStep` and `fmi3DoStep`: checks `t` and `h`, advances
+/// the model, checks the outputs.
+pub(crate) fn step<M: CoSimModel>(
+    inst: &mut Instance<M>,
+    t: f64,
+    h: f64,
+) -> Result<Status, ModelError> {
+    if !(h.is_finite() && h > 0.0) {
+        return Err(ModelError::error(format!(
+            "communicationStepSize must be positive and finite, got {h}"
+        )));
+    }
+    if !t.is_finite() || (t - inst.time).abs() > time_tol(inst.time) {
+        return Err(ModelError::error(format!(
+            "expected currentCommunicationPoint = {} but was {t}",
+            inst.time
+        )));
+    }
+    if let Some(stop) = inst.stop_time {
+        if t + h > stop + time_tol(stop) {
             return Err(ModelError::error(format!(
-                "communicationStepSize must be positive and finite, got {h}"
+                "step to {} goes beyond stopTime = {stop}",
+                t + h
             )));
         }
-        if !t.is_finite() || (t - inst.time).abs() > time_tol(inst.time) {
-            return Err(ModelError::error(format!(
-                "expected currentCommunicationPoint = {} but was {t}",
-                inst.time
-            )));
+    }
+    match inst
+        .model
+        .do_step(t, h, &inst.logger)
+        .and_then(|()| outputs_finite(&inst.model, &inst.outputs, t + h))
+    {
+        Ok(()) => {
+            inst.time = t + h;
+            inst.last_successful_time = inst.time;
+            Ok(Status::Ok)
         }
-        if let Some(stop) = inst.stop_time {
-            if t + h > stop + time_tol(stop) {
-                return Err(ModelError::error(format!(
-                    "step to {} goes beyond stopTime = {stop}",
-                    t + h
-                )));
+        Err(e) => {
+            if e.status == Status::Discard {
+                inst.state = State::StepFailed;
             }
+            Err(e)
         }
-        match inst
-            .model
-            .do_step(t, h, &inst.logger)
-            .and_then(|()| outputs_finite(&inst.model, &inst.outputs, t + h))
-        {
-            Ok(()) => {
-                inst.time = t + h;
-                inst.last_successful_time = inst.time;
-                Ok(Status::Ok)
-            }
-            Err(e) => {
-                if e.status == Status::Discard {
-                    inst.state = State::StepFailed;
-                }
-                Err(e)
-            }
-        }
-    })
+    }
 }
 
 /// `fmi2CancelStep`: steps are never asynchronous, so there is never a step

@@ -13,6 +13,13 @@
 //!
 //! There is no global or static mutable state: everything lives in the
 //! [`Instance`] behind the `fmi2Component` pointer.
+//!
+//! The FMI 3.0 functions ([`crate::fmi3`]) run on the same [`Instance`],
+//! state machine, checks and FMU-state code: an instance created by
+//! `fmi3Instantiate*` is flagged `Instance::fmi3`, which only changes the
+//! function names in its messages (`fmi3_name`), the value references of
+//! non-Float64 variables ([`crate::render3::fmi3_value_reference`]) and the
+//! logging callback.
 #![allow(clippy::missing_safety_doc)]
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_void};
@@ -66,16 +73,16 @@ impl State {
     }
 }
 
-const INSTANTIATED: u16 = 1 << 0;
-const INIT: u16 = 1 << 1;
-const STEP_COMPLETE: u16 = 1 << 2;
-const STEP_FAILED: u16 = 1 << 3;
-const STEP_CANCELED: u16 = 1 << 4;
-const TERMINATED: u16 = 1 << 5;
-const ERROR: u16 = 1 << 6;
-const EVENT: u16 = 1 << 8;
-const CONTINUOUS: u16 = 1 << 9;
-const ALIVE: u16 = INSTANTIATED
+pub(crate) const INSTANTIATED: u16 = 1 << 0;
+pub(crate) const INIT: u16 = 1 << 1;
+pub(crate) const STEP_COMPLETE: u16 = 1 << 2;
+pub(crate) const STEP_FAILED: u16 = 1 << 3;
+pub(crate) const STEP_CANCELED: u16 = 1 << 4;
+pub(crate) const TERMINATED: u16 = 1 << 5;
+pub(crate) const ERROR: u16 = 1 << 6;
+pub(crate) const EVENT: u16 = 1 << 8;
+pub(crate) const CONTINUOUS: u16 = 1 << 9;
+pub(crate) const ALIVE: u16 = INSTANTIATED
     | INIT
     | STEP_COMPLETE
     | STEP_FAILED
@@ -84,26 +91,28 @@ const ALIVE: u16 = INSTANTIATED
     | ERROR
     | EVENT
     | CONTINUOUS;
-const GETTABLE: u16 =
+pub(crate) const GETTABLE: u16 =
     INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR | EVENT | CONTINUOUS;
 /// `fmi2SetReal` and friends (which variables, [`Variable::settable`]).
-const SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE | EVENT | CONTINUOUS;
+pub(crate) const SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE | EVENT | CONTINUOUS;
 /// `fmi2SetRealInputDerivatives` (Co-Simulation only).
-const CS_SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE;
-const STEPPED: u16 = STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED;
+pub(crate) const CS_SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE;
+pub(crate) const STEPPED: u16 = STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED;
 
 /// One FMU instance: the state machine, the importer's callbacks and the model.
 pub struct Instance<M> {
-    state: State,
+    pub(crate) state: State,
+    /// Created by `fmi3Instantiate*` (FMI 3.0 names, value references and logger).
+    pub(crate) fmi3: bool,
     /// Instantiated as `fmi2ModelExchange` (else Co-Simulation).
     model_exchange: bool,
     logger: Logger,
     instance_name: String,
     resource_dir: Option<PathBuf>,
-    time: f64,
+    pub(crate) time: f64,
     start_time: f64,
     stop_time: Option<f64>,
-    last_successful_time: f64,
+    pub(crate) last_successful_time: f64,
     model: M,
     /// Keeps the strings returned by `fmi2GetString` alive until the next call.
     string_buf: Vec<CString>,
@@ -134,8 +143,30 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
     }
 }
 
+/// The FMI 3.0 name of a shared function (messages of an FMI 3.0 instance
+/// name the function the importer called).
+pub(crate) fn fmi3_name(func: &str) -> std::borrow::Cow<'_, str> {
+    let name = match func {
+        "fmi2GetReal" => "fmi3GetFloat64",
+        "fmi2SetReal" => "fmi3SetFloat64",
+        "fmi2GetInteger" => "fmi3GetInt32",
+        "fmi2SetInteger" => "fmi3SetInt32",
+        "fmi2GetFMUstate" => "fmi3GetFMUState",
+        "fmi2SetFMUstate" => "fmi3SetFMUState",
+        "fmi2FreeFMUstate" => "fmi3FreeFMUState",
+        "fmi2SerializedFMUstateSize" => "fmi3SerializedFMUStateSize",
+        "fmi2SerializeFMUstate" => "fmi3SerializeFMUState",
+        "fmi2DeSerializeFMUstate" => "fmi3DeserializeFMUState",
+        "fmi2GetDerivatives" => "fmi3GetContinuousStateDerivatives",
+        "fmi2GetRealOutputDerivatives" => "fmi3GetOutputDerivatives",
+        "fmi2SetupExperiment" | "fmi2EnterInitializationMode" => "fmi3EnterInitializationMode",
+        f => return f.replacen("fmi2", "fmi3", 1).into(),
+    };
+    name.into()
+}
+
 /// Run `f` on the instance behind `c` if the state allows `func`.
-unsafe fn run<M: CoSimModel>(
+pub(crate) unsafe fn run<M: CoSimModel>(
     c: Component,
     func: &str,
     allowed: u16,
@@ -145,6 +176,13 @@ unsafe fn run<M: CoSimModel>(
         return Status::Error;
     }
     let ptr = c as *mut Instance<M>;
+    let renamed;
+    let func = if (*ptr).fmi3 {
+        renamed = fmi3_name(func);
+        &*renamed
+    } else {
+        func
+    };
     // SAFETY: a non-null component was created by `instantiate::<M>` (the
     // importer's contract) and is not used concurrently (FMI 2.0 rule).
     let state = (*ptr).state;
@@ -183,7 +221,7 @@ unsafe fn run<M: CoSimModel>(
 
 /// [`run`] for a Model Exchange function: on a Co-Simulation instance it is
 /// refused (logged, fmi2Error) whatever the state.
-unsafe fn run_me<M: CoSimModel>(
+pub(crate) unsafe fn run_me<M: CoSimModel>(
     c: Component,
     func: &str,
     allowed: u16,
@@ -192,8 +230,11 @@ unsafe fn run_me<M: CoSimModel>(
     // SAFETY: as in `run` (a non-null component is an `Instance<M>`)
     if !c.is_null() && !(*(c as *mut Instance<M>)).model_exchange {
         return run::<M>(c, func, ALIVE, |_| {
+            let fmi3 = (*(c as *mut Instance<M>)).fmi3;
             Err(ModelError::error(if M::CONTINUOUS_STATES.is_empty() {
                 "this FMU implements Co-Simulation only (no Model Exchange functions)"
+            } else if fmi3 {
+                "the instance was created by fmi3InstantiateCoSimulation; Model Exchange functions need fmi3InstantiateModelExchange"
             } else {
                 "the instance was instantiated as fmi2CoSimulation; Model Exchange functions need fmuType fmi2ModelExchange"
             }))
@@ -203,7 +244,7 @@ unsafe fn run_me<M: CoSimModel>(
 }
 
 /// Slice from a C array; `None` for a null pointer with `n > 0`.
-unsafe fn slice<'a, T>(p: *const T, n: usize) -> Option<&'a [T]> {
+pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize) -> Option<&'a [T]> {
     if n == 0 {
         Some(&[])
     } else if p.is_null() {
@@ -213,7 +254,7 @@ unsafe fn slice<'a, T>(p: *const T, n: usize) -> Option<&'a [T]> {
     }
 }
 
-unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Option<&'a mut [T]> {
+pub(crate) unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Option<&'a mut [T]> {
     if n == 0 {
         Some(&mut [])
     } else if p.is_null() {
@@ -223,14 +264,27 @@ unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Option<&'a mut [T]> {
     }
 }
 
-fn null_arg(name: &str) -> ModelError {
+pub(crate) fn null_arg(name: &str) -> ModelError {
     ModelError::error(format!("argument {name} is a NULL pointer"))
 }
 
-fn find<M: CoSimModel>(vr: u32, ty: VarType) -> Result<&'static Variable, ModelError> {
+/// The variable of type `ty` with value reference `vr` (FMI 3.0: the
+/// variable's FMI 3.0 value reference, [`crate::render3::fmi3_value_reference`]).
+pub(crate) fn find<M: CoSimModel>(
+    fmi3: bool,
+    vr: u32,
+    ty: VarType,
+) -> Result<&'static Variable, ModelError> {
     M::VARIABLES
         .iter()
-        .find(|v| v.vr == vr && v.ty == ty)
+        .find(|v| {
+            v.ty == ty
+                && if fmi3 && ty != VarType::Real {
+                    crate::render3::fmi3_value_reference(M::VARIABLES, v) == vr
+                } else {
+                    v.vr == vr
+                }
+        })
         .ok_or_else(|| {
             ModelError::error(format!(
                 "unknown value reference {vr} (no {ty:?} variable has it)"
@@ -351,7 +405,7 @@ pub fn get_version() -> *const c_char {
     c"2.0".as_ptr()
 }
 
-unsafe fn opt_str<'a>(p: *const c_char) -> Option<&'a str> {
+pub(crate) unsafe fn opt_str<'a>(p: *const c_char) -> Option<&'a str> {
     if p.is_null() {
         None
     } else {
@@ -380,56 +434,85 @@ pub unsafe fn instantiate<M: CoSimModel>(
         name.unwrap_or("?"),
         logging_on != 0,
     );
+    let model_exchange = match fmu_type {
+        FMI2_CO_SIMULATION => Ok(false),
+        FMI2_MODEL_EXCHANGE if !M::CONTINUOUS_STATES.is_empty() => Ok(true),
+        FMI2_MODEL_EXCHANGE => Err(
+            "fmi2Instantiate: this FMU implements Co-Simulation only (fmuType fmi2ModelExchange refused)"
+                .to_string(),
+        ),
+        _ => Err(format!(
+            "fmi2Instantiate: fmuType must be fmi2ModelExchange ({FMI2_MODEL_EXCHANGE}) or fmi2CoSimulation ({FMI2_CO_SIMULATION}), got {fmu_type}"
+        )),
+    };
+    let resource_dir = |logger: &Logger| match opt_str(resource_location) {
+        None | Some("") => None,
+        Some(uri) => match crate::uri::file_uri_to_path(uri) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                logger.warning(&format!("fmi2Instantiate: {e}; resources unavailable"));
+                None
+            }
+        },
+    };
+    create::<M>(
+        "fmi2Instantiate",
+        name,
+        model_exchange,
+        opt_str(guid),
+        resource_dir,
+        logger,
+        false,
+    )
+}
+
+/// The instantiation both versions share: checks the instance name (after
+/// `model_exchange`, the caller's decoding of the interface type) and the
+/// GUID (`instantiationToken`), builds the model with `resource_dir` and
+/// returns the new instance, or NULL with the reason logged through `logger`.
+pub(crate) unsafe fn create<M: CoSimModel>(
+    func: &str,
+    name: Option<&str>,
+    model_exchange: Result<bool, String>,
+    guid: Option<&str>,
+    resource_dir: impl FnOnce(&Logger) -> Option<PathBuf>,
+    logger: Logger,
+    fmi3: bool,
+) -> Component {
     let result = catch_unwind(AssertUnwindSafe(|| -> Result<Instance<M>, String> {
         let name = match name {
             Some(n) if !n.is_empty() => n.to_string(),
-            _ => return Err("fmi2Instantiate: instanceName must be a non-empty string".into()),
+            _ => return Err(format!("{func}: instanceName must be a non-empty string")),
         };
-        let model_exchange = match fmu_type {
-            FMI2_CO_SIMULATION => false,
-            FMI2_MODEL_EXCHANGE if !M::CONTINUOUS_STATES.is_empty() => true,
-            FMI2_MODEL_EXCHANGE => {
-                return Err(
-                    "fmi2Instantiate: this FMU implements Co-Simulation only (fmuType fmi2ModelExchange refused)"
-                        .into(),
-                )
-            }
-            _ => {
-                return Err(format!(
-                    "fmi2Instantiate: fmuType must be fmi2ModelExchange ({FMI2_MODEL_EXCHANGE}) or fmi2CoSimulation ({FMI2_CO_SIMULATION}), got {fmu_type}"
-                ))
-            }
-        };
-        match opt_str(guid) {
+        let model_exchange = model_exchange?;
+        match guid {
             Some(g) if g == M::GUID => {}
             g => {
+                let what = if fmi3 { "instantiationToken" } else { "GUID" };
                 return Err(format!(
-                    "fmi2Instantiate: GUID mismatch: expected {} but was {:?}",
+                    "{func}: {what} mismatch: expected {} but was {:?}",
                     M::GUID,
                     g
-                ))
+                ));
             }
         }
-        let resource_dir = match opt_str(resource_location) {
-            None | Some("") => None,
-            Some(uri) => match crate::uri::file_uri_to_path(uri) {
-                Ok(p) => Some(p),
-                Err(e) => {
-                    logger.warning(&format!("fmi2Instantiate: {e}; resources unavailable"));
-                    None
-                }
-            },
-        };
+        let resource_dir = resource_dir(&logger);
         let ctx = InstantiateContext {
             instance_name: &name,
             resource_dir: resource_dir.clone(),
             logger: &logger,
         };
-        let model = M::instantiate(&ctx).map_err(|e| format!("fmi2Instantiate: {}", e.message))?;
+        let model = M::instantiate(&ctx).map_err(|e| format!("{func}: {}", e.message))?;
         Ok(Instance {
             state: State::Instantiated,
+            fmi3,
             model_exchange,
-            logger: Logger::new(cb.logger, cb.component_environment, &name, logging_on != 0),
+            logger: Logger::with_callback(
+                logger.callback(),
+                logger.env(),
+                &name,
+                logger.logging_on,
+            ),
             instance_name: name,
             resource_dir,
             time: 0.0,
@@ -449,7 +532,7 @@ pub unsafe fn instantiate<M: CoSimModel>(
         }
         Err(p) => {
             logger.error(&format!(
-                "fmi2Instantiate: internal error (panic): {}",
+                "{func}: internal error (panic): {}",
                 panic_message(&*p)
             ));
             std::ptr::null_mut()
@@ -585,7 +668,7 @@ pub unsafe fn reset<M: CoSimModel>(c: Component) -> Status {
 }
 
 /// A Real value handed out must be finite: never fmi2OK with NaN or inf.
-fn finite(vr: ValueReference, x: f64) -> Result<f64, ModelError> {
+pub(crate) fn finite(vr: ValueReference, x: f64) -> Result<f64, ModelError> {
     if x.is_finite() {
         Ok(x)
     } else {
@@ -607,7 +690,11 @@ fn real_outputs<M: CoSimModel>() -> impl Iterator<Item = &'static Variable> {
 /// naming the first that is not (so the step itself fails, not a later get).
 /// One branch-free pass over the outputs (`outputs`: the
 /// instance's list); the variable table is searched only on failure.
-fn outputs_finite<M: CoSimModel>(m: &M, outputs: &[u32], t: f64) -> Result<(), ModelError> {
+pub(crate) fn outputs_finite<M: CoSimModel>(
+    m: &M,
+    outputs: &[u32],
+    t: f64,
+) -> Result<(), ModelError> {
     let mut all_finite = true;
     for &vr in outputs {
         all_finite &= m.get_real(vr).is_finite();

@@ -14,8 +14,8 @@ macro_rules! getter {
             run::<M>(c, $cname, GETTABLE, |inst| {
                 let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
                 let out = slice_mut(value, n).ok_or_else(|| null_arg("value"))?;
-                for (o, &$vr) in out.iter_mut().zip(vrs) {
-                    find::<M>($vr, $vt)?;
+                for (o, &v) in out.iter_mut().zip(vrs) {
+                    let $vr = find::<M>(inst.fmi3, v, $vt)?.vr;
                     let $m = &inst.model;
                     *o = $get;
                 }
@@ -25,10 +25,28 @@ macro_rules! getter {
     };
 }
 
-getter!(get_real, "fmi2GetReal", Real, VarType::Real, |m, v| finite(
-    v,
-    m.try_get_real(v)?
-)?);
+/// `fmi2GetReal` (FMI 3.0 `fmi3GetFloat64` also reads the independent
+/// variable `time`, [`crate::render3::TIME_VALUE_REFERENCE`]).
+pub unsafe fn get_real<M: CoSimModel>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *mut Real,
+) -> Status {
+    run::<M>(c, "fmi2GetReal", GETTABLE, |inst| {
+        let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
+        let out = slice_mut(value, n).ok_or_else(|| null_arg("value"))?;
+        for (o, &v) in out.iter_mut().zip(vrs) {
+            if inst.fmi3 && v == crate::render3::TIME_VALUE_REFERENCE {
+                *o = inst.time;
+                continue;
+            }
+            find::<M>(inst.fmi3, v, VarType::Real)?;
+            *o = finite(v, inst.model.try_get_real(v)?)?;
+        }
+        Ok(Status::Ok)
+    })
+}
 
 getter!(
     get_integer,
@@ -57,7 +75,7 @@ pub unsafe fn get_string<M: CoSimModel>(
         let out = slice_mut(value, n).ok_or_else(|| null_arg("value"))?;
         inst.string_buf.clear();
         for &v in vrs {
-            find::<M>(v, VarType::String)?;
+            let v = find::<M>(inst.fmi3, v, VarType::String)?.vr;
             let s = inst.model.get_string(v)?;
             inst.string_buf
                 .push(CString::new(s.replace('\0', " ")).expect("NUL replaced"));
@@ -81,7 +99,7 @@ pub unsafe fn set_real<M: CoSimModel>(
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
         for (&v, &x) in vrs.iter().zip(vals) {
-            let var = find::<M>(v, VarType::Real)?;
+            let var = find::<M>(inst.fmi3, v, VarType::Real)?;
             inst.check_settable(var)?;
             if !x.is_finite() {
                 return Err(ModelError::error(format!(
@@ -106,9 +124,9 @@ pub unsafe fn set_integer<M: CoSimModel>(
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
         for (&v, &x) in vrs.iter().zip(vals) {
-            let var = find::<M>(v, VarType::Integer)?;
+            let var = find::<M>(inst.fmi3, v, VarType::Integer)?;
             inst.check_settable(var)?;
-            inst.model.set_integer(v, x)?;
+            inst.model.set_integer(var.vr, x)?;
         }
         Ok(Status::Ok)
     })
@@ -125,9 +143,9 @@ pub unsafe fn set_boolean<M: CoSimModel>(
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
         for (&v, &x) in vrs.iter().zip(vals) {
-            let var = find::<M>(v, VarType::Boolean)?;
+            let var = find::<M>(inst.fmi3, v, VarType::Boolean)?;
             inst.check_settable(var)?;
-            inst.model.set_boolean(v, x != 0)?;
+            inst.model.set_boolean(var.vr, x != 0)?;
         }
         Ok(Status::Ok)
     })
@@ -144,7 +162,7 @@ pub unsafe fn set_string<M: CoSimModel>(
         let vrs = slice(vr, n).ok_or_else(|| null_arg("vr"))?;
         let vals = slice(value, n).ok_or_else(|| null_arg("value"))?;
         for (&v, &p) in vrs.iter().zip(vals) {
-            let var = find::<M>(v, VarType::String)?;
+            let var = find::<M>(inst.fmi3, v, VarType::String)?;
             inst.check_settable(var)?;
             if p.is_null() {
                 return Err(null_arg("value[i]"));
@@ -152,7 +170,7 @@ pub unsafe fn set_string<M: CoSimModel>(
             let s = CStr::from_ptr(p).to_str().map_err(|e| {
                 ModelError::error(format!("value of {} is not UTF-8: {e}", var.name))
             })?;
-            inst.model.set_string(v, s)?;
+            inst.model.set_string(var.vr, s)?;
         }
         Ok(Status::Ok)
     })

@@ -1,4 +1,5 @@
 //! fmu-controller's integration tests, one test binary (one link of the dependency
 //! graph instead of one per file): `cargo test -p fmu-controller --test it [module::]`.
+mod fmi3;
 mod model;
 mod model_description;

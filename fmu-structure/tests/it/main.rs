@@ -1,4 +1,5 @@
 //! fmu-structure's integration tests, one test binary (one link of the dependency
 //! graph instead of one per file): `cargo test -p fmu-structure --test it [module::]`.
+mod fmi3;
 mod model;
 mod model_description;

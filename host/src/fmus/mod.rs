@@ -23,7 +23,7 @@
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
-use fmi2_export::package::{readme_documentation, write_fmu, FmuSpec, PackageError};
+use fmi2_export::package::{readme_documentation, write_fmu, write_fmu3, FmuSpec, PackageError};
 
 pub mod structure_shaker;
 
@@ -40,6 +40,10 @@ pub struct RepoFmu {
     /// `modelDescription/<id>/modelDescription.xml` (rendered from the FMU
     /// crate's code and checked by its tests to be so).
     pub model_description: &'static str,
+    /// `modelDescription/<id>_fmi3/modelDescription.xml`, the FMI 3.0 one
+    /// (rendered by `fmi2_export::render3`, checked the same way); the same
+    /// library serves both versions.
+    pub model_description3: &'static str,
     /// The FMU crate's README.md (the `.fmu`'s documentation).
     pub readme: &'static str,
     /// How `host package` treats it.
@@ -70,6 +74,11 @@ macro_rules! repo_fmu {
                 "../../../modelDescription/",
                 $id,
                 "/modelDescription.xml"
+            )),
+            model_description3: include_str!(concat!(
+                "../../../modelDescription/",
+                $id,
+                "_fmi3/modelDescription.xml"
             )),
             readme: include_str!(concat!("../../../", $package, "/README.md")),
             packaging: $packaging,
@@ -217,6 +226,59 @@ pub fn package_fmu(
     Ok(path)
 }
 
+/// Which FMI versions `host package` writes (`--fmi 2|3|all`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FmiVersions {
+    /// `<id>.fmu` (FMI 2.0), the default.
+    Fmi2,
+    /// `<id>_fmi3.fmu` (FMI 3.0).
+    Fmi3,
+    /// Both.
+    All,
+}
+
+impl FmiVersions {
+    /// From the `--fmi` value (`2`, `3`, `all`).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "2" => Some(Self::Fmi2),
+            "3" => Some(Self::Fmi3),
+            "all" => Some(Self::All),
+            _ => None,
+        }
+    }
+    pub fn fmi2(self) -> bool {
+        self != Self::Fmi3
+    }
+    pub fn fmi3(self) -> bool {
+        self != Self::Fmi2
+    }
+}
+
+/// Write `out_dir/<id>_fmi3.fmu` (FMI 3.0: the same library in
+/// `binaries/x86_64-linux/`, the FMI 3.0 modelDescription) with `resources`.
+pub fn package_fmu3(
+    fmu: &RepoFmu,
+    library: &Path,
+    out_dir: &Path,
+    resources: Vec<(String, Vec<u8>)>,
+) -> Result<PathBuf, RepoFmuError> {
+    std::fs::create_dir_all(out_dir).map_err(|source| RepoFmuError::Dir {
+        path: out_dir.into(),
+        source,
+    })?;
+    let spec = FmuSpec {
+        model_identifier: fmu.id.into(),
+        model_description: fmu.model_description3.into(),
+        library: library.into(),
+        resources,
+        documentation: readme_documentation(fmu.id, fmu.readme),
+    };
+    let path = out_dir.join(format!("{}_fmi3.fmu", fmu.id));
+    write_fmu3(&spec, &path)?;
+    Ok(path)
+}
+
 /// The `resources/` of an FMU packaged with `modal_table` (if given): the
 /// table as `modal_table.json` for [`Packaging::WithModalTable`], nothing
 /// for the others.
@@ -275,6 +337,15 @@ mod tests {
             assert_eq!(names, ["modelDescription.xml"], "{}", dir.display());
             let md = cosim::import::ModelDescription::parse(fmu.model_description).unwrap();
             assert_eq!(md.co_simulation.model_identifier, fmu.id);
+            let dir3 = root
+                .join("modelDescription")
+                .join(format!("{}_fmi3", fmu.id));
+            let names: Vec<String> = std::fs::read_dir(&dir3)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            assert_eq!(names, ["modelDescription.xml"], "{}", dir3.display());
+            assert!(fmu.model_description3.contains("fmiVersion=\"3.0\""));
         }
     }
 

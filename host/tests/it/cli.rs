@@ -97,6 +97,8 @@ fn default_run_writes_the_output_contract() {
     for f in [
         "fmus/structure.fmu",
         "fmus/shaker.fmu",
+        "fmus/structure_fmi3.fmu",
+        "fmus/shaker_fmi3.fmu",
         "cosim_timeseries.csv",
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
@@ -409,4 +411,38 @@ fn bad_input_of_issue_26_is_refused_by_key() {
     for (toml, needles) in &cases {
         expect_failure(&["run"], Some(toml), needles);
     }
+}
+
+/// `host package --fmi 2|3|all` (default 2): `--fmi 3` writes the FMI 3.0
+/// FMUs `<id>_fmi3.fmu` only, with the library in `binaries/x86_64-linux/`;
+/// a bad value exits 2 naming the flag.
+#[test]
+fn package_fmi_flag_selects_the_fmi_versions() {
+    let dir = tmpdir("package-fmi");
+    let o = host()
+        .args(["package", "--fmi", "4", "-o"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--fmi"), "{err}");
+    let o = host()
+        .args(["package", "--fmi", "3", "-o"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for id in ["structure", "shaker", "controller"] {
+        assert!(!dir.join(format!("{id}.fmu")).exists());
+        let f = std::fs::File::open(dir.join(format!("{id}_fmi3.fmu"))).unwrap();
+        let mut z = zip::ZipArchive::new(f).unwrap();
+        assert!(z.by_name(&format!("binaries/x86_64-linux/{id}.so")).is_ok());
+        let mut md = String::new();
+        std::io::Read::read_to_string(&mut z.by_name("modelDescription.xml").unwrap(), &mut md)
+            .unwrap();
+        assert!(md.contains("fmiVersion=\"3.0\""), "{id}");
+    }
+    assert!(dir.join("structure_fmi3.fmu").is_file());
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -1,0 +1,233 @@
+//! The FMI 3.0 modelDescription.xml of a model, written from the same code
+//! as the FMI 2.0 one ([`CoSimModel::VARIABLES`], [`CoSimModel::INFO`],
+//! [`CoSimModel::CONTINUOUS_STATES`]) through the version-neutral
+//! [`Layout`]; [`crate::render`] shares the unit definitions, log
+//! categories and default experiment. The text is deterministic, so that a
+//! checked-in copy (`modelDescription/<id>_fmi3/modelDescription.xml`) can be
+//! compared byte for byte ([`crate::testing::check_model_description_file3`]).
+//!
+//! What FMI 3.0 adds or names differently:
+//!
+//! * `instantiationToken` is the model's [`CoSimModel::GUID`];
+//! * the independent variable `time` (`causality="independent"`), value
+//!   reference [`TIME_VALUE_REFERENCE`] (no FMI 2.0 variable has it;
+//!   `fmi3GetFloat64` of it returns the instance's time);
+//! * variables are typed elements, `<Float64>`, `<Int32>`, `<Boolean>`,
+//!   `<String>` (its start value a `<Start value=".."/>` child);
+//! * value references are unique over all variables (FMI 2.0's are unique
+//!   per type): every variable keeps its FMI 2.0 value reference except a
+//!   non-Real one whose number a variable of another type also has, which
+//!   gets [`fmi3_value_reference`] (its FMI 2.0 number plus a per-type offset);
+//! * `<ModelStructure>` names variables by value reference
+//!   (`<Output>`, `<ContinuousStateDerivative>`, `<InitialUnknown>`) and the
+//!   `derivative` attribute is the state's value reference.
+use crate::description::{start_text, DescriptionError, Layout, Unknown};
+use crate::model::{CoSimModel, Start, VarType, Variable};
+use crate::render::{default_experiment, esc, log_categories, unit_definitions};
+
+/// Value reference of the independent variable `time` in every FMI 3.0
+/// modelDescription of this crate (above every FMI 2.0 value reference the
+/// models use; [`Layout`] checks it is free).
+pub const TIME_VALUE_REFERENCE: u32 = 999_999_999;
+
+/// Offset added to the FMI 2.0 value reference of an Int32, Boolean or
+/// String variable whose number is also used by a variable of another type
+/// (FMI 3.0 value references are unique over all types).
+pub const fn type_offset(ty: VarType) -> u32 {
+    match ty {
+        VarType::Real => 0,
+        VarType::Integer => 100_000_000,
+        VarType::Boolean => 200_000_000,
+        _ => 300_000_000,
+    }
+}
+
+/// The FMI 3.0 value reference of `v` in the table `vars`: its FMI 2.0 one
+/// unless it is a non-Real variable whose number another variable of the
+/// table also has (then plus [`type_offset`]). Float64 value references
+/// are always the FMI 2.0 ones.
+pub fn fmi3_value_reference(vars: &[Variable], v: &Variable) -> u32 {
+    if v.ty == VarType::Real
+        || !vars
+            .iter()
+            .any(|w| w.vr == v.vr && w.ty != v.ty && !std::ptr::eq(w, v))
+    {
+        v.vr
+    } else {
+        v.vr + type_offset(v.ty)
+    }
+}
+
+/// The FMI 3.0 modelDescription.xml of `M` (Co-Simulation, and Model
+/// Exchange when `M` has continuous states).
+pub fn model_description<M: CoSimModel>() -> Result<String, DescriptionError> {
+    let l = Layout::of::<M>()?;
+    let vrs: Vec<u32> = l
+        .variables
+        .iter()
+        .map(|v| fmi3_value_reference(l.variables, v))
+        .collect();
+    for (i, &vr) in vrs.iter().enumerate() {
+        if vr == TIME_VALUE_REFERENCE || vrs[..i].contains(&vr) {
+            return Err(DescriptionError::DuplicateValueReference3 {
+                name: l.variables[i].name,
+                vr,
+            });
+        }
+    }
+    Ok(fmi3(&l, &vrs))
+}
+
+/// Write the FMI 3.0 XML of a resolved description (`vrs`: the FMI 3.0
+/// value reference of each variable).
+fn fmi3(l: &Layout, vrs: &[u32]) -> String {
+    [
+        header(l),
+        interfaces(l),
+        unit_definitions(l),
+        log_categories(l),
+        default_experiment(l),
+        model_variables(l, vrs),
+        model_structure(l, vrs),
+    ]
+    .concat()
+}
+
+fn header(l: &Layout) -> String {
+    let info = &l.info;
+    let mut x = format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
+         <!-- Generated from the code of the FMU {} (its variable table and ModelInfo) by\n     \
+         fmi2_export::render3; do not edit. A test of the FMU crate compares this file with the\n     \
+         code; `UPDATE_MODEL_DESCRIPTION=1 cargo test` rewrites it. -->\n\
+         <fmiModelDescription\n  fmiVersion=\"3.0\"\n  modelName=\"{}\"\n  instantiationToken=\"{}\"\n  \
+         description=\"{}\"\n",
+        esc(l.model_identifier),
+        esc(info.name),
+        esc(l.guid),
+        esc(info.description)
+    );
+    if let Some(v) = info.version {
+        x += &format!("  version=\"{}\"\n", esc(v));
+    }
+    x + &format!(
+        "  generationTool=\"{}\"\n  variableNamingConvention=\"flat\">\n\n",
+        esc(info.generation_tool)
+    )
+}
+
+/// `<ModelExchange>` (with continuous states) and `<CoSimulation>`. What
+/// the layer does not implement is declared false: adjoint derivatives,
+/// per-element dependencies, event mode in Co-Simulation, intermediate
+/// update and early return (see the FMU READMEs for why).
+fn interfaces(l: &Layout) -> String {
+    let caps = &l.info.capabilities;
+    let id = esc(l.model_identifier);
+    let dd = caps.provides_directional_derivative;
+    let common = format!(
+        "    modelIdentifier=\"{id}\"\n    needsExecutionTool=\"false\"\n    \
+         canBeInstantiatedOnlyOncePerProcess=\"false\"\n    canGetAndSetFMUState=\"true\"\n    \
+         canSerializeFMUState=\"true\"\n    providesDirectionalDerivatives=\"{dd}\"\n    \
+         providesAdjointDerivatives=\"false\"\n    providesPerElementDependencies=\"false\"\n"
+    );
+    let mut x = String::new();
+    if l.model_exchange {
+        x += &format!(
+            "  <ModelExchange\n{common}    needsCompletedIntegratorStep=\"false\"\n    \
+             providesEvaluateDiscreteStates=\"false\"/>\n\n"
+        );
+    }
+    x + &format!(
+        "  <CoSimulation\n{common}    canHandleVariableCommunicationStepSize=\"{}\"\n    \
+         maxOutputDerivativeOrder=\"{}\"\n    providesIntermediateUpdate=\"false\"\n    \
+         mightReturnEarlyFromDoStep=\"false\"\n    canReturnEarlyAfterIntermediateUpdate=\"false\"\n    \
+         hasEventMode=\"false\"\n    providesEvaluateDiscreteStates=\"false\"/>\n\n",
+        caps.can_handle_variable_communication_step_size, caps.max_output_derivative_order,
+    )
+}
+
+fn type_name(ty: VarType) -> &'static str {
+    match ty {
+        VarType::Real => "Float64",
+        VarType::Integer => "Int32",
+        VarType::Boolean => "Boolean",
+        _ => "String",
+    }
+}
+
+/// `<ModelVariables>`: `time` first, then one element per variable in table
+/// order (the FMI 2.0 index in a comment).
+fn model_variables(l: &Layout, vrs: &[u32]) -> String {
+    let mut x = format!(
+        "  <ModelVariables>\n    <Float64 name=\"time\" valueReference=\"{TIME_VALUE_REFERENCE}\" \
+         causality=\"independent\" variability=\"continuous\" description=\"Simulation time [s]\"/>\n"
+    );
+    for (i, v) in l.variables.iter().enumerate() {
+        let initial = Layout::initial(v)
+            .map(|k| format!(" initial=\"{}\"", k.name()))
+            .unwrap_or_default();
+        let mut attrs = String::new();
+        if !v.unit.is_empty() && v.ty == VarType::Real {
+            attrs += &format!(" unit=\"{}\"", esc(v.unit));
+        }
+        let mut child = String::new();
+        match &v.start {
+            Some(Start::String(s)) => child = format!("<Start value=\"{}\"/>", esc(s)),
+            Some(s) => attrs += &format!(" start=\"{}\"", esc(&start_text(s))),
+            None => {}
+        }
+        if let Some(state) = l.derivative_of[i] {
+            attrs += &format!(" derivative=\"{}\"", vrs[state]);
+        }
+        let tag = type_name(v.ty);
+        let head = format!(
+            "<{tag} name=\"{}\" valueReference=\"{}\" causality=\"{}\" variability=\"{}\"{initial} \
+             description=\"{}\"{attrs}",
+            esc(v.name),
+            vrs[i],
+            v.causality.name(),
+            v.variability.name(),
+            esc(v.description),
+        );
+        let body = if child.is_empty() {
+            format!("{head}/>")
+        } else {
+            format!("{head}>{child}</{tag}>")
+        };
+        x += &format!("    <!-- {} -->{body}\n", i + 1);
+    }
+    x + "  </ModelVariables>\n\n"
+}
+
+/// `<ModelStructure>`: `<Output>`, `<ContinuousStateDerivative>`,
+/// `<InitialUnknown>` by value reference.
+fn model_structure(l: &Layout, vrs: &[u32]) -> String {
+    let mut x = String::from("  <ModelStructure>\n");
+    for (tag, list) in [
+        ("Output", &l.outputs),
+        ("ContinuousStateDerivative", &l.derivatives),
+        ("InitialUnknown", &l.initial_unknowns),
+    ] {
+        for u in list {
+            x += &format!("    {}\n", unknown(tag, u, vrs));
+        }
+    }
+    x + "  </ModelStructure>\n</fmiModelDescription>\n"
+}
+
+fn unknown(tag: &str, u: &Unknown, vrs: &[u32]) -> String {
+    let deps: Vec<String> = u.dependencies.iter().map(|&j| vrs[j].to_string()).collect();
+    let kind = if u.fixed && !deps.is_empty() {
+        format!(
+            " dependenciesKind=\"{}\"",
+            vec!["fixed"; deps.len()].join(" ")
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "<{tag} valueReference=\"{}\" dependencies=\"{}\"{kind}/>",
+        vrs[u.variable],
+        deps.join(" ")
+    )
+}

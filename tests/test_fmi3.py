@@ -1,0 +1,128 @@
+"""The FMI 3.0 FMUs (issue 26, item 1): `<id>_fmi3.fmu`, packaged by
+`host package --fmi all` (tests/run.sh) from the same libraries as the FMI
+2.0 ones.
+
+* fmpy's `validate_fmu` (the FMI 3.0 XML schema, variable names, the
+  ModelStructure, start values, causality/variability, units, exactly one
+  independent variable, unique value references) finds no problem;
+* fmpy's `simulate_fmu` of each as Co-Simulation and, for the structure and
+  the shaker, Model Exchange at fmpy's defaults: every output finite;
+* the FMI 3.0 Co-Simulation result equals the FMI 2.0 one (same library,
+  same steps) for the same settings.
+"""
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+from fmpy.validation import validate_fmu
+
+CASES = [
+    ("structure", "CoSimulation"),
+    ("structure", "ModelExchange"),
+    ("shaker", "CoSimulation"),
+    ("shaker", "ModelExchange"),
+    ("controller", "CoSimulation"),
+]
+
+NAMES = ["structure", "shaker", "controller"]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_validate_fmu_reports_no_problem(fmu_dir, name):
+    assert validate_fmu(str(fmu_dir / f"{name}_fmi3.fmu")) == []
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fmi3_declares_what_fmi2_declares(fmu_dir, name):
+    md3 = read_model_description(str(fmu_dir / f"{name}_fmi3.fmu"))
+    md2 = read_model_description(str(fmu_dir / f"{name}.fmu"))
+    assert md3.fmiVersion == "3.0"
+    assert md3.instantiationToken == md2.guid
+    assert (md3.modelExchange is None) == (md2.modelExchange is None)
+    indep = [v for v in md3.modelVariables if v.causality == "independent"]
+    assert [(v.name, v.valueReference) for v in indep] == [("time", 999999999)]
+    # every Float64 keeps its FMI 2.0 value reference
+    reals2 = {v.name: v.valueReference for v in md2.modelVariables if v.type == "Real"}
+    reals3 = {v.name: v.valueReference for v in md3.modelVariables if v.type == "Float64" and v.name != "time"}
+    assert reals3 == reals2
+
+
+@pytest.mark.parametrize("name,fmi_type", CASES)
+def test_simulate_fmu3_at_defaults_gives_finite_outputs(fmu_dir, name, fmi_type):
+    path = str(fmu_dir / f"{name}_fmi3.fmu")
+    md = read_model_description(path)
+    outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Float64"]
+    result = simulate_fmu(path, fmi_type=fmi_type, output=outputs)
+    assert len(result) > 10
+    assert result["time"][-1] > 0.0
+    for o in outputs:
+        col = np.asarray(result[o], dtype=float)
+        assert np.all(np.isfinite(col)), f"{name} {fmi_type}: {o} not finite"
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fmi3_co_simulation_equals_fmi2(fmu_dir, name):
+    kw = dict(fmi_type="CoSimulation", stop_time=0.02, step_size=1e-4, output_interval=1e-4)
+    r3 = simulate_fmu(str(fmu_dir / f"{name}_fmi3.fmu"), **kw)
+    r2 = simulate_fmu(str(fmu_dir / f"{name}.fmu"), **kw)
+    outputs = [n for n in r2.dtype.names if n != "time"]
+    assert len(r3) == len(r2)
+    for o in outputs:
+        np.testing.assert_array_equal(np.asarray(r3[o], float), np.asarray(r2[o], float), err_msg=o)
+
+
+def _slave(fmu_dir, tmp_path, name):
+    from fmpy import extract
+    from fmpy.fmi3 import FMU3Slave
+
+    path = str(fmu_dir / f"{name}_fmi3.fmu")
+    md = read_model_description(path)
+    d = extract(path, str(tmp_path / name))
+    fmu = FMU3Slave(
+        guid=md.instantiationToken,
+        unzipDirectory=d,
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName=f"{name}-fmi3",
+    )
+    fmu.instantiate()
+    return md, fmu
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fmu_state_serializes_and_restores_through_the_c_api(fmu_dir, tmp_path, name):
+    md, fmu = _slave(fmu_dir, tmp_path, name)
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Float64"]
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+    h = 1e-4
+    for k in range(3):
+        ev, term, early, last = fmu.doStep(k * h, h)
+        assert (ev, term, early) == (False, False, False) and last == pytest.approx((k + 1) * h)
+    state = fmu.getFMUState()
+    blob = fmu.serializeFMUState(state)
+    fmu.doStep(3 * h, h)
+    reference = fmu.getFloat64(outs)
+    fmu.setFMUState(state)
+    fmu.doStep(3 * h, h)
+    assert fmu.getFloat64(outs) == reference
+    restored = fmu.deserializeFMUState(blob)
+    fmu.setFMUState(restored)
+    fmu.doStep(3 * h, h)
+    assert fmu.getFloat64(outs) == reference
+    assert fmu.getFloat64([999999999]) == [pytest.approx(4 * h)]
+    fmu.freeFMUState(state)
+    fmu.freeFMUState(restored)
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def test_shaker_directional_derivative_through_the_c_api(fmu_dir, tmp_path):
+    md, fmu = _slave(fmu_dir, tmp_path, "shaker")
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    k_s = [v.start for v in md.modelVariables if v.name == "k_s"][0]
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    fmu.doStep(0.0, 1e-5)
+    (dF,) = fmu.getDirectionalDerivative([vr["F"]], [vr["x"]], [1.0])
+    assert dF == -float(k_s)
+    fmu.terminate()
+    fmu.freeInstance()
