@@ -95,7 +95,7 @@ def plain_exchange(structure_fmu, shaker_fmu, tmp_path):
 
 
 def _fmus(fmu_dir):
-    paths = {k: fmu_dir / f"{k}.fmu" for k in ("structure", "shaker", "structure_fmi3", "shaker_fmi3")}
+    paths = {k: (fmu_dir / f"{k}.fmu").resolve() for k in ("structure", "shaker", "structure_fmi3", "shaker_fmi3")}
     for p in paths.values():
         assert p.is_file(), f"{p} missing (tests/run.sh packages with --fmi all)"
     return paths
@@ -169,12 +169,16 @@ def test_host_cosim_runs_fmi3_and_mixed_specs_like_fmi2(fmu_dir, tmp_path):
             assert d <= 1e-12, f"{name} {q}: {d:.2e}"
 
 
-def test_iterative_master_uses_the_fmi3_shakers_directional_derivatives(fmu_dir, tmp_path):
-    """The iterative master on the FMI 3.0 pair: its Jacobian from the
-    shaker's `fmi3GetDirectionalDerivative` (dF/dx = -k_s, the stiff
-    stinger) instead of finite differences converges to the same coupled
-    solution (within the iteration tolerance, 1e-6 per connection) with fewer
-    interface evaluations."""
+def test_iterative_master_with_the_fmi3_shakers_directional_derivatives(fmu_dir, tmp_path):
+    """The iterative master on the FMI 3.0 pair with `directional_derivatives
+    = true`: the Jacobian's columns of the shaker's inputs from its
+    `fmi3GetDirectionalDerivative` (dF/dx = -k_s, the stiff stinger), the
+    structure's by differences, against the default all-differences
+    Jacobian: the same coupled solution (within the iteration tolerance,
+    1e-6 per connection). The evaluation counts are printed: the
+    instantaneous partials miss the step map's O(k_s h) terms, so this pair
+    needs more evaluations with them (the reason the default is off,
+    docs/cosim.md)."""
     p = _fmus(fmu_dir)
     dd = _host_cosim(_spec(tmp_path, "dd", p["structure_fmi3"], p["shaker_fmi3"], "iterative"), tmp_path / "dd")
     fd = _host_cosim(_spec(tmp_path, "fd", p["structure_fmi3"], p["shaker_fmi3"], "iterative", directional=False),
@@ -182,10 +186,15 @@ def test_iterative_master_uses_the_fmi3_shakers_directional_derivatives(fmu_dir,
     print("directional:", dd[2].strip())
     print("finite differences:", fd[2].strip())
     assert "0 by finite differences, 1 from directional derivatives" in dd[2], dd[2]
-    assert "0 from directional derivatives" in fd[2], fd[2]
+    assert "1 by finite differences, 0 from directional derivatives" in fd[2], fd[2]
     ev = [int(re.search(r"(\d+) interface evaluations", s).group(1)) for s in (dd[2], fd[2])]
-    assert ev[0] < ev[1], f"directional {ev[0]} evaluations, finite differences {ev[1]}"
-    for q, a, b in (("tip", fd[0], dd[0]), ("force", fd[1], dd[1])):
+    print(f"interface evaluations per macro step: directional {ev[0] / N_STEPS:.2f}, "
+          f"finite differences {ev[1] / N_STEPS:.2f}")
+    # both iterations stop within 1e-6 of each connection's scale: the tip
+    # agrees to about that; the force is the stinger's k_s (q_a - x), which
+    # turns the drive point's tolerance (1e-6 of ~1 mm) into up to
+    # 2.6e7 N/m * 1e-9 m = 0.026 N, 2.6e-3 of the ~10 N peak (measured 1.2e-4)
+    for q, a, b, tol in (("tip", fd[0], dd[0], 1e-5), ("force", fd[1], dd[1], 3e-3)):
         d = _largest_difference(a, b)
         print(f"iterative {q}: directional vs finite-difference Jacobian {d:.1e} of the peak")
-        assert d <= 1e-5, f"{q}: {d:.2e}"
+        assert d <= tol, f"{q}: {d:.2e}"

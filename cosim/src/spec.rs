@@ -80,7 +80,7 @@ impl Default for MasterSpec {
             algorithm: "jacobi".into(),
             macro_step_s: 1e-5,
             extrapolate: true,
-            directional_derivatives: true,
+            directional_derivatives: false,
             start_time_s: 0.0,
             stop_time_s: 1.0,
             record_every: 1,

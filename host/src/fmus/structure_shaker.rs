@@ -246,7 +246,7 @@ pub fn build_master(
         },
         iteration_rtol: p.iteration_rtol,
         iteration_max: p.iteration_max,
-        directional_derivatives: true,
+        directional_derivatives: false,
     };
     let mut m = Master::new(
         vec![("structure".into(), st), ("shaker".into(), sh)],
