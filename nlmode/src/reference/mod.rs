@@ -658,6 +658,7 @@ pub fn simulate_phased_sweep_with_progress(
 /// The sweep's samples: their number `n` (at least `samples_per_period` per
 /// period of the highest frequency, at most [`MAX_SWEEP_SAMPLES`]) and
 /// their interval `dt` [s] (`n dt` the sweep's duration).
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(n <= max)` also rejects NaN
 fn sweep_sampling(
     sweep: &LinearSweep,
     options: &ReferenceOptions,
