@@ -18,116 +18,18 @@ const F: Format = Format::Abaqus;
 
 /// Parses an Abaqus matrix file's bytes.
 pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
-    let err = |line, detail| parse_error(path, line, F, detail);
-    let mut nfields = 0usize;
-    let cap = (b.len() / 16).min(1 << 24);
-    let (mut rows, mut cols, mut vals) = (
-        Vec::with_capacity(cap),
-        Vec::with_capacity(cap),
-        Vec::with_capacity(cap),
-    );
-    // labels format: the raw labels of each entry and the line of a non-finite value
-    let mut labels: Vec<(Label, Label)> = Vec::new();
-    let mut bad_value: Option<(usize, usize, f64)> = None;
-    let mut last = 0usize;
-    let mut fields: Vec<&[u8]> = Vec::with_capacity(6);
-    for (l, line) in text::lines(b) {
-        last = l;
-        let t = text::trim(line);
-        if t.is_empty() || t[0] == b'*' {
-            continue;
-        }
-        fields.clear();
-        fields.extend(t.split(|&c| c == b','));
-        // a trailing comma
-        if fields.len() > 1 && text::trim(fields[fields.len() - 1]).is_empty() {
-            fields.pop();
-        }
-        if nfields == 0 {
-            nfields = fields.len();
-            if nfields != 3 && nfields != 5 {
-                return Err(err(
-                    l,
-                    Detail::Expected {
-                        expected: "`row, column, value` or `node, dof, node, dof, value`".into(),
-                        found: shown(t),
-                    },
-                ));
-            }
-        }
-        let what = if nfields == 3 {
-            "`row, column, value` (as the file's first entry)"
-        } else {
-            "`node, dof, node, dof, value` (as the file's first entry)"
-        };
-        let expected = |found: &[u8]| {
-            err(
-                l,
-                Detail::Expected {
-                    expected: what.into(),
-                    found: shown(found),
-                },
-            )
-        };
-        if fields.len() != nfields {
-            return Err(expected(t));
-        }
-        let ints: Option<Vec<u64>> = fields[..nfields - 1]
-            .iter()
-            .map(|f| text::uint_field(f))
-            .collect();
-        let ints = ints.ok_or_else(|| expected(t))?;
-        let v = text::real_field(fields[nfields - 1]).ok_or_else(|| expected(t))?;
-        if nfields == 3 {
-            for (k, name) in [(0, "row"), (1, "column")] {
-                if ints[k] == 0 || ints[k] > MAX_DIM as u64 {
-                    return Err(err(
-                        l,
-                        Detail::OutOfRange {
-                            what: name,
-                            value: ints[k],
-                            min: 1,
-                            max: MAX_DIM as u64,
-                        },
-                    ));
-                }
-            }
-            let (r, c) = (ints[0] as usize - 1, ints[1] as usize - 1);
-            if !v.is_finite() {
-                return Err(err(
-                    l,
-                    Detail::NonFinite {
-                        row: r,
-                        col: c,
-                        value: v,
-                    },
-                ));
-            }
-            rows.push(r);
-            cols.push(c);
-        } else {
-            for k in [1, 3] {
-                if ints[k] == 0 || ints[k] > 255 {
-                    return Err(err(
-                        l,
-                        Detail::OutOfRange {
-                            what: "dof",
-                            value: ints[k],
-                            min: 1,
-                            max: 255,
-                        },
-                    ));
-                }
-            }
-            if !v.is_finite() && bad_value.is_none() {
-                bad_value = Some((l, labels.len(), v));
-            }
-            labels.push(((ints[0], ints[1] as u8), (ints[2], ints[3] as u8)));
-        }
-        vals.push(v);
-    }
+    let Read {
+        nfields,
+        mut rows,
+        mut cols,
+        vals,
+        labels,
+        bad_value,
+        last,
+    } = read_entries(path, b)?;
     if nfields == 0 {
         return Err(err(
+            path,
             last.max(1),
             Detail::Expected {
                 expected:
@@ -141,32 +43,8 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
     let n = if nfields == 3 {
         rows.iter().chain(&cols).max().map_or(0, |m| m + 1)
     } else {
-        let mut all: Vec<Label> = labels.iter().flat_map(|(a, b)| [*a, *b]).collect();
-        all.sort_unstable();
-        all.dedup();
-        if all.len() > MAX_DIM {
-            return Err(err(
-                last,
-                Detail::TooLarge {
-                    what: "distinct (node, dof) labels",
-                    value: all.len() as u64,
-                    limit: MAX_DIM as u64,
-                },
-            ));
-        }
-        let index = |x: &Label| all.binary_search(x).unwrap_or(0);
-        rows = labels.iter().map(|(a, _)| index(a)).collect();
-        cols = labels.iter().map(|(_, b)| index(b)).collect();
-        if let Some((l, k, value)) = bad_value {
-            return Err(err(
-                l,
-                Detail::NonFinite {
-                    row: rows[k],
-                    col: cols[k],
-                    value,
-                },
-            ));
-        }
+        let all;
+        (rows, cols, all) = label_indices(path, last, &labels, bad_value)?;
         let n = all.len();
         names = Some(all);
         n
@@ -183,4 +61,212 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         labels: names,
         format: F,
     })
+}
+
+/// The error at `line` of `path`.
+fn err(path: &Path, line: usize, detail: Detail) -> Error {
+    parse_error(path, line, F, detail)
+}
+
+/// The entries as read, before the labels are numbered.
+struct Read {
+    /// Fields per entry: 3 (`row, column, value`), 5 (labels) or 0 (none).
+    nfields: usize,
+    /// Coordinate format: 0-based rows and columns.
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    vals: Vec<f64>,
+    /// Labels format: the raw labels of each entry.
+    labels: Vec<(Label, Label)>,
+    /// Labels format: the first non-finite value (line, entry, value).
+    bad_value: Option<(usize, usize, f64)>,
+    /// The last line.
+    last: usize,
+}
+
+/// Every entry line (the format is the first entry's), checked.
+fn read_entries(path: &Path, b: &[u8]) -> Result<Read, Error> {
+    let cap = (b.len() / 16).min(1 << 24);
+    let mut out = Read {
+        nfields: 0,
+        rows: Vec::with_capacity(cap),
+        cols: Vec::with_capacity(cap),
+        vals: Vec::with_capacity(cap),
+        // labels format: the raw labels of each entry and the line of a non-finite value
+        labels: Vec::new(),
+        bad_value: None,
+        last: 0,
+    };
+    let mut fields: Vec<&[u8]> = Vec::with_capacity(6);
+    for (l, line) in text::lines(b) {
+        out.last = l;
+        let t = text::trim(line);
+        if t.is_empty() || t[0] == b'*' {
+            continue;
+        }
+        fields.clear();
+        fields.extend(t.split(|&c| c == b','));
+        // a trailing comma
+        if fields.len() > 1 && text::trim(fields[fields.len() - 1]).is_empty() {
+            fields.pop();
+        }
+        if out.nfields == 0 {
+            out.nfields = fields.len();
+            if out.nfields != 3 && out.nfields != 5 {
+                return Err(err(
+                    path,
+                    l,
+                    Detail::Expected {
+                        expected: "`row, column, value` or `node, dof, node, dof, value`".into(),
+                        found: shown(t),
+                    },
+                ));
+            }
+        }
+        let (ints, v) = entry_fields(path, l, t, &fields, out.nfields)?;
+        if out.nfields == 3 {
+            let (r, c) = coordinate_entry(path, l, &ints, v)?;
+            out.rows.push(r);
+            out.cols.push(c);
+        } else {
+            let entry = labels_entry(path, l, &ints)?;
+            if !v.is_finite() && out.bad_value.is_none() {
+                out.bad_value = Some((l, out.labels.len(), v));
+            }
+            out.labels.push(entry);
+        }
+        out.vals.push(v);
+    }
+    Ok(out)
+}
+
+/// The integers and the value of the entry line `l` (text `t`, split into
+/// `fields`), which has `nfields` fields like the file's first entry.
+fn entry_fields(
+    path: &Path,
+    l: usize,
+    t: &[u8],
+    fields: &[&[u8]],
+    nfields: usize,
+) -> Result<(Vec<u64>, f64), Error> {
+    let what = if nfields == 3 {
+        "`row, column, value` (as the file's first entry)"
+    } else {
+        "`node, dof, node, dof, value` (as the file's first entry)"
+    };
+    let expected = |found: &[u8]| {
+        err(
+            path,
+            l,
+            Detail::Expected {
+                expected: what.into(),
+                found: shown(found),
+            },
+        )
+    };
+    if fields.len() != nfields {
+        return Err(expected(t));
+    }
+    let ints: Option<Vec<u64>> = fields[..nfields - 1]
+        .iter()
+        .map(|f| text::uint_field(f))
+        .collect();
+    let ints = ints.ok_or_else(|| expected(t))?;
+    let v = text::real_field(fields[nfields - 1]).ok_or_else(|| expected(t))?;
+    Ok((ints, v))
+}
+
+/// `row, column, value` at line `l`: the 0-based row and column (1 to
+/// [`MAX_DIM`] in the file), the value finite.
+fn coordinate_entry(path: &Path, l: usize, ints: &[u64], v: f64) -> Result<(usize, usize), Error> {
+    for (k, name) in [(0, "row"), (1, "column")] {
+        if ints[k] == 0 || ints[k] > MAX_DIM as u64 {
+            return Err(err(
+                path,
+                l,
+                Detail::OutOfRange {
+                    what: name,
+                    value: ints[k],
+                    min: 1,
+                    max: MAX_DIM as u64,
+                },
+            ));
+        }
+    }
+    let (r, c) = (ints[0] as usize - 1, ints[1] as usize - 1);
+    if !v.is_finite() {
+        return Err(err(
+            path,
+            l,
+            Detail::NonFinite {
+                row: r,
+                col: c,
+                value: v,
+            },
+        ));
+    }
+    Ok((r, c))
+}
+
+/// `node, dof, node, dof, value` at line `l`: the two labels (dofs 1 to 255).
+fn labels_entry(path: &Path, l: usize, ints: &[u64]) -> Result<(Label, Label), Error> {
+    for k in [1, 3] {
+        if ints[k] == 0 || ints[k] > 255 {
+            return Err(err(
+                path,
+                l,
+                Detail::OutOfRange {
+                    what: "dof",
+                    value: ints[k],
+                    min: 1,
+                    max: 255,
+                },
+            ));
+        }
+    }
+    Ok(((ints[0], ints[1] as u8), (ints[2], ints[3] as u8)))
+}
+
+/// Rows, columns (indices into the labels) and the distinct labels in
+/// ascending order.
+type LabelIndices = (Vec<usize>, Vec<usize>, Vec<Label>);
+
+/// The labels format's rows and columns: the indices of the entries' labels
+/// among the distinct labels in ascending order (returned too); then the
+/// first non-finite value, named by its indices.
+fn label_indices(
+    path: &Path,
+    last: usize,
+    labels: &[(Label, Label)],
+    bad_value: Option<(usize, usize, f64)>,
+) -> Result<LabelIndices, Error> {
+    let mut all: Vec<Label> = labels.iter().flat_map(|(a, b)| [*a, *b]).collect();
+    all.sort_unstable();
+    all.dedup();
+    if all.len() > MAX_DIM {
+        return Err(err(
+            path,
+            last,
+            Detail::TooLarge {
+                what: "distinct (node, dof) labels",
+                value: all.len() as u64,
+                limit: MAX_DIM as u64,
+            },
+        ));
+    }
+    let index = |x: &Label| all.binary_search(x).unwrap_or(0);
+    let rows: Vec<usize> = labels.iter().map(|(a, _)| index(a)).collect();
+    let cols: Vec<usize> = labels.iter().map(|(_, b)| index(b)).collect();
+    if let Some((l, k, value)) = bad_value {
+        return Err(err(
+            path,
+            l,
+            Detail::NonFinite {
+                row: rows[k],
+                col: cols[k],
+                value,
+            },
+        ));
+    }
+    Ok((rows, cols, all))
 }

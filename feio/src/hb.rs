@@ -215,185 +215,10 @@ fn line_of(at: &[(usize, usize)], k: usize) -> usize {
 
 /// Parses a Harwell-Boeing / Rutherford-Boeing file's bytes.
 pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
-    let err = |line, detail| parse_error(path, line, F, detail);
-    let expected = |line, what: &str, found: &[u8]| {
-        err(
-            line,
-            Detail::Expected {
-                expected: what.into(),
-                found: shown(found),
-            },
-        )
-    };
     let mut lines = text::lines(b);
-    let mut next =
-        |what: &str, last: usize| lines.next().ok_or_else(|| expected(last + 1, what, b""));
-    let (_, _title) = next("the title line", 0)?;
-    let (l2, counts) = next("line 2: TOTCRD PTRCRD INDCRD VALCRD [RHSCRD]", 1)?;
-    let ints = |l: &[u8]| -> Option<Vec<u64>> {
-        l.split(|c| text::is_blank(*c))
-            .filter(|t| !t.is_empty())
-            .map(text::uint_field)
-            .collect()
-    };
-    let cards = match ints(counts) {
-        Some(v) if v.len() == 4 || v.len() == 5 => v,
-        _ => {
-            return Err(expected(
-                l2,
-                "line 2: TOTCRD PTRCRD INDCRD VALCRD [RHSCRD] (4 or 5 integers)",
-                counts,
-            ))
-        }
-    };
-    let rhscrd = cards.get(4).copied().unwrap_or(0);
-    let (l3, tl) = next("line 3: MXTYPE NROW NCOL NNZERO [NELTVL]", l2)?;
-    let mxtype = tl
-        .get(..3)
-        .map(|t| t.to_ascii_uppercase())
-        .unwrap_or_default();
-    let dims = tl.get(3..).and_then(ints);
-    let (Some(dims), [t0, t1, t2]) = (dims, mxtype.as_slice()) else {
-        return Err(expected(
-            l3,
-            "line 3: MXTYPE (e.g. RSA) NROW NCOL NNZERO [NELTVL]",
-            tl,
-        ));
-    };
-    if !(3..=4).contains(&dims.len()) {
-        return Err(expected(l3, "line 3: MXTYPE NROW NCOL NNZERO [NELTVL]", tl));
-    }
-    match t0 {
-        b'R' | b'I' => {}
-        b'P' => {
-            return Err(err(
-                l3,
-                Detail::Unsupported(
-                    "matrix type P (pattern) has no values: a mass, stiffness or damping matrix needs real values"
-                        .into(),
-                ),
-            ))
-        }
-        b'C' => {
-            return Err(err(
-                l3,
-                Detail::Unsupported(
-                    "matrix type C (complex): mass, stiffness and damping matrices are real".into(),
-                ),
-            ))
-        }
-        _ => return Err(expected(l3, "matrix type R, I, P or C", &mxtype)),
-    }
-    let symmetric = match t1 {
-        b'S' | b'H' => true,
-        b'U' | b'R' => false,
-        b'Z' => {
-            return Err(err(
-                l3,
-                Detail::Unsupported(
-                    "matrix type ?Z? (skew-symmetric): mass, stiffness and damping matrices are symmetric"
-                        .into(),
-                ),
-            ))
-        }
-        _ => return Err(expected(l3, "symmetry S, U, H, Z or R", &mxtype)),
-    };
-    match t2 {
-        b'A' => {}
-        b'E' => {
-            return Err(err(
-                l3,
-                Detail::Unsupported(format!(
-                    "matrix type {} is elemental (unassembled): only assembled matrices (?{}A) are read",
-                    String::from_utf8_lossy(&mxtype),
-                    *t1 as char
-                )),
-            ))
-        }
-        _ => return Err(expected(l3, "A (assembled) or E (elemental)", &mxtype)),
-    }
-    let limit = MAX_DIM as u64;
-    for (v, what) in [(dims[0], "NROW"), (dims[1], "NCOL")] {
-        if v > limit {
-            return Err(err(
-                l3,
-                Detail::TooLarge {
-                    what,
-                    value: v,
-                    limit,
-                },
-            ));
-        }
-    }
-    let (nrows, ncols, nnz) = (dims[0] as usize, dims[1] as usize, dims[2]);
-    // each value takes at least one character of the file
-    if nnz > b.len() as u64 {
-        return Err(err(
-            l3,
-            Detail::TooLarge {
-                what: "NNZERO",
-                value: nnz,
-                limit: b.len() as u64,
-            },
-        ));
-    }
-    if ncols as u64 + 1 > b.len() as u64 {
-        return Err(err(
-            l3,
-            Detail::TooLarge {
-                what: "NCOL",
-                value: ncols as u64,
-                limit: b.len() as u64,
-            },
-        ));
-    }
-    if symmetric && nrows != ncols {
-        return Err(err(
-            l3,
-            Detail::Unsupported(format!(
-                "a symmetric matrix must be square, line 3 says {nrows}x{ncols}"
-            )),
-        ));
-    }
-    let nnz = nnz as usize;
-    let (l4, fl) = next("line 4: PTRFMT INDFMT VALFMT", l3)?;
-    // fixed columns 1-16, 17-32, 33-52; else blank-separated
-    let fixed = [(0, 16), (16, 32), (32, 52)]
-        .map(|(s, e)| fl.get(s..e.min(fl.len())).and_then(fortran_format));
-    let fmts = match fixed {
-        [Some(a), Some(b), Some(c)] => [a, b, c],
-        _ => {
-            let toks: Vec<Option<Fmt>> = fl
-                .split(|c| text::is_blank(*c))
-                .filter(|t| !t.is_empty())
-                .map(fortran_format)
-                .collect();
-            match toks.as_slice() {
-                [Some(a), Some(b), Some(c), ..] => [*a, *b, *c],
-                _ => {
-                    return Err(expected(
-                        l4,
-                        "line 4: the Fortran formats of pointers, indices and values, e.g. (10I8) (10I8) (4E20.12)",
-                        fl,
-                    ))
-                }
-            }
-        }
-    };
-    let mut last = l4;
-    if rhscrd > 0 {
-        let (l5, _) = next("line 5: RHSTYP NRHS NRHSIX", l4)?;
-        last = l5;
-    }
-    if cards[3] == 0 && nnz > 0 {
-        return Err(err(
-            l2,
-            Detail::Unsupported(
-                "VALCRD = 0: the file has no values (a pattern); mass, stiffness and damping matrices need values"
-                    .into(),
-            ),
-        ));
-    }
+    let h = header(path, b, &mut lines)?;
+    let (nrows, ncols, nnz, fmts) = (h.nrows, h.ncols, h.nnz, h.fmts);
+    let mut last = h.last;
     let (ptr, ptr_at) = section(
         path,
         &mut lines,
@@ -406,35 +231,7 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         &mut last,
         text::uint_field,
     )?;
-    // pointers: 1, non-decreasing, NNZERO + 1
-    let mut cols = Vec::with_capacity(nnz);
-    for j in 0..ncols {
-        let (a, e) = (ptr[j], ptr[j + 1]);
-        let lo = if j == 0 { 1 } else { a };
-        if (j == 0 && a != 1) || e < lo || e > nnz as u64 + 1 {
-            let bad = if j == 0 && a != 1 { j } else { j + 1 };
-            return Err(err(
-                line_of(&ptr_at, bad),
-                Detail::OutOfRange {
-                    what: "column pointer",
-                    value: ptr[bad],
-                    min: if bad == 0 { 1 } else { ptr[bad - 1] },
-                    max: if bad == 0 { 1 } else { nnz as u64 + 1 },
-                },
-            ));
-        }
-        cols.extend(std::iter::repeat_n(j, (e - a) as usize));
-    }
-    if ncols == 0 && ptr[0] != 1 || ptr[ncols] != nnz as u64 + 1 {
-        return Err(err(
-            line_of(&ptr_at, ncols),
-            Detail::Count {
-                what: "entries (the last column pointer minus 1 against NNZERO)",
-                expected: nnz as u64,
-                found: ptr[ncols].saturating_sub(1),
-            },
-        ));
-    }
+    let cols = entry_columns(path, &ptr, &ptr_at, ncols, nnz)?;
     let (ind, ind_at) = section(
         path,
         &mut lines,
@@ -459,35 +256,11 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         &mut last,
         fortran_real,
     )?;
-    let mut rows = Vec::with_capacity(nnz);
-    for (k, &r) in ind.iter().enumerate() {
-        if r == 0 || r > nrows as u64 {
-            return Err(err(
-                line_of(&ind_at, k),
-                Detail::OutOfRange {
-                    what: "row index",
-                    value: r,
-                    min: 1,
-                    max: nrows as u64,
-                },
-            ));
-        }
-        let r = r as usize - 1;
-        if symmetric && r < cols[k] {
-            return Err(err(
-                line_of(&ind_at, k),
-                Detail::Unsupported(format!(
-                    "entry ({}, {}) is in the upper triangle: a symmetric file stores the lower triangle",
-                    r + 1,
-                    cols[k] + 1
-                )),
-            ));
-        }
-        rows.push(r);
-    }
+    let rows = entry_rows(path, &ind, &ind_at, nrows, h.symmetric, &cols)?;
     for (k, &v) in vals.iter().enumerate() {
         if !v.is_finite() {
             return Err(err(
+                path,
                 line_of(&val_at, k),
                 Detail::NonFinite {
                     row: rows[k],
@@ -503,10 +276,368 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         rows,
         cols,
         vals,
-        symmetric_storage: symmetric,
+        symmetric_storage: h.symmetric,
         labels: None,
         format: F,
     })
+}
+
+/// The error at `line` of `path`.
+fn err(path: &Path, line: usize, detail: Detail) -> Error {
+    parse_error(path, line, F, detail)
+}
+
+/// "expected `what`, found `found`" at `line` of `path`.
+fn expected(path: &Path, line: usize, what: &str, found: &[u8]) -> Error {
+    err(
+        path,
+        line,
+        Detail::Expected {
+            expected: what.into(),
+            found: shown(found),
+        },
+    )
+}
+
+/// The blank-separated unsigned integers of `l` (`None` if one is not).
+fn ints(l: &[u8]) -> Option<Vec<u64>> {
+    l.split(|c| text::is_blank(*c))
+        .filter(|t| !t.is_empty())
+        .map(text::uint_field)
+        .collect()
+}
+
+/// The next line (its number and bytes), or "expected `what`" after `last`.
+fn next_line<'a>(
+    path: &Path,
+    lines: &mut impl Iterator<Item = (usize, &'a [u8])>,
+    what: &str,
+    last: usize,
+) -> Result<(usize, &'a [u8]), Error> {
+    lines
+        .next()
+        .ok_or_else(|| expected(path, last + 1, what, b""))
+}
+
+/// The header (lines 1 to 4, and 5 when RHSCRD > 0), checked.
+struct Header {
+    nrows: usize,
+    ncols: usize,
+    nnz: usize,
+    symmetric: bool,
+    /// The formats of the pointers, the indices and the values.
+    fmts: [Fmt; 3],
+    /// The header's last line.
+    last: usize,
+}
+
+/// Reads the header lines from `lines` (`b`: the whole file, which bounds
+/// the counts it announces).
+fn header<'a>(
+    path: &Path,
+    b: &[u8],
+    lines: &mut impl Iterator<Item = (usize, &'a [u8])>,
+) -> Result<Header, Error> {
+    let (_, _title) = next_line(path, lines, "the title line", 0)?;
+    let (l2, counts) = next_line(
+        path,
+        lines,
+        "line 2: TOTCRD PTRCRD INDCRD VALCRD [RHSCRD]",
+        1,
+    )?;
+    let cards = match ints(counts) {
+        Some(v) if v.len() == 4 || v.len() == 5 => v,
+        _ => {
+            return Err(expected(
+                path,
+                l2,
+                "line 2: TOTCRD PTRCRD INDCRD VALCRD [RHSCRD] (4 or 5 integers)",
+                counts,
+            ))
+        }
+    };
+    let rhscrd = cards.get(4).copied().unwrap_or(0);
+    let (l3, tl) = next_line(path, lines, "line 3: MXTYPE NROW NCOL NNZERO [NELTVL]", l2)?;
+    let (symmetric, dims) = matrix_type(path, l3, tl)?;
+    let (nrows, ncols, nnz) = dimensions(path, l3, &dims, b.len(), symmetric)?;
+    let (l4, fl) = next_line(path, lines, "line 4: PTRFMT INDFMT VALFMT", l3)?;
+    let fmts = formats(path, l4, fl)?;
+    let mut last = l4;
+    if rhscrd > 0 {
+        let (l5, _) = next_line(path, lines, "line 5: RHSTYP NRHS NRHSIX", l4)?;
+        last = l5;
+    }
+    if cards[3] == 0 && nnz > 0 {
+        return Err(err(
+            path,
+            l2,
+            Detail::Unsupported(
+                "VALCRD = 0: the file has no values (a pattern); mass, stiffness and damping matrices need values"
+                    .into(),
+            ),
+        ));
+    }
+    Ok(Header {
+        nrows,
+        ncols,
+        nnz,
+        symmetric,
+        fmts,
+        last,
+    })
+}
+
+/// Line 3 (`l3`, text `tl`): MXTYPE checked (real or integer, symmetric or
+/// not, assembled), whether it is symmetric and the integers after it.
+fn matrix_type(path: &Path, l3: usize, tl: &[u8]) -> Result<(bool, Vec<u64>), Error> {
+    let mxtype = tl
+        .get(..3)
+        .map(|t| t.to_ascii_uppercase())
+        .unwrap_or_default();
+    let dims = tl.get(3..).and_then(ints);
+    let (Some(dims), [t0, t1, t2]) = (dims, mxtype.as_slice()) else {
+        return Err(expected(
+            path,
+            l3,
+            "line 3: MXTYPE (e.g. RSA) NROW NCOL NNZERO [NELTVL]",
+            tl,
+        ));
+    };
+    if !(3..=4).contains(&dims.len()) {
+        return Err(expected(
+            path,
+            l3,
+            "line 3: MXTYPE NROW NCOL NNZERO [NELTVL]",
+            tl,
+        ));
+    }
+    match t0 {
+        b'R' | b'I' => {}
+        b'P' => {
+            return Err(err(
+                path,
+                l3,
+                Detail::Unsupported(
+                    "matrix type P (pattern) has no values: a mass, stiffness or damping matrix needs real values"
+                        .into(),
+                ),
+            ))
+        }
+        b'C' => {
+            return Err(err(
+                path,
+                l3,
+                Detail::Unsupported(
+                    "matrix type C (complex): mass, stiffness and damping matrices are real".into(),
+                ),
+            ))
+        }
+        _ => return Err(expected(path, l3, "matrix type R, I, P or C", &mxtype)),
+    }
+    let symmetric = match t1 {
+        b'S' | b'H' => true,
+        b'U' | b'R' => false,
+        b'Z' => {
+            return Err(err(
+                path,
+                l3,
+                Detail::Unsupported(
+                    "matrix type ?Z? (skew-symmetric): mass, stiffness and damping matrices are symmetric"
+                        .into(),
+                ),
+            ))
+        }
+        _ => return Err(expected(path, l3, "symmetry S, U, H, Z or R", &mxtype)),
+    };
+    match t2 {
+        b'A' => {}
+        b'E' => {
+            return Err(err(
+                path,
+                l3,
+                Detail::Unsupported(format!(
+                    "matrix type {} is elemental (unassembled): only assembled matrices (?{}A) are read",
+                    String::from_utf8_lossy(&mxtype),
+                    *t1 as char
+                )),
+            ))
+        }
+        _ => return Err(expected(path, l3, "A (assembled) or E (elemental)", &mxtype)),
+    }
+    Ok((symmetric, dims))
+}
+
+/// NROW, NCOL and NNZERO of line 3 (`l3`), bounded by [`MAX_DIM`] and the
+/// file's length `len` (each value and pointer takes at least a character).
+fn dimensions(
+    path: &Path,
+    l3: usize,
+    dims: &[u64],
+    len: usize,
+    symmetric: bool,
+) -> Result<(usize, usize, usize), Error> {
+    let limit = MAX_DIM as u64;
+    for (v, what) in [(dims[0], "NROW"), (dims[1], "NCOL")] {
+        if v > limit {
+            return Err(err(
+                path,
+                l3,
+                Detail::TooLarge {
+                    what,
+                    value: v,
+                    limit,
+                },
+            ));
+        }
+    }
+    let (nrows, ncols, nnz) = (dims[0] as usize, dims[1] as usize, dims[2]);
+    // each value takes at least one character of the file
+    if nnz > len as u64 {
+        return Err(err(
+            path,
+            l3,
+            Detail::TooLarge {
+                what: "NNZERO",
+                value: nnz,
+                limit: len as u64,
+            },
+        ));
+    }
+    if ncols as u64 + 1 > len as u64 {
+        return Err(err(
+            path,
+            l3,
+            Detail::TooLarge {
+                what: "NCOL",
+                value: ncols as u64,
+                limit: len as u64,
+            },
+        ));
+    }
+    if symmetric && nrows != ncols {
+        return Err(err(
+            path,
+            l3,
+            Detail::Unsupported(format!(
+                "a symmetric matrix must be square, line 3 says {nrows}x{ncols}"
+            )),
+        ));
+    }
+    Ok((nrows, ncols, nnz as usize))
+}
+
+/// Line 4 (`l4`, text `fl`): the Fortran formats of pointers, indices and
+/// values, in fixed columns 1-16, 17-32, 33-52, else blank-separated.
+fn formats(path: &Path, l4: usize, fl: &[u8]) -> Result<[Fmt; 3], Error> {
+    // fixed columns 1-16, 17-32, 33-52; else blank-separated
+    let fixed = [(0, 16), (16, 32), (32, 52)]
+        .map(|(s, e)| fl.get(s..e.min(fl.len())).and_then(fortran_format));
+    Ok(match fixed {
+        [Some(a), Some(b), Some(c)] => [a, b, c],
+        _ => {
+            let toks: Vec<Option<Fmt>> = fl
+                .split(|c| text::is_blank(*c))
+                .filter(|t| !t.is_empty())
+                .map(fortran_format)
+                .collect();
+            match toks.as_slice() {
+                [Some(a), Some(b), Some(c), ..] => [*a, *b, *c],
+                _ => {
+                    return Err(expected(
+                        path,
+                        l4,
+                        "line 4: the Fortran formats of pointers, indices and values, e.g. (10I8) (10I8) (4E20.12)",
+                        fl,
+                    ))
+                }
+            }
+        }
+    })
+}
+
+/// The column of every entry from the column pointers `ptr` (lines
+/// `ptr_at`): they start at 1, do not decrease and end at NNZERO + 1.
+fn entry_columns(
+    path: &Path,
+    ptr: &[u64],
+    ptr_at: &[(usize, usize)],
+    ncols: usize,
+    nnz: usize,
+) -> Result<Vec<usize>, Error> {
+    // pointers: 1, non-decreasing, NNZERO + 1
+    let mut cols = Vec::with_capacity(nnz);
+    for j in 0..ncols {
+        let (a, e) = (ptr[j], ptr[j + 1]);
+        let lo = if j == 0 { 1 } else { a };
+        if (j == 0 && a != 1) || e < lo || e > nnz as u64 + 1 {
+            let bad = if j == 0 && a != 1 { j } else { j + 1 };
+            return Err(err(
+                path,
+                line_of(ptr_at, bad),
+                Detail::OutOfRange {
+                    what: "column pointer",
+                    value: ptr[bad],
+                    min: if bad == 0 { 1 } else { ptr[bad - 1] },
+                    max: if bad == 0 { 1 } else { nnz as u64 + 1 },
+                },
+            ));
+        }
+        cols.extend(std::iter::repeat_n(j, (e - a) as usize));
+    }
+    if ncols == 0 && ptr[0] != 1 || ptr[ncols] != nnz as u64 + 1 {
+        return Err(err(
+            path,
+            line_of(ptr_at, ncols),
+            Detail::Count {
+                what: "entries (the last column pointer minus 1 against NNZERO)",
+                expected: nnz as u64,
+                found: ptr[ncols].saturating_sub(1),
+            },
+        ));
+    }
+    Ok(cols)
+}
+
+/// The 0-based row of every entry from the row indices `ind` (lines
+/// `ind_at`): within 1..=NROW and, for a symmetric file, in the lower
+/// triangle of the entries' columns `cols`.
+fn entry_rows(
+    path: &Path,
+    ind: &[u64],
+    ind_at: &[(usize, usize)],
+    nrows: usize,
+    symmetric: bool,
+    cols: &[usize],
+) -> Result<Vec<usize>, Error> {
+    let mut rows = Vec::with_capacity(ind.len());
+    for (k, &r) in ind.iter().enumerate() {
+        if r == 0 || r > nrows as u64 {
+            return Err(err(
+                path,
+                line_of(ind_at, k),
+                Detail::OutOfRange {
+                    what: "row index",
+                    value: r,
+                    min: 1,
+                    max: nrows as u64,
+                },
+            ));
+        }
+        let r = r as usize - 1;
+        if symmetric && r < cols[k] {
+            return Err(err(
+                path,
+                line_of(ind_at, k),
+                Detail::Unsupported(format!(
+                    "entry ({}, {}) is in the upper triangle: a symmetric file stores the lower triangle",
+                    r + 1,
+                    cols[k] + 1
+                )),
+            ));
+        }
+        rows.push(r);
+    }
+    Ok(rows)
 }
 
 #[cfg(test)]

@@ -31,21 +31,56 @@ enum Field {
 
 /// Parses a Matrix Market file's bytes (not compressed).
 pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
-    let err = |line, detail| parse_error(path, line, F, detail);
-    let expected = |line, what: &str, found: &[u8]| {
-        err(
-            line,
-            Detail::Expected {
-                expected: what.into(),
-                found: shown(found),
-            },
-        )
-    };
-    // header
-    let (first, mut pos) = match b.iter().position(|&c| c == b'\n') {
+    let (first, pos) = match b.iter().position(|&c| c == b'\n') {
         Some(i) => (&b[..i], i + 1),
         None => (b, b.len()),
     };
+    let h = header(path, first)?;
+    let size = size_line(path, b, pos, h)?;
+    let data = &b[size.data_start..];
+    let (rows, cols, vals) = match h.layout {
+        Layout::Coordinate => coordinate_entries(path, data, &size, h)?,
+        Layout::Array => array_values(path, data, &size, h)?,
+    };
+    Ok(Triplets {
+        nrows: size.nrows,
+        ncols: size.ncols,
+        rows,
+        cols,
+        vals,
+        symmetric_storage: h.symmetric,
+        labels: None,
+        format: F,
+    })
+}
+
+/// The error at `line` of `path`.
+fn err(path: &Path, line: usize, detail: Detail) -> Error {
+    parse_error(path, line, F, detail)
+}
+
+/// "expected `what`, found `found`" at `line` of `path`.
+fn expected(path: &Path, line: usize, what: &str, found: &[u8]) -> Error {
+    err(
+        path,
+        line,
+        Detail::Expected {
+            expected: what.into(),
+            found: shown(found),
+        },
+    )
+}
+
+/// The header line's format, field and symmetry.
+#[derive(Clone, Copy)]
+struct Header {
+    layout: Layout,
+    field: Field,
+    symmetric: bool,
+}
+
+/// The header `%%MatrixMarket matrix <format> <field> <symmetry>` (line 1).
+fn header(path: &Path, first: &[u8]) -> Result<Header, Error> {
     let tokens: Vec<String> = String::from_utf8_lossy(first)
         .split_whitespace()
         .map(|t| t.to_ascii_lowercase())
@@ -53,52 +88,27 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
     let header =
         "the header `%%MatrixMarket matrix coordinate|array real|integer general|symmetric`";
     if tokens.len() != 5 || tokens[0] != "%%matrixmarket" || tokens[1] != "matrix" {
-        return Err(expected(1, header, first));
+        return Err(expected(path, 1, header, first));
     }
     let layout = match tokens[2].as_str() {
         "coordinate" => Layout::Coordinate,
         "array" => Layout::Array,
         _ => {
             return Err(expected(
+                path,
                 1,
                 "format `coordinate` or `array`",
                 tokens[2].as_bytes(),
             ))
         }
     };
-    let field =
-        match tokens[3].as_str() {
-            "real" | "double" => Field::Real,
-            "integer" => Field::Integer,
-            "pattern" => return Err(err(
-                1,
-                Detail::Unsupported(
-                    "a `pattern` matrix has no values: a mass, stiffness or damping matrix needs \
-                     `real` (or `integer`) values"
-                        .into(),
-                ),
-            )),
-            "complex" => {
-                return Err(err(
-                    1,
-                    Detail::Unsupported(
-                        "a `complex` matrix: mass, stiffness and damping matrices are real".into(),
-                    ),
-                ))
-            }
-            _ => {
-                return Err(expected(
-                    1,
-                    "field `real` or `integer`",
-                    tokens[3].as_bytes(),
-                ))
-            }
-        };
+    let field = header_field(path, &tokens[3])?;
     let symmetric = match tokens[4].as_str() {
         "general" => false,
         "symmetric" => true,
         "skew-symmetric" | "hermitian" => {
             return Err(err(
+                path,
                 1,
                 Detail::Unsupported(format!(
                     "`{}` storage: mass, stiffness and damping matrices are real symmetric; \
@@ -109,17 +119,71 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         }
         _ => {
             return Err(expected(
+                path,
                 1,
                 "symmetry `general` or `symmetric`",
                 tokens[4].as_bytes(),
             ))
         }
     };
-    // comments, then the size line
+    Ok(Header {
+        layout,
+        field,
+        symmetric,
+    })
+}
+
+/// The header's field token (`real`, `double` or `integer`).
+fn header_field(path: &Path, token: &str) -> Result<Field, Error> {
+    match token {
+        "real" | "double" => Ok(Field::Real),
+        "integer" => Ok(Field::Integer),
+        "pattern" => Err(err(
+            path,
+            1,
+            Detail::Unsupported(
+                "a `pattern` matrix has no values: a mass, stiffness or damping matrix needs \
+                 `real` (or `integer`) values"
+                    .into(),
+            ),
+        )),
+        "complex" => Err(err(
+            path,
+            1,
+            Detail::Unsupported(
+                "a `complex` matrix: mass, stiffness and damping matrices are real".into(),
+            ),
+        )),
+        _ => Err(expected(
+            path,
+            1,
+            "field `real` or `integer`",
+            token.as_bytes(),
+        )),
+    }
+}
+
+/// The size line: the matrix's dimensions, the entry count (`coordinate`),
+/// where the size line is and where the data after it starts.
+struct Size {
+    nrows: usize,
+    ncols: usize,
+    /// `coordinate`: the entries the size line announces.
+    nnz: Option<u64>,
+    /// 1-based line of the size line.
+    line: usize,
+    /// Byte offset of the data after the size line.
+    data_start: usize,
+}
+
+/// The comment lines after the header (from byte `pos`), then the size line
+/// (`rows cols nnz` or `rows cols`), checked against [`MAX_DIM`] and, for
+/// `symmetric`, squareness.
+fn size_line(path: &Path, b: &[u8], mut pos: usize, h: Header) -> Result<Size, Error> {
     let mut line = 1usize;
     let size_line = loop {
         if pos >= b.len() {
-            return Err(expected(line + 1, "the size line", b""));
+            return Err(expected(path, line + 1, "the size line", b""));
         }
         line += 1;
         let end = b[pos..]
@@ -132,7 +196,7 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
             break l;
         }
     };
-    let what = match layout {
+    let what = match h.layout {
         Layout::Coordinate => "the size line `rows columns entries`",
         Layout::Array => "the size line `rows columns`",
     };
@@ -141,14 +205,15 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         .filter(|t| !t.is_empty())
         .map(text::uint_field)
         .collect();
-    let want = if layout == Layout::Coordinate { 3 } else { 2 };
+    let want = if h.layout == Layout::Coordinate { 3 } else { 2 };
     if nums.len() != want || nums.iter().any(|n| n.is_none()) {
-        return Err(expected(line, what, size_line));
+        return Err(expected(path, line, what, size_line));
     }
     let nums: Vec<u64> = nums.into_iter().flatten().collect();
     for (k, name) in [(0, "rows"), (1, "columns")] {
         if nums[k] > MAX_DIM as u64 {
             return Err(err(
+                path,
                 line,
                 Detail::TooLarge {
                     what: name,
@@ -159,182 +224,214 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         }
     }
     let (nrows, ncols) = (nums[0] as usize, nums[1] as usize);
-    if symmetric && nrows != ncols {
+    if h.symmetric && nrows != ncols {
         return Err(err(
+            path,
             line,
             Detail::Unsupported(format!(
                 "a symmetric matrix must be square, the size line says {nrows}x{ncols}"
             )),
         ));
     }
-    let data = &b[pos..];
-    let size_line_no = line;
+    Ok(Size {
+        nrows,
+        ncols,
+        nnz: nums.get(2).copied(),
+        line,
+        data_start: pos,
+    })
+}
+
+/// The triplets (row indices, column indices, values).
+type Entries = (Vec<usize>, Vec<usize>, Vec<f64>);
+
+/// `coordinate` data: the entries, parsed in line-aligned chunks (in
+/// parallel above [`PARALLEL_MIN_BYTES`]); the first error in file order,
+/// then the count against the size line's.
+fn coordinate_entries(path: &Path, data: &[u8], size: &Size, h: Header) -> Result<Entries, Error> {
+    let (nrows, ncols, symmetric) = (size.nrows, size.ncols, h.symmetric);
+    let size_line_no = size.line;
+    let nnz = size.nnz.unwrap_or(0);
+    // more entries than the matrix has places: refused before reading on
+    // (a smaller wrong count is found at the end, naming the line)
+    let full = if symmetric {
+        (nrows as u64) * (nrows as u64 + 1) / 2
+    } else {
+        nrows as u64 * ncols as u64
+    };
+    if nnz > full {
+        return Err(err(
+            path,
+            size_line_no,
+            Detail::TooLarge {
+                what: "entries",
+                value: nnz,
+                limit: full,
+            },
+        ));
+    }
+    let ctx = Ctx {
+        nrows,
+        ncols,
+        symmetric,
+        field: h.field,
+    };
+    let chunks = chunks(data);
+    let outs: Vec<Chunk> = if chunks.len() > 1 {
+        chunks
+            .par_iter()
+            .map(|r| parse_chunk(&data[r.clone()], ctx))
+            .collect()
+    } else {
+        chunks
+            .iter()
+            .map(|r| parse_chunk(&data[r.clone()], ctx))
+            .collect()
+    };
+    check_entry_count(path, data, size_line_no, nnz, &chunks, &outs)?;
+    let n = nnz as usize;
     let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
-    match layout {
-        Layout::Coordinate => {
-            let nnz = nums[2];
-            // more entries than the matrix has places: refused before reading on
-            // (a smaller wrong count is found at the end, naming the line)
-            let full = if symmetric {
-                (nrows as u64) * (nrows as u64 + 1) / 2
-            } else {
-                nrows as u64 * ncols as u64
-            };
-            if nnz > full {
+    if outs.len() == 1 {
+        let o = outs.into_iter().next().unwrap_or_default();
+        (rows, cols, vals) = (o.rows, o.cols, o.vals);
+    } else {
+        rows.reserve_exact(n);
+        cols.reserve_exact(n);
+        vals.reserve_exact(n);
+        for o in outs {
+            rows.extend_from_slice(&o.rows);
+            cols.extend_from_slice(&o.cols);
+            vals.extend_from_slice(&o.vals);
+        }
+    }
+    Ok((rows, cols, vals))
+}
+
+/// The chunks' first error in file order (its line counted over the chunks
+/// before it), then the number of entries against `nnz`: too many names the
+/// line of entry `nnz + 1`, too few the file's end.
+fn check_entry_count(
+    path: &Path,
+    data: &[u8],
+    size_line_no: usize,
+    nnz: u64,
+    chunks: &[std::ops::Range<usize>],
+    outs: &[Chunk],
+) -> Result<(), Error> {
+    // the first error in file order; lines counted before its chunk
+    for (k, o) in outs.iter().enumerate() {
+        if let Some((l, d)) = &o.err {
+            let before = count_lines(&data[..chunks[k].start]);
+            return Err(err(path, size_line_no + before + l, d.clone()));
+        }
+    }
+    let found: u64 = outs.iter().map(|o| o.vals.len() as u64).sum();
+    if found > nnz {
+        // the line of entry nnz + 1
+        let mut seen = 0u64;
+        for (k, o) in outs.iter().enumerate() {
+            if seen + o.vals.len() as u64 > nnz {
+                let chunk = &data[chunks[k].clone()];
+                let l = nth_entry_line(chunk, (nnz - seen) as usize);
+                let before = count_lines(&data[..chunks[k].start]);
                 return Err(err(
-                    size_line_no,
-                    Detail::TooLarge {
-                        what: "entries",
-                        value: nnz,
-                        limit: full,
-                    },
-                ));
-            }
-            let ctx = Ctx {
-                nrows,
-                ncols,
-                symmetric,
-                field,
-            };
-            let chunks = chunks(data);
-            let outs: Vec<Chunk> = if chunks.len() > 1 {
-                chunks
-                    .par_iter()
-                    .map(|r| parse_chunk(&data[r.clone()], ctx))
-                    .collect()
-            } else {
-                chunks
-                    .iter()
-                    .map(|r| parse_chunk(&data[r.clone()], ctx))
-                    .collect()
-            };
-            // the first error in file order; lines counted before its chunk
-            for (k, o) in outs.iter().enumerate() {
-                if let Some((l, d)) = &o.err {
-                    let before = count_lines(&data[..chunks[k].start]);
-                    return Err(err(size_line_no + before + l, d.clone()));
-                }
-            }
-            let found: u64 = outs.iter().map(|o| o.vals.len() as u64).sum();
-            if found > nnz {
-                // the line of entry nnz + 1
-                let mut seen = 0u64;
-                for (k, o) in outs.iter().enumerate() {
-                    if seen + o.vals.len() as u64 > nnz {
-                        let chunk = &data[chunks[k].clone()];
-                        let l = nth_entry_line(chunk, (nnz - seen) as usize);
-                        let before = count_lines(&data[..chunks[k].start]);
-                        return Err(err(
-                            size_line_no + before + l,
-                            Detail::Count {
-                                what: "entries (the size line's count)",
-                                expected: nnz,
-                                found,
-                            },
-                        ));
-                    }
-                    seen += o.vals.len() as u64;
-                }
-            }
-            if found < nnz {
-                return Err(err(
-                    size_line_no + count_lines(data),
+                    path,
+                    size_line_no + before + l,
                     Detail::Count {
-                        what: "entries (the size line's count): the file ends early",
+                        what: "entries (the size line's count)",
                         expected: nnz,
                         found,
                     },
                 ));
             }
-            let n = nnz as usize;
-            if outs.len() == 1 {
-                let o = outs.into_iter().next().unwrap_or_default();
-                (rows, cols, vals) = (o.rows, o.cols, o.vals);
-            } else {
-                rows.reserve_exact(n);
-                cols.reserve_exact(n);
-                vals.reserve_exact(n);
-                for o in outs {
-                    rows.extend_from_slice(&o.rows);
-                    cols.extend_from_slice(&o.cols);
-                    vals.extend_from_slice(&o.vals);
-                }
-            }
+            seen += o.vals.len() as u64;
         }
-        Layout::Array => {
-            let total = if symmetric {
-                nrows as u64 * (nrows as u64 + 1) / 2
-            } else {
-                nrows as u64 * ncols as u64
-            };
-            // a value takes at least 2 bytes: no more reserved than the file holds
-            let cap = total.min((data.len() as u64).div_ceil(2)) as usize;
-            let total = total as usize;
-            rows.reserve_exact(cap);
-            cols.reserve_exact(cap);
-            vals.reserve_exact(cap);
-            let (mut r, mut c) = (0usize, 0usize);
-            let mut last = size_line_no;
-            for (l, text) in text::lines(data) {
-                last = size_line_no + l;
-                let t = text::trim(text);
-                if t.is_empty() || t[0] == b'%' {
-                    continue;
-                }
-                for tok in t.split(|c| text::is_blank(*c)).filter(|t| !t.is_empty()) {
-                    if vals.len() == total {
-                        return Err(err(
-                            last,
-                            Detail::Count {
-                                what: "values (rows x columns)",
-                                expected: total as u64,
-                                found: total as u64 + 1,
-                            },
-                        ));
-                    }
-                    let v = value(tok, field).ok_or_else(|| expected(last, "a number", tok))?;
-                    if !v.is_finite() {
-                        return Err(err(
-                            last,
-                            Detail::NonFinite {
-                                row: r,
-                                col: c,
-                                value: v,
-                            },
-                        ));
-                    }
-                    rows.push(r);
-                    cols.push(c);
-                    vals.push(v);
-                    r += 1;
-                    if r == nrows {
-                        c += 1;
-                        r = if symmetric { c } else { 0 };
-                    }
-                }
-            }
-            if vals.len() < total {
+    }
+    if found < nnz {
+        return Err(err(
+            path,
+            size_line_no + count_lines(data),
+            Detail::Count {
+                what: "entries (the size line's count): the file ends early",
+                expected: nnz,
+                found,
+            },
+        ));
+    }
+    Ok(())
+}
+
+/// `array` data: the values by columns (from the diagonal down for
+/// `symmetric`), exactly as many as the matrix (or its lower triangle) has.
+fn array_values(path: &Path, data: &[u8], size: &Size, h: Header) -> Result<Entries, Error> {
+    let (nrows, ncols, symmetric, field) = (size.nrows, size.ncols, h.symmetric, h.field);
+    let size_line_no = size.line;
+    let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
+    let total = if symmetric {
+        nrows as u64 * (nrows as u64 + 1) / 2
+    } else {
+        nrows as u64 * ncols as u64
+    };
+    // a value takes at least 2 bytes: no more reserved than the file holds
+    let cap = total.min((data.len() as u64).div_ceil(2)) as usize;
+    let total = total as usize;
+    rows.reserve_exact(cap);
+    cols.reserve_exact(cap);
+    vals.reserve_exact(cap);
+    let (mut r, mut c) = (0usize, 0usize);
+    let mut last = size_line_no;
+    for (l, text) in text::lines(data) {
+        last = size_line_no + l;
+        let t = text::trim(text);
+        if t.is_empty() || t[0] == b'%' {
+            continue;
+        }
+        for tok in t.split(|c| text::is_blank(*c)).filter(|t| !t.is_empty()) {
+            if vals.len() == total {
                 return Err(err(
+                    path,
                     last,
                     Detail::Count {
-                        what: "values (rows x columns): the file ends early",
+                        what: "values (rows x columns)",
                         expected: total as u64,
-                        found: vals.len() as u64,
+                        found: total as u64 + 1,
                     },
                 ));
             }
+            let v = value(tok, field).ok_or_else(|| expected(path, last, "a number", tok))?;
+            if !v.is_finite() {
+                return Err(err(
+                    path,
+                    last,
+                    Detail::NonFinite {
+                        row: r,
+                        col: c,
+                        value: v,
+                    },
+                ));
+            }
+            rows.push(r);
+            cols.push(c);
+            vals.push(v);
+            r += 1;
+            if r == nrows {
+                c += 1;
+                r = if symmetric { c } else { 0 };
+            }
         }
     }
-    Ok(Triplets {
-        nrows,
-        ncols,
-        rows,
-        cols,
-        vals,
-        symmetric_storage: symmetric,
-        labels: None,
-        format: F,
-    })
+    if vals.len() < total {
+        return Err(err(
+            path,
+            last,
+            Detail::Count {
+                what: "values (rows x columns): the file ends early",
+                expected: total as u64,
+                found: vals.len() as u64,
+            },
+        ));
+    }
+    Ok((rows, cols, vals))
 }
 
 fn value(tok: &[u8], field: Field) -> Option<f64> {

@@ -11,7 +11,8 @@ use crate::scenario::{Method, Scenario};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 
-pub use crate::scenario::{load_scenario, ScenarioSource};
+pub use crate::methods::load_scenario;
+pub use crate::scenario::ScenarioSource;
 
 /// How [`compute`] runs.
 #[derive(Debug, Clone, Default)]

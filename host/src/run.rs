@@ -11,9 +11,9 @@ pub use crate::scenario::MAX_SCENARIO_BYTES;
 
 /// Read a scenario file (a regular file of at most [`MAX_SCENARIO_BYTES`]: a
 /// named pipe or device is refused without blocking) or take the embedded
-/// default: [`crate::scenario::load_scenario`].
+/// default: [`crate::methods::load_scenario`].
 pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
-    crate::scenario::load_scenario(
+    crate::methods::load_scenario(
         match path {
             None => ScenarioSource::Default,
             Some(p) => ScenarioSource::File(p),

@@ -262,15 +262,6 @@ pub(crate) fn integrate<S: State, E>(
     let atol = tol.atol.as_slice();
     assert_eq!(atol.len(), n, "one absolute tolerance per state");
     let mut stats = IntegratorStats::default();
-    // `w`: |y| (local) or its running maximum, the error scale besides |y1|
-    let norm = |e: &[f64], w: &[f64], y1: &[f64]| -> f64 {
-        let mut s = 0.0;
-        for i in 0..n {
-            let sc = atol[i] + tol.rtol * w[i].abs().max(y1[i].abs());
-            s += (e[i] / sc).powi(2);
-        }
-        (s / n as f64).sqrt()
-    };
     let zeros = || {
         let mut z = y0.clone();
         z.as_mut_slice().fill(0.0);
@@ -287,23 +278,11 @@ pub(crate) fn integrate<S: State, E>(
         return (stats, Some(Stop::Rhs { t, error }));
     }
     stats.rhs_evaluations += 1;
-    // Initial step (Hairer-Norsett-Wanner II.4, simplified): h = 0.01 |y|/|y'|,
-    // bounded by h_max; for y = 0 (start from rest) use the scale atol/|y'|.
-    let mut h = if let Some(h0) = tol.h0 {
-        h0.min(tol.h_max).max(tol.h_min)
-    } else {
-        e.as_mut_slice().fill(0.0);
-        let d0 = norm(y.as_slice(), e.as_slice(), e.as_slice());
-        let d1 = norm(k[0].as_slice(), e.as_slice(), e.as_slice());
-        let h0 = if d0 < 1e-5 || d1 < 1e-5 {
-            1e-6 * (t_end - t0)
-        } else {
-            0.01 * d0 / d1
-        };
-        h0.min(tol.h_max).max(tol.h_min)
+    let mut h = initial_step(tol, &y, &k[0], &mut e, t_end - t0);
+    let mut ctl = StepSizeControl {
+        ln_last_err_ok: 1e-4f64.ln(),
+        reject_streak: false,
     };
-    let mut ln_last_err_ok = 1e-4f64.ln();
-    let mut reject_streak = false;
     loop {
         if t >= t_end {
             return (stats, None);
@@ -316,23 +295,7 @@ pub(crate) fn integrate<S: State, E>(
             h = t_end - t;
             last = true;
         }
-        // stages 2..7; stage 7 is evaluated at the fifth-order solution (FSAL)
-        let mut failed = None;
-        for st in 1..7 {
-            let stage = if st == 6 { &mut y1 } else { &mut ys };
-            let (done, rest) = k.split_at_mut(st);
-            let sv = stage.as_mut_slice();
-            weighted_sum(sv, &A[st][..st], done);
-            for (s, yi) in sv.iter_mut().zip(y.as_slice()) {
-                *s = yi + h * *s;
-            }
-            stats.rhs_evaluations += 1;
-            if let Err(error) = f(t + C[st] * h, &*stage, &mut rest[0]) {
-                failed = Some(error);
-                break;
-            }
-        }
-        if let Some(error) = failed {
+        if let Err(error) = stages(&mut f, t, h, &y, &mut y1, &mut ys, &mut k, &mut stats) {
             // The right-hand side is undefined somewhere in this step (e.g. the
             // amplitude left the table): shrink and retry.
             stats.rejected_steps += 1;
@@ -340,30 +303,21 @@ pub(crate) fn integrate<S: State, E>(
                 return (stats, Some(Stop::Rhs { t, error }));
             }
             h = (0.25 * h).max(tol.h_min);
-            reject_streak = true;
+            ctl.reject_streak = true;
             continue;
         }
         let scale = match tol.scale {
             ErrorScale::Local => y.as_slice(),
             ErrorScale::RunningMax => w.as_slice(),
         };
-        // the error estimate h sum_j E_j k_j, its weighted RMS norm and the
-        // finiteness of the new state in one pass (the same sums as `norm`)
-        let (mut acc, mut finite) = (0.0, true);
-        for (i, (sc_i, y1_i)) in scale.iter().zip(y1.as_slice()).enumerate() {
-            let e_i = weighted(&E, &k, i) * h;
-            let sc = atol[i] + tol.rtol * sc_i.abs().max(y1_i.abs());
-            acc += (e_i / sc).powi(2);
-            finite &= y1_i.is_finite();
-        }
-        let err = (acc / n as f64).sqrt();
+        let (err, finite) = error_estimate(tol, scale, &y1, &k, h);
         if !err.is_finite() || !finite {
             stats.rejected_steps += 1;
             if h <= tol.h_min {
                 return (stats, Some(Stop::NotFinite { t }));
             }
             h = (0.25 * h).max(tol.h_min);
-            reject_streak = true;
+            ctl.reject_streak = true;
             continue;
         }
         if err <= 1.0 {
@@ -388,32 +342,141 @@ pub(crate) fn integrate<S: State, E>(
                     *wi = wi.abs().max(yi.abs());
                 }
             }
-            if tol.controller == Controller::Integral {
-                h *= (0.9 * err.max(1e-10).powf(-0.2)).clamp(0.2, 5.0);
-                h = h.min(tol.h_max);
-                continue;
-            }
-            // PI controller (Gustafsson / dopri5: beta = 0.04):
-            // fac = 0.9 err^(-0.2 + 0.08) last^0.08, as one exp of logarithms
-            // (two powf were 8 % of an integration)
-            let ln_err = err.max(1e-10).ln();
-            let fac = 0.9 * ((-0.2 + 0.08) * ln_err + 0.08 * ln_last_err_ok).exp();
-            let mut fac = fac.clamp(0.2, 10.0);
-            if reject_streak {
-                fac = fac.min(1.0);
-            }
-            ln_last_err_ok = ln_err.max(1e-4f64.ln());
-            reject_streak = false;
-            h = (h * fac).min(tol.h_max);
+            h = ctl.accepted(tol, h, err);
         } else {
             stats.rejected_steps += 1;
             let fac = (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
             h *= fac;
-            reject_streak = true;
+            ctl.reject_streak = true;
             if h < tol.h_min {
                 return (stats, Some(Stop::StepTooSmall { t, h }));
             }
         }
+    }
+}
+
+/// The weighted RMS norm of `e` with the scales `atol + rtol max(|w|, |y1|)`
+/// (`w`: |y| (local) or its running maximum, the error scale besides |y1|).
+fn rms_norm<S: State>(tol: &Tolerances<S>, e: &[f64], w: &[f64], y1: &[f64]) -> f64 {
+    let atol = tol.atol.as_slice();
+    let n = atol.len();
+    let mut s = 0.0;
+    for i in 0..n {
+        let sc = atol[i] + tol.rtol * w[i].abs().max(y1[i].abs());
+        s += (e[i] / sc).powi(2);
+    }
+    (s / n as f64).sqrt()
+}
+
+/// The first step: `tol.h0` if given, else (Hairer-Norsett-Wanner II.4,
+/// simplified) `h = 0.01 |y|/|y'|` (`1e-6` of the interval `span` for a
+/// state or slope near 0), bounded by `h_min`, `h_max`. `zero`: a scratch
+/// state (left zero).
+fn initial_step<S: State>(tol: &Tolerances<S>, y: &S, slope: &S, zero: &mut S, span: f64) -> f64 {
+    // Initial step (Hairer-Norsett-Wanner II.4, simplified): h = 0.01 |y|/|y'|,
+    // bounded by h_max; for y = 0 (start from rest) use the scale atol/|y'|.
+    if let Some(h0) = tol.h0 {
+        h0.min(tol.h_max).max(tol.h_min)
+    } else {
+        let e: &[f64] = {
+            let z = zero.as_mut_slice();
+            z.fill(0.0);
+            z
+        };
+        let d0 = rms_norm(tol, y.as_slice(), e, e);
+        let d1 = rms_norm(tol, slope.as_slice(), e, e);
+        let h0 = if d0 < 1e-5 || d1 < 1e-5 {
+            1e-6 * span
+        } else {
+            0.01 * d0 / d1
+        };
+        h0.min(tol.h_max).max(tol.h_min)
+    }
+}
+
+/// Stages 2..7 of the step from `(t, y)` with step `h` into `k[1..7]`;
+/// stage 7 is evaluated at the fifth-order solution `y1` (FSAL), `ys` the
+/// other stages' states. The error of the right-hand side, if it fails.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn stages<S: State, E>(
+    f: &mut impl FnMut(f64, &S, &mut S) -> Result<(), E>,
+    t: f64,
+    h: f64,
+    y: &S,
+    y1: &mut S,
+    ys: &mut S,
+    k: &mut [S; 7],
+    stats: &mut IntegratorStats,
+) -> Result<(), E> {
+    // stages 2..7; stage 7 is evaluated at the fifth-order solution (FSAL)
+    for st in 1..7 {
+        let stage = if st == 6 { &mut *y1 } else { &mut *ys };
+        let (done, rest) = k.split_at_mut(st);
+        let sv = stage.as_mut_slice();
+        weighted_sum(sv, &A[st][..st], done);
+        for (s, yi) in sv.iter_mut().zip(y.as_slice()) {
+            *s = yi + h * *s;
+        }
+        stats.rhs_evaluations += 1;
+        f(t + C[st] * h, &*stage, &mut rest[0])?;
+    }
+    Ok(())
+}
+
+/// The error estimate `h sum_j E_j k_j`, its weighted RMS norm (scales
+/// `atol + rtol max(|scale|, |y1|)`) and the finiteness of the new state
+/// `y1`, in one pass (the same sums as [`rms_norm`]).
+#[inline]
+fn error_estimate<S: State>(
+    tol: &Tolerances<S>,
+    scale: &[f64],
+    y1: &S,
+    k: &[S; 7],
+    h: f64,
+) -> (f64, bool) {
+    let atol = tol.atol.as_slice();
+    let n = atol.len();
+    // the error estimate h sum_j E_j k_j, its weighted RMS norm and the
+    // finiteness of the new state in one pass (the same sums as `norm`)
+    let (mut acc, mut finite) = (0.0, true);
+    for (i, (sc_i, y1_i)) in scale.iter().zip(y1.as_slice()).enumerate() {
+        let e_i = weighted(&E, k, i) * h;
+        let sc = atol[i] + tol.rtol * sc_i.abs().max(y1_i.abs());
+        acc += (e_i / sc).powi(2);
+        finite &= y1_i.is_finite();
+    }
+    ((acc / n as f64).sqrt(), finite)
+}
+
+/// The step-size controller's memory: the logarithm of the last accepted
+/// error (at least `1e-4`) and whether the last step was rejected.
+struct StepSizeControl {
+    ln_last_err_ok: f64,
+    reject_streak: bool,
+}
+
+impl StepSizeControl {
+    /// The step after an accepted step `h` with error norm `err`: integral
+    /// controller (`0.9 err^-0.2` within `[0.2, 5]`) or PI controller.
+    fn accepted<S: State>(&mut self, tol: &Tolerances<S>, h: f64, err: f64) -> f64 {
+        let mut h = h;
+        if tol.controller == Controller::Integral {
+            h *= (0.9 * err.max(1e-10).powf(-0.2)).clamp(0.2, 5.0);
+            return h.min(tol.h_max);
+        }
+        // PI controller (Gustafsson / dopri5: beta = 0.04):
+        // fac = 0.9 err^(-0.2 + 0.08) last^0.08, as one exp of logarithms
+        // (two powf were 8 % of an integration)
+        let ln_err = err.max(1e-10).ln();
+        let fac = 0.9 * ((-0.2 + 0.08) * ln_err + 0.08 * self.ln_last_err_ok).exp();
+        let mut fac = fac.clamp(0.2, 10.0);
+        if self.reject_streak {
+            fac = fac.min(1.0);
+        }
+        self.ln_last_err_ok = ln_err.max(1e-4f64.ln());
+        self.reject_streak = false;
+        (h * fac).min(tol.h_max)
     }
 }
 

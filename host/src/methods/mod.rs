@@ -12,6 +12,7 @@
 //! [`MethodId`] constant in that file) and one line in [`REGISTRY`]
 //! (CONTRIBUTING.md).
 //! The physics is in `nlmode`; this is orchestration.
+mod catalog;
 mod common;
 mod cosim;
 mod force_controlled;
@@ -29,6 +30,7 @@ mod response_controlled;
 pub mod stepped;
 pub mod test_plan;
 
+pub use self::catalog::{catalog, load_scenario};
 pub use self::cosim::cosim;
 pub use self::hb::{hb_response, hb_result, hb_table, single_mode_seeds};
 pub use self::nma::{fold_warning, nma_table, Nma};

@@ -1,6 +1,6 @@
 //! Reading a scenario: the one loader of `host run`, `host nma`, `host frf`,
 //! the study's base scenario and the Python package.
-use super::{Scenario, ScenarioError, DEFAULT_SCENARIO};
+use super::{Catalog, Scenario, ScenarioError, DEFAULT_SCENARIO};
 use anyhow::{Context, Result};
 use std::path::Path;
 
@@ -16,19 +16,21 @@ pub enum ScenarioSource<'a> {
     Default,
     /// TOML text; relative paths in it are taken from the working directory.
     Text(&'a str),
-    /// A scenario file, read as `host run` reads it ([`load_scenario`]).
+    /// A scenario file, read as `host run` reads it ([`load_scenario_in`]).
     File(&'a Path),
 }
 
-/// Read a scenario (a file as [`load_scenario`] reads it, with
-/// the same messages), optionally with `[run] methods` replaced by `methods`
+/// Read a scenario (a file as `host run` reads it, with
+/// the same messages) with `catalog` the method registry's (the host's:
+/// `crate::methods::load_scenario`), optionally with `[run] methods` replaced by `methods`
 /// (checked by the scenario's own rules: an unknown method is named as
 /// `run.methods[i]`). Returns the scenario and its name in messages. The
 /// errors read as `host run`'s (`scenario NAME: key: message`), with the
 /// [`crate::scenario::ScenarioError`] in their chain.
-pub fn load_scenario(
+pub fn load_scenario_in(
     src: ScenarioSource,
     methods: Option<&[String]>,
+    catalog: &'static Catalog,
 ) -> Result<(Scenario, String)> {
     let (text, name, dir) = match src {
         ScenarioSource::Default => (
@@ -62,7 +64,7 @@ pub fn load_scenario(
             toml::to_string(&tree).map_err(|e| bad(e.to_string()))?
         }
     };
-    let mut sc = Scenario::parse(&text).map_err(|e| {
+    let mut sc = Scenario::parse_in(&text, catalog).map_err(|e| {
         // with `methods` the text is regenerated: its line numbers mean nothing
         let e = if methods.is_some() {
             ScenarioError { line: None, ..e }

@@ -50,7 +50,7 @@ mod test_plan;
 pub use self::test_plan::*;
 mod attachment;
 pub use self::attachment::*;
-pub use self::load::{load_scenario, set_path, ScenarioSource, MAX_SCENARIO_BYTES};
+pub use self::load::{load_scenario_in, set_path, ScenarioSource, MAX_SCENARIO_BYTES};
 
 /// The default scenario (paper case (a)), embedded from `sweep.toml`;
 /// it deserializes to exactly [`Scenario::default`].
@@ -105,7 +105,7 @@ pub struct Scenario {
     #[serde(default)]
     pub test_plan: TestPlanSpec,
     /// The options sections of methods that own theirs
-    /// ([`crate::methods::Method::options`]), as written, by table name; a
+    /// (`crate::methods::Method::options`), as written, by table name; a
     /// method reads its own with [`Scenario::section`].
     #[serde(skip)]
     pub sections: BTreeMap<String, toml::Value>,
@@ -204,13 +204,15 @@ fn positive(key: &str, v: f64) -> Result<(), ScenarioError> {
 
 impl Scenario {
     /// Parse TOML text (unknown keys and unknown spellings are errors naming the
-    /// key) and validate it.
-    pub fn parse(text: &str) -> Result<Self, ScenarioError> {
-        Self::parse_with(text, &Self::options_sections())
+    /// key) and validate it, with `catalog` the method registry's names and
+    /// options sections (the host's: `Scenario::parse`, `crate::methods::catalog`).
+    pub fn parse_in(text: &str, catalog: &'static Catalog) -> Result<Self, ScenarioError> {
+        run::reading_with(catalog, || Self::parse_with(text, catalog))
     }
 
-    /// [`Scenario::parse`] with `own` the methods' own options sections.
-    fn parse_with(text: &str, own: &[OptionsSection]) -> Result<Self, ScenarioError> {
+    /// [`Scenario::parse_in`] once the catalog is the one being read.
+    fn parse_with(text: &str, catalog: &Catalog) -> Result<Self, ScenarioError> {
+        let own = &catalog.sections;
         let names: Vec<&'static str> = own.iter().map(|o| o.name).collect();
         let aside = sections::SetAside::default();
         let de = sections::WithSections {
@@ -247,35 +249,24 @@ impl Scenario {
         {
             s.exciter.clear();
         }
-        s.validate()?;
+        s.validate_in(catalog)?;
         Ok(s)
     }
 
-    /// The embedded default scenario.
-    pub fn default_scenario() -> Self {
-        Self::parse(DEFAULT_SCENARIO).expect("embedded default scenario is valid")
-    }
-
-    /// Check every value; the error names the key.
-    pub fn validate(&self) -> Result<(), ScenarioError> {
+    /// Check every value, with `catalog` the method registry's names and
+    /// options sections (the host's: `Scenario::validate`); the error names
+    /// the key.
+    pub fn validate_in(&self, catalog: &Catalog) -> Result<(), ScenarioError> {
         match &self.structure {
             StructureSpec::Beam(st) => self.validate_beam(st)?,
             StructureSpec::Matrices(st) => self.validate_matrices(st)?,
         }
         self.validate_nonlinearities()?;
-        self.validate_rest()
+        self.validate_rest(catalog)
     }
 
-    /// The options sections the registry's methods own.
-    fn options_sections() -> Vec<OptionsSection> {
-        crate::methods::REGISTRY
-            .iter()
-            .filter_map(|m| m.options())
-            .collect()
-    }
-
-    fn validate_rest(&self) -> Result<(), ScenarioError> {
-        for o in Self::options_sections() {
+    fn validate_rest(&self, catalog: &Catalog) -> Result<(), ScenarioError> {
+        for o in &catalog.sections {
             if let Some(v) = self.sections.get(o.name) {
                 (o.check)(v)?;
             }
@@ -288,7 +279,7 @@ impl Scenario {
         self.excitation.validate()?;
         self.nma.validate()?;
         self.hb.validate()?;
-        self.run.validate()?;
+        self.run.validate(catalog)?;
         self.imposed_force.validate()?;
         self.slowflow.validate()?;
         self.reference.validate()?;

@@ -1,11 +1,13 @@
 //! `[run]`: the methods of `host run` and the steady-state methods' frequency points.
 use super::*;
+use std::cell::Cell;
 
 /// A method of `host run` by its name (`[run] methods`, `linear-frf`): one
-/// of the method registry's ([`crate::methods::REGISTRY`]). Each method's file
+/// of the method registry's (`crate::methods::REGISTRY`). Each method's file
 /// declares its own name (`impl Method { pub const Hb: Method = Method::new("hb"); }`)
-/// and returns it from [`crate::methods::Method::id`]; a scenario naming
-/// another method is rejected when it is read, naming the registry's methods.
+/// and returns it from `crate::methods::Method::id`; a scenario naming
+/// another method is rejected when it is read, naming the registry's methods
+/// (the [`Catalog`] given to [`Scenario::parse_in`]).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Method(&'static str);
 
@@ -16,26 +18,83 @@ impl Method {
         Self(name)
     }
 
-    /// Every registered method, in the registry's order.
-    pub fn all() -> impl Iterator<Item = Method> {
-        crate::methods::REGISTRY.iter().map(|m| m.id())
-    }
-
-    /// The registered method named `name`.
-    pub fn named(name: &str) -> Option<Method> {
-        Self::all().find(|m| m.0 == name)
-    }
-
     /// The name in scenarios and output files (`linear-frf`).
     pub fn name(self) -> &'static str {
         self.0
     }
+}
 
-    /// The registered names, in the registry's order (serde's list of
-    /// expected spellings).
-    fn names() -> &'static [&'static str] {
-        static NAMES: std::sync::OnceLock<Vec<&'static str>> = std::sync::OnceLock::new();
-        NAMES.get_or_init(|| Self::all().map(Method::name).collect())
+/// The method registry as the scenario reader needs it: the names a scenario
+/// may write in `[run] methods` and the methods' own options sections. The
+/// scenario module does not know the registry (the methods depend on the
+/// scenario, not the reverse): the host's catalog is `crate::methods::catalog`,
+/// given to [`Scenario::parse_in`], [`Scenario::validate_in`] and
+/// [`load_scenario_in`] by the registry's own entry points
+/// (`Scenario::parse`, `Scenario::validate`, `crate::methods::load_scenario`).
+pub struct Catalog {
+    /// The registered names, in the registry's order (the order of the names
+    /// in messages and serde's list of expected spellings).
+    names: Vec<&'static str>,
+    /// The methods' own options sections (`crate::methods::Method::options`).
+    pub sections: Vec<OptionsSection>,
+}
+
+impl Catalog {
+    /// The catalog of `methods` (in the registry's order) and `sections`.
+    pub fn new(methods: impl IntoIterator<Item = Method>, sections: Vec<OptionsSection>) -> Self {
+        Self {
+            names: methods.into_iter().map(Method::name).collect(),
+            sections,
+        }
+    }
+
+    /// Every registered method, in the registry's order.
+    pub fn methods(&self) -> impl Iterator<Item = Method> + '_ {
+        self.names.iter().map(|&n| Method(n))
+    }
+
+    /// The registered method named `name`.
+    pub fn named(&self, name: &str) -> Option<Method> {
+        self.methods().find(|m| m.0 == name)
+    }
+
+    /// The registered names, in the registry's order.
+    pub fn names(&self) -> &[&'static str] {
+        &self.names
+    }
+
+    /// `f()` with this catalog's names as the ones [`Method`]'s deserializer
+    /// accepts on this thread, for a scenario deserialized otherwise than by
+    /// [`Scenario::parse_in`] (which does this itself), e.g. from a TOML tree.
+    pub fn scope<T>(&'static self, f: impl FnOnce() -> T) -> T {
+        reading_with(self, f)
+    }
+}
+
+thread_local! {
+    /// The catalog of the scenario being read on this thread ([`reading_with`]):
+    /// the names [`Method`]'s deserializer accepts.
+    static READING: Cell<Option<&'static Catalog>> = const { Cell::new(None) };
+}
+
+/// `f()` with `catalog` as the one [`Method`]'s deserializer reads (the
+/// previous one restored afterwards, also on a panic).
+pub(super) fn reading_with<T>(catalog: &'static Catalog, f: impl FnOnce() -> T) -> T {
+    struct Restore(Option<&'static Catalog>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            READING.with(|c| c.set(self.0));
+        }
+    }
+    let _restore = Restore(READING.with(|c| c.replace(Some(catalog))));
+    f()
+}
+
+/// The names of the catalog being read (none outside [`reading_with`]).
+fn reading_names() -> &'static [&'static str] {
+    match READING.with(Cell::get) {
+        Some(c) => &c.names,
+        None => &[],
     }
 }
 
@@ -52,16 +111,21 @@ impl std::fmt::Display for Method {
 }
 
 /// Written as a unit variant (a string in TOML), as a `#[derive]`d enum of the
-/// registered names would be.
+/// registered names would be (its index: the position in the catalog being
+/// read, if any; TOML and JSON write the name only).
 impl Serialize for Method {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let index = Self::names().iter().position(|n| *n == self.0).unwrap_or(0);
+        let index = reading_names()
+            .iter()
+            .position(|n| *n == self.0)
+            .unwrap_or(0);
         s.serialize_unit_variant("Method", index as u32, self.0)
     }
 }
 
 /// Read as a unit variant of the registered names (the messages of a
-/// `#[derive]`d enum: `unknown variant `x`, expected one of ...`).
+/// `#[derive]`d enum: `unknown variant `x`, expected one of ...`): those of
+/// the [`Catalog`] of the [`Scenario::parse_in`] under way.
 impl<'de> Deserialize<'de> for Method {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         use serde::de::{self, EnumAccess, VariantAccess};
@@ -72,7 +136,11 @@ impl<'de> Deserialize<'de> for Method {
                 f.write_str("variant identifier")
             }
             fn visit_str<E: de::Error>(self, v: &str) -> Result<Method, E> {
-                Method::named(v).ok_or_else(|| E::unknown_variant(v, Method::names()))
+                let names = reading_names();
+                match names.iter().find(|&&n| n == v) {
+                    Some(&n) => Ok(Method(n)),
+                    None => Err(E::unknown_variant(v, names)),
+                }
             }
             fn visit_bytes<E: de::Error>(self, v: &[u8]) -> Result<Method, E> {
                 match std::str::from_utf8(v) {
@@ -99,7 +167,7 @@ impl<'de> Deserialize<'de> for Method {
                 Ok(m)
             }
         }
-        d.deserialize_enum("Method", Self::names(), Unit)
+        d.deserialize_enum("Method", reading_names(), Unit)
     }
 }
 
@@ -129,9 +197,9 @@ impl Default for RunSpec {
 
 impl RunSpec {
     /// Check the method list and the frequency points.
-    pub(crate) fn validate(&self) -> Result<(), ScenarioError> {
+    pub(crate) fn validate(&self, catalog: &Catalog) -> Result<(), ScenarioError> {
         if self.methods.is_empty() {
-            let names = Method::names();
+            let names = catalog.names();
             return Err(bad(
                 "run.methods",
                 format!("expected a non-empty list from {names:?}"),

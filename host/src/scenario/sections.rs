@@ -1,4 +1,4 @@
-//! Options sections owned by a method ([`crate::methods::Method::options`]):
+//! Options sections owned by a method (`crate::methods::Method::options`):
 //! a top-level table of the scenario that only that method reads, declared
 //! in the method's file, not in [`Scenario`]. When the scenario is read, such
 //! tables are set aside (the other keys are deserialized as before, with their

@@ -100,10 +100,13 @@ fn embedded_sweep_toml_is_the_rust_default() {
 #[test]
 fn method_names_are_the_serde_names() {
     for m in Method::all() {
-        let v: Method = serde::Deserialize::deserialize(serde::de::value::StrDeserializer::<
-            serde::de::value::Error,
-        >::new(m.name()))
-        .unwrap();
+        let v: Method = crate::methods::catalog()
+            .scope(|| {
+                serde::Deserialize::deserialize(serde::de::value::StrDeserializer::<
+                    serde::de::value::Error,
+                >::new(m.name()))
+            })
+            .unwrap();
         assert_eq!(v, m);
         assert_eq!(m.to_string(), m.name());
     }
@@ -251,28 +254,30 @@ impl SectionOptions for Demo {
 
 #[test]
 fn a_methods_own_section_is_read_checked_and_set_aside() {
-    let own = [OptionsSection::of::<Demo>()];
-    let s = Scenario::parse_with("title = \"t\"\n[demo]\nsteps = 3\n", &own).unwrap();
+    let own: &'static Catalog = Box::leak(Box::new(Catalog::new(
+        Method::all(),
+        vec![OptionsSection::of::<Demo>()],
+    )));
+    let s = Scenario::parse_in("title = \"t\"\n[demo]\nsteps = 3\n", own).unwrap();
     assert_eq!(s.section::<Demo>().unwrap(), Demo { steps: 3 });
     assert_eq!(s.title, "t");
     // absent: the defaults
-    let s = Scenario::parse_with("", &own).unwrap();
+    let s = Scenario::parse_in("", own).unwrap();
     assert_eq!(s.section::<Demo>().unwrap(), Demo::default());
     // the checks name the key, with the section's line
-    let e = Scenario::parse_with("\n[demo]\nsteps = 0\n", &own).unwrap_err();
+    let e = Scenario::parse_in("\n[demo]\nsteps = 0\n", own).unwrap_err();
     assert_eq!((e.key.as_str(), e.line), ("demo.steps", Some(2)));
-    let e = Scenario::parse_with("[demo]\nstep = 1\n", &own).unwrap_err();
+    let e = Scenario::parse_in("[demo]\nstep = 1\n", own).unwrap_err();
     assert_eq!(e.key, "demo.step", "{e}");
     assert!(e.message.contains("unknown field `step`"), "{e}");
     // the scenario's own keys keep their messages and lines
-    let e =
-        Scenario::parse_with("[demo]\nsteps = 1\n[structure]\nlenght_m = 1\n", &own).unwrap_err();
+    let e = Scenario::parse_in("[demo]\nsteps = 1\n[structure]\nlenght_m = 1\n", own).unwrap_err();
     assert_eq!(
         (e.key.as_str(), e.line),
         ("structure.lenght_m", Some(4)),
         "{e}"
     );
-    let e = Scenario::parse_with("[demo]\nsteps = 1\n[demo2]\n", &own).unwrap_err();
+    let e = Scenario::parse_in("[demo]\nsteps = 1\n[demo2]\n", own).unwrap_err();
     assert_eq!((e.key.as_str(), e.line), ("demo2", Some(3)), "{e}");
     // unregistered, the table is an unknown key
     assert_eq!(Scenario::parse("[demo]\n").unwrap_err().key, "demo");

@@ -309,8 +309,10 @@ fn sample_scenario(
     }
     // Deserialized from the tree itself, then checked as [`Scenario::parse`]
     // does: writing the tree out as TOML text and parsing that again cost
-    // ~550 k instructions per sample, most of loading a large study.
-    let mut sc: Scenario = serde_path_to_error::deserialize(tree).map_err(|e| {
+    // ~550 k instructions per sample, most of loading a large study (the
+    // method names: the registry's catalog, as `Scenario::parse` reads).
+    let read = || serde_path_to_error::deserialize::<_, Scenario>(tree);
+    let mut sc: Scenario = crate::methods::catalog().scope(read).map_err(|e| {
         let path = e.path().to_string();
         crate::scenario::ScenarioError {
             key: if path == "." { "scenario".into() } else { path },

@@ -529,41 +529,19 @@ pub fn continuation<R: Residual>(
         corner_steps: 0,
     };
 
-    // the start point has no predictor: no contraction control there
-    let start_opts = ContinuationOptions {
-        max_contraction: None,
-        ..opts.clone()
-    };
-    let (mut x, mut jac, iters) = match solve_fixed_parameter(res, x0, &start_opts) {
+    let (mut x, mut jac, iters) = match start_point(res, x0, opts) {
         Ok(v) => v,
-        Err((norm, it)) => {
-            return Err((
-                ContinuationFailure::StartNotConverged {
-                    parameter: lambda_start,
-                    residual_norm: norm,
-                    iterations: it,
-                },
-                summary,
-            ))
-        }
+        Err(failure) => return Err((failure, summary)),
     };
     summary.newton_iterations += iters;
-    let mut e = DVector::zeros(n);
-    e[n - 1] = dir;
-    let mut t = match tangent(&jac, &e.component_mul(scale), scale) {
-        Some(t) => t,
-        None => {
-            return Err((
-                ContinuationFailure::SingularJacobian {
-                    parameter: lambda_start,
-                },
-                summary,
-            ))
-        }
+    let Some(mut t) = start_tangent(&jac, scale, dir) else {
+        return Err((
+            ContinuationFailure::SingularJacobian {
+                parameter: lambda_start,
+            },
+            summary,
+        ));
     };
-    if t[n - 1] * dir < 0.0 {
-        t = -t;
-    }
     summary.points = 1;
     if !on_point(&BranchState {
         index: 0,
@@ -587,85 +565,20 @@ pub fn continuation<R: Residual>(
             return Ok(summary);
         }
         // corrector with step halving
-        let mut last_norm = f64::NAN;
-        let (x_new, jac_new, it, t_new) = loop {
-            let xs = x.component_div(scale);
-            let mut xp = (&xs + &t * ds).component_mul(scale);
-            let mut row = t.component_div(scale);
-            let mut target = row.dot(&xp);
-            // last step: land exactly on lambda_end (parameter-fixing corrector)
-            if dir * (xp[n - 1] - lambda_end) > 0.0 && dir * t[n - 1] > 0.0 {
-                let ds_land = (lambda_end - x[n - 1]) / (t[n - 1] * scale[n - 1]);
-                xp = (&xs + &t * ds_land).component_mul(scale);
-                row = DVector::zeros(n);
-                row[n - 1] = 1.0;
-                target = lambda_end;
-            }
-            let attempt =
-                newton(res, xp, &row, target, opts).map_err(|(norm, it)| (norm, it, false));
-            // reject a corrector that jumped to a distant branch (a converged
-            // point much farther away than the step length), unless the step
-            // is already at dsmin: a corner of the branch (the stick-slip
-            // transition of a friction element, where D(a) has a kink) puts
-            // the corrector's point farther than 2 ds at any step length
-            // (never farther than 2 dsmax: a corrector that runs off along a
-            // flat direction of the residual, e.g. to `a -> infinity` where a
-            // saturating element vanishes, is not a corner)
-            let attempt = attempt.and_then(|(xn, jn, it)| {
-                let dist = (xn.component_div(scale) - &xs).norm();
-                if dist > 2.0 * ds && (ds / 2.0 >= dsmin || dist > 2.0 * dsmax) {
-                    Err((0.0, it, true))
-                } else {
-                    Ok((xn, jn, it))
-                }
-            });
-            // new tangent; tangent-angle control rejects a step that turns
-            // the branch direction by more than the allowed angle
-            let attempt = attempt.and_then(|(xn, jn, it)| match tangent(&jn, &t, scale) {
-                Some(tn) => {
-                    let cos = tn.dot(&t).clamp(-1.0, 1.0);
-                    match opts.max_tangent_angle_deg {
-                        Some(max_deg) if cos.acos().to_degrees() > max_deg && ds / 2.0 >= dsmin => {
-                            Err((0.0, it, true))
-                        }
-                        _ => Ok((xn, jn, it, Some(tn))),
-                    }
-                }
-                None => Ok((xn, jn, it, None)),
-            });
-            match attempt {
-                Ok(v) => break v,
-                Err((norm, it, jumped)) => {
-                    summary.rejected_steps += 1;
-                    summary.newton_iterations += it;
-                    if !jumped {
-                        last_norm = norm;
-                    }
-                    ds /= 2.0;
-                    if ds < dsmin {
-                        // before giving up: natural-parameter steps across a
-                        // corner of the branch
-                        if let Some(v) =
-                            corner_step(res, &x, &t, scale, dir, last_dlambda, (lo, hi), opts)
-                        {
-                            summary.newton_iterations += v.2;
-                            summary.corner_steps += 1;
-                            ds = dsmin;
-                            break (v.0, v.1, v.2, Some(v.3));
-                        }
-                        return Err((
-                            ContinuationFailure::StepSizeCollapse {
-                                parameter: x[n - 1],
-                                residual_norm: last_norm,
-                                step_size: ds,
-                                dsmin,
-                            },
-                            summary,
-                        ));
-                    }
-                }
-            }
+        let step = Step {
+            x: &x,
+            t: &t,
+            scale,
+            dir,
+            lambda_end,
+            last_dlambda,
+            range: (lo, hi),
         };
+        let (x_new, jac_new, it, t_new) =
+            match corrected_step(res, &step, &mut ds, opts, &mut summary) {
+                Ok(v) => v,
+                Err(failure) => return Err((failure, summary)),
+            };
         let t_new = match t_new {
             Some(tn) => tn,
             None => {
@@ -713,6 +626,167 @@ pub fn continuation<R: Residual>(
             ds = (ds * factor).clamp(dsmin, dsmax);
         }
     }
+}
+
+/// The start point: `x0` solved with its parameter fixed (no contraction
+/// control: it has no predictor), its Jacobian and Newton iterations.
+fn start_point<R: Residual>(
+    res: &R,
+    x0: DVector<f64>,
+    opts: &ContinuationOptions,
+) -> Result<NewtonOk<R::Jacobian>, ContinuationFailure> {
+    let lambda_start = x0[x0.len() - 1];
+    // the start point has no predictor: no contraction control there
+    let start_opts = ContinuationOptions {
+        max_contraction: None,
+        ..opts.clone()
+    };
+    solve_fixed_parameter(res, x0, &start_opts).map_err(|(norm, it)| {
+        ContinuationFailure::StartNotConverged {
+            parameter: lambda_start,
+            residual_norm: norm,
+            iterations: it,
+        }
+    })
+}
+
+/// The start point's unit tangent (scaled unknowns) for the Jacobian `jac`,
+/// oriented along the continuation's direction `dir` (`None` if singular).
+fn start_tangent<J: BorderedSolve>(
+    jac: &J,
+    scale: &DVector<f64>,
+    dir: f64,
+) -> Option<DVector<f64>> {
+    let n = scale.len();
+    let mut e = DVector::zeros(n);
+    e[n - 1] = dir;
+    let mut t = tangent(jac, &e.component_mul(scale), scale)?;
+    if t[n - 1] * dir < 0.0 {
+        t = -t;
+    }
+    Some(t)
+}
+
+/// Where a continuation step starts: the last point `x` and its tangent
+/// `t`, the unknowns' `scale`, the direction and end of the parameter, the
+/// last step's parameter change and the parameter's range `(lo, hi)`.
+struct Step<'a> {
+    x: &'a DVector<f64>,
+    t: &'a DVector<f64>,
+    scale: &'a DVector<f64>,
+    dir: f64,
+    lambda_end: f64,
+    last_dlambda: f64,
+    range: (f64, f64),
+}
+
+/// The next branch point: predictor and arc-length corrector at step `ds`,
+/// halved on every failed or rejected attempt (counted in `summary`); below
+/// `dsmin`, natural-parameter steps across a corner of the branch
+/// ([`corner_step`], `ds` then `dsmin`), else the step-size collapse. The
+/// point's tangent is `None` where its Jacobian is singular.
+#[allow(clippy::type_complexity)]
+fn corrected_step<R: Residual>(
+    res: &R,
+    st: &Step,
+    ds: &mut f64,
+    opts: &ContinuationOptions,
+    summary: &mut ContinuationSummary,
+) -> Result<(DVector<f64>, R::Jacobian, usize, Option<DVector<f64>>), ContinuationFailure> {
+    let (x, t, scale) = (st.x, st.t, st.scale);
+    let n = x.len();
+    let dsmin = opts.dsmin();
+    let mut last_norm = f64::NAN;
+    loop {
+        match corrector_attempt(res, st, *ds, opts) {
+            Ok(v) => return Ok(v),
+            Err((norm, it, jumped)) => {
+                summary.rejected_steps += 1;
+                summary.newton_iterations += it;
+                if !jumped {
+                    last_norm = norm;
+                }
+                *ds /= 2.0;
+                if *ds < dsmin {
+                    // before giving up: natural-parameter steps across a
+                    // corner of the branch
+                    if let Some(v) =
+                        corner_step(res, x, t, scale, st.dir, st.last_dlambda, st.range, opts)
+                    {
+                        summary.newton_iterations += v.2;
+                        summary.corner_steps += 1;
+                        *ds = dsmin;
+                        return Ok((v.0, v.1, v.2, Some(v.3)));
+                    }
+                    return Err(ContinuationFailure::StepSizeCollapse {
+                        parameter: x[n - 1],
+                        residual_norm: last_norm,
+                        step_size: *ds,
+                        dsmin,
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// One predictor-corrector attempt at step `ds` (the last step lands exactly
+/// on `lambda_end` with the parameter fixed). Fails with (residual norm,
+/// iterations, jumped): Newton not converged, or rejected as a jump to a
+/// distant branch or by the tangent-angle control.
+#[allow(clippy::type_complexity)]
+fn corrector_attempt<R: Residual>(
+    res: &R,
+    st: &Step,
+    ds: f64,
+    opts: &ContinuationOptions,
+) -> Result<(DVector<f64>, R::Jacobian, usize, Option<DVector<f64>>), (f64, usize, bool)> {
+    let (x, t, scale, dir, lambda_end) = (st.x, st.t, st.scale, st.dir, st.lambda_end);
+    let n = x.len();
+    let (dsmin, dsmax) = (opts.dsmin(), opts.dsmax());
+    let xs = x.component_div(scale);
+    let mut xp = (&xs + t * ds).component_mul(scale);
+    let mut row = t.component_div(scale);
+    let mut target = row.dot(&xp);
+    // last step: land exactly on lambda_end (parameter-fixing corrector)
+    if dir * (xp[n - 1] - lambda_end) > 0.0 && dir * t[n - 1] > 0.0 {
+        let ds_land = (lambda_end - x[n - 1]) / (t[n - 1] * scale[n - 1]);
+        xp = (&xs + t * ds_land).component_mul(scale);
+        row = DVector::zeros(n);
+        row[n - 1] = 1.0;
+        target = lambda_end;
+    }
+    let attempt = newton(res, xp, &row, target, opts).map_err(|(norm, it)| (norm, it, false));
+    // reject a corrector that jumped to a distant branch (a converged
+    // point much farther away than the step length), unless the step
+    // is already at dsmin: a corner of the branch (the stick-slip
+    // transition of a friction element, where D(a) has a kink) puts
+    // the corrector's point farther than 2 ds at any step length
+    // (never farther than 2 dsmax: a corrector that runs off along a
+    // flat direction of the residual, e.g. to `a -> infinity` where a
+    // saturating element vanishes, is not a corner)
+    let attempt = attempt.and_then(|(xn, jn, it)| {
+        let dist = (xn.component_div(scale) - &xs).norm();
+        if dist > 2.0 * ds && (ds / 2.0 >= dsmin || dist > 2.0 * dsmax) {
+            Err((0.0, it, true))
+        } else {
+            Ok((xn, jn, it))
+        }
+    });
+    // new tangent; tangent-angle control rejects a step that turns
+    // the branch direction by more than the allowed angle
+    attempt.and_then(|(xn, jn, it)| match tangent(&jn, t, scale) {
+        Some(tn) => {
+            let cos = tn.dot(t).clamp(-1.0, 1.0);
+            match opts.max_tangent_angle_deg {
+                Some(max_deg) if cos.acos().to_degrees() > max_deg && ds / 2.0 >= dsmin => {
+                    Err((0.0, it, true))
+                }
+                _ => Ok((xn, jn, it, Some(tn))),
+            }
+        }
+        None => Ok((xn, jn, it, None)),
+    })
 }
 
 #[cfg(test)]

@@ -104,22 +104,7 @@ pub fn nonlinear_modal_analysis_with_basis(
 ) -> Result<NmaResult, NmaError> {
     let samples = check_harmonics(model, opts.harmonics, opts.samples)?;
     let n = model.mass.nrows();
-    assert_eq!(basis.n_modes(), n, "modal basis of another model");
-    assert_eq!(
-        basis.w.ncols(),
-        model.nonlinear.len(),
-        "modal basis of another model"
-    );
-    assert_eq!(
-        basis.conservative, opts.conservative,
-        "modal basis with the other damping option"
-    );
-    if opts.mode_index >= n {
-        return Err(NmaError::ModeIndexOutOfRange {
-            mode_index: opts.mode_index,
-            n_modes: n,
-        });
-    }
+    check_basis(model, &basis, opts)?;
     let point_ids = point_indices(model, &opts.points)?;
     let j = opts.mode_index;
     let res = EpmcResidual::new(basis.clone(), opts.harmonics, samples, j)
@@ -127,61 +112,12 @@ pub fn nonlinear_modal_analysis_with_basis(
     let point_modal = modal_directions(model, &basis, &point_ids);
 
     // amplitude range in log10 a
-    let (lg_start, lg_end, stop_point) = match &opts.amplitude {
-        AmplitudeRange::Modal {
-            log10_start,
-            log10_end,
-        } => {
-            if !(log10_start.is_finite() && log10_end.is_finite()) || log10_end <= log10_start {
-                return Err(NmaError::InvalidAmplitudeRange {
-                    start: *log10_start,
-                    end: *log10_end,
-                    reason: "need finite log10 bounds with end > start",
-                });
-            }
-            (*log10_start, *log10_end, None)
-        }
-        AmplitudeRange::Point {
-            name,
-            start_m,
-            end_m,
-        } => {
-            if !(*start_m > 0.0 && end_m > start_m && end_m.is_finite()) {
-                return Err(NmaError::InvalidAmplitudeRange {
-                    start: *start_m,
-                    end: *end_m,
-                    reason: "need 0 < start_m < end_m",
-                });
-            }
-            let pid = find_point(model, name)?;
-            let c = (basis.phi.column(j).dot(&model.points[pid].direction)).abs();
-            if c <= 1e-12 * basis.phi.column(j).amax() * model.points[pid].direction.norm() {
-                return Err(NmaError::PointAtNode {
-                    name: name.clone(),
-                    mode_index: j,
-                    value: c,
-                });
-            }
-            let em = basis.phi.transpose() * &model.points[pid].direction;
-            (
-                (start_m / c).log10(),
-                (end_m / c).log10() + 3.0,
-                Some((em, *end_m)),
-            )
-        }
-    };
+    let (lg_start, lg_end, stop_point) = amplitude_range(model, &basis, &opts.amplitude, j)?;
 
     let omega0 = basis.omega(j);
     let d0 = basis.damping_ratio(j);
     let m = res.n_coeffs();
-    let mut scale = DVector::from_element(m + 3, 1.0);
-    scale[m] = omega0.abs().max(1e-12);
-    scale[m + 1] = d0.abs().max(if dissipative_elements(model) {
-        DISSIPATIVE_DAMPING_SCALE
-    } else {
-        1e-3
-    });
-    scale[m + 2] = 1.0;
+    let scale = continuation_scale(model, omega0, d0, m);
 
     let mut result = NmaResult {
         harmonics: opts.harmonics,
@@ -274,85 +210,205 @@ pub fn nonlinear_modal_analysis_with_basis(
     identify_internal_resonances(&mut result, &linear_omegas);
     if let Some(end) = opts.end_omega_over_omega0 {
         if !end_omega_reached {
-            if let Some(b) = result.branch.last() {
-                result.warnings.push(NmaWarning::EndFrequencyNotReached {
-                    end_omega_rad_s: end * omega0,
-                    amplitude: b.amplitude,
-                    omega_rad_s: b.omega_rad_s,
-                    share: b.fundamental_energy_share,
-                    step: last_step,
-                });
-            }
+            end_frequency_warning(&mut result, end * omega0, last_step);
         }
     }
     match outcome {
         Ok(s) => {
-            result.stop = Some(s.stop);
-            let last_a = result
-                .branch
-                .last()
-                .map(|b| b.amplitude)
-                .unwrap_or(f64::NAN);
-            match s.stop {
-                StopReason::MaxPoints => result.warnings.push(NmaWarning::MaxPointsReached {
-                    points: s.points,
-                    amplitude: last_a,
-                }),
-                StopReason::LeftRange => result
-                    .warnings
-                    .push(NmaWarning::LeftRange { amplitude: last_a }),
-                StopReason::ReachedEnd => {}
-                StopReason::Callback => {
-                    if share_stop {
-                        let b = result.branch.last().expect("stopped at a computed point");
-                        result.warnings.push(NmaWarning::FundamentalLost {
-                            amplitude: b.amplitude,
-                            omega_rad_s: b.omega_rad_s,
-                            share: b.fundamental_energy_share,
-                        });
-                    }
-                    let _ = stop_reached;
-                }
-            }
+            stop_warnings(&mut result, &s, share_stop);
+            let _ = stop_reached;
             Ok(result)
         }
-        Err((failure, _)) => {
-            let last = result
-                .branch
-                .last()
-                .map(|b| (b.amplitude, b.omega_rad_s))
-                .unwrap_or((f64::NAN, f64::NAN));
-            let partial = Box::new(result);
-            Err(match failure {
-                ContinuationFailure::StartNotConverged {
-                    parameter,
-                    residual_norm,
-                    iterations,
-                } => NmaError::StartNotConverged {
-                    amplitude: 10f64.powf(parameter),
-                    residual_norm,
-                    iterations,
-                    partial,
-                },
-                ContinuationFailure::StepSizeCollapse {
-                    residual_norm,
-                    step_size,
-                    dsmin,
-                    ..
-                } => NmaError::StepSizeCollapse {
-                    amplitude: last.0,
-                    omega_rad_s: last.1,
-                    residual_norm,
-                    step_size,
-                    dsmin,
-                    partial,
-                },
-                ContinuationFailure::SingularJacobian { .. } => NmaError::SingularJacobian {
-                    amplitude: last.0,
-                    partial,
-                },
-            })
+        Err((failure, _)) => Err(failure_error(result, failure)),
+    }
+}
+
+/// Panics if `basis` is not that of `model` with `opts.conservative`; the
+/// error if `opts.mode_index` is not one of its modes.
+fn check_basis(
+    model: &StructuralModel,
+    basis: &ModalBasis,
+    opts: &NmaOptions,
+) -> Result<(), NmaError> {
+    let n = model.mass.nrows();
+    assert_eq!(basis.n_modes(), n, "modal basis of another model");
+    assert_eq!(
+        basis.w.ncols(),
+        model.nonlinear.len(),
+        "modal basis of another model"
+    );
+    assert_eq!(
+        basis.conservative, opts.conservative,
+        "modal basis with the other damping option"
+    );
+    if opts.mode_index >= n {
+        return Err(NmaError::ModeIndexOutOfRange {
+            mode_index: opts.mode_index,
+            n_modes: n,
+        });
+    }
+    Ok(())
+}
+
+/// The continuation's range in `log10 a` of mode `j` (start, end) and, for a
+/// range given as a point's amplitude [m], that point's modal direction and
+/// end amplitude [m] (the branch stops there; the end in `log10 a` is then
+/// 3 decades beyond the estimate `end_m / |phi_j^T d_p|`).
+#[allow(clippy::type_complexity)]
+fn amplitude_range(
+    model: &StructuralModel,
+    basis: &ModalBasis,
+    amplitude: &AmplitudeRange,
+    j: usize,
+) -> Result<(f64, f64, Option<(DVector<f64>, f64)>), NmaError> {
+    Ok(match amplitude {
+        AmplitudeRange::Modal {
+            log10_start,
+            log10_end,
+        } => {
+            if !(log10_start.is_finite() && log10_end.is_finite()) || log10_end <= log10_start {
+                return Err(NmaError::InvalidAmplitudeRange {
+                    start: *log10_start,
+                    end: *log10_end,
+                    reason: "need finite log10 bounds with end > start",
+                });
+            }
+            (*log10_start, *log10_end, None)
         }
+        AmplitudeRange::Point {
+            name,
+            start_m,
+            end_m,
+        } => {
+            if !(*start_m > 0.0 && end_m > start_m && end_m.is_finite()) {
+                return Err(NmaError::InvalidAmplitudeRange {
+                    start: *start_m,
+                    end: *end_m,
+                    reason: "need 0 < start_m < end_m",
+                });
+            }
+            let pid = find_point(model, name)?;
+            let c = (basis.phi.column(j).dot(&model.points[pid].direction)).abs();
+            if c <= 1e-12 * basis.phi.column(j).amax() * model.points[pid].direction.norm() {
+                return Err(NmaError::PointAtNode {
+                    name: name.clone(),
+                    mode_index: j,
+                    value: c,
+                });
+            }
+            let em = basis.phi.transpose() * &model.points[pid].direction;
+            (
+                (start_m / c).log10(),
+                (end_m / c).log10() + 3.0,
+                Some((em, *end_m)),
+            )
+        }
+    })
+}
+
+/// The arc-length scales of the `m` harmonic coefficients (1), the
+/// frequency (`|omega0|` [rad/s]), the damping ratio (`|D_0|`, at least
+/// [`DISSIPATIVE_DAMPING_SCALE`] with a dissipative element, else `1e-3`)
+/// and `log10 a` (1).
+fn continuation_scale(model: &StructuralModel, omega0: f64, d0: f64, m: usize) -> DVector<f64> {
+    let mut scale = DVector::from_element(m + 3, 1.0);
+    scale[m] = omega0.abs().max(1e-12);
+    scale[m + 1] = d0.abs().max(if dissipative_elements(model) {
+        DISSIPATIVE_DAMPING_SCALE
+    } else {
+        1e-3
+    });
+    scale[m + 2] = 1.0;
+    scale
+}
+
+/// The warning of a branch that ended below the asked end frequency
+/// `end_omega_rad_s` (`last_step`: the last arc-length step).
+fn end_frequency_warning(result: &mut NmaResult, end_omega_rad_s: f64, last_step: f64) {
+    if let Some(b) = result.branch.last() {
+        result.warnings.push(NmaWarning::EndFrequencyNotReached {
+            end_omega_rad_s,
+            amplitude: b.amplitude,
+            omega_rad_s: b.omega_rad_s,
+            share: b.fundamental_energy_share,
+            step: last_step,
+        });
+    }
+}
+
+/// The stop reason of a completed continuation `s` and its warnings
+/// (`share_stop`: stopped because the fundamental's energy share fell below
+/// the minimum).
+fn stop_warnings(
+    result: &mut NmaResult,
+    s: &super::continuation::ContinuationSummary,
+    share_stop: bool,
+) {
+    result.stop = Some(s.stop);
+    let last_a = result
+        .branch
+        .last()
+        .map(|b| b.amplitude)
+        .unwrap_or(f64::NAN);
+    match s.stop {
+        StopReason::MaxPoints => result.warnings.push(NmaWarning::MaxPointsReached {
+            points: s.points,
+            amplitude: last_a,
+        }),
+        StopReason::LeftRange => result
+            .warnings
+            .push(NmaWarning::LeftRange { amplitude: last_a }),
+        StopReason::ReachedEnd => {}
+        StopReason::Callback => {
+            if share_stop {
+                let b = result.branch.last().expect("stopped at a computed point");
+                result.warnings.push(NmaWarning::FundamentalLost {
+                    amplitude: b.amplitude,
+                    omega_rad_s: b.omega_rad_s,
+                    share: b.fundamental_energy_share,
+                });
+            }
+        }
+    }
+}
+
+/// The error of a failed continuation, carrying the computed part of the
+/// branch (`result`).
+fn failure_error(result: NmaResult, failure: ContinuationFailure) -> NmaError {
+    let last = result
+        .branch
+        .last()
+        .map(|b| (b.amplitude, b.omega_rad_s))
+        .unwrap_or((f64::NAN, f64::NAN));
+    let partial = Box::new(result);
+    match failure {
+        ContinuationFailure::StartNotConverged {
+            parameter,
+            residual_norm,
+            iterations,
+        } => NmaError::StartNotConverged {
+            amplitude: 10f64.powf(parameter),
+            residual_norm,
+            iterations,
+            partial,
+        },
+        ContinuationFailure::StepSizeCollapse {
+            residual_norm,
+            step_size,
+            dsmin,
+            ..
+        } => NmaError::StepSizeCollapse {
+            amplitude: last.0,
+            omega_rad_s: last.1,
+            residual_norm,
+            step_size,
+            dsmin,
+            partial,
+        },
+        ContinuationFailure::SingularJacobian { .. } => NmaError::SingularJacobian {
+            amplitude: last.0,
+            partial,
+        },
     }
 }
 

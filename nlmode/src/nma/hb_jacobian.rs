@@ -168,8 +168,6 @@ impl HbJacobian {
         let hmax = self.harmonics;
         let nh = 2 * hmax + 1;
         let m = n * nh;
-        let ne = basis.w.ncols();
-        let s = ne * nh;
         let (r, p) = (self.border_rows.nrows(), self.border_cols.ncols());
         debug_assert_eq!(r + 1, p);
         let w = &basis.w;
@@ -180,6 +178,41 @@ impl HbJacobian {
             .copy_from(&self.border_rows);
         cfull.row_mut(r).copy_from(&row.transpose());
 
+        let (blocks, explicit_block, e_list) = self.classify_blocks();
+        // V_B = Lambda_II^-1 B_I  (m x p), Q, CLP
+        let (v_b, q, clp) = self.eliminate_implicit(&blocks, &explicit_block, &cfull);
+        // P^T V_B (s x p) and C V_B (p x p), V_B is zero on explicit rows
+        let ptv = p_transpose(w, &v_b, nh);
+        let cv = cfull.columns(0, m) * &v_b;
+
+        // reduced system [y_E; z; y_b]
+        let a = self.reduced_system(&blocks, &e_list, &q, &clp, &ptv, &cv, &cfull);
+        let lu = a.lu();
+        if !lu.is_invertible() {
+            return None;
+        }
+        Some(HbFactor::Condensed(Box::new(CondensedFactor {
+            basis: self.basis.clone(),
+            harmonics: hmax,
+            g: self.g.clone(),
+            row_scale: self.row_scale.clone(),
+            blocks,
+            explicit_block,
+            e_list,
+            v_b,
+            cfull,
+            lu,
+        })))
+    }
+
+    /// The modal blocks `(A, B)` by `nn n + k` (mode `k`, harmonic `nn`),
+    /// whether each is solved explicitly (forced, or `|(A, B)|` below
+    /// [`EXPLICIT_THRESHOLD`] times its row scale) and the global component
+    /// indices of the explicit ones, in order.
+    #[allow(clippy::type_complexity)]
+    fn classify_blocks(&self) -> (Vec<(f64, f64)>, Vec<bool>, Vec<usize>) {
+        let n = self.basis.n_modes();
+        let hmax = self.harmonics;
         // the modal blocks (A, B) by `nn n + k`; classify them, explicit
         // components in order
         let mut blocks = Vec::with_capacity((hmax + 1) * n);
@@ -199,8 +232,26 @@ impl HbJacobian {
                 }
             }
         }
-        let ne_e = e_list.len();
-        // V_B = Lambda_II^-1 B_I  (m x p), Q, CLP
+        (blocks, explicit_block, e_list)
+    }
+
+    /// The implicit (non-explicit) modal blocks eliminated: `V_B = Lambda_II^-1
+    /// B_I` (`m x p`), `Q = P^T Lambda_II^-1 P` (`s x s`) and `C Lambda_II^-1
+    /// P` (`p x s`), with `cfull` the border rows and the continuation row.
+    fn eliminate_implicit(
+        &self,
+        blocks: &[(f64, f64)],
+        explicit_block: &[bool],
+        cfull: &DMatrix<f64>,
+    ) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+        let w = &self.basis.w;
+        let n = self.basis.n_modes();
+        let hmax = self.harmonics;
+        let nh = 2 * hmax + 1;
+        let m = n * nh;
+        let ne = w.ncols();
+        let s = ne * nh;
+        let p = self.border_cols.ncols();
         let mut v_b: DMatrix<f64> = DMatrix::zeros(m, p);
         let mut q: DMatrix<f64> = DMatrix::zeros(s, s);
         let mut clp: DMatrix<f64> = DMatrix::zeros(p, s);
@@ -244,11 +295,31 @@ impl HbJacobian {
                 }
             }
         }
-        // P^T V_B (s x p) and C V_B (p x p), V_B is zero on explicit rows
-        let ptv = p_transpose(w, &v_b, nh);
-        let cv = cfull.columns(0, m) * &v_b;
+        (v_b, q, clp)
+    }
 
-        // reduced system [y_E; z; y_b]
+    /// The reduced system in `[y_E; z; y_b]` (module doc): the explicit
+    /// components' rows, the nonlinear elements' rows (`z + G (Q z - P^T y_E
+    /// + P^T V_B y_b)`) and the border rows.
+    #[allow(clippy::too_many_arguments)]
+    fn reduced_system(
+        &self,
+        blocks: &[(f64, f64)],
+        e_list: &[usize],
+        q: &DMatrix<f64>,
+        clp: &DMatrix<f64>,
+        ptv: &DMatrix<f64>,
+        cv: &DMatrix<f64>,
+        cfull: &DMatrix<f64>,
+    ) -> DMatrix<f64> {
+        let w = &self.basis.w;
+        let n = self.basis.n_modes();
+        let nh = 2 * self.harmonics + 1;
+        let m = n * nh;
+        let ne = w.ncols();
+        let s = ne * nh;
+        let p = self.border_cols.ncols();
+        let ne_e = e_list.len();
         let dim = ne_e + s + p;
         let mut a: DMatrix<f64> = DMatrix::zeros(dim, dim);
         let mut e_pos = vec![usize::MAX; m];
@@ -275,10 +346,42 @@ impl HbJacobian {
                 a[(i, ne_e + s + c)] = self.border_cols[(gi, c)];
             }
         }
+        self.element_rows(&mut a, e_list, q, ptv);
+        for rr in 0..p {
+            let ri = ne_e + s + rr;
+            for (i, &gi) in e_list.iter().enumerate() {
+                a[(ri, i)] = cfull[(rr, gi)];
+            }
+            for cz in 0..s {
+                a[(ri, ne_e + cz)] = -clp[(rr, cz)];
+            }
+            for c in 0..p {
+                a[(ri, ne_e + s + c)] = cfull[(rr, m + c)] - cv[(rr, c)];
+            }
+        }
+        a
+    }
+
+    /// The nonlinear elements' rows of the reduced system `a` (`z + G (Q z -
+    /// P^T y_E + P^T V_B y_b)`, `G` the elements' harmonic stiffness blocks).
+    fn element_rows(
+        &self,
+        a: &mut DMatrix<f64>,
+        e_list: &[usize],
+        q: &DMatrix<f64>,
+        ptv: &DMatrix<f64>,
+    ) {
+        let w = &self.basis.w;
+        let n = self.basis.n_modes();
+        let nh = 2 * self.harmonics + 1;
+        let ne = w.ncols();
+        let s = ne * nh;
+        let p = self.border_cols.ncols();
+        let ne_e = e_list.len();
         // the explicit components by harmonic component `h`, in `e_list` order:
         // `e_by_h[e_start[h]..e_start[h + 1]]` holds `(position in e_list, mode)`
         let mut e_start = vec![0usize; nh + 1];
-        for &gi in &e_list {
+        for &gi in e_list {
             e_start[gi / n + 1] += 1;
         }
         for h in 0..nh {
@@ -317,34 +420,6 @@ impl HbJacobian {
                 }
             }
         }
-        for rr in 0..p {
-            let ri = ne_e + s + rr;
-            for (i, &gi) in e_list.iter().enumerate() {
-                a[(ri, i)] = cfull[(rr, gi)];
-            }
-            for cz in 0..s {
-                a[(ri, ne_e + cz)] = -clp[(rr, cz)];
-            }
-            for c in 0..p {
-                a[(ri, ne_e + s + c)] = cfull[(rr, m + c)] - cv[(rr, c)];
-            }
-        }
-        let lu = a.lu();
-        if !lu.is_invertible() {
-            return None;
-        }
-        Some(HbFactor::Condensed(Box::new(CondensedFactor {
-            basis: self.basis.clone(),
-            harmonics: hmax,
-            g: self.g.clone(),
-            row_scale: self.row_scale.clone(),
-            blocks,
-            explicit_block,
-            e_list,
-            v_b,
-            cfull,
-            lu,
-        })))
     }
 
     /// Solve with the dense fallback even when the condensed solver applies

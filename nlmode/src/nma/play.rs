@@ -150,7 +150,7 @@ pub(super) fn play_aft(
     jacobian: bool,
 ) -> (DVector<f64>, DMatrix<f64>) {
     let nh = 2 * harmonics + 1;
-    let (kt, fs) = (p.stiffness_n_per_m, p.slip_force_n);
+    let fs = p.slip_force_n;
     let mut force = DVector::zeros(nh);
     let mut jac = DMatrix::zeros(nh, if jacobian { nh } else { 0 });
     if fs == 0.0 {
@@ -160,7 +160,24 @@ pub(super) fn play_aft(
         u: u.as_slice(),
         harmonics,
     };
-    let xs = fs / kt;
+    let ext = extrema(&sig, du_grid);
+    let segs = monotone_segments(&sig, &ext);
+    let pieces = periodic_pieces(&sig, &segs, p, (s0, ds0));
+    project_pieces(
+        &pieces,
+        p,
+        harmonics,
+        u,
+        &mut force,
+        jacobian.then_some(&mut jac),
+    );
+    (force, jac)
+}
+
+/// The extrema of `u(tau)` in one period, sorted: the roots of `du/dtau`
+/// between grid points where its sign changes (`du_grid`: `du/dtau` at `N`
+/// equidistant instants, periodic).
+fn extrema(sig: &Signal, du_grid: &DVector<f64>) -> Vec<f64> {
     // extrema: sign changes of du/dtau between grid points (periodic)
     let n = du_grid.len();
     let two_pi = 2.0 * PI;
@@ -178,11 +195,18 @@ pub(super) fn play_aft(
         }
     }
     ext.sort_by(f64::total_cmp);
+    ext
+}
+
+/// The monotone pieces `[a, b]` of one period between the extrema `ext`,
+/// with their direction `+-1` (0: constant displacement).
+fn monotone_segments(sig: &Signal, ext: &[f64]) -> Vec<(f64, f64, f64)> {
+    let two_pi = 2.0 * PI;
     // monotone pieces [a, b] of one period with direction +-1 (0: constant)
     let mut bounds = vec![0.0];
     bounds.extend(ext.iter().copied().filter(|&x| x > 0.0 && x < two_pi));
     bounds.push(two_pi);
-    let segs: Vec<(f64, f64, f64)> = bounds
+    bounds
         .windows(2)
         .filter(|w| w[1] > w[0])
         .map(|w| {
@@ -196,7 +220,22 @@ pub(super) fn play_aft(
             };
             (w[0], w[1], d)
         })
-        .collect();
+        .collect()
+}
+
+/// The stick and slip pieces of the play operator over one period of the
+/// monotone segments `segs`, marched from the state `(s0, ds0)` (`w` and
+/// `dw/dU[0]`) period after period (at most [`MAX_PERIODS`]) until the state
+/// at the period's end repeats: the pieces of the last period.
+fn periodic_pieces(
+    sig: &Signal,
+    segs: &[(f64, f64, f64)],
+    p: PlayOperator,
+    (s0, ds0): (f64, f64),
+) -> Vec<Piece> {
+    let nh = 2 * sig.harmonics + 1;
+    let (kt, fs) = (p.stiffness_n_per_m, p.slip_force_n);
+    let xs = fs / kt;
     let mut w = s0;
     let mut dw = vec![0.0; nh];
     dw[0] = ds0;
@@ -204,7 +243,7 @@ pub(super) fn play_aft(
     for period in 0..MAX_PERIODS {
         let w_start = w;
         pieces.clear();
-        for &(a, b, d) in &segs {
+        for &(a, b, d) in segs {
             let ub = sig.eval(b).0;
             if d == 0.0 {
                 // constant displacement: stick or a constant slip force
@@ -265,6 +304,22 @@ pub(super) fn play_aft(
             break;
         }
     }
+    pieces
+}
+
+/// The exact projection of the period's `pieces` onto the harmonics, added
+/// to `force` and, if given, `jac` (`dF/dU`): a slip piece contributes `+-f_s`,
+/// a stick piece `k_t (u - w)`.
+fn project_pieces(
+    pieces: &[Piece],
+    p: PlayOperator,
+    harmonics: usize,
+    u: &DVector<f64>,
+    force: &mut DVector<f64>,
+    mut jac: Option<&mut DMatrix<f64>>,
+) {
+    let nh = 2 * harmonics + 1;
+    let (kt, fs) = (p.stiffness_n_per_m, p.slip_force_n);
     // exact projection of the recorded period
     let weight = |h: usize| if h == 0 { 0.5 / PI } else { 1.0 / PI };
     let mut cs = vec![0.0; 2 * harmonics + 1];
@@ -273,7 +328,7 @@ pub(super) fn play_aft(
     let (mut ta_c, mut ta_s) = (vec![0.0; nh], vec![0.0; nh]);
     let (mut tb_c, mut tb_s) = (vec![0.0; nh], vec![0.0; nh]);
     let mut ihj = DMatrix::zeros(nh, nh);
-    for piece in &pieces {
+    for piece in pieces {
         let (a, b) = match *piece {
             Piece::Stick { a, b, .. } | Piece::Slip { a, b, .. } => (a, b),
         };
@@ -304,7 +359,7 @@ pub(super) fn play_aft(
                     let c = weight(h) * kt;
                     let row_u: f64 = (0..nh).map(|j| ihj[(h, j)] * u[j]).sum();
                     force[h] += c * (row_u - w * ih[h]);
-                    if jacobian {
+                    if let Some(jac) = jac.as_deref_mut() {
                         for j in 0..nh {
                             jac[(h, j)] += c * (ihj[(h, j)] - ih[h] * dw[j]);
                         }
@@ -313,7 +368,6 @@ pub(super) fn play_aft(
             }
         }
     }
-    (force, jac)
 }
 
 /// `I[h, j] = int_a^b phi_h phi_j dtau` from `C_k`, `S_k` (`k = 0..2H`) and

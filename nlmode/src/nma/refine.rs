@@ -101,8 +101,8 @@ impl NmaResult {
         policy: TablePolicy,
         refine: &RefineOptions,
     ) -> Result<ModalTable, NmaError> {
-        let (idx, mut truncated) = self.table_indices(policy);
-        let mut discontinuity = self.branch_discontinuity(policy);
+        let (idx, truncated) = self.table_indices(policy);
+        let discontinuity = self.branch_discontinuity(policy);
         let mut pts: Vec<BranchPoint> = idx.iter().map(|&i| self.branch[i].clone()).collect();
         if pts.iter().any(|b| b.coordinates.is_empty()) {
             return Err(NmaError::RefinementNeedsCoordinates);
@@ -118,160 +118,225 @@ impl NmaResult {
             ..AmplitudeSolver::new(model, basis.clone(), &fixed)?
         };
         // end a truncated primary branch a stated margin before the fold
-        let mut range_end = None;
-        if let (Some(a_f), TablePolicy::PrimaryBranch) = (truncated, policy) {
-            let m = refine.fold_margin;
-            if !(0.0..1.0).contains(&m) {
-                return Err(NmaError::InvalidFoldMargin { fold_margin: m });
+        let range_end = match (truncated, policy) {
+            (Some(a_f), TablePolicy::PrimaryBranch) => {
+                end_before_fold(&solver, &mut pts, a_f, refine)?
             }
-            if m > 0.0 {
-                let a_end = (1.0 - m) * a_f;
-                let keep = pts.iter().take_while(|b| b.amplitude < a_end).count();
-                if keep >= 1 {
-                    // Newton from the nearest branch point above (else below)
-                    let guess = pts.get(keep).unwrap_or(&pts[keep - 1]).clone();
-                    let sol = solver
-                        .solve(a_end, &guess)
-                        .or_else(|_| solver.solve(a_end, &pts[keep - 1]))
-                        .map_err(|e| refine_failed(e, a_end))?;
-                    pts.truncate(keep);
-                    pts.push(sol);
-                    range_end = Some(a_end);
-                }
-            }
-        }
+            _ => None,
+        };
         let n_int = pts.len().saturating_sub(1);
-        // per interval: checked against the current table, and its errors
-        let mut checked = vec![false; n_int];
-        let mut errors = vec![(0.0, 0.0, 0.0); n_int];
-        // per interval: its midpoint HB solution once solved (it stays valid
-        // while the interval's end points do; a re-check after a neighbour's
-        // insertion only measures the new interpolant against it)
-        let mut mids: Vec<Option<BranchPoint>> = vec![None; n_int];
-        let mut checks = 0;
-        let mut capped = false;
+        let mut st = Refinement {
+            pts,
+            checked: vec![false; n_int],
+            errors: vec![(0.0, 0.0, 0.0); n_int],
+            mids: vec![None; n_int],
+            checks: 0,
+            capped: false,
+            truncated,
+            discontinuity,
+        };
         // a fold tabulated without margin is steep by nature, not a jump
         let steep_end_ok = truncated.is_some() && range_end.is_none();
         loop {
-            let refs: Vec<&BranchPoint> = pts.iter().collect();
-            let table = self.table_of(&refs, truncated, policy);
+            let refs: Vec<&BranchPoint> = st.pts.iter().collect();
+            let table = self.table_of(&refs, st.truncated, policy);
             let interp = table
                 .interpolator()
                 .map_err(|e| NmaError::Table(e.to_string()))?;
-            // the unchecked intervals' HB solves are independent of each
-            // other: solved in parallel, then taken in interval order (the
-            // table is the same for any number of threads)
-            let unsolved: Vec<usize> = (0..pts.len().saturating_sub(1))
-                .filter(|&i| !checked[i] && mids[i].is_none())
-                .collect();
-            let mut solved = unsolved
-                .par_iter()
-                .map(|&i| check_interval(&solver, &interp, &pts[i], &pts[i + 1]))
-                .collect::<Vec<_>>()
-                .into_iter();
-            let mut next: Vec<BranchPoint> = Vec::with_capacity(2 * pts.len());
-            let mut next_checked = Vec::new();
-            let mut next_errors = Vec::new();
-            let mut next_mids = Vec::new();
-            let mut inserted = Vec::new();
-            let mut cut = false;
-            for i in 0..pts.len().saturating_sub(1) {
-                next.push(pts[i].clone());
-                if checked[i] {
-                    next_checked.push(true);
-                    next_errors.push(errors[i]);
-                    next_mids.push(mids[i].take());
-                    continue;
-                }
-                let (p, q) = (&pts[i], &pts[i + 1]);
-                let (sol, err) = match mids[i].take() {
-                    Some(sol) => {
-                        let err = table_errors(&interp, &sol)
-                            .map_err(|e| NmaError::Table(e.to_string()))?;
-                        (sol, err)
-                    }
-                    None => {
-                        checks += 1;
-                        solved.next().expect("one solve per unsolved interval")?
-                    }
-                };
-                // the midpoint error underestimates an interval's largest
-                // error (PCHIP's error is not symmetric): ask half the target
-                let good = err.0 <= 0.5 * refine.omega_rel
-                    && err.1 <= 0.5 * refine.rel
-                    && err.2 <= 0.5 * refine.rel;
-                // an interval too narrow to split in floating point (next to
-                // the fold, where omega(a) has an infinite slope) stays as is
-                let narrow = !(sol.amplitude > p.amplitude && sol.amplitude < q.amplitude);
-                // an interval bisected down to a relative width of
-                // JUMP_WIDTH without meeting the targets is a jump of the
-                // branch (a stepped-over loop): the table ends before it
-                let last = i + 2 == pts.len();
-                if !good
-                    && q.amplitude - p.amplitude <= JUMP_WIDTH * q.amplitude
-                    && !(last && steep_end_ok)
-                {
-                    discontinuity = Some(TableDiscontinuity {
-                        amplitude: p.amplitude,
-                        amplitude_after: q.amplitude,
-                        omega_jump_rel: (q.omega_rad_s / p.omega_rad_s - 1.0).abs(),
-                        reason: format!(
-                            "the refinement bisected the interval to a relative width {JUMP_WIDTH:.0e} and still missed the targets (omega error {:.1e})",
-                            err.0
-                        ),
-                    });
-                    cut = true;
-                    break;
-                }
-                if good || narrow || pts.len() + inserted.len() >= refine.max_points {
-                    capped |= !good;
-                    next_checked.push(true);
-                    next_errors.push(err);
-                    next_mids.push(Some(sol));
-                } else {
-                    inserted.push(next.len());
-                    next.push(sol);
-                    next_checked.extend([false, false]);
-                    next_errors.extend([err, err]);
-                    next_mids.extend([None, None]);
-                }
-            }
-            if cut {
-                // keep the points up to the jump's left end
-                let keep = next.len();
-                next_checked.truncate(keep - 1);
-                next_errors.truncate(keep - 1);
-                next_mids.truncate(keep - 1);
-                inserted.retain(|&node| node < keep);
-                let a = next[keep - 1].amplitude;
-                truncated = Some(truncated.map_or(a, |t: f64| t.min(a)));
-            } else if let Some(last) = pts.last() {
-                next.push(last.clone());
-            }
-            if inserted.is_empty() {
-                errors = next_errors;
-                if cut {
-                    pts = next;
-                }
+            if st.pass(&solver, &interp, refine, steep_end_ok)? {
                 break;
             }
-            // PCHIP slopes at the nodes next to an insertion change: check the
-            // neighbouring intervals again
-            for &node in &inserted {
-                if node >= 2 {
-                    next_checked[node - 2] = false;
-                }
-                if node + 1 < next_checked.len() {
-                    next_checked[node + 1] = false;
-                }
-            }
-            pts = next;
-            checked = next_checked;
-            errors = next_errors;
-            mids = next_mids;
         }
-        let refs: Vec<&BranchPoint> = pts.iter().collect();
-        let mut table = self.table_of(&refs, truncated, policy);
+        let refs: Vec<&BranchPoint> = st.pts.iter().collect();
+        let mut table = self.table_of(&refs, st.truncated, policy);
+        st.describe(&mut table, range_end, refine);
+        Ok(table)
+    }
+}
+
+/// A truncated primary branch (first fold at `a_f`) ended at
+/// `a_end = (1 - fold_margin) a_f`: the points from `a_end` on replaced by
+/// the HB solution there (Newton from the nearest branch point above, else
+/// below). Returns `a_end`, or `None` with `fold_margin = 0` or no point
+/// below `a_end`.
+fn end_before_fold(
+    solver: &AmplitudeSolver,
+    pts: &mut Vec<BranchPoint>,
+    a_f: f64,
+    refine: &RefineOptions,
+) -> Result<Option<f64>, NmaError> {
+    let m = refine.fold_margin;
+    if !(0.0..1.0).contains(&m) {
+        return Err(NmaError::InvalidFoldMargin { fold_margin: m });
+    }
+    if m > 0.0 {
+        let a_end = (1.0 - m) * a_f;
+        let keep = pts.iter().take_while(|b| b.amplitude < a_end).count();
+        if keep >= 1 {
+            // Newton from the nearest branch point above (else below)
+            let guess = pts.get(keep).unwrap_or(&pts[keep - 1]).clone();
+            let sol = solver
+                .solve(a_end, &guess)
+                .or_else(|_| solver.solve(a_end, &pts[keep - 1]))
+                .map_err(|e| refine_failed(e, a_end))?;
+            pts.truncate(keep);
+            pts.push(sol);
+            return Ok(Some(a_end));
+        }
+    }
+    Ok(None)
+}
+
+/// Relative errors of `omega`, `D` and the shapes at an interval's midpoint.
+type Errors = (f64, f64, f64);
+
+/// The state of [`NmaResult::refined_table`]'s refinement: the table's
+/// points and, per interval, whether it is checked against the current
+/// table, its errors and its midpoint HB solution once solved.
+struct Refinement {
+    pts: Vec<BranchPoint>,
+    /// Per interval: checked against the current table.
+    checked: Vec<bool>,
+    /// Per interval: its midpoint errors.
+    errors: Vec<Errors>,
+    /// Per interval: its midpoint HB solution once solved (it stays valid
+    /// while the interval's end points do; a re-check after a neighbour's
+    /// insertion only measures the new interpolant against it).
+    mids: Vec<Option<BranchPoint>>,
+    /// HB solves made.
+    checks: usize,
+    /// Some interval kept without meeting the targets.
+    capped: bool,
+    /// Where the table ends (a fold or a jump).
+    truncated: Option<f64>,
+    discontinuity: Option<TableDiscontinuity>,
+}
+
+impl Refinement {
+    /// One pass over the intervals against the table `interp` of the current
+    /// points: the unchecked ones checked (their midpoints solved in
+    /// parallel, taken in interval order), a midpoint inserted where the
+    /// targets are missed, the neighbours of an insertion unchecked (PCHIP
+    /// slopes change). Returns whether the refinement is over (nothing
+    /// inserted, or the table cut before a jump).
+    fn pass(
+        &mut self,
+        solver: &AmplitudeSolver,
+        interp: &crate::table::TableInterpolator,
+        refine: &RefineOptions,
+        steep_end_ok: bool,
+    ) -> Result<bool, NmaError> {
+        let pts = &self.pts;
+        // the unchecked intervals' HB solves are independent of each
+        // other: solved in parallel, then taken in interval order (the
+        // table is the same for any number of threads)
+        let unsolved: Vec<usize> = (0..pts.len().saturating_sub(1))
+            .filter(|&i| !self.checked[i] && self.mids[i].is_none())
+            .collect();
+        let mut solved = unsolved
+            .par_iter()
+            .map(|&i| check_interval(solver, interp, &pts[i], &pts[i + 1]))
+            .collect::<Vec<_>>()
+            .into_iter();
+        let mut next: Vec<BranchPoint> = Vec::with_capacity(2 * pts.len());
+        let mut next_checked = Vec::new();
+        let mut next_errors = Vec::new();
+        let mut next_mids = Vec::new();
+        let mut inserted = Vec::new();
+        let mut cut = false;
+        for i in 0..pts.len().saturating_sub(1) {
+            next.push(pts[i].clone());
+            if self.checked[i] {
+                next_checked.push(true);
+                next_errors.push(self.errors[i]);
+                next_mids.push(self.mids[i].take());
+                continue;
+            }
+            let (p, q) = (&pts[i], &pts[i + 1]);
+            let (sol, err) = match self.mids[i].take() {
+                Some(sol) => {
+                    let err =
+                        table_errors(interp, &sol).map_err(|e| NmaError::Table(e.to_string()))?;
+                    (sol, err)
+                }
+                None => {
+                    self.checks += 1;
+                    solved.next().expect("one solve per unsolved interval")?
+                }
+            };
+            // the midpoint error underestimates an interval's largest
+            // error (PCHIP's error is not symmetric): ask half the target
+            let good = err.0 <= 0.5 * refine.omega_rel
+                && err.1 <= 0.5 * refine.rel
+                && err.2 <= 0.5 * refine.rel;
+            // an interval too narrow to split in floating point (next to
+            // the fold, where omega(a) has an infinite slope) stays as is
+            let narrow = !(sol.amplitude > p.amplitude && sol.amplitude < q.amplitude);
+            // an interval bisected down to a relative width of
+            // JUMP_WIDTH without meeting the targets is a jump of the
+            // branch (a stepped-over loop): the table ends before it
+            let last = i + 2 == pts.len();
+            if !good
+                && q.amplitude - p.amplitude <= JUMP_WIDTH * q.amplitude
+                && !(last && steep_end_ok)
+            {
+                self.discontinuity = Some(jump(p, q, err));
+                cut = true;
+                break;
+            }
+            if good || narrow || pts.len() + inserted.len() >= refine.max_points {
+                self.capped |= !good;
+                next_checked.push(true);
+                next_errors.push(err);
+                next_mids.push(Some(sol));
+            } else {
+                inserted.push(next.len());
+                next.push(sol);
+                next_checked.extend([false, false]);
+                next_errors.extend([err, err]);
+                next_mids.extend([None, None]);
+            }
+        }
+        if cut {
+            // keep the points up to the jump's left end
+            let keep = next.len();
+            next_checked.truncate(keep - 1);
+            next_errors.truncate(keep - 1);
+            next_mids.truncate(keep - 1);
+            inserted.retain(|&node| node < keep);
+            let a = next[keep - 1].amplitude;
+            self.truncated = Some(self.truncated.map_or(a, |t: f64| t.min(a)));
+        } else if let Some(last) = pts.last() {
+            next.push(last.clone());
+        }
+        if inserted.is_empty() {
+            self.errors = next_errors;
+            if cut {
+                self.pts = next;
+            }
+            return Ok(true);
+        }
+        // PCHIP slopes at the nodes next to an insertion change: check the
+        // neighbouring intervals again
+        for &node in &inserted {
+            if node >= 2 {
+                next_checked[node - 2] = false;
+            }
+            if node + 1 < next_checked.len() {
+                next_checked[node + 1] = false;
+            }
+        }
+        self.pts = next;
+        self.checked = next_checked;
+        self.errors = next_errors;
+        self.mids = next_mids;
+        Ok(false)
+    }
+
+    /// The refined table's description and [`TableAccuracy`]: the worst
+    /// midpoint errors, the targets, the checks, where the worst errors are.
+    fn describe(&self, table: &mut ModalTable, range_end: Option<f64>, refine: &RefineOptions) {
+        let (pts, errors) = (&self.pts, &self.errors);
         let worst = errors.iter().fold((0.0f64, 0.0f64, 0.0f64), |w, e| {
             (w.0.max(e.0), w.1.max(e.1), w.2.max(e.2))
         });
@@ -287,7 +352,7 @@ impl NmaResult {
             worst.0,
             worst.1,
             worst.2,
-            if capped { ", capped" } else { "" }
+            if self.capped { ", capped" } else { "" }
         );
         table.accuracy = Some(TableAccuracy {
             omega_rel: worst.0,
@@ -295,22 +360,35 @@ impl NmaResult {
             shape_rel: worst.2,
             target_omega_rel: refine.omega_rel,
             target_rel: refine.rel,
-            checks,
-            capped,
+            checks: self.checks,
+            capped: self.capped,
             fold_margin: range_end.map(|_| refine.fold_margin),
             omega_worst_amplitude: None,
             damping_worst_amplitude: None,
             shape_worst_amplitude: None,
-            discontinuity,
+            discontinuity: self.discontinuity.clone(),
             highest_harmonic_share: None,
             highest_harmonic_share_amplitude: None,
             highest_harmonic_share_from_amplitude: None,
         });
         if let Some(acc) = table.accuracy.as_mut() {
-            worst_locations(acc, &pts, &errors, refine);
-            highest_harmonic(acc, &pts);
+            worst_locations(acc, pts, errors, refine);
+            highest_harmonic(acc, pts);
         }
-        Ok(table)
+    }
+}
+
+/// The jump of the branch in the interval `p`..`q` whose midpoint errors
+/// `err` stay above the targets at a relative width [`JUMP_WIDTH`].
+fn jump(p: &BranchPoint, q: &BranchPoint, err: Errors) -> TableDiscontinuity {
+    TableDiscontinuity {
+        amplitude: p.amplitude,
+        amplitude_after: q.amplitude,
+        omega_jump_rel: (q.omega_rad_s / p.omega_rad_s - 1.0).abs(),
+        reason: format!(
+            "the refinement bisected the interval to a relative width {JUMP_WIDTH:.0e} and still missed the targets (omega error {:.1e})",
+            err.0
+        ),
     }
 }
 

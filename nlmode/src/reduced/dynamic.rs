@@ -394,69 +394,13 @@ pub(crate) fn simulate(
         let (s, e) = (sweep.omega_start_rad_s, sweep.omega_end_rad_s);
         (s.min(e), s.max(e))
     };
-    let amplitude = sweep.amplitude;
     let nch = model.nch;
     let ntot = nch + ports.iter().map(StatePort::nextra).sum::<usize>();
     let ns: usize = ports.iter().map(|p| p.ns).sum();
-    let fill = |w: f64, v: &mut [Complex64]| -> Result<(), ReducedError> {
-        model.fill_channels(w, amplitude, &mut v[..nch])?;
-        for p in ports {
-            p.fill(model, w, amplitude, v)?;
-        }
-        Ok(())
-    };
-    // the blocks are rational in Omega: central differences (1e-5 Omega) for
-    // the Hermite slopes; the tabulation checks the values at every midpoint
-    let fill_d = |w: f64, v: &mut [Complex64], d: &mut [Complex64]| -> Result<(), ReducedError> {
-        let dw = 1e-5 * w;
-        fill(w, v)?;
-        let mut vm = vec![Complex64::new(0.0, 0.0); ntot];
-        fill(w + dw, d)?;
-        fill(w - dw, &mut vm)?;
-        for (d, m) in d.iter_mut().zip(&vm) {
-            *d = (*d - m) / (2.0 * dw);
-        }
-        Ok(())
-    };
-    let cache = OmegaCache::tabulate(ntot, lo, hi, opts.channel_tol, fill, fill_d)?;
+    let cache = tabulate_channels(model, ports, sweep.amplitude, (lo, hi), opts, ntot)?;
     let duration = sweep.duration_s();
-    // absolute tolerances: A against the table's largest amplitude, each
-    // carried state against its quasi-steady size over the band
-    let atol_a = opts.atol_rel * model.a_scale;
-    let mut scale = vec![0.0f64; ns];
-    {
-        let mut ch = vec![Complex64::new(0.0, 0.0); ntot];
-        let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
-        model.gather(model.a_scale, &mut phi)?;
-        for w in [lo, 0.5 * (lo + hi), hi] {
-            cache.eval(w, &mut ch);
-            for amp in [0.0, model.a_scale] {
-                for p in ports {
-                    let ys = p.quasi_steady(&ch, &phi, Complex64::new(amp, 0.0))?;
-                    for (j, y) in ys.iter().enumerate() {
-                        let k = p.state_offset + j;
-                        scale[k] = scale[k].max(y.norm());
-                    }
-                }
-            }
-        }
-    }
-    let mut atol = DVector::from_element(2 + 2 * ns, atol_a);
-    for (k, s) in scale.iter().enumerate() {
-        let a = opts.atol_rel * if *s > 0.0 { *s } else { 1.0 };
-        atol[2 + 2 * k] = a;
-        atol[3 + 2 * k] = a;
-    }
-    let tol = Tolerances {
-        rtol: opts.rtol,
-        atol,
-        controller: Controller::Pi,
-        scale: ErrorScale::Local,
-        h_max: opts.max_step_fraction * duration,
-        h_min: 1e-12 * duration,
-        max_steps: 10_000_000,
-        h0: None,
-    };
+    let scale = carried_state_scales(model, ports, &cache, (lo, hi), ns, ntot)?;
+    let tol = sweep_tolerances(model, opts, &scale, duration);
     let mut ch = vec![Complex64::new(0.0, 0.0); ntot];
     let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
     let mut ys: Vec<Complex64> = Vec::with_capacity(ns);
@@ -538,6 +482,102 @@ pub(crate) fn simulate(
         channel_nodes: cache.len(),
         samples: batch.emitted,
     })
+}
+
+/// The channels of the model and the ports' blocks over the band `(lo, hi)`
+/// [rad/s] at the sweep's `amplitude`, tabulated in `Omega` to
+/// `opts.channel_tol` (Hermite, slopes by central differences).
+fn tabulate_channels(
+    model: &ReducedModel,
+    ports: &[StatePort],
+    amplitude: f64,
+    (lo, hi): (f64, f64),
+    opts: &SlowFlowOptions,
+    ntot: usize,
+) -> Result<OmegaCache, ReducedError> {
+    let nch = model.nch;
+    let fill = |w: f64, v: &mut [Complex64]| -> Result<(), ReducedError> {
+        model.fill_channels(w, amplitude, &mut v[..nch])?;
+        for p in ports {
+            p.fill(model, w, amplitude, v)?;
+        }
+        Ok(())
+    };
+    // the blocks are rational in Omega: central differences (1e-5 Omega) for
+    // the Hermite slopes; the tabulation checks the values at every midpoint
+    let fill_d = |w: f64, v: &mut [Complex64], d: &mut [Complex64]| -> Result<(), ReducedError> {
+        let dw = 1e-5 * w;
+        fill(w, v)?;
+        let mut vm = vec![Complex64::new(0.0, 0.0); ntot];
+        fill(w + dw, d)?;
+        fill(w - dw, &mut vm)?;
+        for (d, m) in d.iter_mut().zip(&vm) {
+            *d = (*d - m) / (2.0 * dw);
+        }
+        Ok(())
+    };
+    OmegaCache::tabulate(ntot, lo, hi, opts.channel_tol, fill, fill_d)
+}
+
+/// The size of each carried state: its largest quasi-steady value at the
+/// band's ends and middle, at rest and at the table's largest amplitude
+/// (the scale of its absolute tolerance).
+fn carried_state_scales(
+    model: &ReducedModel,
+    ports: &[StatePort],
+    cache: &OmegaCache,
+    (lo, hi): (f64, f64),
+    ns: usize,
+    ntot: usize,
+) -> Result<Vec<f64>, ReducedError> {
+    let mut scale = vec![0.0f64; ns];
+    let mut ch = vec![Complex64::new(0.0, 0.0); ntot];
+    let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+    model.gather(model.a_scale, &mut phi)?;
+    for w in [lo, 0.5 * (lo + hi), hi] {
+        cache.eval(w, &mut ch);
+        for amp in [0.0, model.a_scale] {
+            for p in ports {
+                let ys = p.quasi_steady(&ch, &phi, Complex64::new(amp, 0.0))?;
+                for (j, y) in ys.iter().enumerate() {
+                    let k = p.state_offset + j;
+                    scale[k] = scale[k].max(y.norm());
+                }
+            }
+        }
+    }
+    Ok(scale)
+}
+
+/// The integration tolerances of the sweep (`duration` [s]): absolute ones
+/// for `A` against the table's largest amplitude, for each carried state
+/// against its `scale` ([`carried_state_scales`], 1 where zero).
+fn sweep_tolerances(
+    model: &ReducedModel,
+    opts: &SlowFlowOptions,
+    scale: &[f64],
+    duration: f64,
+) -> Tolerances<DVector<f64>> {
+    let ns = scale.len();
+    // absolute tolerances: A against the table's largest amplitude, each
+    // carried state against its quasi-steady size over the band
+    let atol_a = opts.atol_rel * model.a_scale;
+    let mut atol = DVector::from_element(2 + 2 * ns, atol_a);
+    for (k, s) in scale.iter().enumerate() {
+        let a = opts.atol_rel * if *s > 0.0 { *s } else { 1.0 };
+        atol[2 + 2 * k] = a;
+        atol[3 + 2 * k] = a;
+    }
+    Tolerances {
+        rtol: opts.rtol,
+        atol,
+        controller: Controller::Pi,
+        scale: ErrorScale::Local,
+        h_max: opts.max_step_fraction * duration,
+        h_min: 1e-12 * duration,
+        max_steps: 10_000_000,
+        h0: None,
+    }
 }
 
 impl StatePort {

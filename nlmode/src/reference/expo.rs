@@ -295,9 +295,6 @@ pub(crate) fn integrate_continued(
     let s = ctl.nodes;
     assert!(s >= 2, "at least two collocation nodes");
     let nz = sys.nz();
-    let m = sys.m();
-    let p = sys.n_inputs();
-    let mf = p + m;
     let mut stats = IntegrationStats::default();
     let mut level: u32 = cache.level;
     let one: u64 = 1 << MAX_LEVEL;
@@ -311,22 +308,9 @@ pub(crate) fn integrate_continued(
     }
     // taken out of the cache while the loop borrows it for the propagators
     let mut zmax = std::mem::take(&mut cache.zmax);
-    let mut r = DVector::zeros(s * mf);
-    let mut f0 = vec![0.0; m];
-    let np = 2 * m;
-    let mut base = DVector::zeros((s - 1) * np);
-    let mut pall = DVector::zeros((s - 1) * np);
-    // extrapolation weights of the previous step's node forces: (step ratio, s x s)
-    let mut extrap: (f64, Vec<f64>) = (f64::NAN, vec![0.0; s * s]);
+    let mut col = Collocation::new(sys, s, states);
     let mut last_rejected = false;
-    let nu = m * (s - 1);
-    let mut jac = vec![0.0; nu * nu];
-    let mut res = vec![0.0; nu];
-    // previous accepted step: (start time, node spacing) and node forces
-    let mut prev: Option<(f64, f64)> = None;
-    let mut prev_f = vec![0.0; s * m];
     let hysteretic = sys.has_hysteresis();
-    let mut node_states = states.to_vec();
     on_sample(0, z, states);
     let mut next_progress = 0.0;
     while pos < end {
@@ -341,105 +325,17 @@ pub(crate) fn integrate_continued(
         let h = ticks as f64 * tick;
         let lv = cache.level_for(sys, h, s, &mut stats);
         let tau = h / (s - 1) as f64;
-        // node values: inputs everywhere, forces at node 0 from z_n
-        for l in 0..s {
-            let u = input(t + l as f64 * tau);
-            r.rows_mut(l * mf, p).copy_from_slice(&u[..p]);
-        }
-        sys.forces(z, states, &mut f0);
-        stats.law_evals += m;
-        // initial guess of the node forces: the previous step's interpolation
-        // polynomial, extrapolated (constant force on the first step)
-        if let Some((tp, taup)) = prev {
-            // node l of this step sits at x = (s-1) + l tau/taup previous spacings
-            let ratio = tau / taup;
-            if ratio != extrap.0 {
-                for l in 0..s {
-                    let x = (t - tp) / taup + l as f64 * ratio;
-                    for k in 0..s {
-                        extrap.1[l * s + k] = (0..s)
-                            .filter(|&i| i != k)
-                            .map(|i| (x - i as f64) / (k as f64 - i as f64))
-                            .product();
-                    }
-                }
-                extrap.0 = ratio;
-            }
-        }
-        for e in 0..m {
-            r[p + e] = f0[e];
-            for l in 1..s {
-                r[l * mf + p + e] = match prev {
-                    Some(_) => (0..s)
-                        .map(|k| extrap.1[l * s + k] * prev_f[k * m + e])
-                        .sum(),
-                    None => f0[e],
-                };
-            }
-        }
+        col.start_step(sys, input, z, states, t, tau, &mut stats);
         let mut newton_ok = true;
-        if m > 0 {
-            // known part of the projections: P e^{j tau A} z_n
-            base.gemv_tr(1.0, &lv.pe_t, z, 0.0);
-            let nu = m * (s - 1);
-            let mut converged = false;
-            for _ in 0..MAX_NEWTON {
-                stats.newton_iterations += 1;
-                let mut fscale: f64 = f64::MIN_POSITIVE;
-                pall.copy_from(&base);
-                pall.gemv_tr(1.0, &lv.pq_t, &r, 1.0);
-                node_states.copy_from_slice(states);
-                for j in 1..s {
-                    let pj = (j - 1) * np;
-                    for e in 0..m {
-                        let (fe, dfu, dfv, se) =
-                            sys.element(e, node_states[e], pall[pj + e], pall[pj + m + e]);
-                        node_states[e] = se;
-                        stats.law_evals += 1;
-                        let row = (j - 1) * m + e;
-                        let cur = r[j * mf + p + e];
-                        fscale = fscale.max(fe.abs()).max(cur.abs());
-                        res[row] = cur - fe;
-                        for l in 1..s {
-                            for e2 in 0..m {
-                                let col = (l - 1) * m + e2;
-                                let w = l * mf + p + e2;
-                                jac[row * nu + col] = if row == col { 1.0 } else { 0.0 }
-                                    - dfu * lv.pq_t[(w, pj + e)]
-                                    - dfv * lv.pq_t[(w, pj + m + e)];
-                            }
-                        }
-                    }
-                }
-                if !res.iter().all(|x| x.is_finite()) || !solve_in_place(&mut jac, &mut res, nu) {
-                    break;
-                }
-                let mut dmax: f64 = 0.0;
-                for j in 1..s {
-                    for e in 0..m {
-                        let d = res[(j - 1) * m + e];
-                        r[j * mf + p + e] -= d;
-                        dmax = dmax.max(d.abs());
-                    }
-                }
-                if dmax <= NEWTON_RTOL * fscale {
-                    converged = true;
-                    break;
-                }
-            }
-            newton_ok = converged;
+        if col.m > 0 {
+            newton_ok = col.newton(sys, lv, z, states, &mut stats);
         }
         let mut enorm = f64::INFINITY;
         if newton_ok {
             znew.gemv(1.0, &lv.e, z, 0.0);
-            znew.gemv(1.0, &lv.zw, &r, 1.0);
-            err.gemv(1.0, &lv.ew, &r, 0.0);
-            let mut acc = 0.0;
-            for i in 0..nz {
-                let sc = ctl.atol + ctl.rtol * zmax[i].max(znew[i].abs());
-                acc += (err[i] / sc).powi(2);
-            }
-            enorm = (acc / nz as f64).sqrt();
+            znew.gemv(1.0, &lv.zw, &col.r, 1.0);
+            err.gemv(1.0, &lv.ew, &col.r, 0.0);
+            enorm = error_norm(ctl, &err, &znew, &zmax);
         }
         if !(enorm <= 1.0) {
             stats.rejected += 1;
@@ -454,23 +350,10 @@ pub(crate) fn integrate_continued(
             continue;
         }
         if hysteretic {
-            // the states through the converged nodes of this step
-            pall.copy_from(&base);
-            pall.gemv_tr(1.0, &lv.pq_t, &r, 1.0);
-            for j in 1..s {
-                let pj = (j - 1) * np;
-                for (e, se) in states.iter_mut().enumerate() {
-                    *se = sys.element(e, *se, pall[pj + e], pall[pj + m + e]).3;
-                }
-            }
+            col.advance_states(sys, lv, states);
         }
         std::mem::swap(z, &mut znew);
-        prev = Some((t, tau));
-        for l in 0..s {
-            for e in 0..m {
-                prev_f[l * m + e] = r[l * mf + p + e];
-            }
-        }
+        col.accept(t, tau);
         pos += ticks;
         stats.steps += 1;
         let t_new = pos as f64 * tick;
@@ -493,6 +376,231 @@ pub(crate) fn integrate_continued(
     }
     cache.zmax = zmax;
     Ok(stats)
+}
+
+/// The weighted RMS norm of the error estimate `err` of the new state
+/// `znew` (scales `atol + rtol max(|z|max, |znew|)`).
+fn error_norm(ctl: &StepControl, err: &DVector<f64>, znew: &DVector<f64>, zmax: &[f64]) -> f64 {
+    let nz = err.len();
+    let mut acc = 0.0;
+    for i in 0..nz {
+        let sc = ctl.atol + ctl.rtol * zmax[i].max(znew[i].abs());
+        acc += (err[i] / sc).powi(2);
+    }
+    (acc / nz as f64).sqrt()
+}
+
+/// The collocation buffers of [`integrate_continued`]: the node values of a
+/// step and what the next step's guess needs from the accepted one.
+struct Collocation {
+    /// Collocation nodes per step.
+    s: usize,
+    /// Nonlinear elements.
+    m: usize,
+    /// Input signals.
+    p: usize,
+    /// Values per node: `p` inputs, then `m` forces.
+    mf: usize,
+    /// Projections per node (`2m`: displacements, velocities).
+    np: usize,
+    /// The node values `r` (`s mf`).
+    r: DVector<f64>,
+    /// The forces at node 0 (from `z_n`).
+    f0: Vec<f64>,
+    /// Known part of the node projections, `P e^{j tau A} z_n`.
+    base: DVector<f64>,
+    /// Node projections.
+    pall: DVector<f64>,
+    /// Extrapolation weights of the previous step's node forces: (step
+    /// ratio, `s x s`).
+    extrap: (f64, Vec<f64>),
+    /// Newton Jacobian and residual (`m (s-1)`).
+    jac: Vec<f64>,
+    res: Vec<f64>,
+    /// The previous accepted step: (start time, node spacing) and its node
+    /// forces.
+    prev: Option<(f64, f64)>,
+    prev_f: Vec<f64>,
+    /// Element states marched through the nodes.
+    node_states: Vec<f64>,
+}
+
+impl Collocation {
+    fn new(sys: &FirstOrderSystem, s: usize, states: &[f64]) -> Self {
+        let m = sys.m();
+        let p = sys.n_inputs();
+        let mf = p + m;
+        let np = 2 * m;
+        let nu = m * (s - 1);
+        Self {
+            s,
+            m,
+            p,
+            mf,
+            np,
+            r: DVector::zeros(s * mf),
+            f0: vec![0.0; m],
+            base: DVector::zeros((s - 1) * np),
+            pall: DVector::zeros((s - 1) * np),
+            extrap: (f64::NAN, vec![0.0; s * s]),
+            jac: vec![0.0; nu * nu],
+            res: vec![0.0; nu],
+            prev: None,
+            prev_f: vec![0.0; s * m],
+            node_states: states.to_vec(),
+        }
+    }
+
+    /// The node values of the step from `t` (node spacing `tau`): the inputs
+    /// at every node, the forces at node 0 from `z_n`, and as the initial
+    /// guess of the other nodes' forces the previous step's interpolation
+    /// polynomial, extrapolated (constant force on the first step).
+    #[allow(clippy::too_many_arguments)]
+    fn start_step(
+        &mut self,
+        sys: &FirstOrderSystem,
+        input: &super::InputSignals,
+        z: &DVector<f64>,
+        states: &[f64],
+        t: f64,
+        tau: f64,
+        stats: &mut IntegrationStats,
+    ) {
+        let (s, m, p, mf) = (self.s, self.m, self.p, self.mf);
+        let r = &mut self.r;
+        // node values: inputs everywhere, forces at node 0 from z_n
+        for l in 0..s {
+            let u = input(t + l as f64 * tau);
+            r.rows_mut(l * mf, p).copy_from_slice(&u[..p]);
+        }
+        sys.forces(z, states, &mut self.f0);
+        stats.law_evals += m;
+        // initial guess of the node forces: the previous step's interpolation
+        // polynomial, extrapolated (constant force on the first step)
+        let extrap = &mut self.extrap;
+        if let Some((tp, taup)) = self.prev {
+            // node l of this step sits at x = (s-1) + l tau/taup previous spacings
+            let ratio = tau / taup;
+            if ratio != extrap.0 {
+                for l in 0..s {
+                    let x = (t - tp) / taup + l as f64 * ratio;
+                    for k in 0..s {
+                        extrap.1[l * s + k] = (0..s)
+                            .filter(|&i| i != k)
+                            .map(|i| (x - i as f64) / (k as f64 - i as f64))
+                            .product();
+                    }
+                }
+                extrap.0 = ratio;
+            }
+        }
+        let (f0, prev_f) = (&self.f0, &self.prev_f);
+        for e in 0..m {
+            r[p + e] = f0[e];
+            for l in 1..s {
+                r[l * mf + p + e] = match self.prev {
+                    Some(_) => (0..s)
+                        .map(|k| extrap.1[l * s + k] * prev_f[k * m + e])
+                        .sum(),
+                    None => f0[e],
+                };
+            }
+        }
+    }
+
+    /// Newton on the node forces of nodes `1..s` (`f_l = law(P z(t_n + l
+    /// tau))`, the Jacobian with each node's local `df/du`, `df/dv`). Returns
+    /// whether it converged (`NEWTON_RTOL` of the largest force).
+    fn newton(
+        &mut self,
+        sys: &FirstOrderSystem,
+        lv: &Level,
+        z: &DVector<f64>,
+        states: &[f64],
+        stats: &mut IntegrationStats,
+    ) -> bool {
+        let (s, m, p, mf, np) = (self.s, self.m, self.p, self.mf, self.np);
+        let (r, pall, res, jac) = (&mut self.r, &mut self.pall, &mut self.res, &mut self.jac);
+        let node_states = &mut self.node_states;
+        // known part of the projections: P e^{j tau A} z_n
+        self.base.gemv_tr(1.0, &lv.pe_t, z, 0.0);
+        let nu = m * (s - 1);
+        let mut converged = false;
+        for _ in 0..MAX_NEWTON {
+            stats.newton_iterations += 1;
+            let mut fscale: f64 = f64::MIN_POSITIVE;
+            pall.copy_from(&self.base);
+            pall.gemv_tr(1.0, &lv.pq_t, r, 1.0);
+            node_states.copy_from_slice(states);
+            for j in 1..s {
+                let pj = (j - 1) * np;
+                for e in 0..m {
+                    let (fe, dfu, dfv, se) =
+                        sys.element(e, node_states[e], pall[pj + e], pall[pj + m + e]);
+                    node_states[e] = se;
+                    stats.law_evals += 1;
+                    let row = (j - 1) * m + e;
+                    let cur = r[j * mf + p + e];
+                    fscale = fscale.max(fe.abs()).max(cur.abs());
+                    res[row] = cur - fe;
+                    for l in 1..s {
+                        for e2 in 0..m {
+                            let col = (l - 1) * m + e2;
+                            let w = l * mf + p + e2;
+                            jac[row * nu + col] = if row == col { 1.0 } else { 0.0 }
+                                - dfu * lv.pq_t[(w, pj + e)]
+                                - dfv * lv.pq_t[(w, pj + m + e)];
+                        }
+                    }
+                }
+            }
+            if !res.iter().all(|x| x.is_finite()) || !solve_in_place(jac, res, nu) {
+                break;
+            }
+            let mut dmax: f64 = 0.0;
+            for j in 1..s {
+                for e in 0..m {
+                    let d = res[(j - 1) * m + e];
+                    r[j * mf + p + e] -= d;
+                    dmax = dmax.max(d.abs());
+                }
+            }
+            if dmax <= NEWTON_RTOL * fscale {
+                converged = true;
+                break;
+            }
+        }
+        converged
+    }
+
+    /// Hysteretic elements: their states marched through the converged
+    /// nodes of the accepted step (the state at its end).
+    fn advance_states(&mut self, sys: &FirstOrderSystem, lv: &Level, states: &mut [f64]) {
+        let (s, m, np) = (self.s, self.m, self.np);
+        // the states through the converged nodes of this step
+        self.pall.copy_from(&self.base);
+        self.pall.gemv_tr(1.0, &lv.pq_t, &self.r, 1.0);
+        for j in 1..s {
+            let pj = (j - 1) * np;
+            for (e, se) in states.iter_mut().enumerate() {
+                *se = sys
+                    .element(e, *se, self.pall[pj + e], self.pall[pj + m + e])
+                    .3;
+            }
+        }
+    }
+
+    /// Keeps the accepted step's start `t`, node spacing `tau` and node
+    /// forces for the next step's guess.
+    fn accept(&mut self, t: f64, tau: f64) {
+        let (s, m, p, mf) = (self.s, self.m, self.p, self.mf);
+        self.prev = Some((t, tau));
+        for l in 0..s {
+            for e in 0..m {
+                self.prev_f[l * m + e] = self.r[l * mf + p + e];
+            }
+        }
+    }
 }
 
 /// Most step sizes whose propagators a [`Propagators`] keeps (one integration

@@ -583,50 +583,8 @@ pub fn simulate_phased_sweep_with_progress(
     options.validate()?;
     let system =
         AssembledSystem::with_input_factors(model, attachments, factors, &options.tip_point)?;
-    let signals = |t: f64| -> [f64; MAX_INPUT_SIGNALS] {
-        let phi = sweep.phase_rad(t);
-        [sweep.value(t), sweep.amplitude * phi.sin()]
-    };
-    let duration = sweep.duration_s();
-    let omega_max = sweep.omega_start_rad_s.max(sweep.omega_end_rad_s);
-    let dt_req = 2.0 * std::f64::consts::PI / omega_max / options.samples_per_period as f64;
-    let n_f = (duration / dt_req).ceil().max(1.0);
-    if !(n_f <= MAX_SWEEP_SAMPLES as f64) {
-        return Err(ReferenceError::TooManySamples {
-            samples: n_f,
-            duration_s: duration,
-            samples_per_period: options.samples_per_period,
-        });
-    }
-    let n = n_f as usize;
-    let dt = duration / n as f64;
-    let nobs = system.n_observed();
-    let m = system.first_order.m();
-    let mut record = vec![0.0; nobs * (n + 1)];
-    let mut obs = DVector::zeros(nobs);
-    let mut f = vec![0.0; m];
-    let z0 = DVector::zeros(system.first_order.nz());
-    let stats = {
-        let mut on_sample = |i: usize, z: &DVector<f64>, states: &[f64]| {
-            let u = signals(i as f64 * dt);
-            system.first_order.forces(z, states, &mut f);
-            system.observe_inputs(z, &u, &f, &mut obs);
-            record[i * nobs..(i + 1) * nobs].copy_from_slice(obs.as_slice());
-        };
-        let grid = SampleGrid {
-            interval_s: dt,
-            count: n,
-        };
-        integrate_with_states(
-            &system,
-            &z0,
-            grid,
-            &signals,
-            options,
-            &mut on_sample,
-            progress,
-        )?
-    };
+    let (n, dt) = sweep_sampling(sweep, options)?;
+    let (rec, stats) = record_sweep(&system, sweep, n, dt, options, progress)?;
     progress(1.0);
 
     let dec = match options.output_interval_s {
@@ -634,8 +592,7 @@ pub fn simulate_phased_sweep_with_progress(
         None => 1,
     };
     let out_idx: Vec<usize> = (0..=n).step_by(dec).collect();
-    let series = |k: usize| -> Vec<f64> { out_idx.iter().map(|&i| record[i * nobs + k]).collect() };
-    let full = |k: usize| -> Vec<f64> { (0..=n).map(|i| record[i * nobs + k]).collect() };
+    let series = |k: usize| rec.series(k, &out_idx);
     let time_s: Vec<f64> = out_idx.iter().map(|&i| i as f64 * dt).collect();
     let omega_rad_s: Vec<f64> = time_s.iter().map(|&t| sweep.omega_rad_s(t)).collect();
     let input: Vec<f64> = time_s.iter().map(|&t| sweep.value(t)).collect();
@@ -669,13 +626,150 @@ pub fn simulate_phased_sweep_with_progress(
 
     // envelopes from the full-rate samples
     let phase: Vec<f64> = (0..=n).map(|i| sweep.phase_rad(i as f64 * dt)).collect();
+    let (env, kept, force_env) = sweep_envelope(&rec, sweep, dt, first, &phase, &out_idx, options);
+    // the attachment states' envelopes on the same windows (same phase and
+    // centres: defined exactly where the tip's is)
+    for (o, out) in system.observations.iter().zip(attachments_out.iter_mut()) {
+        // the first attachment's first force is the envelope's: not computed twice
+        let is_first = first.is_some_and(|f| std::ptr::eq(f, o));
+        let first_force = is_first.then_some(&force_env);
+        let win = Windows {
+            phase: &phase,
+            out_idx: &out_idx,
+            kept: &kept,
+            periods: options.envelope_periods,
+        };
+        attachment_envelopes(&rec, o, out, &win, first_force);
+    }
+    Ok(SweepResult {
+        tip_m: series(0),
+        time_s,
+        omega_rad_s,
+        input,
+        drive_m,
+        force_n,
+        attachments: attachments_out,
+        envelope: env,
+        sample_interval_s: dt,
+        stats,
+    })
+}
+
+/// The sweep's samples: their number `n` (at least `samples_per_period` per
+/// period of the highest frequency, at most [`MAX_SWEEP_SAMPLES`]) and
+/// their interval `dt` [s] (`n dt` the sweep's duration).
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(n <= max)` also rejects NaN
+fn sweep_sampling(
+    sweep: &LinearSweep,
+    options: &ReferenceOptions,
+) -> Result<(usize, f64), ReferenceError> {
+    let duration = sweep.duration_s();
+    let omega_max = sweep.omega_start_rad_s.max(sweep.omega_end_rad_s);
+    let dt_req = 2.0 * std::f64::consts::PI / omega_max / options.samples_per_period as f64;
+    let n_f = (duration / dt_req).ceil().max(1.0);
+    if !(n_f <= MAX_SWEEP_SAMPLES as f64) {
+        return Err(ReferenceError::TooManySamples {
+            samples: n_f,
+            duration_s: duration,
+            samples_per_period: options.samples_per_period,
+        });
+    }
+    let n = n_f as usize;
+    let dt = duration / n as f64;
+    Ok((n, dt))
+}
+
+/// Every observed quantity at every sample `0..=n` of a sweep, `nobs` per
+/// sample.
+struct SweepRecord {
+    record: Vec<f64>,
+    nobs: usize,
+    n: usize,
+}
+
+impl SweepRecord {
+    /// Observed quantity `k` at the samples `idx`.
+    fn series(&self, k: usize, idx: &[usize]) -> Vec<f64> {
+        idx.iter()
+            .map(|&i| self.record[i * self.nobs + k])
+            .collect()
+    }
+
+    /// Observed quantity `k` at every sample.
+    fn full(&self, k: usize) -> Vec<f64> {
+        (0..=self.n)
+            .map(|i| self.record[i * self.nobs + k])
+            .collect()
+    }
+}
+
+/// Integrates the assembled system from rest over the sweep (input signals:
+/// the sweep's value and its quadrature), recording every observed quantity
+/// at the `n + 1` samples `i dt`.
+fn record_sweep(
+    system: &AssembledSystem,
+    sweep: &LinearSweep,
+    n: usize,
+    dt: f64,
+    options: &ReferenceOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<(SweepRecord, IntegrationStats), ReferenceError> {
+    let signals = |t: f64| -> [f64; MAX_INPUT_SIGNALS] {
+        let phi = sweep.phase_rad(t);
+        [sweep.value(t), sweep.amplitude * phi.sin()]
+    };
+    let nobs = system.n_observed();
+    let m = system.first_order.m();
+    let mut record = vec![0.0; nobs * (n + 1)];
+    let mut obs = DVector::zeros(nobs);
+    let mut f = vec![0.0; m];
+    let z0 = DVector::zeros(system.first_order.nz());
+    let stats = {
+        let mut on_sample = |i: usize, z: &DVector<f64>, states: &[f64]| {
+            let u = signals(i as f64 * dt);
+            system.first_order.forces(z, states, &mut f);
+            system.observe_inputs(z, &u, &f, &mut obs);
+            record[i * nobs..(i + 1) * nobs].copy_from_slice(obs.as_slice());
+        };
+        let grid = SampleGrid {
+            interval_s: dt,
+            count: n,
+        };
+        integrate_with_states(
+            system,
+            &z0,
+            grid,
+            &signals,
+            options,
+            &mut on_sample,
+            progress,
+        )?
+    };
+    Ok((SweepRecord { record, nobs, n }, stats))
+}
+
+/// The sweep's envelope (tip amplitude [m], the first attachment's first
+/// force's amplitude [N] and phase [rad] over `omega` [rad/s]) at the output
+/// samples `out_idx` where both are defined (their positions in `out_idx`:
+/// the second value), and that force's fundamental harmonics at every output
+/// sample (zero without an attachment force).
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+fn sweep_envelope(
+    rec: &SweepRecord,
+    sweep: &LinearSweep,
+    dt: f64,
+    first: Option<&AttachmentObservation>,
+    phase: &[f64],
+    out_idx: &[usize],
+    options: &ReferenceOptions,
+) -> (Envelope, Vec<usize>, Vec<Option<Complex64>>) {
     let tip_env =
-        envelope::fundamental_amplitudes(&phase, &full(0), &out_idx, options.envelope_periods);
+        envelope::fundamental_amplitudes(phase, &rec.full(0), out_idx, options.envelope_periods);
     let force_env = match first {
         Some(o) => envelope::fundamental_harmonics(
-            &phase,
-            &full(o.force_index),
-            &out_idx,
+            phase,
+            &rec.full(o.force_index),
+            out_idx,
             options.envelope_periods,
         ),
         None => vec![Some(Complex64::new(0.0, 0.0)); out_idx.len()],
@@ -691,49 +785,54 @@ pub fn simulate_phased_sweep_with_progress(
             kept.push(k);
         }
     }
-    // the attachment states' envelopes on the same windows (same phase and
-    // centres: defined exactly where the tip's is)
-    for (o, out) in system.observations.iter().zip(attachments_out.iter_mut()) {
-        out.state_amplitudes = (0..o.state_names.len())
-            .map(|k| {
-                let a = envelope::fundamental_amplitudes(
-                    &phase,
-                    &full(o.state_index + k),
-                    &out_idx,
-                    options.envelope_periods,
-                );
-                kept.iter().map(|&j| a[j].unwrap_or(f64::NAN)).collect()
-            })
-            .collect();
-        // the first attachment's first force is the envelope's: not computed twice
-        let is_first = first.is_some_and(|f| std::ptr::eq(f, o));
-        out.force_envelopes = (0..o.interface_points.len())
-            .map(|c| {
-                let h = if is_first && c == 0 {
-                    force_env.clone()
-                } else {
-                    envelope::fundamental_harmonics(
-                        &phase,
-                        &full(o.force_index + c),
-                        &out_idx,
-                        options.envelope_periods,
-                    )
-                };
-                let nan = Complex64::new(f64::NAN, f64::NAN);
-                kept.iter().map(|&j| h[j].unwrap_or(nan)).collect()
-            })
-            .collect();
-    }
-    Ok(SweepResult {
-        tip_m: series(0),
-        time_s,
-        omega_rad_s,
-        input,
-        drive_m,
-        force_n,
-        attachments: attachments_out,
-        envelope: env,
-        sample_interval_s: dt,
-        stats,
-    })
+    (env, kept, force_env)
+}
+
+/// The envelope windows: the sweep's phase at every sample, the output
+/// samples, those kept in the envelope (positions in `out_idx`) and the
+/// periods per window.
+struct Windows<'a> {
+    phase: &'a [f64],
+    out_idx: &'a [usize],
+    kept: &'a [usize],
+    periods: f64,
+}
+
+/// One attachment's state amplitudes and interface forces' harmonics on the
+/// envelope's windows (NaN where undefined); `first_force`: its first
+/// force's harmonics when already computed for the envelope.
+fn attachment_envelopes(
+    rec: &SweepRecord,
+    o: &AttachmentObservation,
+    out: &mut AttachmentSeries,
+    win: &Windows,
+    first_force: Option<&Vec<Option<Complex64>>>,
+) {
+    let (phase, out_idx, kept) = (win.phase, win.out_idx, win.kept);
+    out.state_amplitudes = (0..o.state_names.len())
+        .map(|k| {
+            let a = envelope::fundamental_amplitudes(
+                phase,
+                &rec.full(o.state_index + k),
+                out_idx,
+                win.periods,
+            );
+            kept.iter().map(|&j| a[j].unwrap_or(f64::NAN)).collect()
+        })
+        .collect();
+    out.force_envelopes = (0..o.interface_points.len())
+        .map(|c| {
+            let h = match first_force {
+                Some(f) if c == 0 => f.clone(),
+                _ => envelope::fundamental_harmonics(
+                    phase,
+                    &rec.full(o.force_index + c),
+                    out_idx,
+                    win.periods,
+                ),
+            };
+            let nan = Complex64::new(f64::NAN, f64::NAN);
+            kept.iter().map(|&j| h[j].unwrap_or(nan)).collect()
+        })
+        .collect();
 }

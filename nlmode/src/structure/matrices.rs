@@ -874,29 +874,11 @@ pub fn matrix_structure_sparse_cb_with(
         .map(|name| dof_of(&opts.points, "cb_masters", name))
         .collect::<Result<Vec<_>, _>>()?;
     let par = sparse.par();
-    let sym = timings.time(Stage::Order, sparse, || {
-        SymbolicFactor::with_options(k, sparse)
-    });
     let mut held = vec![m, k];
     held.extend(c_matrix);
-    let estimate = sym.as_ref().map(|s| {
-        let basis = max_basis(n_modes.max(*cb_modes), n);
-        MemoryEstimate::new(&held, s, par, basis, dofs.len() + cb_modes)
-    });
-    let Some((sym, estimate)) = sym.zip(estimate) else {
-        // faer's symbolic factorisation ran out of memory or index range
-        return Err(StructureError::MemoryLimit {
-            ndof: n,
-            factor_nnz: 0,
-            needed_bytes: u64::MAX,
-            factor_bytes: u64::MAX,
-            limit_bytes: sparse.memory_limit_bytes.unwrap_or(u64::MAX),
-        }
-        .into());
-    };
-    timings.factor_nnz = estimate.factor_nnz;
-    timings.memory_estimate_bytes = estimate.total_bytes;
-    estimate.check(sparse.memory_limit_bytes)?;
+    let basis = max_basis(n_modes.max(*cb_modes), n);
+    let reduced = dofs.len() + cb_modes;
+    let sym = order_within_memory(&held, sparse, basis, reduced, &mut timings)?;
     if !timings.time(Stage::Check, sparse, || {
         mass_positive_definite(m, k, &sym, par)
     }) {
@@ -948,6 +930,69 @@ pub fn matrix_structure_sparse_cb_with(
     drop(mf);
     let cb =
         craig_bampton_sparse_with(m, k, c_matrix, &dofs, *cb_modes, None, sparse, &mut timings)?;
+    let interface_omega_rad_s = cb.interface_omega_rad_s.clone();
+    let (model, transform) = cb_structural_model(opts, cb, &omega, spring)?;
+    Ok(MatrixStructure {
+        model,
+        full: None,
+        full_ndof: n,
+        transform,
+        rigid_body_modes,
+        omega0_rad_s,
+        damping_ratio,
+        interface_omega_rad_s,
+        timings: Some(timings),
+    })
+}
+
+/// The symbolic factorisation (ordering) of `K = held[1]` and the memory
+/// estimate of the sparse path (`held`: the matrices kept, `basis` Lanczos
+/// vectors, `reduced` reduced coordinates), refused above
+/// [`SparseOptions::memory_limit_bytes`] before any numeric work; the
+/// estimate recorded in `timings`.
+fn order_within_memory(
+    held: &[&SparseMatrix],
+    sparse: &SparseOptions,
+    basis: usize,
+    reduced: usize,
+    timings: &mut StageTimings,
+) -> Result<SymbolicFactor, MatricesError> {
+    let (k, n) = (held[1], held[1].nrows());
+    let par = sparse.par();
+    let sym = timings.time(Stage::Order, sparse, || {
+        SymbolicFactor::with_options(k, sparse)
+    });
+    let estimate = sym
+        .as_ref()
+        .map(|s| MemoryEstimate::new(held, s, par, basis, reduced));
+    let Some((sym, estimate)) = sym.zip(estimate) else {
+        // faer's symbolic factorisation ran out of memory or index range
+        return Err(StructureError::MemoryLimit {
+            ndof: n,
+            factor_nnz: 0,
+            needed_bytes: u64::MAX,
+            factor_bytes: u64::MAX,
+            limit_bytes: sparse.memory_limit_bytes.unwrap_or(u64::MAX),
+        }
+        .into());
+    };
+    timings.factor_nnz = estimate.factor_nnz;
+    timings.memory_estimate_bytes = estimate.total_bytes;
+    estimate.check(sparse.memory_limit_bytes)?;
+    Ok(sym)
+}
+
+/// The reduced structural model of a sparse Craig-Bampton reduction `cb`:
+/// its `M`, `K`, the damping (`C` projected, or `alpha M + beta K` and the
+/// stiffness-proportional damping from the reduced `M`, `K`, with `omega`
+/// [rad/s] the full model's natural frequencies), the cubic spring and the
+/// named points as rows of the transformation (returned too).
+fn cb_structural_model(
+    opts: &MatrixStructureOptions<SparseMatrix>,
+    cb: super::craig_bampton::SparseCraigBampton,
+    omega: &[f64],
+    spring: Option<(usize, f64)>,
+) -> Result<(StructuralModel, DMatrix<f64>), MatricesError> {
     // C = alpha M + beta K projected as its parts (no full-size C is formed)
     let damping = match &opts.damping {
         MatrixDamping::Matrix(_) => cb.damping,
@@ -983,17 +1028,7 @@ pub fn matrix_structure_sparse_cb_with(
             .collect(),
     };
     model.validate()?;
-    Ok(MatrixStructure {
-        model,
-        full: None,
-        full_ndof: n,
-        transform: cb.transform,
-        rigid_body_modes,
-        omega0_rad_s,
-        damping_ratio,
-        interface_omega_rad_s: cb.interface_omega_rad_s,
-        timings: Some(timings),
-    })
+    Ok((model, cb.transform))
 }
 
 #[cfg(test)]
