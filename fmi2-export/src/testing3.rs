@@ -600,6 +600,215 @@ impl Rng {
     }
 }
 
+/// One fuzz call of kind `kind` (0..8: values, initialization, steps, NULL
+/// pointers, saving the state) on instance `c` ([`fuzz`]); `true` when
+/// `fmi3OK` came with a non-finite value.
+///
+/// # Safety
+/// `c` is a live instance of `M`.
+#[allow(clippy::too_many_arguments)]
+unsafe fn fuzz_values_and_steps<M: CoSimModel>(
+    kind: usize,
+    c: Component,
+    cs: bool,
+    nx: usize,
+    reals: &[u32],
+    vr: u32,
+    rng: &mut Rng,
+    t: &mut f64,
+    blob: &mut Vec<u8>,
+    steps_ok: &mut usize,
+) -> bool {
+    let _ = (cs, nx, reals);
+    match kind {
+        0 => {
+            let x = rng.value();
+            fmi3::set_float64::<M>(c, &vr, 1, &x, 1);
+        }
+        1 => {
+            let mut x = 0.0;
+            if fmi3::get_float64::<M>(c, &vr, 1, &mut x, 1) == Status::Ok && !x.is_finite() {
+                return true;
+            }
+        }
+        2 => {
+            fmi3::enter_initialization_mode::<M>(
+                c,
+                rng.below(2) == 0,
+                rng.value(),
+                if rng.below(3) == 0 { rng.value() } else { 0.0 },
+                rng.below(3) == 0,
+                rng.value(),
+            );
+        }
+        3 => {
+            ffi::exit_initialization_mode::<M>(c);
+        }
+        4 | 5 => {
+            let h = match rng.below(4) {
+                0 => rng.value(),
+                _ => 10f64.powi(rng.below(8) as i32 - 7),
+            };
+            let tt = if rng.below(8) == 0 { rng.value() } else { *t };
+            let (mut a, mut b, mut e, mut last) = (false, false, false, 0.0);
+            if fmi3::do_step::<M>(c, tt, h, false, &mut a, &mut b, &mut e, &mut last) == Status::Ok
+            {
+                *t = last;
+                *steps_ok += 1;
+            }
+        }
+        6 => {
+            // NULL pointers
+            let mut x = 0.0;
+            let n = 1 + rng.below(2);
+            match rng.below(3) {
+                0 => fmi3::get_float64::<M>(c, std::ptr::null(), n, &mut x, n),
+                1 => fmi3::set_float64::<M>(c, &vr, 1, std::ptr::null(), 1),
+                _ => fmi3::do_step::<M>(
+                    c,
+                    *t,
+                    1e-4,
+                    false,
+                    std::ptr::null_mut(),
+                    std::ptr::null_mut(),
+                    std::ptr::null_mut(),
+                    std::ptr::null_mut(),
+                ),
+            };
+        }
+        7 => {
+            let mut s: FmuState = std::ptr::null_mut();
+            if fmi3::get_fmu_state::<M>(c, &mut s) == Status::Ok {
+                let mut size = 0;
+                fmi3::serialized_fmu_state_size::<M>(c, s, &mut size);
+                *blob = vec![0; size];
+                fmi3::serialize_fmu_state::<M>(c, s, blob.as_mut_ptr(), size);
+                fmi3::free_fmu_state::<M>(c, &mut s);
+            }
+        }
+        _ => {}
+    }
+    false
+}
+
+/// One fuzz call of kind `kind` (8..16: state blobs, directional
+/// derivatives, Model Exchange, other types, resets and a sane
+/// initialization) on instance `c` ([`fuzz`]); `true` when `fmi3OK` came
+/// with a non-finite value.
+///
+/// # Safety
+/// `c` is a live instance of `M`.
+// the signature of `fuzz_values_and_steps` (both are called through one pointer)
+#[allow(clippy::too_many_arguments, clippy::ptr_arg)]
+unsafe fn fuzz_states_and_modes<M: CoSimModel>(
+    kind: usize,
+    c: Component,
+    cs: bool,
+    nx: usize,
+    reals: &[u32],
+    vr: u32,
+    rng: &mut Rng,
+    t: &mut f64,
+    blob: &mut Vec<u8>,
+    steps_ok: &mut usize,
+) -> bool {
+    let _ = steps_ok;
+    match kind {
+        8 => {
+            // truncated or corrupted state blob
+            let mut b = blob.clone();
+            if !b.is_empty() {
+                if rng.below(2) == 0 {
+                    b.truncate(rng.below(b.len()));
+                } else {
+                    let k = rng.below(b.len());
+                    b[k] ^= 1 << rng.below(8);
+                }
+            }
+            let mut s: FmuState = std::ptr::null_mut();
+            if fmi3::deserialize_fmu_state::<M>(c, b.as_ptr(), b.len(), &mut s) == Status::Ok {
+                fmi3::set_fmu_state::<M>(c, s);
+                fmi3::free_fmu_state::<M>(c, &mut s);
+                let mut x = 0.0;
+                *t = if fmi3::get_float64::<M>(
+                    c,
+                    &crate::render3::TIME_VALUE_REFERENCE,
+                    1,
+                    &mut x,
+                    1,
+                ) == Status::Ok
+                {
+                    x
+                } else {
+                    *t
+                };
+            }
+        }
+        9 => {
+            let (u, k) = (vr, reals[rng.below(reals.len())]);
+            let seed = rng.value();
+            let mut d = 0.0;
+            if fmi3::get_directional_derivative::<M>(c, &u, 1, &k, 1, &seed, 1, &mut d, 1)
+                == Status::Ok
+                && !d.is_finite()
+                && seed.is_finite()
+            {
+                // a finite seed must give a finite sensitivity
+                return true;
+            }
+        }
+        10 => {
+            if nx > 0 {
+                let x: Vec<f64> = (0..nx).map(|_| rng.value()).collect();
+                ffi::set_continuous_states::<M>(c, x.as_ptr(), nx);
+                let mut d = vec![0.0; nx];
+                if ffi::get_derivatives::<M>(c, d.as_mut_ptr(), nx) == Status::Ok
+                    && d.iter().any(|x| !x.is_finite())
+                {
+                    return true;
+                }
+            }
+        }
+        11 => {
+            if !cs {
+                continuous_time3::<M>(c).ok();
+            } else {
+                ffi::set_time::<M>(c, rng.value());
+            }
+        }
+        12 => {
+            // other types and unsupported features
+            let mut b = false;
+            let mut i32v = 0;
+            match rng.below(4) {
+                0 => fmi3::get_boolean::<M>(c, &vr, 1, &mut b, 1),
+                1 => fmi3::get_int32::<M>(c, &vr, 1, &mut i32v, 1),
+                2 => fmi3::no_such_type::<M>(c, "fmi3GetInt64", "Int64", &vr, 1, false),
+                _ => fmi3::unsupported::<M>(c, "fmi3EnterStepMode", "no event mode"),
+            };
+        }
+        13 => {
+            let mut x = [0.0; 2];
+            // nValues != nValueReferences
+            fmi3::get_float64::<M>(c, &vr, 1, x.as_mut_ptr(), 2);
+        }
+        14 => {
+            if rng.below(4) == 0 {
+                ffi::reset::<M>(c);
+                *t = 0.0;
+            } else {
+                ffi::terminate::<M>(c);
+            }
+        }
+        _ => {
+            // a sane initialization, so that steps are reached
+            fmi3::enter_initialization_mode::<M>(c, false, 0.0, 0.0, false, 0.0);
+            ffi::exit_initialization_mode::<M>(c);
+        }
+    }
+    false
+}
+
 /// Random FMI 3.0 call sequences on `instances` fresh instances (Co-Simulation
 /// and, for a model with states, Model Exchange) of `calls` calls each:
 /// wrong call order, NULL pointers, non-finite and huge values, huge and
@@ -632,8 +841,7 @@ pub fn fuzz<M: CoSimModel>(
             counts.calls += 1;
             let start = Instant::now();
             let vr = reals[rng.below(reals.len())];
-            let mut wrong = false;
-            unsafe {
+            let wrong = unsafe {
                 // mostly keep the instance usable: after an error (or while
                 // not initialized) reset and initialize sanely, so that the
                 // random calls reach Step / Continuous-Time Mode
@@ -653,171 +861,25 @@ pub fn fuzz<M: CoSimModel>(
                     }
                     t = 0.0;
                 }
-                match rng.below(16) {
-                    0 => {
-                        let x = rng.value();
-                        fmi3::set_float64::<M>(c, &vr, 1, &x, 1);
-                    }
-                    1 => {
-                        let mut x = 0.0;
-                        if fmi3::get_float64::<M>(c, &vr, 1, &mut x, 1) == Status::Ok
-                            && !x.is_finite()
-                        {
-                            wrong = true;
-                        }
-                    }
-                    2 => {
-                        fmi3::enter_initialization_mode::<M>(
-                            c,
-                            rng.below(2) == 0,
-                            rng.value(),
-                            if rng.below(3) == 0 { rng.value() } else { 0.0 },
-                            rng.below(3) == 0,
-                            rng.value(),
-                        );
-                    }
-                    3 => {
-                        ffi::exit_initialization_mode::<M>(c);
-                    }
-                    4 | 5 => {
-                        let h = match rng.below(4) {
-                            0 => rng.value(),
-                            _ => 10f64.powi(rng.below(8) as i32 - 7),
-                        };
-                        let tt = if rng.below(8) == 0 { rng.value() } else { t };
-                        let (mut a, mut b, mut e, mut last) = (false, false, false, 0.0);
-                        if fmi3::do_step::<M>(c, tt, h, false, &mut a, &mut b, &mut e, &mut last)
-                            == Status::Ok
-                        {
-                            t = last;
-                            counts.steps_ok += 1;
-                        }
-                    }
-                    6 => {
-                        // NULL pointers
-                        let mut x = 0.0;
-                        let n = 1 + rng.below(2);
-                        match rng.below(3) {
-                            0 => fmi3::get_float64::<M>(c, std::ptr::null(), n, &mut x, n),
-                            1 => fmi3::set_float64::<M>(c, &vr, 1, std::ptr::null(), 1),
-                            _ => fmi3::do_step::<M>(
-                                c,
-                                t,
-                                1e-4,
-                                false,
-                                std::ptr::null_mut(),
-                                std::ptr::null_mut(),
-                                std::ptr::null_mut(),
-                                std::ptr::null_mut(),
-                            ),
-                        };
-                    }
-                    7 => {
-                        let mut s: FmuState = std::ptr::null_mut();
-                        if fmi3::get_fmu_state::<M>(c, &mut s) == Status::Ok {
-                            let mut size = 0;
-                            fmi3::serialized_fmu_state_size::<M>(c, s, &mut size);
-                            blob = vec![0; size];
-                            fmi3::serialize_fmu_state::<M>(c, s, blob.as_mut_ptr(), size);
-                            fmi3::free_fmu_state::<M>(c, &mut s);
-                        }
-                    }
-                    8 => {
-                        // truncated or corrupted state blob
-                        let mut b = blob.clone();
-                        if !b.is_empty() {
-                            if rng.below(2) == 0 {
-                                b.truncate(rng.below(b.len()));
-                            } else {
-                                let k = rng.below(b.len());
-                                b[k] ^= 1 << rng.below(8);
-                            }
-                        }
-                        let mut s: FmuState = std::ptr::null_mut();
-                        if fmi3::deserialize_fmu_state::<M>(c, b.as_ptr(), b.len(), &mut s)
-                            == Status::Ok
-                        {
-                            fmi3::set_fmu_state::<M>(c, s);
-                            fmi3::free_fmu_state::<M>(c, &mut s);
-                            let mut x = 0.0;
-                            t = if fmi3::get_float64::<M>(
-                                c,
-                                &crate::render3::TIME_VALUE_REFERENCE,
-                                1,
-                                &mut x,
-                                1,
-                            ) == Status::Ok
-                            {
-                                x
-                            } else {
-                                t
-                            };
-                        }
-                    }
-                    9 => {
-                        let (u, k) = (vr, reals[rng.below(reals.len())]);
-                        let seed = rng.value();
-                        let mut d = 0.0;
-                        if fmi3::get_directional_derivative::<M>(
-                            c, &u, 1, &k, 1, &seed, 1, &mut d, 1,
-                        ) == Status::Ok
-                            && !d.is_finite()
-                            && seed.is_finite()
-                        {
-                            // a finite seed must give a finite sensitivity
-                            wrong = true;
-                        }
-                    }
-                    10 => {
-                        if nx > 0 {
-                            let x: Vec<f64> = (0..nx).map(|_| rng.value()).collect();
-                            ffi::set_continuous_states::<M>(c, x.as_ptr(), nx);
-                            let mut d = vec![0.0; nx];
-                            if ffi::get_derivatives::<M>(c, d.as_mut_ptr(), nx) == Status::Ok
-                                && d.iter().any(|x| !x.is_finite())
-                            {
-                                wrong = true;
-                            }
-                        }
-                    }
-                    11 => {
-                        if !cs {
-                            continuous_time3::<M>(c).ok();
-                        } else {
-                            ffi::set_time::<M>(c, rng.value());
-                        }
-                    }
-                    12 => {
-                        // other types and unsupported features
-                        let mut b = false;
-                        let mut i32v = 0;
-                        match rng.below(4) {
-                            0 => fmi3::get_boolean::<M>(c, &vr, 1, &mut b, 1),
-                            1 => fmi3::get_int32::<M>(c, &vr, 1, &mut i32v, 1),
-                            2 => fmi3::no_such_type::<M>(c, "fmi3GetInt64", "Int64", &vr, 1, false),
-                            _ => fmi3::unsupported::<M>(c, "fmi3EnterStepMode", "no event mode"),
-                        };
-                    }
-                    13 => {
-                        let mut x = [0.0; 2];
-                        // nValues != nValueReferences
-                        fmi3::get_float64::<M>(c, &vr, 1, x.as_mut_ptr(), 2);
-                    }
-                    14 => {
-                        if rng.below(4) == 0 {
-                            ffi::reset::<M>(c);
-                            t = 0.0;
-                        } else {
-                            ffi::terminate::<M>(c);
-                        }
-                    }
-                    _ => {
-                        // a sane initialization, so that steps are reached
-                        fmi3::enter_initialization_mode::<M>(c, false, 0.0, 0.0, false, 0.0);
-                        ffi::exit_initialization_mode::<M>(c);
-                    }
-                }
-            }
+                let kind = rng.below(16);
+                let call = if kind < 8 {
+                    fuzz_values_and_steps::<M>
+                } else {
+                    fuzz_states_and_modes::<M>
+                };
+                call(
+                    kind,
+                    c,
+                    cs,
+                    nx,
+                    &reals,
+                    vr,
+                    &mut rng,
+                    &mut t,
+                    &mut blob,
+                    &mut counts.steps_ok,
+                )
+            };
             if start.elapsed() > Duration::from_secs(2) {
                 counts.hung += 1;
             }
