@@ -173,7 +173,8 @@ def test_iterative_master_with_the_fmi3_shakers_directional_derivatives(fmu_dir,
     """The iterative master on the FMI 3.0 pair with `directional_derivatives
     = true`: the Jacobian's columns of the shaker's inputs from its
     `fmi3GetDirectionalDerivative` (dF/dx = -k_s, the stiff stinger), the
-    structure's by differences, against the default all-differences
+    structure's too (x, v w.r.t. F: 0, no feedthrough; before the structure
+    provided directional derivatives, by differences), against the default all-differences
     Jacobian: the same coupled solution (within the iteration tolerance,
     1e-6 per connection). The evaluation counts are printed: the
     instantaneous partials miss the step map's O(k_s h) terms, so this pair

@@ -467,6 +467,21 @@ pub fn directional_derivatives<M: CoSimModel>(
     h: f64,
     rel: f64,
 ) -> Result<usize, String> {
+    directional_derivatives_at::<M>(res, values, inputs, None, h, rel)
+}
+
+/// [`directional_derivatives`] with the Model Exchange instance's
+/// continuous states set to `states` (`fmi3SetContinuousStates`) before the
+/// comparison (e.g. a state where a nonlinear model's Jacobian differs from
+/// its linearization at rest); `None`: the states after initialization.
+pub fn directional_derivatives_at<M: CoSimModel>(
+    res: Option<&Path>,
+    values: Values,
+    inputs: Values,
+    states_at: Option<&[f64]>,
+    h: f64,
+    rel: f64,
+) -> Result<usize, String> {
     let ins = real_vrs::<M>(Causality::Input);
     let outs = real_vrs::<M>(Causality::Output);
     let mut n = 0;
@@ -489,6 +504,12 @@ pub fn directional_derivatives<M: CoSimModel>(
                 (outs.clone(), ins.clone())
             } else {
                 continuous_time3::<M>(c)?;
+                if let Some(x) = states_at {
+                    ok(
+                        ffi::set_continuous_states::<M>(c, x.as_ptr(), x.len()),
+                        "fmi3SetContinuousStates",
+                    )?;
+                }
                 (
                     M::CONTINUOUS_STATES
                         .iter()

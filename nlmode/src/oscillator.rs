@@ -603,6 +603,120 @@ impl ModalOscillator {
         self.rhs(self.state.eta, self.state.u, c_n, self.state.time_s)
     }
 
+    /// Jacobian of [`Self::state_rate`] at the current state under the force
+    /// `c_n` [N]: rows `eta'`, `u'`, columns `eta`, `u`, `c`; the exact
+    /// derivative of the normal form's right-hand side
+    /// `eta' = w u`, `u' = -w eta - 2 D w u + |phi_ex| c / w`
+    /// with `w = (1 + eps) omega(a)`, `D(a)`, `phi_ex(a)` the PCHIP cubics of
+    /// the table ([`TableInterpolator::slopes_at`],
+    /// [`TableInterpolator::shape_slope_at`]) and `a = hypot(eta, u)`,
+    /// `da/deta = eta/a`, `da/du = u/a`. Below the first tabulated amplitude
+    /// (in particular at `a = 0`, where `hypot` has no derivative) the
+    /// properties are held, their amplitude derivatives are 0 and the
+    /// Jacobian is the linear oscillator's.
+    pub fn jacobian(&self, c_n: f64) -> Result<[[f64; 3]; 2], OscillatorError> {
+        let s = self.state;
+        let a = s.amplitude();
+        let loc = self.locate(a, s.time_s)?;
+        let (w, d, phi) = self.properties_at(&loc);
+        let p = phi.norm();
+        let (domega, dd) = self.interp.slopes_at(&loc);
+        let dw = self.frequency_factor * domega;
+        let dphi = self.interp.shape_slope_at(self.drive, 1, &loc);
+        // d|phi|/da = Re(conj(phi) phi')/|phi|
+        let dp = if p > 0.0 {
+            (phi.conj() * dphi).re / p
+        } else {
+            0.0
+        };
+        let (a_eta, a_u) = if a > 0.0 {
+            (s.eta / a, s.u / a)
+        } else {
+            (0.0, 0.0)
+        };
+        // d(eta')/da and d(u')/da at fixed (eta, u, c)
+        let de_da = dw * s.u;
+        let du_da = -dw * s.eta - 2.0 * (dd * w + d * dw) * s.u + c_n * (dp / w - p * dw / (w * w));
+        Ok([
+            [de_da * a_eta, w + de_da * a_u, 0.0],
+            [-w + du_da * a_eta, -2.0 * d * w + du_da * a_u, p / w],
+        ])
+    }
+
+    /// Derivatives of the outputs with respect to the state: for each of
+    /// `points`, `[[dx/deta, dx/du], [dv/deta, dv/du]]` of
+    /// [`Self::point_response`] written into `out`, and
+    /// `[[da/deta, da/du], [domega/deta, domega/du]]` returned.
+    ///
+    /// `a` and `omega` exactly (`da/deta = eta/a`, `da/du = u/a`, 0 at `a = 0`,
+    /// the symmetric value at the kink of `hypot`; `domega = (1 + eps)
+    /// omega'(a) da`). `x`, `v` by a central difference of the synthesis in
+    /// each state component with the step `h = 6e-6 max(a, 1e-3 a_max)`: the
+    /// synthesis is a smooth function of `(eta, u)` on the scale `a` (the PCHIP
+    /// cubics are C1, the phasor `z/a` turns on the scale `a`), so the
+    /// truncation error `h^2 f'''/6` is about `(h/a)^2 ~ 4e-11` relative and
+    /// the round-off `1e-16 a/h` about `2e-11` (a step of about
+    /// `eps_mach^(1/3) a` balances the two). Where `a + h` would leave the
+    /// table the one-sided second-order difference
+    /// `(3 f(x) - 4 f(x - h) + f(x - 2h))/(2h)` towards the origin is used.
+    /// The residual modes do not depend on `(eta, u)`.
+    pub fn output_state_jacobian(
+        &self,
+        points: &[usize],
+        out: &mut [[[f64; 2]; 2]],
+    ) -> Result<[[f64; 2]; 2], OscillatorError> {
+        assert_eq!(points.len(), out.len());
+        let s = self.state;
+        let a = s.amplitude();
+        let loc = self.locate(a, s.time_s)?;
+        let (domega, _) = self.interp.slopes_at(&loc);
+        let dw = self.frequency_factor * domega;
+        let (a_eta, a_u) = if a > 0.0 {
+            (s.eta / a, s.u / a)
+        } else {
+            (0.0, 0.0)
+        };
+        if !points.is_empty() {
+            let h = 6e-6 * a.max(1e-3 * self.a_max);
+            let zero = PointResponse {
+                x_m: 0.0,
+                v_m_s: 0.0,
+            };
+            let mut r = vec![zero; 3 * points.len()];
+            let (r0, rest) = r.split_at_mut(points.len());
+            let (r1, r2) = rest.split_at_mut(points.len());
+            for j in 0..2 {
+                let comp = if j == 0 { s.eta } else { s.u };
+                let dir = |k: f64| OscillatorState {
+                    time_s: s.time_s,
+                    eta: s.eta + if j == 0 { k } else { 0.0 },
+                    u: s.u + if j == 1 { k } else { 0.0 },
+                };
+                if a + h <= self.a_max {
+                    self.synthesize(&dir(h), points, r1)?;
+                    self.synthesize(&dir(-h), points, r2)?;
+                    for (o, (p, m)) in out.iter_mut().zip(r1.iter().zip(r2.iter())) {
+                        o[0][j] = (p.x_m - m.x_m) / (2.0 * h);
+                        o[1][j] = (p.v_m_s - m.v_m_s) / (2.0 * h);
+                    }
+                } else {
+                    // towards the origin: sg = -1 for a positive component
+                    let sg = if comp >= 0.0 { -1.0 } else { 1.0 };
+                    self.synthesize(&s, points, r0)?;
+                    self.synthesize(&dir(sg * h), points, r1)?;
+                    self.synthesize(&dir(2.0 * sg * h), points, r2)?;
+                    for (o, ((f0, f1), f2)) in
+                        out.iter_mut().zip(r0.iter().zip(r1.iter()).zip(r2.iter()))
+                    {
+                        o[0][j] = sg * (-3.0 * f0.x_m + 4.0 * f1.x_m - f2.x_m) / (2.0 * h);
+                        o[1][j] = sg * (-3.0 * f0.v_m_s + 4.0 * f1.v_m_s - f2.v_m_s) / (2.0 * h);
+                    }
+                }
+            }
+        }
+        Ok([[a_eta, a_u], [dw * a_eta, dw * a_u]])
+    }
+
     /// Time derivatives `(dx/dt, dv/dt)` of [`Self::point_response`] along the
     /// oscillator's flow under the force `c_n` [N] (for extrapolating masters).
     /// Central difference along the flow with the time increment

@@ -663,3 +663,238 @@ fn frequency_error_scales_the_natural_frequency() {
     let back: OscillatorState = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
     assert_eq!(s, back);
 }
+
+/// [`duffing`] with an amplitude-dependent damping ratio and a drive-point
+/// fundamental that changes modulus and phase with the amplitude.
+fn varying_table() -> ModalTable {
+    let mut t = duffing(
+        100.0,
+        3.0e4,
+        0.02,
+        Complex64::new(0.9, 0.2),
+        Complex64::new(1.2, -0.1),
+        Complex64::new(0.05, 0.01),
+        2.0,
+    );
+    let amps = t.amplitude.clone();
+    for (j, &a) in amps.iter().enumerate() {
+        t.damping_ratio[j] = 0.02 * (1.0 + 0.8 * a + 0.3 * a * a);
+        let phi = Complex64::new(0.9, 0.2) * Complex64::new(1.0 + 0.4 * a, 0.25 * a * a);
+        t.points[0].re[j][1] = phi.re;
+        t.points[0].im[j][1] = phi.im;
+        let tip = Complex64::new(1.2, -0.1) * Complex64::new(1.0 - 0.2 * a, 0.1 * a);
+        t.points[1].re[j][1] = tip.re;
+        t.points[1].im[j][1] = tip.im;
+    }
+    t
+}
+
+/// Central differences of `f` (a function of the state `(eta, u)` and the
+/// force `c`) in the three arguments, with the steps `h_state`, `h_c`.
+fn central_jacobian(osc: &ModalOscillator, c: f64, h_state: f64, h_c: f64) -> [[f64; 3]; 2] {
+    let s0 = osc.state();
+    let rate = |eta: f64, u: f64, c: f64| {
+        let mut o = osc.clone();
+        o.set_state(OscillatorState { eta, u, ..s0 }).unwrap();
+        o.state_rate(c).unwrap()
+    };
+    let mut j = [[0.0; 3]; 2];
+    let cols = [
+        (
+            rate(s0.eta + h_state, s0.u, c),
+            rate(s0.eta - h_state, s0.u, c),
+            h_state,
+        ),
+        (
+            rate(s0.eta, s0.u + h_state, c),
+            rate(s0.eta, s0.u - h_state, c),
+            h_state,
+        ),
+        (
+            rate(s0.eta, s0.u, c + h_c),
+            rate(s0.eta, s0.u, c - h_c),
+            h_c,
+        ),
+    ];
+    for (k, (p, m, h)) in cols.iter().enumerate() {
+        j[0][k] = (p.0 - m.0) / (2.0 * h);
+        j[1][k] = (p.1 - m.1) / (2.0 * h);
+    }
+    j
+}
+
+/// The exact Jacobian of the normal form against central differences of
+/// `state_rate` at states inside table segments (amplitudes between the
+/// nodes of the 120-node table, at least 2e-4 relative away from a node so
+/// that the differences, of step 1e-6 a, stay on one cubic). The central
+/// difference with the step `h = 1e-6 a` has the truncation error
+/// `(h/a)^2 ~ 1e-12` relative and the round-off `1e-16/1e-6 = 1e-10`
+/// relative to the row's scale: a tolerance of 1e-6 of the row's largest
+/// entry is far above both and far below any missing term (the amplitude
+/// derivatives change the entries by 1e-2 to 1 relative).
+#[test]
+fn jacobian_equals_central_differences_of_the_state_rate() {
+    let t = varying_table();
+    let mut osc = ModalOscillator::new(&t, "ex", 0.01).unwrap();
+    let mut worst: f64 = 0.0;
+    let mut worst_terms: f64 = 0.0;
+    for &(eta, u, c) in &[
+        (0.61, -0.52, 30.0),
+        (-1.13, 0.37, -80.0),
+        (0.05, 1.71, 5.0),
+        (-0.3, -0.9, 0.0),
+        (1.4, 0.2, 200.0),
+    ] {
+        osc.set_state(OscillatorState {
+            time_s: 0.0,
+            eta,
+            u,
+        })
+        .unwrap();
+        let a = osc.state().amplitude();
+        // off the nodes a_j = 2 (j + 1)/120
+        let frac = (a * 60.0).fract();
+        assert!(
+            frac > 2e-4 * 60.0 * a && frac < 1.0 - 2e-4 * 60.0 * a,
+            "a = {a} near a node"
+        );
+        let j = osc.jacobian(c).unwrap();
+        let fd = central_jacobian(&osc, c, 1e-6 * a, 1e-6 * c.abs().max(1.0));
+        // the Jacobian with the table's amplitude derivatives dropped: the
+        // terms the test must see
+        let lin = osc.table().eval(a).unwrap();
+        let w = 1.01 * lin.omega_rad_s;
+        for r in 0..2 {
+            let scale = j[r]
+                .iter()
+                .chain(fd[r].iter())
+                .fold(0.0f64, |m, x| m.max(x.abs()));
+            for k in 0..3 {
+                let err = (j[r][k] - fd[r][k]).abs() / scale;
+                worst = worst.max(err);
+                assert!(
+                    err < 1e-6,
+                    "state ({eta}, {u}), c = {c}: J[{r}][{k}] = {} vs central difference {} (rel {err:e})",
+                    j[r][k],
+                    fd[r][k]
+                );
+            }
+        }
+        // the amplitude terms are large compared with the tolerance
+        worst_terms = worst_terms.max((j[0][0]).abs() / w);
+    }
+    eprintln!("jacobian vs central differences: max relative error {worst:e}");
+    assert!(
+        worst_terms > 1e-2,
+        "amplitude terms not exercised: {worst_terms}"
+    );
+}
+
+/// Below the first tabulated amplitude (and at `a = 0`) the Jacobian is the
+/// linear oscillator's: `[[0, w, 0], [-w, -2 D w, |phi_ex|/w]]` with the
+/// first node's properties.
+#[test]
+fn jacobian_below_the_table_is_the_linear_oscillators() {
+    let t = varying_table();
+    let mut osc = ModalOscillator::new(&t, "ex", 0.01).unwrap();
+    let w = 1.01 * t.omega_rad_s[0];
+    let d = t.damping_ratio[0];
+    let p = Complex64::new(t.points[0].re[0][1], t.points[0].im[0][1]).norm();
+    for &(eta, u) in &[(0.0, 0.0), (1e-3, -4e-3), (-0.01, 0.0)] {
+        osc.set_state(OscillatorState {
+            time_s: 0.0,
+            eta,
+            u,
+        })
+        .unwrap();
+        assert!(osc.state().amplitude() <= t.amplitude[0]);
+        let j = osc.jacobian(7.0).unwrap();
+        assert_eq!(j, [[0.0, w, 0.0], [-w, -2.0 * d * w, p / w]]);
+        if eta != 0.0 || u != 0.0 {
+            let a = osc.state().amplitude();
+            let fd = central_jacobian(&osc, 7.0, 1e-6 * a, 1e-6 * 7.0);
+            for r in 0..2 {
+                for k in 0..3 {
+                    assert!(
+                        (j[r][k] - fd[r][k]).abs() <= 1e-7 * w,
+                        "{r} {k}: {} vs {}",
+                        j[r][k],
+                        fd[r][k]
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The output derivatives in the state: `a`, `omega` exact, `x`, `v`
+/// (central differences of the synthesis) against central differences of
+/// `point_response` / `modal` with another step (1e-5 a): the two agree to
+/// the truncation error `(1e-5)^2` plus round-off `1e-16/1e-6` relative.
+#[test]
+fn output_state_jacobian_equals_central_differences() {
+    let t = varying_table();
+    let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
+    let tip = osc.point_index("tip").unwrap();
+    let ex = osc.drive_index();
+    let mut worst: f64 = 0.0;
+    for &(eta, u) in &[(0.61, -0.52), (-1.13, 0.37), (0.05, 1.71), (1.99, 0.0)] {
+        let s0 = OscillatorState {
+            time_s: 0.0,
+            eta,
+            u,
+        };
+        osc.set_state(s0).unwrap();
+        let a = s0.amplitude();
+        let mut out = [[[0.0; 2]; 2]; 2];
+        let m = osc.output_state_jacobian(&[ex, tip], &mut out).unwrap();
+        let h = 1e-5 * a;
+        for j in 0..2 {
+            let at = |k: f64| {
+                let mut o = osc.clone();
+                let s = if j == 0 {
+                    OscillatorState { eta: eta + k, ..s0 }
+                } else {
+                    OscillatorState { u: u + k, ..s0 }
+                };
+                o.set_state(s).unwrap();
+                let r = [
+                    o.point_response(ex).unwrap(),
+                    o.point_response(tip).unwrap(),
+                ];
+                let md = o.modal().unwrap();
+                (r, md)
+            };
+            // one-sided near the top of the table
+            let (k1, k2) = if a + h <= 2.0 {
+                (h, -h)
+            } else {
+                (0.0, -2.0 * h)
+            };
+            let ((rp, mp), (rm, mm)) = (at(k1), at(k2));
+            let dk = k1 - k2;
+            let mut check = |exact: f64, fd: f64, scale: f64| {
+                let err = (exact - fd).abs() / scale;
+                worst = worst.max(err);
+                assert!(
+                    err < 1e-5,
+                    "({eta}, {u}) column {j}: {exact} vs {fd} ({err:e})"
+                );
+            };
+            // first order one-sided: only the modal quantities, loosely
+            if k1 == 0.0 {
+                continue;
+            }
+            for p in 0..2 {
+                let sx = out[p][0][0].abs().max(out[p][0][1].abs());
+                let sv = out[p][1][0].abs().max(out[p][1][1].abs());
+                check(out[p][0][j], (rp[p].x_m - rm[p].x_m) / dk, sx);
+                check(out[p][1][j], (rp[p].v_m_s - rm[p].v_m_s) / dk, sv);
+            }
+            check(m[0][j], (mp.amplitude - mm.amplitude) / dk, 1.0);
+            let sw = m[1][0].abs().max(m[1][1].abs());
+            check(m[1][j], (mp.omega_rad_s - mm.omega_rad_s) / dk, sw);
+        }
+    }
+    eprintln!("output state jacobian vs central differences: max relative error {worst:e}");
+}

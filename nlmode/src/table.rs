@@ -701,6 +701,32 @@ impl TableInterpolator {
         }
     }
 
+    /// The amplitude derivatives `(d omega/d a, d D/d a)` at a located
+    /// amplitude: the exact derivatives of the PCHIP cubics of the located
+    /// segment (below the first amplitude the properties are held, so 0).
+    #[inline]
+    pub fn slopes_at(&self, loc: &TableLocation) -> (f64, f64) {
+        match &loc.0 {
+            None => (0.0, 0.0),
+            Some(s) => (
+                self.omega.eval(s.k, s.t, s.h).1,
+                self.damping.eval(s.k, s.t, s.h).1,
+            ),
+        }
+    }
+
+    /// `d phi_n / d a` of harmonic `n` of the shape at `point` at a located
+    /// amplitude: the exact derivative of the PCHIP cubics of [`Self::shape_at`]
+    /// (0 below the first amplitude, where the shape is held).
+    #[inline]
+    pub fn shape_slope_at(&self, point: usize, n: usize, loc: &TableLocation) -> Complex64 {
+        let (re, im) = &self.shapes[point][n];
+        match &loc.0 {
+            None => Complex64::new(0.0, 0.0),
+            Some(s) => Complex64::new(re.eval(s.k, s.t, s.h).1, im.eval(s.k, s.t, s.h).1),
+        }
+    }
+
     /// `(omega(a), D(a))` at a located amplitude (without the slope).
     #[inline]
     pub fn values_at(&self, loc: &TableLocation) -> (f64, f64) {

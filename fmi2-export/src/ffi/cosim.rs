@@ -28,6 +28,13 @@ pub unsafe fn get_directional_derivative<M: CoSimModel>(
             for (&kv, &d) in k.iter().zip(dk) {
                 s += inst.model.partial_derivative(uv, kv)? * d;
             }
+            // finite partials times finite seeds can still overflow (a seed
+            // of 1e300): an error, not a non-finite sensitivity with OK
+            if !s.is_finite() && dk.iter().all(|d| d.is_finite()) {
+                return Err(ModelError::error(format!(
+                    "directional derivative of value reference {uv}: the seed {dk:?} gives the non-finite {s}"
+                )));
+            }
             *o = s;
         }
         Ok(Status::Ok)

@@ -5,7 +5,7 @@
 //! non-finite values with fmi3OK.
 use std::path::Path;
 
-use crate::model::linear_table;
+use crate::model::{linear_table, nonlinear_table};
 use fmi2_export::testing3::*;
 use fmi2_export::CoSimModel;
 use structure::{vr, Structure};
@@ -23,7 +23,7 @@ fn model_description_fmi3_is_the_one_the_code_gives() {
     let xml = fmi2_export::testing::check_model_description_file3::<Structure>(&path)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(xml.contains(&format!("instantiationToken=\"{}\"", Structure::GUID)));
-    assert!(xml.contains("providesDirectionalDerivatives=\"false\""));
+    assert!(xml.contains("providesDirectionalDerivatives=\"true\""));
     // the Integer and String parameters share numbers with Float64 ones: offset in FMI 3.0
     assert!(xml.contains("<Int32 name=\"drive_point_index\" valueReference=\"100000000\""));
     assert!(xml.contains("<String name=\"drive_point\" valueReference=\"300000000\""));
@@ -54,6 +54,35 @@ fn fmi3_model_exchange_derivatives_equal_fmi2() {
 fn fmi3_fmu_state_round_trips_and_is_the_fmi2_blob() {
     let d = table();
     state_round_trip::<Structure>(Some(d.path()), &[], &[(vr::F, 3.0)], 1e-4).unwrap();
+}
+
+/// `fmi3GetDirectionalDerivative` against central differences of the
+/// FMU's own values: Co-Simulation the 5 outputs w.r.t. `F` (0, no
+/// feedthrough), Model Exchange `der(eta)`, `der(u)` w.r.t. `F`, `eta`, `u`;
+/// on the linear table at rest and on the nonlinear table at states inside
+/// its segments, where the amplitude derivatives of `omega`, `D`, `phi_ex`
+/// enter the Jacobian.
+#[test]
+fn fmi3_directional_derivatives_equal_central_differences() {
+    // CS: 5 outputs x 1 input; ME: 2 state derivatives x (1 input + 2 states)
+    let d = table();
+    let n = directional_derivatives::<Structure>(Some(d.path()), &[], &[(vr::F, 2.0)], 1e-4, 1e-6)
+        .unwrap();
+    assert_eq!(n, 5 + 2 * 3);
+    let nl = tempfile::tempdir().unwrap();
+    nonlinear_table(nl.path());
+    for states in [[1.2e-3, -0.9e-3], [-4.1e-3, 2.3e-3], [7.7e-3, 4.0e-3]] {
+        let n = directional_derivatives_at::<Structure>(
+            Some(nl.path()),
+            &[(vr::FREQUENCY_ERROR, 0.01)],
+            &[(vr::F, 30.0)],
+            Some(&states),
+            1e-4,
+            1e-6,
+        )
+        .unwrap_or_else(|e| panic!("at {states:?}: {e}"));
+        assert_eq!(n, 5 + 2 * 3);
+    }
 }
 
 #[test]

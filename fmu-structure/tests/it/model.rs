@@ -25,6 +25,55 @@ pub(crate) fn linear_table(dir: &std::path::Path) -> std::path::PathBuf {
     p
 }
 
+/// A nonlinear modal table in `dir` (40 amplitudes over `[1e-4, 1e-2]`):
+/// hardening `omega(a)^2 = 356.2^2 (1 + 0.5 (a/1e-2)^2)`, damping
+/// `D = 0.004 (1 + 2 a/1e-2)`, drive-point (`2l3`) and tip fundamentals
+/// whose modulus and phase change with `a`, a third harmonic at the tip.
+pub(crate) fn nonlinear_table(dir: &std::path::Path) -> std::path::PathBuf {
+    let mut t = ModalTable::linear(
+        356.2,
+        0.004,
+        &[
+            ("tip", Complex64::new(1.43, 0.0)),
+            ("l3", Complex64::new(0.3, 0.0)),
+            ("2l3", Complex64::new(-1.04, 0.0)),
+        ],
+        1e-4,
+        1e-2,
+    );
+    let n = 40;
+    t.harmonics = 3;
+    t.amplitude = (0..n)
+        .map(|j| 1e-4 + (1e-2 - 1e-4) * j as f64 / (n - 1) as f64)
+        .collect();
+    let s: Vec<f64> = t.amplitude.iter().map(|a| a / 1e-2).collect();
+    t.omega_rad_s = s
+        .iter()
+        .map(|s| 356.2 * (1.0 + 0.5 * s * s).sqrt())
+        .collect();
+    t.damping_ratio = s.iter().map(|s| 0.004 * (1.0 + 2.0 * s)).collect();
+    for p in &mut t.points {
+        let phi0 = p.re[0][1];
+        let (re, im): (Vec<Vec<f64>>, Vec<Vec<f64>>) = s
+            .iter()
+            .map(|&s| {
+                let phi = Complex64::new(phi0, 0.0) * Complex64::new(1.0 + 0.3 * s, 0.2 * s * s);
+                let phi3 = 0.05 * s * phi0;
+                (
+                    vec![0.0, phi.re, 0.0, phi3],
+                    vec![0.0, phi.im, 0.0, 0.01 * s],
+                )
+            })
+            .unzip();
+        p.re = re;
+        p.im = im;
+    }
+    t.validate().unwrap();
+    let p = dir.join("modal_table.json");
+    t.write(&p).unwrap();
+    p
+}
+
 pub(crate) fn instantiate(resource_dir: Option<std::path::PathBuf>) -> Structure {
     let log = Logger::silent();
     Structure::instantiate(&InstantiateContext {
@@ -556,4 +605,96 @@ fn residual_modes_follow_the_oscillator_round_trip_and_bad_values_are_named() {
         .set_integer(vr::RESIDUAL_MODES, -1)
         .unwrap_err();
     assert!(e.message.contains("residual_modes = -1"), "{}", e.message);
+}
+
+/// The Model Exchange partial derivatives (`partial_derivative`) against
+/// central differences of the model's own `derivatives` and outputs in the
+/// states and `F`, on the nonlinear table at states inside its segments
+/// (amplitudes 1.5e-3 to 8.7e-3). Step `1e-6` of the known's scale
+/// (`a` for the states): truncation `(1e-6)^2` and round-off `1e-16/1e-6`
+/// relative; tolerance `1e-6` of the row's largest entry (the exact
+/// Jacobian; the outputs `x`, `v`, `x_tip` are themselves central
+/// differences, about 1e-10). Outputs with respect to `F`: 0. Measured: the
+/// state derivatives and `x`, `v`, `x_tip` within 2e-10; `omega` within
+/// 1.1e-8, the round-off of this test's own difference (`1e-16 omega / h`
+/// against `d omega/d eta ~ 2e3` at `h = 1.5e-9`).
+#[test]
+fn model_exchange_partial_derivatives_equal_central_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    nonlinear_table(dir.path());
+    let mut m = instantiate(Some(dir.path().to_path_buf()));
+    m.exit_initialization_mode(&Logger::silent()).unwrap();
+    let outputs = [vr::X, vr::V, vr::X_TIP, vr::A, vr::OMEGA];
+    let ders = [vr::DER_ETA, vr::DER_U];
+    let mut worst: f64 = 0.0;
+    for &(eta, u, f) in &[
+        (1.2e-3, -0.9e-3, 3.0),
+        (-4.1e-3, 2.3e-3, -20.0),
+        (7.7e-3, 4.0e-3, 0.0),
+        (0.3e-3, -6.1e-3, 50.0),
+    ] {
+        m.set_continuous_states(&[eta, u]).unwrap();
+        m.set_real(vr::F, f).unwrap();
+        let a = f64::hypot(eta, u);
+        // all unknowns at (eta, u, F)
+        let eval = |m: &Structure| {
+            let mut dx = [0.0; 2];
+            m.derivatives(&mut dx).unwrap();
+            let mut y: Vec<f64> = dx.to_vec();
+            y.extend(outputs.iter().map(|&o| m.get_real(o)));
+            y
+        };
+        let unknowns: Vec<u32> = ders.iter().chain(outputs.iter()).copied().collect();
+        for (known, step) in [
+            (vr::ETA, 1e-6 * a),
+            (vr::U, 1e-6 * a),
+            (vr::F, 1e-6 * f.abs().max(1.0)),
+        ] {
+            let at = |k: f64| {
+                let mut mm = m.clone();
+                match known {
+                    vr::ETA => mm.set_continuous_states(&[eta + k, u]).unwrap(),
+                    vr::U => mm.set_continuous_states(&[eta, u + k]).unwrap(),
+                    _ => mm.set_real(vr::F, f + k).unwrap(),
+                }
+                eval(&mm)
+            };
+            let (yp, ym) = (at(step), at(-step));
+            let fd: Vec<f64> = yp
+                .iter()
+                .zip(&ym)
+                .map(|(p, q)| (p - q) / (2.0 * step))
+                .collect();
+            let exact: Vec<f64> = unknowns
+                .iter()
+                .map(|&un| m.partial_derivative(un, known).unwrap())
+                .collect();
+            for (i, &un) in unknowns.iter().enumerate() {
+                if known == vr::F && i >= 2 {
+                    assert_eq!(exact[i], 0.0, "output {un} w.r.t. F");
+                    assert_eq!(fd[i], 0.0, "output {un} w.r.t. F");
+                    continue;
+                }
+                // the row's scale: the largest partial of this unknown
+                let scale = [vr::ETA, vr::U]
+                    .iter()
+                    .map(|&k| m.partial_derivative(un, k).unwrap().abs())
+                    .fold(exact[i].abs().max(fd[i].abs()), f64::max);
+                let err = (exact[i] - fd[i]).abs() / scale;
+                worst = worst.max(err);
+                assert!(
+                    err < 1e-6,
+                    "({eta}, {u}, F = {f}): d(vr {un})/d(vr {known}) = {} vs central difference {} ({err:e})",
+                    exact[i],
+                    fd[i]
+                );
+            }
+        }
+    }
+    eprintln!(
+        "structure ME partial derivatives vs central differences: max relative error {worst:e}"
+    );
+    // undeclared pairs stay errors
+    assert!(m.partial_derivative(vr::X, vr::FREQUENCY_ERROR).is_err());
+    assert!(m.partial_derivative(vr::ETA, vr::F).is_err());
 }
