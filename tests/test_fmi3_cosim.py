@@ -9,7 +9,8 @@ and 4).
 * `host cosim` runs the same pairing from a co-simulation file whose FMUs are
   FMI 3.0, and mixed (FMI 3.0 structure, FMI 2.0 shaker), with the same
   master algorithms: equal to the FMI 2.0 file's run; the iterative master
-  builds its Jacobian from the FMI 3.0 shaker's directional derivatives.
+  with `directional_derivatives = true` builds its Jacobian from the FMI 3.0
+  units' directional derivatives and reaches the same solution.
 
 The sweep is short (0.05 s around the resonance at 10 V, 5,000 macro steps of
 1e-5 s) so that the Python master takes about a second."""
@@ -173,9 +174,8 @@ def test_iterative_master_with_the_fmi3_shakers_directional_derivatives(fmu_dir,
     """The iterative master on the FMI 3.0 pair with `directional_derivatives
     = true`: the Jacobian's columns of the shaker's inputs from its
     `fmi3GetDirectionalDerivative` (dF/dx = -k_s, the stiff stinger), the
-    structure's too (x, v w.r.t. F: 0, no feedthrough; before the structure
-    provided directional derivatives, by differences), against the default all-differences
-    Jacobian: the same coupled solution (within the iteration tolerance,
+    structure's too (x, v w.r.t. F: 0, no feedthrough), against the default
+    all-differences Jacobian: the same coupled solution (within the iteration tolerance,
     1e-6 per connection). The evaluation counts are printed: the
     instantaneous partials miss the step map's O(k_s h) terms, so this pair
     needs more evaluations with them (the reason the default is off,
