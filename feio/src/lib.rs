@@ -232,6 +232,25 @@ pub(crate) fn parse_error(path: &Path, line: usize, format: Format, detail: Deta
     }
 }
 
+/// "expected `what`, found `found`" at `line` of `path` in `format`.
+pub(crate) fn expected_error(
+    path: &Path,
+    line: usize,
+    format: Format,
+    what: &str,
+    found: &[u8],
+) -> Error {
+    parse_error(
+        path,
+        line,
+        format,
+        Detail::Expected {
+            expected: what.into(),
+            found: text::shown(found),
+        },
+    )
+}
+
 /// Reads the file at `path` (gzip-compressed or not) in `format`.
 pub fn read(path: &Path, format: Format) -> Result<Triplets, Error> {
     let io = |e: std::io::Error| Error::Io {

@@ -61,14 +61,7 @@ fn err(path: &Path, line: usize, detail: Detail) -> Error {
 
 /// "expected `what`, found `found`" at `line` of `path`.
 fn expected(path: &Path, line: usize, what: &str, found: &[u8]) -> Error {
-    err(
-        path,
-        line,
-        Detail::Expected {
-            expected: what.into(),
-            found: shown(found),
-        },
-    )
+    crate::expected_error(path, line, F, what, found)
 }
 
 /// The header line's format, field and symmetry.

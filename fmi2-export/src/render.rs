@@ -37,13 +37,33 @@ pub fn fmi2(l: &Layout) -> String {
 /// The XML declaration, the note that the file is generated and the
 /// attributes of `<fmiModelDescription>`.
 fn header(l: &Layout) -> String {
+    header_for(
+        l,
+        "fmi2_export::render",
+        "2.0",
+        "guid",
+        "\n  numberOfEventIndicators=\"0\"",
+    )
+}
+
+/// The XML declaration, the note that `renderer` generated the file, and
+/// `<fmiModelDescription>` of FMI version `fmi_version` with the GUID as
+/// `token_attr` (`guid`, FMI 3.0's `instantiationToken`) and `extra`
+/// attributes after the naming convention (FMI 2.0 and 3.0 agree on the rest).
+pub(crate) fn header_for(
+    l: &Layout,
+    renderer: &str,
+    fmi_version: &str,
+    token_attr: &str,
+    extra: &str,
+) -> String {
     let info = &l.info;
     let mut x = format!(
         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
          <!-- Generated from the code of the FMU {} (its variable table and ModelInfo) by\n     \
-         fmi2_export::render; do not edit. A test of the FMU crate compares this file with the\n     \
+         {renderer}; do not edit. A test of the FMU crate compares this file with the\n     \
          code; `UPDATE_MODEL_DESCRIPTION=1 cargo test` rewrites it. -->\n\
-         <fmiModelDescription\n  fmiVersion=\"2.0\"\n  modelName=\"{}\"\n  guid=\"{}\"\n  \
+         <fmiModelDescription\n  fmiVersion=\"{fmi_version}\"\n  modelName=\"{}\"\n  {token_attr}=\"{}\"\n  \
          description=\"{}\"\n",
         esc(l.model_identifier),
         esc(info.name),
@@ -54,8 +74,7 @@ fn header(l: &Layout) -> String {
         x += &format!("  version=\"{}\"\n", esc(v));
     }
     x + &format!(
-        "  generationTool=\"{}\"\n  variableNamingConvention=\"flat\"\n  \
-         numberOfEventIndicators=\"0\">\n\n",
+        "  generationTool=\"{}\"\n  variableNamingConvention=\"flat\"{extra}>\n\n",
         esc(info.generation_tool)
     )
 }

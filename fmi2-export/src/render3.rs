@@ -94,26 +94,7 @@ fn fmi3(l: &Layout, vrs: &[u32]) -> String {
 }
 
 fn header(l: &Layout) -> String {
-    let info = &l.info;
-    let mut x = format!(
-        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
-         <!-- Generated from the code of the FMU {} (its variable table and ModelInfo) by\n     \
-         fmi2_export::render3; do not edit. A test of the FMU crate compares this file with the\n     \
-         code; `UPDATE_MODEL_DESCRIPTION=1 cargo test` rewrites it. -->\n\
-         <fmiModelDescription\n  fmiVersion=\"3.0\"\n  modelName=\"{}\"\n  instantiationToken=\"{}\"\n  \
-         description=\"{}\"\n",
-        esc(l.model_identifier),
-        esc(info.name),
-        esc(l.guid),
-        esc(info.description)
-    );
-    if let Some(v) = info.version {
-        x += &format!("  version=\"{}\"\n", esc(v));
-    }
-    x + &format!(
-        "  generationTool=\"{}\"\n  variableNamingConvention=\"flat\">\n\n",
-        esc(info.generation_tool)
-    )
+    crate::render::header_for(l, "fmi2_export::render3", "3.0", "instantiationToken", "")
 }
 
 /// `<ModelExchange>` (with continuous states) and `<CoSimulation>`. What

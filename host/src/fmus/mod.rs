@@ -210,20 +210,44 @@ pub fn package_fmu(
     out_dir: &Path,
     resources: Vec<(String, Vec<u8>)>,
 ) -> Result<PathBuf, RepoFmuError> {
+    package_as(fmu, library, out_dir, resources, false)
+}
+
+/// [`package_fmu`] as FMI 2.0 (`<id>.fmu`) or, with `fmi3`, as FMI 3.0
+/// (`<id>_fmi3.fmu`: the same library in `binaries/x86_64-linux/`, the FMI
+/// 3.0 modelDescription).
+fn package_as(
+    fmu: &RepoFmu,
+    library: &Path,
+    out_dir: &Path,
+    resources: Vec<(String, Vec<u8>)>,
+    fmi3: bool,
+) -> Result<PathBuf, RepoFmuError> {
     std::fs::create_dir_all(out_dir).map_err(|source| RepoFmuError::Dir {
         path: out_dir.into(),
         source,
     })?;
     let spec = FmuSpec {
         model_identifier: fmu.id.into(),
-        model_description: fmu.model_description.into(),
+        model_description: if fmi3 {
+            fmu.model_description3
+        } else {
+            fmu.model_description
+        }
+        .into(),
         library: library.into(),
         resources,
         documentation: readme_documentation(fmu.id, fmu.readme),
     };
-    let path = out_dir.join(format!("{}.fmu", fmu.id));
-    write_fmu(&spec, &path)?;
-    Ok(path)
+    if fmi3 {
+        let path = out_dir.join(format!("{}_fmi3.fmu", fmu.id));
+        write_fmu3(&spec, &path)?;
+        Ok(path)
+    } else {
+        let path = out_dir.join(format!("{}.fmu", fmu.id));
+        write_fmu(&spec, &path)?;
+        Ok(path)
+    }
 }
 
 /// Which FMI versions `host package` writes (`--fmi 2|3|all`).
@@ -263,20 +287,7 @@ pub fn package_fmu3(
     out_dir: &Path,
     resources: Vec<(String, Vec<u8>)>,
 ) -> Result<PathBuf, RepoFmuError> {
-    std::fs::create_dir_all(out_dir).map_err(|source| RepoFmuError::Dir {
-        path: out_dir.into(),
-        source,
-    })?;
-    let spec = FmuSpec {
-        model_identifier: fmu.id.into(),
-        model_description: fmu.model_description3.into(),
-        library: library.into(),
-        resources,
-        documentation: readme_documentation(fmu.id, fmu.readme),
-    };
-    let path = out_dir.join(format!("{}_fmi3.fmu", fmu.id));
-    write_fmu3(&spec, &path)?;
-    Ok(path)
+    package_as(fmu, library, out_dir, resources, true)
 }
 
 /// The `resources/` of an FMU packaged with `modal_table` (if given): the
