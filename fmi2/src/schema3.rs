@@ -26,7 +26,7 @@
 //!
 //! Value references are unique across all variables in FMI 3.0: a repeated
 //! one is an error with both lines.
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use crate::schema::{
     default_experiment, get, parse_bool, parse_num, walk, Causality, CoSimCapabilities,
@@ -63,6 +63,18 @@ struct Pending {
     start_children: Vec<String>,
 }
 
+/// The variables read so far, by value reference and by name (hashed: a
+/// description with 10^5 variables is read in linear time), and the
+/// `derivative` attributes to resolve.
+#[derive(Default)]
+struct Seen {
+    /// value reference -> (line, position among the scalars if exchanged)
+    by_vr: HashMap<u32, (usize, Option<usize>)>,
+    names: HashSet<String>,
+    /// (position of the derivative, the state's value reference, line)
+    derivative_of: Vec<(usize, u32, usize)>,
+}
+
 /// A `<ModelStructure>` entry before value references are resolved.
 struct RawUnknown {
     section: &'static str,
@@ -79,15 +91,13 @@ pub fn parse(text: &str) -> Result<ModelDescription> {
     let mut has_cs = false;
     let mut pending: Option<Pending> = None;
     let mut unknowns: Vec<RawUnknown> = Vec::new();
-    // value reference -> (line, position among the scalars if exchanged)
-    let mut by_vr: HashMap<u32, (usize, Option<usize>)> = HashMap::new();
-    let mut derivative_of: Vec<(usize, u32, usize)> = Vec::new();
+    let mut seen = Seen::default();
     walk(text, |ev| {
         match ev {
             Walk::End { name, .. } => {
                 if pending.as_ref().is_some_and(|p| p.element == name) {
                     let p = pending.take().expect("checked");
-                    finish(&mut md, p, &mut by_vr, &mut derivative_of)?;
+                    finish(&mut md, p, &mut seen)?;
                 }
             }
             Walk::Start {
@@ -123,7 +133,7 @@ pub fn parse(text: &str) -> Result<ModelDescription> {
                         start_children: Vec::new(),
                     };
                     if empty {
-                        finish(&mut md, p, &mut by_vr, &mut derivative_of)?;
+                        finish(&mut md, p, &mut seen)?;
                     } else {
                         pending = Some(p);
                     }
@@ -190,7 +200,7 @@ pub fn parse(text: &str) -> Result<ModelDescription> {
             message: "no <fmiModelDescription> element".into(),
         });
     }
-    resolve(&mut md, &by_vr, &derivative_of, unknowns)?;
+    resolve(&mut md, &seen, unknowns)?;
     if !has_cs {
         return Err(SchemaError::NoCoSimulation {
             model: md.model_name,
@@ -215,12 +225,7 @@ fn root(md: &mut ModelDescription, a: &[(String, String)], line: usize) -> Resul
 }
 
 /// A variable element read to its end: a [`ScalarVariable`] or an [`OtherVariable`].
-fn finish(
-    md: &mut ModelDescription,
-    p: Pending,
-    by_vr: &mut HashMap<u32, (usize, Option<usize>)>,
-    derivative_of: &mut Vec<(usize, u32, usize)>,
-) -> Result<()> {
+fn finish(md: &mut ModelDescription, p: Pending, seen: &mut Seen) -> Result<()> {
     let (a, line) = (&p.attrs, p.line);
     let name = get(a, "name").ok_or_else(|| SchemaError::Xml {
         line,
@@ -244,9 +249,7 @@ fn finish(
             message: format!("variable '{name}': unknown causality \"{c}\""),
         })?,
     };
-    if md.variables.iter().any(|v| v.name == name)
-        || md.other_variables.iter().any(|v| v.name == name)
-    {
+    if !seen.names.insert(name.to_string()) {
         return Err(SchemaError::Xml {
             line,
             message: format!("variable name '{name}' repeats"),
@@ -254,7 +257,7 @@ fn finish(
     }
     let ty = exchanged_type(&p.element).filter(|_| !p.array);
     let position = ty.map(|_| md.variables.len());
-    if let Some((first, _)) = by_vr.insert(vr, (line, position)) {
+    if let Some((first, _)) = seen.by_vr.insert(vr, (line, position)) {
         return Err(SchemaError::Xml {
             line,
             message: format!(
@@ -286,7 +289,7 @@ fn finish(
     })?;
     if let Some(d) = get(a, "derivative") {
         let state = parse_num::<u32>(d, "derivative", line, "a value reference")?;
-        derivative_of.push((md.variables.len(), state, line));
+        seen.derivative_of.push((md.variables.len(), state, line));
     }
     let start = get(a, "start")
         .map(str::to_string)
@@ -309,12 +312,8 @@ fn finish(
 
 /// Resolve `<ModelStructure>` and `derivative` value references to the
 /// 1-based positions of [`ModelDescription::variables`].
-fn resolve(
-    md: &mut ModelDescription,
-    by_vr: &HashMap<u32, (usize, Option<usize>)>,
-    derivative_of: &[(usize, u32, usize)],
-    unknowns: Vec<RawUnknown>,
-) -> Result<()> {
+fn resolve(md: &mut ModelDescription, seen: &Seen, unknowns: Vec<RawUnknown>) -> Result<()> {
+    let by_vr = &seen.by_vr;
     let lookup = |vr: u32, line: usize, what: &str| -> Result<Option<usize>> {
         match by_vr.get(&vr) {
             Some((_, pos)) => Ok(pos.map(|p| p + 1)),
@@ -324,7 +323,7 @@ fn resolve(
             }),
         }
     };
-    for &(i, state, line) in derivative_of {
+    for &(i, state, line) in &seen.derivative_of {
         md.variables[i].derivative = lookup(state, line, "derivative")?;
     }
     for u in unknowns {

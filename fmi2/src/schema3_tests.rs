@@ -130,3 +130,25 @@ fn fmi2_and_fmi3_dispatch_on_the_root_version() {
         Err(SchemaError::Version { found }) if found == "4.0"
     ));
 }
+
+/// The FMI 3.0 reader is linear in the number of variables like the FMI 2.0
+/// one (names and value references hashed): 100k variables, one of them
+/// repeating a name, which is found (a quadratic scan here took minutes).
+#[test]
+fn fmi3_parsing_is_linear_in_the_number_of_variables() {
+    let mut s = String::from(
+        "<fmiModelDescription fmiVersion=\"3.0\" modelName=\"big\" instantiationToken=\"{g}\">\n\
+         <CoSimulation modelIdentifier=\"big\"/>\n<ModelVariables>\n",
+    );
+    for i in 0..100_000 {
+        s.push_str(&format!(
+            "<Float64 name=\"v{i}\" valueReference=\"{i}\"/>\n"
+        ));
+    }
+    let body_end = "</ModelVariables>\n</fmiModelDescription>\n";
+    let md = ModelDescription::parse(&format!("{s}{body_end}")).unwrap();
+    assert_eq!(md.variables.len(), 100_000);
+    s.push_str("<Float64 name=\"v17\" valueReference=\"100000\"/>\n");
+    let e = ModelDescription::parse(&format!("{s}{body_end}")).unwrap_err();
+    assert!(e.to_string().contains("'v17' repeats"), "{e}");
+}
