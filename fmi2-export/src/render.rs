@@ -221,7 +221,20 @@ fn model_structure(l: &Layout) -> String {
 /// One `<Unknown>` (indices are positions + 1).
 fn unknown(u: &Unknown) -> String {
     let deps: Vec<String> = u.dependencies.iter().map(|j| (j + 1).to_string()).collect();
-    let kind = if u.fixed && !deps.is_empty() {
+    unknown_element("Unknown", "index", u.variable + 1, &deps, u.fixed)
+}
+
+/// `<tag key="id" dependencies="deps" [dependenciesKind="fixed ..."]/>`:
+/// an unknown of `<ModelStructure>` in either version (FMI 2.0 `<Unknown
+/// index>`, FMI 3.0 `<Output valueReference>` ...).
+pub(crate) fn unknown_element(
+    tag: &str,
+    key: &str,
+    id: impl std::fmt::Display,
+    deps: &[String],
+    fixed: bool,
+) -> String {
+    let kind = if fixed && !deps.is_empty() {
         format!(
             " dependenciesKind=\"{}\"",
             vec!["fixed"; deps.len()].join(" ")
@@ -230,8 +243,7 @@ fn unknown(u: &Unknown) -> String {
         String::new()
     };
     format!(
-        "<Unknown index=\"{}\" dependencies=\"{}\"{kind}/>",
-        u.variable + 1,
+        "<{tag} {key}=\"{id}\" dependencies=\"{}\"{kind}/>",
         deps.join(" ")
     )
 }

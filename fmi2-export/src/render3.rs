@@ -198,17 +198,5 @@ fn model_structure(l: &Layout, vrs: &[u32]) -> String {
 
 fn unknown(tag: &str, u: &Unknown, vrs: &[u32]) -> String {
     let deps: Vec<String> = u.dependencies.iter().map(|&j| vrs[j].to_string()).collect();
-    let kind = if u.fixed && !deps.is_empty() {
-        format!(
-            " dependenciesKind=\"{}\"",
-            vec!["fixed"; deps.len()].join(" ")
-        )
-    } else {
-        String::new()
-    };
-    format!(
-        "<{tag} valueReference=\"{}\" dependencies=\"{}\"{kind}/>",
-        vrs[u.variable],
-        deps.join(" ")
-    )
+    crate::render::unknown_element(tag, "valueReference", vrs[u.variable], &deps, u.fixed)
 }
