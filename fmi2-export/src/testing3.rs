@@ -585,18 +585,14 @@ pub struct FuzzCounts {
     pub accepted_wrong: usize,
 }
 
-/// SplitMix64.
-struct Rng(u64);
+/// The fuzz's random values on [`crate::testing::SplitMix64`].
+struct Rng(crate::testing::SplitMix64);
 impl Rng {
     fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
     fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
+        self.0.below(n)
     }
     fn value(&mut self) -> f64 {
         const SPECIAL: [f64; 12] = [
@@ -843,7 +839,7 @@ pub fn fuzz<M: CoSimModel>(
     instances: usize,
     calls: usize,
 ) -> FuzzCounts {
-    let mut rng = Rng(seed);
+    let mut rng = Rng(crate::testing::SplitMix64(seed));
     let mut counts = FuzzCounts::default();
     let reals: Vec<u32> = M::VARIABLES
         .iter()

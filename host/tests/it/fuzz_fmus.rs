@@ -9,30 +9,27 @@
 //! must be refused) and requires all but `tried` to be zero. A crash of the
 //! process (signal) fails the test binary itself.
 //!
-//! The pseudo-random generator is SplitMix64, hand-rolled for a fixed,
-//! dependency-free sequence per seed.
+//! The pseudo-random generator is the shared SplitMix64
+//! (`fmi2_export::testing::SplitMix64`): a fixed sequence per seed.
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use cosim::import::{Fmu, Instance};
+use fmi2_export::testing::SplitMix64;
 use host::fmus::{
     fmu_resources, locate_libraries, package_fmu3, package_repo_fmus, SHAKER, STRUCTURE,
 };
 use nlmode::nma::ModalTable;
 use nlmode::Complex64;
 
-struct Rng(u64);
+struct Rng(SplitMix64);
 impl Rng {
     fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
     fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
+        self.0.below(n)
     }
     /// A value from the classes that found bugs: zero, signs, huge, tiny,
     /// DBL_MAX, non-finite, or a plain random number.
@@ -200,7 +197,7 @@ fn random_c_api_sequences_on_both_fmus() {
             })
             .collect();
         let mut c = Counts::default();
-        let mut rng = Rng(seed);
+        let mut rng = Rng(SplitMix64(seed));
         for k in 0..300 {
             let mut inst = fmu.instantiate(&format!("f{k}"), false).unwrap();
             let mut t = 0.0;
@@ -238,7 +235,7 @@ fn mutated_fmu_archives_into_the_importer() {
         std::io::Read::read_to_end(&mut f, &mut b).unwrap();
         entries.push((f.name().to_string(), b));
     }
-    let mut rng = Rng(3);
+    let mut rng = Rng(SplitMix64(3));
     let mut c = Counts::default();
     let budget = Instant::now();
     let p = dir.path().join("m.fmu");
@@ -329,7 +326,7 @@ fn mutated_fmu_archives_into_the_importer() {
 fn mutated_cosim_specs_into_the_parser() {
     let base = "[master]\nalgorithm = \"jacobi\"\nmacro_step_s = 1e-5\nstart_time_s = 0.0\nstop_time_s = 1.0\n[units]\nstructure = \"structure.fmu\"\nshaker = \"shaker.fmu\"\n";
     let keys = ["macro_step_s", "start_time_s", "stop_time_s"];
-    let mut rng = Rng(4);
+    let mut rng = Rng(SplitMix64(4));
     let mut c = Counts::default();
     for _ in 0..2000 {
         let key = keys[rng.below(3)];

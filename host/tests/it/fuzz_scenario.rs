@@ -3,17 +3,16 @@
 //! that found bugs (zero, signs, huge, tiny, 2^53 + 1, i64::MAX, non-finite)
 //! into the public parser `host::scenario::Scenario::parse`. Counts tried /
 //! crashed (panic) / hung (over 2 s) and requires the last two to be zero.
-//! SplitMix64 is hand-rolled for a fixed, dependency-free sequence.
+//! The shared SplitMix64 (`fmi2_export::testing`) gives a fixed sequence.
 use std::time::{Duration, Instant};
 
 const BASE: &str = include_str!("../../../sweep.toml");
 
 fn next(s: &mut u64) -> u64 {
-    *s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *s;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    let mut g = fmi2_export::testing::SplitMix64(*s);
+    let r = g.next_u64();
+    *s = g.0;
+    r
 }
 
 #[test]
