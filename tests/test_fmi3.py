@@ -126,3 +126,90 @@ def test_shaker_directional_derivative_through_the_c_api(fmu_dir, tmp_path):
     assert dF == -float(k_s)
     fmu.terminate()
     fmu.freeInstance()
+
+
+# Early return (mightReturnEarlyFromDoStep): a linear modal table whose end
+# the response to a constant force crosses inside one long step.
+OMEGA, DAMPING, A_MAX, FORCE = 100.0, 0.01, 1e-3, 6.0
+
+
+def _linear_table(path):
+    import json
+
+    n = 3
+    amplitude = [1e-9, 0.5 * A_MAX, A_MAX]
+    shape = {"re": [[0.0, 1.0]] * n, "im": [[0.0, 0.0]] * n}
+    table = {
+        "format": "nlmode-modal-table",
+        "version": 1,
+        "description": "linear test table",
+        "harmonics": 1,
+        "amplitude": amplitude,
+        "omega_rad_s": [OMEGA] * n,
+        "damping_ratio": [DAMPING] * n,
+        "points": [dict(name="tip", **shape), dict(name="2l3", **shape)],
+    }
+    path.write_text(json.dumps(table))
+    return path
+
+
+def _crossing_time():
+    """First time the analytic step response of eta'' + 2 D w eta' + w^2 eta = F
+    from rest has a = |eta - i eta'/w| = A_MAX (scan and bisection)."""
+    xs = FORCE / OMEGA**2
+    wd = OMEGA * np.sqrt(1.0 - DAMPING**2)
+
+    def a(t):
+        e = np.exp(-DAMPING * OMEGA * t)
+        eta = xs * (1.0 - e * (np.cos(wd * t) + DAMPING * OMEGA / wd * np.sin(wd * t)))
+        deta = xs * OMEGA**2 / wd * e * np.sin(wd * t)
+        return np.hypot(eta, deta / OMEGA)
+
+    t = np.arange(0.0, 0.1, 1e-6)
+    i = int(np.argmax(a(t) >= A_MAX))
+    lo, hi = t[i - 1], t[i]
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if a(mid) < A_MAX else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+@pytest.mark.parametrize("allowed", [True, False])
+def test_structure_returns_early_at_the_table_end_through_fmpy(fmu_dir, tmp_path, allowed):
+    from fmpy import extract
+    from fmpy.fmi3 import FMU3Slave
+
+    path = str(fmu_dir / "structure_fmi3.fmu")
+    md = read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    d = extract(path, str(tmp_path / "s"))
+    fmu = FMU3Slave(guid=md.instantiationToken, unzipDirectory=d,
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="early")
+    messages = []
+    fmu.instantiate(earlyReturnAllowed=allowed,
+                    logMessage=lambda env, status, cat, msg: messages.append(msg.decode()))
+    fmu.setString([vr["modal_table"]], [str(_linear_table(tmp_path / "linear.json"))])
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.setFloat64([vr["F"]], [FORCE])
+    fmu.exitInitializationMode()
+    h = 0.05
+    if not allowed:
+        # the FMI 2.0 behaviour: fmi3Error naming the amplitude
+        with pytest.raises(Exception):
+            fmu.doStep(0.0, h)
+        assert any("above the modal table's range" in m for m in messages), messages
+        fmu.freeInstance()
+        return
+    event, terminate, early, last = fmu.doStep(0.0, h)
+    assert (event, terminate, early) == (False, True, True)
+    # RK4 sub-step: ceil(h / h_max) equal parts, h_max = 2 pi / (40 max omega)
+    h_max = 2 * np.pi / (40 * OMEGA)
+    h_sub = h / np.ceil(h / h_max)
+    t_cross = _crossing_time()
+    print(f"early return at {last:.9f} s, analytic crossing {t_cross:.9f} s, sub-step {h_sub:.3e} s")
+    assert 0.0 <= t_cross - last <= h_sub
+    a, x = fmu.getFloat64([vr["a"], vr["x"]])
+    assert 0.9 * A_MAX < a <= A_MAX and np.isfinite(x)
+    assert any("returning early" in m and "a_max = 1.000000e-3" in m for m in messages), messages
+    fmu.terminate()
+    fmu.freeInstance()

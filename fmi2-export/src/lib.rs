@@ -103,7 +103,7 @@ pub use description::{
 };
 pub use model::{
     Causality, CoSimModel, ContinuousState, InstantiateContext, LogMessage3, Logger, ModelError,
-    Start, StateReader, StateWriter, VarType, Variability, Variable, LOG_CATEGORIES,
+    Start, StateReader, StateWriter, StepOutcome, VarType, Variability, Variable, LOG_CATEGORIES,
 };
 pub use types::Status;
 

@@ -360,6 +360,24 @@ pub struct InstantiateContext<'a> {
     pub logger: &'a Logger,
 }
 
+/// How [`CoSimModel::do_step_early`] ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepOutcome {
+    /// The step reached `t + h`.
+    Completed,
+    /// The model stopped at `time_s` (`t <= time_s < t + h`) at an event:
+    /// `fmi3DoStep` returns `earlyReturn = fmi3True` and
+    /// `lastSuccessfulTime = time_s` (FMI 3.0 section 4.2.1: "the FMU's
+    /// request for a communication point at lastSuccessfulTime").
+    EarlyReturn {
+        time_s: f64,
+        /// The model is not valid beyond `time_s`: `terminateSimulation =
+        /// fmi3True` (the importer must call `fmi3Terminate`) and the step
+        /// returns `fmi3Warning` (the model logged why).
+        terminate: bool,
+    },
+}
+
 /// Little-endian byte writer for serialized FMU states.
 #[derive(Default)]
 pub struct StateWriter {
@@ -551,6 +569,20 @@ pub trait CoSimModel: Clone + Sized + 'static {
 
     /// Advance from `t` to `t + h` (`fmi2DoStep`).
     fn do_step(&mut self, t: f64, h: f64, log: &Logger) -> Result<(), ModelError>;
+
+    /// FMI 3.0 early return (`mightReturnEarlyFromDoStep="true"` in the
+    /// modelDescription, FMI 3.0 section 4.2.1 `fmi3DoStep`): the model may
+    /// stop a step before `t + h` at an event ([`Self::do_step_early`]).
+    const MIGHT_RETURN_EARLY: bool = false;
+
+    /// `fmi3DoStep` of an instance created with `earlyReturnAllowed = true`
+    /// (only when [`Self::MIGHT_RETURN_EARLY`]): like [`Self::do_step`], but
+    /// the model may stop at an event at `t <= time_s < t + h`, leaving its
+    /// state there, and say why through `log`
+    /// ([`StepOutcome::EarlyReturn`]); the default never stops.
+    fn do_step_early(&mut self, t: f64, h: f64, log: &Logger) -> Result<StepOutcome, ModelError> {
+        self.do_step(t, h, log).map(|()| StepOutcome::Completed)
+    }
 
     /// `fmi2SetRealInputDerivatives` for one input (`order >= 1`).
     fn set_real_input_derivative(

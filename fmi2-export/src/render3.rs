@@ -75,15 +75,15 @@ pub fn model_description<M: CoSimModel>() -> Result<String, DescriptionError> {
             });
         }
     }
-    Ok(fmi3(&l, &vrs))
+    Ok(fmi3(&l, &vrs, M::MIGHT_RETURN_EARLY))
 }
 
 /// Write the FMI 3.0 XML of a resolved description (`vrs`: the FMI 3.0
 /// value reference of each variable).
-fn fmi3(l: &Layout, vrs: &[u32]) -> String {
+fn fmi3(l: &Layout, vrs: &[u32], early_return: bool) -> String {
     [
         header(l),
-        interfaces(l),
+        interfaces(l, early_return),
         unit_definitions(l),
         log_categories(l),
         default_experiment(l),
@@ -99,9 +99,10 @@ fn header(l: &Layout) -> String {
 
 /// `<ModelExchange>` (with continuous states) and `<CoSimulation>`. What
 /// the layer does not implement is declared false: adjoint derivatives,
-/// per-element dependencies, event mode in Co-Simulation, intermediate
-/// update and early return (see the FMU READMEs for why).
-fn interfaces(l: &Layout) -> String {
+/// per-element dependencies, event mode in Co-Simulation and intermediate
+/// update (see the FMU READMEs for why); `mightReturnEarlyFromDoStep` is
+/// the model's [`CoSimModel::MIGHT_RETURN_EARLY`].
+fn interfaces(l: &Layout, early_return: bool) -> String {
     let caps = &l.info.capabilities;
     let id = esc(l.model_identifier);
     let dd = caps.provides_directional_derivative;
@@ -121,7 +122,7 @@ fn interfaces(l: &Layout) -> String {
     x + &format!(
         "  <CoSimulation\n{common}    canHandleVariableCommunicationStepSize=\"{}\"\n    \
          maxOutputDerivativeOrder=\"{}\"\n    providesIntermediateUpdate=\"false\"\n    \
-         mightReturnEarlyFromDoStep=\"false\"\n    canReturnEarlyAfterIntermediateUpdate=\"false\"\n    \
+         mightReturnEarlyFromDoStep=\"{early_return}\"\n    canReturnEarlyAfterIntermediateUpdate=\"false\"\n    \
          hasEventMode=\"false\"\n    providesEvaluateDiscreteStates=\"false\"/>\n\n",
         caps.can_handle_variable_communication_step_size, caps.max_output_derivative_order,
     )

@@ -77,6 +77,81 @@ pub fn instantiate3<M: CoSimModel>(cs: bool, res: Option<&Path>) -> Component {
     }
 }
 
+thread_local! {
+    /// Messages of [`instantiate3_early`] instances logged on this thread.
+    static LOGGED: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+unsafe extern "C" fn record3(
+    _: *mut std::ffi::c_void,
+    _: Status,
+    _: *const c_char,
+    m: *const c_char,
+) {
+    let m = std::ffi::CStr::from_ptr(m).to_string_lossy().into_owned();
+    LOGGED.with(|l| l.borrow_mut().push(m));
+}
+
+/// The messages [`instantiate3_early`] instances logged on this thread
+/// since the last call (taken).
+pub fn take_logged() -> Vec<String> {
+    LOGGED.with(|l| std::mem::take(&mut *l.borrow_mut()))
+}
+
+/// An FMI 3.0 Co-Simulation instance created with `earlyReturnAllowed`,
+/// logging on, its messages kept for [`take_logged`] (not initialized:
+/// [`initialize3`]).
+pub fn instantiate3_early<M: CoSimModel>(
+    res: Option<&Path>,
+    early_return_allowed: bool,
+) -> Result<Component, String> {
+    let name = cstr("fmi3-early");
+    let token = cstr(M::GUID);
+    let res = res.map(|p| cstr(&format!("{}/", p.display())));
+    let rp = res.as_ref().map_or(std::ptr::null(), |r| r.as_ptr());
+    // SAFETY: valid strings, a logger that copies the message
+    let c = unsafe {
+        fmi3::instantiate_co_simulation::<M>(
+            name.as_ptr(),
+            token.as_ptr(),
+            rp,
+            false,
+            true,
+            false,
+            early_return_allowed,
+            std::ptr::null(),
+            0,
+            std::ptr::null_mut(),
+            Some(record3),
+            None,
+        )
+    };
+    if c.is_null() {
+        return Err(format!("instantiation failed: {:?}", take_logged()));
+    }
+    Ok(c)
+}
+
+/// Set the Float64 `values` and initialize an FMI 3.0 instance at t = 0.
+pub fn initialize3<M: CoSimModel>(c: Component, values: Values) -> Result<(), String> {
+    init3::<M>(c, values)
+}
+
+/// `fmi3DoStep`'s status and out parameters `(eventHandlingNeeded,
+/// terminateSimulation, earlyReturn, lastSuccessfulTime)`.
+pub fn do_step3<M: CoSimModel>(c: Component, t: f64, h: f64) -> (Status, [bool; 3], f64) {
+    let (mut ev, mut term, mut early, mut last) = (true, true, true, f64::NAN);
+    // SAFETY: valid out pointers; `c` from an instantiation of `M`
+    let s =
+        unsafe { fmi3::do_step::<M>(c, t, h, false, &mut ev, &mut term, &mut early, &mut last) };
+    (s, [ev, term, early], last)
+}
+
+/// Float64 values of `c` (`fmi3GetFloat64`).
+pub fn get_float64<M: CoSimModel>(c: Component, vrs: &[u32]) -> Result<Vec<f64>, String> {
+    get3::<M>(c, vrs)
+}
+
 /// An FMI 2.0 instance like [`instantiate3`] (no logger).
 pub fn instantiate2<M: CoSimModel>(cs: bool, res: Option<&Path>) -> Component {
     let name = cstr("fmi2-test");

@@ -2,8 +2,8 @@
 //! [`nlmode::control::StreamingPll`].
 use fmi2_export::{
     Capabilities, Causality as C, CoSimModel, DefaultExperiment, Dependencies, InstantiateContext,
-    Logger, ModelError, ModelInfo, ModelStructure, StateReader, StateWriter, VarType as T,
-    Variability as V, Variable, LOG_CATEGORY_DESCRIPTIONS,
+    Logger, ModelError, ModelInfo, ModelStructure, StateReader, StateWriter, StepOutcome,
+    VarType as T, Variability as V, Variable, LOG_CATEGORY_DESCRIPTIONS,
 };
 use nlmode::control::{PllLevel, PllOptions, StreamEvent, StreamSample, StreamingPll};
 
@@ -342,6 +342,51 @@ impl Controller {
         self.pll.as_ref()
     }
 
+    /// One communication step of the loop from `t` by `h` (FMI 2.0 and FMI
+    /// 3.0 `do_step`); with `stop`, stopped at a level change inside it
+    /// (returns its time, [`StreamingPll::step_to_level_change`]). The
+    /// first period without signal and the first measured one after them
+    /// are logged.
+    fn step_loop(
+        &mut self,
+        t: f64,
+        h: f64,
+        log: &Logger,
+        stop: bool,
+    ) -> Result<Option<f64>, ModelError> {
+        let p = self
+            .pll
+            .as_mut()
+            .ok_or_else(|| ModelError::error("the loop is built at fmi2ExitInitializationMode"))?;
+        let held_before = p.unmeasured_periods();
+        let mut next = p.clone();
+        let (event, stopped) = if stop {
+            next.step_to_level_change(t, h, self.inputs)
+        } else {
+            next.step(t, h, self.inputs).map(|e| (e, None))
+        }
+        .map_err(control_error)?;
+        *p = next;
+        let end = stopped.unwrap_or(t + h);
+        self.t = end;
+        let held = p.unmeasured_periods();
+        if event == StreamEvent::Unmeasured && held_before == 0 {
+            log.info(&format!(
+                "the period ending at t = {end:e} s had no measurable force or drive-point fundamental \
+                 (F_meas and x_drive without a component at Omega, e.g. all inputs 0 before the exciter is on): \
+                 Omega held at {} rad/s, damping and harmonics held at the last measured period, \
+                 u_ext goes on at the held frequency until a period with signal",
+                p.omega_rad_s()
+            ));
+        } else if held == 0 && held_before > 0 {
+            log.info(&format!(
+                "signal measured again in the period ending by t = {end:e} s after {held_before} period(s) without; \
+                 the loop runs"
+            ));
+        }
+        Ok(stopped)
+    }
+
     fn record(&self) -> Option<&PllLevel> {
         self.pll.as_ref().and_then(|p| p.last_period())
     }
@@ -518,35 +563,42 @@ impl CoSimModel for Controller {
     /// period without signal (inputs 0) holds the loop; the first such period
     /// and the first measured period after them are logged.
     fn do_step(&mut self, t: f64, h: f64, log: &Logger) -> Result<(), ModelError> {
-        let p = self
-            .pll
-            .as_mut()
-            .ok_or_else(|| ModelError::error("the loop is built at fmi2ExitInitializationMode"))?;
-        let held_before = p.unmeasured_periods();
-        let mut next = p.clone();
-        let event = next.step(t, h, self.inputs).map_err(control_error)?;
-        *p = next;
-        self.t = t + h;
-        let held = p.unmeasured_periods();
-        if event == StreamEvent::Unmeasured && held_before == 0 {
-            log.info(&format!(
-                "the period ending at t = {:e} s had no measurable force or drive-point fundamental \
-                 (F_meas and x_drive without a component at Omega, e.g. all inputs 0 before the exciter is on): \
-                 Omega held at {} rad/s, damping and harmonics held at the last measured period, \
-                 u_ext goes on at the held frequency until a period with signal",
-                t + h,
-                p.omega_rad_s()
-            ));
-        } else if held == 0 && held_before > 0 {
-            log.info(&format!(
-                "signal measured again in the period ending by t = {:e} s after {held_before} period(s) without; \
-                 the loop runs",
-                t + h
-            ));
-        }
-        Ok(())
+        self.step_loop(t, h, log, false).map(|_| ())
     }
 
+    /// The controller returns early at a level change.
+    const MIGHT_RETURN_EARLY: bool = true;
+
+    /// FMI 3.0 with `earlyReturnAllowed`: [`Self::do_step`], except that a
+    /// level change at an internal sample of a long step (the level done,
+    /// or a new `u_hat` starting its level, [`StreamingPll::step_to_level_change`])
+    /// ends the step there, so that the master has a communication point at
+    /// the period end where it reads the record and sets the next `u_hat`;
+    /// the next `fmi3DoStep` goes on from there.
+    fn do_step_early(&mut self, t: f64, h: f64, log: &Logger) -> Result<StepOutcome, ModelError> {
+        Ok(match self.step_loop(t, h, log, true)? {
+            None => StepOutcome::Completed,
+            Some(time_s) => {
+                let p = self.pll.as_ref().expect("stepped");
+                log.info(&format!(
+                    "fmi3DoStep: returning early at t = {time_s:e} s (step [{t}, {}] s): the period ending \
+                     there {} (u_hat = {} V, Omega = {} rad/s)",
+                    t + h,
+                    if p.level_done() {
+                        "finished the level (level_done)"
+                    } else {
+                        "started a new level"
+                    },
+                    p.voltage_v(),
+                    p.omega_rad_s()
+                ));
+                StepOutcome::EarlyReturn {
+                    time_s,
+                    terminate: false,
+                }
+            }
+        })
+    }
     /// `d u_ext / dt = -u_hat Omega sin(theta)`, `d theta / dt = Omega`, the
     /// rest piecewise constant (0).
     fn get_real_output_derivative(&self, vr: u32, order: u32) -> Result<f64, ModelError> {

@@ -6,10 +6,12 @@ use std::path::PathBuf;
 use fmi2_export::{
     Capabilities, Causality as C, CoSimModel, ContinuousState, DefaultExperiment, Dependencies,
     InstantiateContext, Logger, ModelError, ModelInfo, ModelStructure, StateReader, StateWriter,
-    Unit, Variability as V, Variable,
+    StepOutcome, Unit, Variability as V, Variable,
 };
 use nlmode::nma::ModalTable;
-use nlmode::oscillator::{InputPolynomial, ModalOscillator, OscillatorState, PointResponse};
+use nlmode::oscillator::{
+    InputPolynomial, ModalOscillator, OscillatorState, PointResponse, StepEnd,
+};
 
 /// Value references (Real).
 pub mod vr {
@@ -387,6 +389,15 @@ impl Structure {
         Ok(())
     }
 
+    /// The input after `elapsed_s` of a step: it continues from the
+    /// polynomial's value there until the master sets it (derivatives apply
+    /// to one step only).
+    fn input_advanced(&mut self, elapsed_s: f64) {
+        let p = self.force;
+        let h = elapsed_s;
+        self.force = InputPolynomial::constant(p.c0 + h * (p.c1 + 0.5 * h * p.c2));
+    }
+
     fn oscillator(&self) -> Result<&ModalOscillator, ModelError> {
         self.osc.as_ref().ok_or_else(|| {
             ModelError::error("the modal table is loaded at fmi2ExitInitializationMode")
@@ -563,11 +574,52 @@ impl CoSimModel for Structure {
             .as_mut()
             .ok_or_else(|| ModelError::error("not initialized"))?;
         osc.step(h, self.force)?;
-        // the input continues from the polynomial's end value until the master sets it;
-        // derivatives apply to one step only
-        let p = self.force;
-        self.force = InputPolynomial::constant(p.c0 + h * (p.c1 + 0.5 * h * p.c2));
+        self.input_advanced(h);
         self.update_outputs()
+    }
+
+    /// The structure returns early at the end of its modal table.
+    const MIGHT_RETURN_EARLY: bool = true;
+
+    /// FMI 3.0 with `earlyReturnAllowed`: [`Self::do_step`], except that a
+    /// step in which the modal amplitude would leave the modal table stops
+    /// at the last RK4 sub-step inside it
+    /// ([`ModalOscillator::step_to_table_end`]) and returns early there with
+    /// `terminateSimulation` (the mode, hence the model, is not known above
+    /// the table's last amplitude), the reason logged.
+    fn do_step_early(&mut self, t: f64, h: f64, log: &Logger) -> Result<StepOutcome, ModelError> {
+        let osc = self
+            .osc
+            .as_mut()
+            .ok_or_else(|| ModelError::error("not initialized"))?;
+        let end = osc.step_to_table_end(h, self.force)?;
+        let StepEnd::TableEnd {
+            elapsed_s,
+            a,
+            a_max,
+            ..
+        } = end
+        else {
+            self.input_advanced(h);
+            self.update_outputs()?;
+            return Ok(StepOutcome::Completed);
+        };
+        self.input_advanced(elapsed_s);
+        self.update_outputs()?;
+        let time_s = t + elapsed_s;
+        log.warning(&format!(
+            "fmi3DoStep: returning early at t = {time_s:.9} s (step [{t}, {}] s): the modal amplitude \
+             would reach a = {a:.6e} sqrt(kg) m in the next RK4 sub-step, above the modal table's end \
+             a_max = {a_max:.6e} sqrt(kg) m, where the nonlinear mode is not known; the state is left \
+             at the last sub-step inside the table (a = {:.6e}) and the simulation must end here \
+             (terminateSimulation; extend the modal analysis or lower the excitation)",
+            t + h,
+            self.out.a
+        ));
+        Ok(StepOutcome::EarlyReturn {
+            time_s,
+            terminate: true,
+        })
     }
 
     /// Model Exchange: the oscillator is autonomous; the time only stamps

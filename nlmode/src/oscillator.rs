@@ -219,6 +219,25 @@ impl InputPolynomial {
     }
 }
 
+/// How [`ModalOscillator::step_to_table_end`] ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepEnd {
+    /// The whole step was taken.
+    Completed,
+    /// The amplitude would have left the modal table (above its last
+    /// amplitude `a_max`, where the mode is not known) in the RK4 sub-step
+    /// after `elapsed_s` [s] from the step's start; the state is left at
+    /// that time, `time_s` [s], the end of the last sub-step inside the table.
+    TableEnd {
+        elapsed_s: f64,
+        time_s: f64,
+        /// The amplitude above the table that stopped the step [sqrt(kg) m].
+        a: f64,
+        /// The table's last amplitude [sqrt(kg) m].
+        a_max: f64,
+    },
+}
+
 /// Modal quantities at the current state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModalSnapshot {
@@ -428,12 +447,38 @@ impl ModalOscillator {
     /// Advance by `dt_s` under the input polynomial (relative to the current time).
     /// On error the state is left at the start of the step.
     pub fn step(&mut self, dt_s: f64, input: InputPolynomial) -> Result<(), OscillatorError> {
+        self.step_with(dt_s, input, false).map(|_| ())
+    }
+
+    /// [`Self::step`] that stops at the end of the modal table instead of
+    /// failing (the stop hook of an FMI 3.0 early return): when the
+    /// amplitude of a stage or of the end of RK4 sub-step `j` would lie
+    /// above the table's last amplitude, the state is left at the end of
+    /// sub-step `j - 1` (the last one inside the table; the step's start for
+    /// `j = 0`) and [`StepEnd::TableEnd`] reports that time. A step that stays
+    /// inside the table is exactly [`Self::step`] (bit for bit); any other
+    /// error leaves the state at the start of the step, as there.
+    pub fn step_to_table_end(
+        &mut self,
+        dt_s: f64,
+        input: InputPolynomial,
+    ) -> Result<StepEnd, OscillatorError> {
+        self.step_with(dt_s, input, true)
+    }
+
+    /// [`Self::step`] (`stop = false`) or [`Self::step_to_table_end`].
+    fn step_with(
+        &mut self,
+        dt_s: f64,
+        input: InputPolynomial,
+        stop: bool,
+    ) -> Result<StepEnd, OscillatorError> {
         if !(dt_s.is_finite() && dt_s >= 0.0) {
             return Err(OscillatorError::BadStep(dt_s));
         }
         input.check()?;
         if dt_s == 0.0 {
-            return Ok(());
+            return Ok(StepEnd::Completed);
         }
         let n = (dt_s / self.h_max_s).ceil().max(1.0);
         if n.is_nan() || n > MAX_SUBSTEPS_PER_STEP as f64 {
@@ -444,7 +489,7 @@ impl ModalOscillator {
                 cap: MAX_SUBSTEPS_PER_STEP,
             });
         }
-        self.advance(dt_s, n, input).map_err(|e| match e {
+        let end = self.advance(dt_s, n, input, stop).map_err(|e| match e {
             OscillatorError::AboveRange { a, max, time_s, .. } => OscillatorError::AboveRange {
                 a,
                 max,
@@ -453,41 +498,88 @@ impl ModalOscillator {
             },
             e => e,
         })?;
+        let advanced_s = match end {
+            StepEnd::Completed => dt_s,
+            StepEnd::TableEnd { elapsed_s, .. } => elapsed_s,
+        };
         if let Some(res) = &self.residual {
-            res.advance(
-                &mut self.residual_state,
-                dt_s,
-                [input.c0, input.c1, input.c2],
-            );
+            if advanced_s > 0.0 {
+                res.advance(
+                    &mut self.residual_state,
+                    advanced_s,
+                    [input.c0, input.c1, input.c2],
+                );
+            }
         }
-        Ok(())
+        Ok(end)
     }
 
-    /// [`Self::step`] in `n` equal RK4 sub-steps.
+    /// One classical RK4 sub-step of length `h` from `(eta, u)` at `s`
+    /// after the step's start `t0` (`eq:NM`'s normal form, module docs).
+    #[inline]
+    fn rk4(
+        &self,
+        (eta, u): (f64, f64),
+        s: f64,
+        h: f64,
+        t0: f64,
+        input: &InputPolynomial,
+    ) -> Result<(f64, f64), OscillatorError> {
+        let t = t0 + s;
+        let c_start = input.at(s);
+        let c_mid = input.at(s + 0.5 * h);
+        let c_end = input.at(s + h);
+        let (k1e, k1u) = self.rhs(eta, u, c_start, t)?;
+        let (k2e, k2u) = self.rhs(eta + 0.5 * h * k1e, u + 0.5 * h * k1u, c_mid, t + 0.5 * h)?;
+        let (k3e, k3u) = self.rhs(eta + 0.5 * h * k2e, u + 0.5 * h * k2u, c_mid, t + 0.5 * h)?;
+        let (k4e, k4u) = self.rhs(eta + h * k3e, u + h * k3u, c_end, t + h)?;
+        Ok((
+            eta + h / 6.0 * (k1e + 2.0 * k2e + 2.0 * k3e + k4e),
+            u + h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u),
+        ))
+    }
+
+    /// [`Self::step`] in `n` equal RK4 sub-steps; with `stop`, the stop at
+    /// the table's end of [`Self::step_to_table_end`].
     #[inline]
     fn advance(
         &mut self,
         dt_s: f64,
         n: f64,
         input: InputPolynomial,
-    ) -> Result<(), OscillatorError> {
+        stop: bool,
+    ) -> Result<StepEnd, OscillatorError> {
         let h = dt_s / n;
         let t0 = self.state.time_s;
         let (mut eta, mut u) = (self.state.eta, self.state.u);
+        // the state stays at the end of sub-step `j - 1`, inside the table
+        let stopped = |osc: &mut Self, j: usize, eta: f64, u: f64, a: f64| {
+            let elapsed_s = j as f64 * h;
+            osc.state = OscillatorState {
+                time_s: t0 + elapsed_s,
+                eta,
+                u,
+            };
+            StepEnd::TableEnd {
+                elapsed_s,
+                time_s: t0 + elapsed_s,
+                a,
+                a_max: osc.a_max,
+            }
+        };
+        let last = n as usize - 1;
         for j in 0..n as usize {
             let s = j as f64 * h;
-            let t = t0 + s;
-            let c_start = input.at(s);
-            let c_mid = input.at(s + 0.5 * h);
-            let c_end = input.at(s + h);
-            let (k1e, k1u) = self.rhs(eta, u, c_start, t)?;
-            let (k2e, k2u) =
-                self.rhs(eta + 0.5 * h * k1e, u + 0.5 * h * k1u, c_mid, t + 0.5 * h)?;
-            let (k3e, k3u) =
-                self.rhs(eta + 0.5 * h * k2e, u + 0.5 * h * k2u, c_mid, t + 0.5 * h)?;
-            let (k4e, k4u) = self.rhs(eta + h * k3e, u + h * k3u, c_end, t + h)?;
-            eta += h / 6.0 * (k1e + 2.0 * k2e + 2.0 * k3e + k4e);
-            u += h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u);
+            match self.rk4((eta, u), s, h, t0, &input) {
+                Ok((e, v)) if stop && j == last && e.hypot(v) > self.a_max => {
+                    return Ok(stopped(self, j, eta, u, e.hypot(v)));
+                }
+                Ok((e, v)) => (eta, u) = (e, v),
+                Err(OscillatorError::AboveRange { a, .. }) if stop => {
+                    return Ok(stopped(self, j, eta, u, a));
+                }
+                Err(e) => return Err(e),
+            }
         }
         let a = eta.hypot(u);
         if a > self.a_max {
@@ -503,7 +595,7 @@ impl ModalOscillator {
             eta,
             u,
         };
-        Ok(())
+        Ok(StepEnd::Completed)
     }
 
     /// Modal amplitude, frequency and damping at the current state.

@@ -569,6 +569,61 @@ fn amplitude_above_the_table_is_a_clear_error_and_keeps_the_state() {
     ));
 }
 
+/// The stop hook of an FMI 3.0 early return: a long step that leaves the
+/// table stops at the last sub-step inside it, in the state that many
+/// steps of one sub-step each reach there (bit for bit), and a step that
+/// stays inside equals [`ModalOscillator::step`].
+#[test]
+fn step_to_table_end_stops_at_the_last_substep_inside_the_table() {
+    let t = ModalTable::linear(100.0, 0.01, &[("ex", Complex64::new(1.0, 0.0))], 1e-6, 1e-3);
+    // static deflection 6e-4, peak 1.2e-3 above a_max = 1e-3 at omega t = 1.97
+    let force = InputPolynomial::constant(6.0);
+    let mut osc = ModalOscillator::new(&t, "ex", 0.0).unwrap();
+    let dt = 400.0 * osc.max_substep_s();
+    let h = dt / (dt / osc.max_substep_s()).ceil();
+    let end = osc.step_to_table_end(dt, force).unwrap();
+    let StepEnd::TableEnd {
+        elapsed_s,
+        time_s,
+        a,
+        a_max,
+    } = end
+    else {
+        panic!("must stop at the table end: {end:?}")
+    };
+    assert_eq!((time_s, a_max), (elapsed_s, 1e-3));
+    assert!(a > a_max && osc.state().amplitude() <= a_max);
+    let j = (elapsed_s / h).round();
+    assert!(
+        j >= 10.0 && j < 15.0 && (j * h - elapsed_s).abs() < 1e-15,
+        "{j}"
+    );
+    // the same sub-steps one step each: the same state, then the error
+    let mut one = ModalOscillator::new(&t, "ex", 0.0).unwrap();
+    for _ in 0..j as usize {
+        one.step(h, force).unwrap();
+    }
+    assert_eq!(
+        (one.state().eta, one.state().u),
+        (osc.state().eta, osc.state().u)
+    );
+    assert!(matches!(
+        one.step(h, force),
+        Err(OscillatorError::AboveRange { .. })
+    ));
+    // stopping again at the table end makes no progress
+    let again = osc.step_to_table_end(h, force).unwrap();
+    assert!(matches!(again, StepEnd::TableEnd { elapsed_s, .. } if elapsed_s == 0.0));
+    // inside the table both are the same step
+    let mut a = ModalOscillator::new(&t, "ex", 0.0).unwrap();
+    let mut b = a.clone();
+    a.step(3.5 * h, InputPolynomial::constant(1.0)).unwrap();
+    let e = b
+        .step_to_table_end(3.5 * h, InputPolynomial::constant(1.0))
+        .unwrap();
+    assert_eq!((e, a.state()), (StepEnd::Completed, b.state()));
+}
+
 /// Issue 14: a step of 1e6 s, or `frequency_error` 1e9, used to run
 /// without bound; now the sub-step cap refuses it at once with the numbers.
 #[test]

@@ -132,6 +132,20 @@ pub(crate) fn step<M: CoSimModel>(
     t: f64,
     h: f64,
 ) -> Result<Status, ModelError> {
+    step_early(inst, t, h, false).map(|(s, _)| s)
+}
+
+/// [`step`]; with `early` (an FMI 3.0 instance that allows early return)
+/// through [`CoSimModel::do_step_early`], which may stop before `t + h`:
+/// the instance's time is then the time reached, and a stop that ends the
+/// model's validity returns `fmi3Warning` (FMI 3.0 section 4.2.1: "the FMU
+/// requests to stop the simulation" with `terminateSimulation`).
+pub(crate) fn step_early<M: CoSimModel>(
+    inst: &mut Instance<M>,
+    t: f64,
+    h: f64,
+    early: bool,
+) -> Result<(Status, StepOutcome), ModelError> {
     if !(h.is_finite() && h > 0.0) {
         return Err(ModelError::error(format!(
             "communicationStepSize must be positive and finite, got {h}"
@@ -151,15 +165,35 @@ pub(crate) fn step<M: CoSimModel>(
             )));
         }
     }
-    match inst
-        .model
-        .do_step(t, h, &inst.logger)
-        .and_then(|()| outputs_finite(&inst.model, &inst.outputs, t + h))
-    {
-        Ok(()) => {
-            inst.time = t + h;
-            inst.last_successful_time = inst.time;
-            Ok(Status::Ok)
+    let outcome = if early {
+        inst.model.do_step_early(t, h, &inst.logger)
+    } else {
+        inst.model
+            .do_step(t, h, &inst.logger)
+            .map(|()| StepOutcome::Completed)
+    };
+    let reached = |o: &StepOutcome| match *o {
+        StepOutcome::Completed => Ok(t + h),
+        StepOutcome::EarlyReturn { time_s, .. } if time_s >= t && time_s < t + h => Ok(time_s),
+        StepOutcome::EarlyReturn { time_s, .. } => Err(ModelError::error(format!(
+            "internal error: early return at {time_s} outside the step [{t}, {})",
+            t + h
+        ))),
+    };
+    match outcome.and_then(|o| {
+        let end = reached(&o)?;
+        outputs_finite(&inst.model, &inst.outputs, end).map(|()| (o, end))
+    }) {
+        Ok((o, end)) => {
+            inst.time = end;
+            inst.last_successful_time = end;
+            let status = match o {
+                StepOutcome::EarlyReturn {
+                    terminate: true, ..
+                } => Status::Warning,
+                _ => Status::Ok,
+            };
+            Ok((status, o))
         }
         Err(e) => {
             if e.status == Status::Discard {

@@ -28,7 +28,7 @@ use std::path::PathBuf;
 
 use crate::model::{
     Causality, CoSimModel, InstantiateContext, Logger, ModelError, StateReader, StateWriter,
-    VarType, Variable, LOG_CATEGORIES,
+    StepOutcome, VarType, Variable, LOG_CATEGORIES,
 };
 use crate::types::*;
 
@@ -113,6 +113,10 @@ pub struct Instance<M> {
     start_time: f64,
     stop_time: Option<f64>,
     pub(crate) last_successful_time: f64,
+    /// `fmi3InstantiateCoSimulation` with `earlyReturnAllowed = fmi3True` of a
+    /// model that might return early ([`CoSimModel::MIGHT_RETURN_EARLY`]):
+    /// `fmi3DoStep` runs [`CoSimModel::do_step_early`].
+    pub(crate) early_return_allowed: bool,
     model: M,
     /// Keeps the strings returned by `fmi2GetString` alive until the next call.
     string_buf: Vec<CString>,
@@ -519,6 +523,7 @@ pub(crate) unsafe fn create<M: CoSimModel>(
             start_time: 0.0,
             stop_time: None,
             last_successful_time: 0.0,
+            early_return_allowed: false,
             model,
             string_buf: Vec::new(),
             outputs: real_outputs::<M>().map(|v| v.vr).collect(),

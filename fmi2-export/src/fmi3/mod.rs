@@ -19,8 +19,10 @@
 //!   the reason logged;
 //! * no event indicators, no discrete states: `fmi3UpdateDiscreteStates`
 //!   reports nothing to do;
-//! * `fmi3DoStep` never returns early, never asks for event handling or
-//!   termination, and always sets its out parameters.
+//! * `fmi3DoStep` never asks for event handling and always sets its out
+//!   parameters; it returns early (and may ask for termination) only for a
+//!   model that declares it ([`CoSimModel::MIGHT_RETURN_EARLY`]) in an
+//!   instance whose importer allowed it.
 #![allow(clippy::missing_safety_doc, clippy::too_many_arguments)]
 use std::os::raw::{c_char, c_void};
 use std::path::PathBuf;
@@ -28,10 +30,11 @@ use std::path::PathBuf;
 use crate::ffi::{
     self, null_arg, opt_str, run, run_me, Instance, ALIVE, EVENT, GETTABLE, SETTABLE,
 };
-use crate::model::{CoSimModel, LogMessage3, Logger, ModelError};
+use crate::model::{CoSimModel, LogMessage3, Logger, ModelError, StepOutcome};
 use crate::types::{Component, ComponentEnvironment, FmiString, FmuState, Status, ValueReference};
 
-/// `fmi3IntermediateUpdateCallback` (never called: `providesIntermediateUpdate="false"`).
+/// `fmi3IntermediateUpdateCallback` (never called: `providesIntermediateUpdate="false"`,
+/// argued in the FMU READMEs).
 pub type IntermediateUpdate =
     unsafe extern "C" fn(ComponentEnvironment, f64, bool, bool, bool, bool, *mut bool, *mut f64);
 
@@ -126,9 +129,12 @@ pub unsafe fn instantiate_model_exchange<M: CoSimModel>(
 }
 
 /// `fmi3InstantiateCoSimulation`: `eventModeUsed` is refused
-/// (`hasEventMode="false"`); `earlyReturnAllowed` and the intermediate
-/// variables are accepted and unused (the FMU never returns early and
-/// provides no intermediate update).
+/// (`hasEventMode="false"`); `earlyReturnAllowed` switches `fmi3DoStep` to
+/// [`CoSimModel::do_step_early`] for a model that might return early
+/// ([`CoSimModel::MIGHT_RETURN_EARLY`]; else it is unused); the
+/// intermediate variables and the intermediate update callback are
+/// accepted and unused (`providesIntermediateUpdate="false"`: the FMU
+/// never calls it).
 pub unsafe fn instantiate_co_simulation<M: CoSimModel>(
     instance_name: FmiString,
     token: FmiString,
@@ -136,7 +142,7 @@ pub unsafe fn instantiate_co_simulation<M: CoSimModel>(
     _visible: bool,
     logging_on: bool,
     event_mode_used: bool,
-    _early_return_allowed: bool,
+    early_return_allowed: bool,
     _required_intermediate: *const ValueReference,
     _n_required_intermediate: usize,
     env: ComponentEnvironment,
@@ -154,7 +160,7 @@ pub unsafe fn instantiate_co_simulation<M: CoSimModel>(
         Ok(false)
     };
     let res = opt_str(resource);
-    ffi::create::<M>(
+    let c = ffi::create::<M>(
         F,
         name,
         cs,
@@ -162,7 +168,13 @@ pub unsafe fn instantiate_co_simulation<M: CoSimModel>(
         |l| resource_path(res, l, F),
         logger,
         true,
-    )
+    );
+    if !c.is_null() {
+        // SAFETY: a non-null component just created by `create::<M>`
+        (*(c as *mut Instance<M>)).early_return_allowed =
+            early_return_allowed && M::MIGHT_RETURN_EARLY;
+    }
+    c
 }
 
 /// `fmi3InstantiateScheduledExecution`: not provided (NULL, logged).
@@ -456,8 +468,14 @@ pub unsafe fn get_output_derivatives<M: CoSimModel>(
         .unwrap_or_else(|| ffi::get_real_output_derivatives::<M>(c, vr, n, orders, v))
 }
 
-/// `fmi3DoStep`: always synchronous, never early; the out parameters are
-/// set whatever the outcome (`lastSuccessfulTime`: the instance's time).
+/// `fmi3DoStep` (FMI 3.0 section 4.2.1): always synchronous, no event
+/// handling; the out parameters are set whatever the outcome
+/// (`lastSuccessfulTime`: the instance's time). An instance created with
+/// `earlyReturnAllowed` of a model that might return early steps through
+/// [`CoSimModel::do_step_early`]: a stop at an event returns `earlyReturn =
+/// fmi3True` with `lastSuccessfulTime` the time reached, and, when the model
+/// is not valid beyond it, `terminateSimulation = fmi3True` with
+/// `fmi3Warning`.
 pub unsafe fn do_step<M: CoSimModel>(
     c: Component,
     t: f64,
@@ -484,7 +502,13 @@ pub unsafe fn do_step<M: CoSimModel>(
                 return Err(null_arg(name));
             }
         }
-        ffi::step(inst, t, h)
+        let early = inst.early_return_allowed;
+        let (status, outcome) = ffi::step_early(inst, t, h, early)?;
+        if let StepOutcome::EarlyReturn { terminate, .. } = outcome {
+            *early_return = true;
+            *terminate_simulation = terminate;
+        }
+        Ok(status)
     });
     if !c.is_null() && !last_successful_time.is_null() {
         *last_successful_time = (*(c as *mut Instance<M>)).last_successful_time;

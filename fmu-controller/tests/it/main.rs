@@ -1,5 +1,6 @@
 //! fmu-controller's integration tests, one test binary (one link of the dependency
 //! graph instead of one per file): `cargo test -p fmu-controller --test it [module::]`.
+mod early_return;
 mod fmi3;
 mod model;
 mod model_description;

@@ -607,6 +607,40 @@ impl StreamingPll {
         h_s: f64,
         s: StreamSample,
     ) -> Result<StreamEvent, ControlError> {
+        self.step_with(t_s, h_s, s, false).map(|(e, _)| e)
+    }
+
+    /// [`Self::step`] that stops at a level change inside the step (the
+    /// stop hook of an FMI 3.0 early return): when an internal sample after
+    /// the step's start (a held one, `t_s < t < t_s + h_s`) completes the
+    /// period that finishes the level ([`StreamEvent::LevelDone`]) or starts
+    /// a new level (a voltage set by [`Self::set_voltage`] applies from that
+    /// period start, so the output's amplitude steps there), the loop stops
+    /// right after that sample and returns its time `t`: the loop is then in
+    /// the state a step from `t_s` to `t` ending at that period end would
+    /// leave. The next step from `t` samples the master's inputs at `t`
+    /// again (a sample at the phase of the last one only replaces it as the
+    /// anchor of the interpolation, [`Self::measure`]). A change at the
+    /// step's first sample (`t = t_s`, a communication point already) does
+    /// not stop it, so a step of at most `2 pi / (8 Omega)` (one sample) is
+    /// exactly [`Self::step`].
+    pub fn step_to_level_change(
+        &mut self,
+        t_s: f64,
+        h_s: f64,
+        s: StreamSample,
+    ) -> Result<(StreamEvent, Option<f64>), ControlError> {
+        self.step_with(t_s, h_s, s, true)
+    }
+
+    /// [`Self::step`] (`stop = false`) or [`Self::step_to_level_change`].
+    fn step_with(
+        &mut self,
+        t_s: f64,
+        h_s: f64,
+        s: StreamSample,
+        stop: bool,
+    ) -> Result<(StreamEvent, Option<f64>), ControlError> {
         let too_long = |pll: &Self| ControlError::BadOption {
             name: "communication step h",
             value: format!("{h_s:e} s at Omega = {} rad/s", pll.omega_rad_s),
@@ -629,14 +663,20 @@ impl StreamingPll {
         let mut steps = 0.0;
         loop {
             // the sample is the master's at the first internal step, held after it
+            let pending = self.pending_voltage_v.is_some();
             let e = self.sample(t, s, steps == 0.0)?;
             if e.rank() > event.rank() {
                 event = e;
             }
+            let level_change =
+                e == StreamEvent::LevelDone || (pending && self.pending_voltage_v.is_none());
+            if stop && steps > 0.0 && level_change {
+                return Ok((event, Some(t)));
+            }
             let max = self.max_internal_step_s();
             if rest <= max {
                 self.advance(rest)?;
-                return Ok(event);
+                return Ok((event, None));
             }
             steps += 1.0;
             if steps > MAX_INTERNAL_STEPS {
