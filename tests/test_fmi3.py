@@ -42,8 +42,16 @@ def test_fmi3_declares_what_fmi2_declares(fmu_dir, name):
     assert [(v.name, v.valueReference) for v in indep] == [("time", 999999999)]
     # every Float64 keeps its FMI 2.0 value reference
     reals2 = {v.name: v.valueReference for v in md2.modelVariables if v.type == "Real"}
-    reals3 = {v.name: v.valueReference for v in md3.modelVariables if v.type == "Float64" and v.name != "time"}
+    reals3 = {
+        v.name: v.valueReference
+        for v in md3.modelVariables
+        if v.type == "Float64" and v.name != "time" and not v.dimensions
+    }
     assert reals3 == reals2
+    # FMI 3.0 only: the structure's mode-shape arrays (sized by a UInt64
+    # structural parameter); FMI 2.0 has no arrays
+    arrays = {v.name for v in md3.modelVariables if v.dimensions}
+    assert arrays == ({"mode_shape_re", "mode_shape_im"} if name == "structure" else set())
 
 
 @pytest.mark.parametrize("name,fmi_type", CASES)
@@ -90,7 +98,11 @@ def _slave(fmu_dir, tmp_path, name):
 @pytest.mark.parametrize("name", NAMES)
 def test_fmu_state_serializes_and_restores_through_the_c_api(fmu_dir, tmp_path, name):
     md, fmu = _slave(fmu_dir, tmp_path, name)
-    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Float64"]
+    outs = [
+        v.valueReference
+        for v in md.modelVariables
+        if v.causality == "output" and v.type == "Float64" and not v.dimensions
+    ]
     fmu.enterInitializationMode(startTime=0.0)
     fmu.exitInitializationMode()
     h = 1e-4
@@ -211,5 +223,53 @@ def test_structure_returns_early_at_the_table_end_through_fmpy(fmu_dir, tmp_path
     a, x = fmu.getFloat64([vr["a"], vr["x"]])
     assert 0.9 * A_MAX < a <= A_MAX and np.isfinite(x)
     assert any("returning early" in m and "a_max = 1.000000e-3" in m for m in messages), messages
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def test_structure_mode_shape_array_is_the_tables_shape_at_the_output_amplitude(fmu_dir, tmp_path):
+    """The FMI 3.0 arrays mode_shape_re/_im (sized by the UInt64 structural
+    parameter mode_shape_points) read through fmpy equal a phi_1,k(a) / g(a)
+    computed here from the packaged modal_table.json: scipy's PCHIP of the
+    fundamental harmonic at the output amplitude a, in the gauge g of the
+    drive point 2l3 (its fundamental real and positive)."""
+    import json
+
+    from scipy.interpolate import PchipInterpolator
+
+    md, fmu = _slave(fmu_dir, tmp_path, "structure")
+    vr = {v.name: v for v in md.modelVariables}
+    table = json.loads((tmp_path / "structure" / "resources" / "modal_table.json").read_text())
+    n = len(table["points"])
+    assert vr["mode_shape_points"].start == str(n) or int(vr["mode_shape_points"].start) == n
+    assert vr["mode_shape_re"].shape == (n,)
+    assert fmu.getUInt64([vr["mode_shape_points"].valueReference]) == [n]
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.setFloat64([vr["F"].valueReference], [2.0])
+    fmu.exitInitializationMode()
+    h = 1e-4
+    for k in range(300):
+        fmu.doStep(k * h, h)
+    arrays = [vr["mode_shape_re"].valueReference, vr["mode_shape_im"].valueReference]
+    values = fmu.getFloat64(arrays + [vr["a"].valueReference], nValues=2 * n + 1)
+    re, im, a = np.array(values[:n]), np.array(values[n:2 * n]), values[2 * n]
+    amp = np.array(table["amplitude"])
+    assert amp[0] < a < amp[-1], a
+
+    def phi1(point):
+        re_k = PchipInterpolator(amp, [r[1] for r in point["re"]])(a)
+        im_k = PchipInterpolator(amp, [r[1] for r in point["im"]])(a)
+        return complex(re_k, im_k)
+
+    names = [p["name"] for p in table["points"]]
+    g = phi1(table["points"][names.index("2l3")])
+    g /= abs(g)
+    expected = np.array([a * phi1(p) / g for p in table["points"]])
+    got = re + 1j * im
+    err = np.max(np.abs(got - expected)) / np.max(np.abs(expected))
+    print(f"mode shape at a = {a:.4e}: {dict(zip(names, np.round(got, 8)))}, max relative error {err:.2e}")
+    assert err < 1e-9
+    x_drive = fmu.getFloat64([vr["x"].valueReference])[0]
+    assert abs(x_drive) <= 1.5 * abs(got[names.index("2l3")])
     fmu.terminate()
     fmu.freeInstance()

@@ -222,6 +222,12 @@ pub enum DescriptionError {
     },
     #[error("variable {name}: FMI 3.0 value reference {vr} is used twice (or is the one of time)")]
     DuplicateValueReference3 { name: &'static str, vr: u32 },
+    #[error("FMI 3.0 array {array}: {what} {name} is not a variable of the model")]
+    UnknownVariable {
+        array: &'static str,
+        what: &'static str,
+        name: String,
+    },
     #[error("ModelInfo::log_categories has {found} descriptions, LOG_CATEGORIES {expected} names")]
     LogCategories { found: usize, expected: usize },
 }

@@ -102,8 +102,9 @@ pub use description::{
     LOG_CATEGORY_DESCRIPTIONS,
 };
 pub use model::{
-    Causality, CoSimModel, ContinuousState, InstantiateContext, LogMessage3, Logger, ModelError,
-    Start, StateReader, StateWriter, StepOutcome, VarType, Variability, Variable, LOG_CATEGORIES,
+    ArrayOutput, Causality, CoSimModel, ContinuousState, InstantiateContext, LogMessage3, Logger,
+    ModelError, Start, StateReader, StateWriter, StepOutcome, StructuralParameter, VarType,
+    Variability, Variable, LOG_CATEGORIES,
 };
 pub use types::Status;
 
@@ -599,12 +600,12 @@ macro_rules! export_fmu3 {
                 $crate::fmi3::no_such_type::<M>(c, "fmi3SetInt64", "Int64", vr, n, true)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi3GetUInt64(c: Component, vr: *const ValueReference, n: usize, _v: *mut u64, _nv: usize) -> Status {
-                $crate::fmi3::no_such_type::<M>(c, "fmi3GetUInt64", "UInt64", vr, n, false)
+            pub unsafe extern "C" fn fmi3GetUInt64(c: Component, vr: *const ValueReference, n: usize, v: *mut u64, nv: usize) -> Status {
+                $crate::fmi3::get_uint64::<M>(c, vr, n, v, nv)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi3SetUInt64(c: Component, vr: *const ValueReference, n: usize, _v: *const u64, _nv: usize) -> Status {
-                $crate::fmi3::no_such_type::<M>(c, "fmi3SetUInt64", "UInt64", vr, n, true)
+            pub unsafe extern "C" fn fmi3SetUInt64(c: Component, vr: *const ValueReference, n: usize, v: *const u64, nv: usize) -> Status {
+                $crate::fmi3::set_uint64::<M>(c, vr, n, v, nv)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetBinary(c: Component, vr: *const ValueReference, n: usize, _sizes: *mut usize, _v: *mut *const u8, _nv: usize) -> Status {
@@ -664,11 +665,11 @@ macro_rules! export_fmu3 {
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3EnterConfigurationMode(c: Component) -> Status {
-                $crate::fmi3::unsupported::<M>(c, "fmi3EnterConfigurationMode", "the FMU has no structural parameters (no Configuration Mode)")
+                $crate::fmi3::enter_configuration_mode::<M>(c)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3ExitConfigurationMode(c: Component) -> Status {
-                $crate::fmi3::unsupported::<M>(c, "fmi3ExitConfigurationMode", "the FMU has no structural parameters (no Configuration Mode)")
+                $crate::fmi3::exit_configuration_mode::<M>(c)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetNumberOfVariableDependencies(c: Component, _vr: ValueReference, _n: *mut usize) -> Status {

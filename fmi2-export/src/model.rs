@@ -153,6 +153,38 @@ impl Variable {
     }
 }
 
+/// An FMI 3.0 `UInt64` structural parameter (FMI 3.0 section 2.4.7.4,
+/// causality `structuralParameter`, variability `fixed`, initial `exact`)
+/// that sizes array variables ([`ArrayOutput`]). FMI 3.0 only (FMI 2.0 has
+/// no arrays): rendered by [`crate::render3`] after the scalar variables,
+/// read by `fmi3GetUInt64` and set by `fmi3SetUInt64` in Configuration Mode
+/// only (FMI 3.0 section 2.3.4, "Configuration Mode").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StructuralParameter {
+    pub name: &'static str,
+    /// FMI 3.0 value reference (unique over all variables).
+    pub vr: u32,
+    /// The `start` attribute: the model's value after instantiation.
+    pub start: u64,
+    /// Largest value accepted (`fmi3SetUInt64` refuses more, naming it).
+    pub max: u64,
+    pub description: &'static str,
+}
+
+/// An FMI 3.0 `Float64` array output with one `<Dimension>`, the structural
+/// parameter `dimension_vr` (FMI 3.0 section 2.4.7.3, "Array Variables").
+/// `fmi3GetFloat64` writes its values in order, `nValues` counting them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArrayOutput {
+    pub name: &'static str,
+    pub vr: u32,
+    pub dimension_vr: u32,
+    pub unit: &'static str,
+    pub description: &'static str,
+    /// `<InitialUnknown>` dependencies by variable name (scalar variables).
+    pub initial_dependencies: &'static [&'static str],
+}
+
 /// One continuous state of a Model Exchange model: the variable that holds it,
 /// the variable that holds its time derivative (`<Real derivative="...">` in
 /// the XML, listed in `<ModelStructure><Derivatives>`) and its nominal value
@@ -634,6 +666,35 @@ pub trait CoSimModel: Clone + Sized + 'static {
     fn derivatives(&self, dx: &mut [f64]) -> Result<(), ModelError> {
         let _ = dx;
         Err(ModelError::error("Model Exchange is not supported"))
+    }
+
+    /// FMI 3.0 structural parameters (none: the FMU has no Configuration Mode).
+    const STRUCTURAL_PARAMETERS: &'static [StructuralParameter] = &[];
+    /// FMI 3.0 array outputs, each sized by one of [`Self::STRUCTURAL_PARAMETERS`].
+    const ARRAY_OUTPUTS: &'static [ArrayOutput] = &[];
+
+    /// Value of a structural parameter (`fmi3GetUInt64`).
+    fn get_uint64(&self, vr: u32) -> Result<u64, ModelError> {
+        Err(ModelError::error(format!(
+            "no UInt64 variable with value reference {vr}"
+        )))
+    }
+    /// Set a structural parameter (`fmi3SetUInt64` in Configuration Mode;
+    /// the layer has checked `value <= max`).
+    fn set_uint64(&mut self, vr: u32, value: u64) -> Result<(), ModelError> {
+        let _ = value;
+        Err(ModelError::error(format!(
+            "no UInt64 variable with value reference {vr}"
+        )))
+    }
+    /// The values of an array output at the current time into `out`, whose
+    /// length is its dimension's current value; a model whose data has
+    /// another length returns an error naming both numbers.
+    fn get_array(&self, vr: u32, out: &mut [f64]) -> Result<(), ModelError> {
+        let _ = out;
+        Err(ModelError::error(format!(
+            "no array variable with value reference {vr}"
+        )))
     }
 
     /// Append the complete dynamic state (states, inputs, parameters, time).

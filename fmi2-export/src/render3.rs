@@ -75,20 +75,154 @@ pub fn model_description<M: CoSimModel>() -> Result<String, DescriptionError> {
             });
         }
     }
-    Ok(fmi3(&l, &vrs, M::MIGHT_RETURN_EARLY))
+    let mut all = vrs.clone();
+    for (name, vr) in extra_names::<M>() {
+        if vr == TIME_VALUE_REFERENCE || all.contains(&vr) {
+            return Err(DescriptionError::DuplicateValueReference3 { name, vr });
+        }
+        all.push(vr);
+    }
+    let x = Fmi3Only::of::<M>(&l, &vrs)?;
+    Ok(fmi3(&l, &vrs, M::MIGHT_RETURN_EARLY, &x))
+}
+
+/// `xml` (an FMI 3.0 modelDescription rendered by [`model_description`])
+/// with the `start` of the structural parameter `name` set to `start`: an
+/// FMU packaged with data of another size (e.g. a modal table of another
+/// number of points) declares the dimension of its arrays for that data
+/// (FMI 3.0 section 2.4.7.2: the initial dimension sizes are the start
+/// values of the structural parameters). Errors name what is missing.
+pub fn with_structural_start(xml: &str, name: &str, start: u64) -> Result<String, String> {
+    let head = format!("<UInt64 name=\"{}\" ", esc(name));
+    let at = xml
+        .find(&head)
+        .ok_or_else(|| format!("no UInt64 variable {name} in the modelDescription"))?;
+    let end = at + xml[at..].find("/>").ok_or("unterminated UInt64 element")?;
+    let element = &xml[at..end];
+    if !element.contains("causality=\"structuralParameter\"") {
+        return Err(format!("{name} is not a structural parameter"));
+    }
+    let key = " start=\"";
+    let s = at
+        + element
+            .find(key)
+            .ok_or_else(|| format!("{name} has no start"))?
+        + key.len();
+    let e = s + xml[s..end]
+        .find('"')
+        .ok_or("unterminated start attribute")?;
+    Ok(format!("{}{start}{}", &xml[..s], &xml[e..]))
+}
+
+/// The FMI 3.0-only variables' names and value references.
+fn extra_names<M: CoSimModel>() -> impl Iterator<Item = (&'static str, u32)> {
+    let s = M::STRUCTURAL_PARAMETERS.iter().map(|p| (p.name, p.vr));
+    s.chain(M::ARRAY_OUTPUTS.iter().map(|a| (a.name, a.vr)))
+}
+
+/// What only the FMI 3.0 description has: the structural parameters and
+/// array outputs of the model ([`CoSimModel::STRUCTURAL_PARAMETERS`],
+/// [`CoSimModel::ARRAY_OUTPUTS`], FMI 3.0 section 2.4.7.2), rendered as
+/// elements and as `<Output>` / `<InitialUnknown>` entries.
+struct Fmi3Only {
+    variables: String,
+    outputs: String,
+    initial_unknowns: String,
+}
+
+impl Fmi3Only {
+    fn of<M: CoSimModel>(l: &Layout, vrs: &[u32]) -> Result<Self, DescriptionError> {
+        let n = l.variables.len();
+        let mut x = Fmi3Only {
+            variables: String::new(),
+            outputs: String::new(),
+            initial_unknowns: String::new(),
+        };
+        for (k, p) in M::STRUCTURAL_PARAMETERS.iter().enumerate() {
+            x.variables += &format!(
+                "    <!-- {} (FMI 3.0 only) --><UInt64 name=\"{}\" valueReference=\"{}\" \
+                 causality=\"structuralParameter\" variability=\"fixed\" description=\"{}\" \
+                 min=\"1\" max=\"{}\" start=\"{}\"/>\n",
+                n + 1 + k,
+                esc(p.name),
+                p.vr,
+                esc(p.description),
+                p.max,
+                p.start
+            );
+        }
+        let k0 = n + 1 + M::STRUCTURAL_PARAMETERS.len();
+        for (k, a) in M::ARRAY_OUTPUTS.iter().enumerate() {
+            if !M::STRUCTURAL_PARAMETERS
+                .iter()
+                .any(|p| p.vr == a.dimension_vr)
+            {
+                return Err(DescriptionError::UnknownVariable {
+                    array: a.name,
+                    what: "dimension (structural parameter) value reference",
+                    name: a.dimension_vr.to_string(),
+                });
+            }
+            let unit = if a.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" unit=\"{}\"", esc(a.unit))
+            };
+            x.variables += &format!(
+                "    <!-- {} (FMI 3.0 only) --><Float64 name=\"{}\" valueReference=\"{}\" \
+                 causality=\"output\" variability=\"continuous\" initial=\"calculated\" \
+                 description=\"{}\"{unit}><Dimension valueReference=\"{}\"/></Float64>\n",
+                k0 + k,
+                esc(a.name),
+                a.vr,
+                esc(a.description),
+                a.dimension_vr
+            );
+            let deps = a
+                .initial_dependencies
+                .iter()
+                .map(|d| {
+                    l.variables
+                        .iter()
+                        .position(|v| v.name == *d)
+                        .map(|i| vrs[i].to_string())
+                        .ok_or_else(|| DescriptionError::UnknownVariable {
+                            array: a.name,
+                            what: "initial dependency",
+                            name: d.to_string(),
+                        })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            x.outputs += &format!(
+                "    {}\n",
+                crate::render::unknown_element("Output", "valueReference", a.vr, &[], false)
+            );
+            x.initial_unknowns += &format!(
+                "    {}\n",
+                crate::render::unknown_element(
+                    "InitialUnknown",
+                    "valueReference",
+                    a.vr,
+                    &deps,
+                    false
+                )
+            );
+        }
+        Ok(x)
+    }
 }
 
 /// Write the FMI 3.0 XML of a resolved description (`vrs`: the FMI 3.0
 /// value reference of each variable).
-fn fmi3(l: &Layout, vrs: &[u32], early_return: bool) -> String {
+fn fmi3(l: &Layout, vrs: &[u32], early_return: bool, x: &Fmi3Only) -> String {
     [
         header(l),
         interfaces(l, early_return),
         unit_definitions(l),
         log_categories(l),
         default_experiment(l),
-        model_variables(l, vrs),
-        model_structure(l, vrs),
+        model_variables(l, vrs, x),
+        model_structure(l, vrs, x),
     ]
     .concat()
 }
@@ -139,7 +273,7 @@ fn type_name(ty: VarType) -> &'static str {
 
 /// `<ModelVariables>`: `time` first, then one element per variable in table
 /// order (the FMI 2.0 index in a comment).
-fn model_variables(l: &Layout, vrs: &[u32]) -> String {
+fn model_variables(l: &Layout, vrs: &[u32], extra: &Fmi3Only) -> String {
     let mut x = format!(
         "  <ModelVariables>\n    <Float64 name=\"time\" valueReference=\"{TIME_VALUE_REFERENCE}\" \
          causality=\"independent\" variability=\"continuous\" description=\"Simulation time [s]\"/>\n"
@@ -178,12 +312,12 @@ fn model_variables(l: &Layout, vrs: &[u32]) -> String {
         };
         x += &format!("    <!-- {} -->{body}\n", i + 1);
     }
-    x + "  </ModelVariables>\n\n"
+    x + &extra.variables + "  </ModelVariables>\n\n"
 }
 
 /// `<ModelStructure>`: `<Output>`, `<ContinuousStateDerivative>`,
 /// `<InitialUnknown>` by value reference.
-fn model_structure(l: &Layout, vrs: &[u32]) -> String {
+fn model_structure(l: &Layout, vrs: &[u32], extra: &Fmi3Only) -> String {
     let mut x = String::from("  <ModelStructure>\n");
     for (tag, list) in [
         ("Output", &l.outputs),
@@ -192,6 +326,11 @@ fn model_structure(l: &Layout, vrs: &[u32]) -> String {
     ] {
         for u in list {
             x += &format!("    {}\n", unknown(tag, u, vrs));
+        }
+        match tag {
+            "Output" => x += &extra.outputs,
+            "InitialUnknown" => x += &extra.initial_unknowns,
+            _ => {}
         }
     }
     x + "  </ModelStructure>\n</fmiModelDescription>\n"

@@ -152,3 +152,29 @@ fn fmi3_parsing_is_linear_in_the_number_of_variables() {
     let e = ModelDescription::parse(&format!("{s}{body_end}")).unwrap_err();
     assert!(e.to_string().contains("'v17' repeats"), "{e}");
 }
+
+/// The structure FMU's FMI 3.0 description (checked in, rendered from its
+/// code): its mode-shape arrays and their UInt64 structural parameter are
+/// listed as other variables and named when asked for, the scalars read as
+/// before.
+#[test]
+fn the_structure_fmus_arrays_are_other_variables() {
+    let md = ModelDescription::parse(include_str!(
+        "../../modelDescription/structure_fmi3/modelDescription.xml"
+    ))
+    .unwrap();
+    assert!(md.validate().is_empty(), "{:?}", md.validate());
+    for name in ["mode_shape_re", "mode_shape_im"] {
+        let e = md.variable(name).unwrap_err().to_string();
+        assert!(e.contains("Float64 array"), "{e}");
+    }
+    let e = md.variable("mode_shape_points").unwrap_err().to_string();
+    assert!(e.contains("UInt64"), "{e}");
+    assert_eq!(md.other_variables.len(), 3);
+    assert_eq!(
+        md.outputs.len(),
+        5,
+        "the scalar outputs x, v, x_tip, a, omega"
+    );
+    assert_eq!(md.variable("x_tip").unwrap().value_reference, 3);
+}

@@ -4,9 +4,9 @@ use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
 
 use fmi2_export::{
-    Capabilities, Causality as C, CoSimModel, ContinuousState, DefaultExperiment, Dependencies,
-    InstantiateContext, Logger, ModelError, ModelInfo, ModelStructure, StateReader, StateWriter,
-    StepOutcome, Unit, Variability as V, Variable,
+    ArrayOutput, Capabilities, Causality as C, CoSimModel, ContinuousState, DefaultExperiment,
+    Dependencies, InstantiateContext, Logger, ModelError, ModelInfo, ModelStructure, StateReader,
+    StateWriter, StepOutcome, StructuralParameter, Unit, Variability as V, Variable,
 };
 use nlmode::nma::ModalTable;
 use nlmode::oscillator::{
@@ -33,7 +33,50 @@ pub mod vr {
     /// Integer parameters.
     pub const DRIVE_POINT_INDEX: u32 = 0;
     pub const RESIDUAL_MODES: u32 = 1;
+    /// FMI 3.0 only: the UInt64 structural parameter and the Float64 arrays
+    /// it sizes (value references unique over all FMI 3.0 variables).
+    pub const MODE_SHAPE_POINTS: u32 = 400_000_000;
+    pub const MODE_SHAPE_RE: u32 = 400_000_001;
+    pub const MODE_SHAPE_IM: u32 = 400_000_002;
 }
+
+/// Points of the modal table the FMU is packaged with by default (the
+/// paper's beam: `tip`, `2l3`, `l3`): the start value of the FMI 3.0
+/// structural parameter `mode_shape_points` in the checked-in
+/// modelDescription (`host package` renders the count of the table it
+/// ships, [`fmi2_export::render3::with_structural_start`]).
+pub const DEFAULT_MODE_SHAPE_POINTS: u64 = 3;
+
+/// The FMI 3.0 structural parameter: the number of points of the modal table.
+pub const STRUCTURAL_PARAMETERS: &[StructuralParameter] = &[StructuralParameter {
+    name: "mode_shape_points",
+    vr: vr::MODE_SHAPE_POINTS,
+    start: DEFAULT_MODE_SHAPE_POINTS,
+    max: 1_000_000,
+    description: "Number of points of the modal table (the length of mode_shape_re, mode_shape_im); must equal the table's point count (set it in Configuration Mode for another table)",
+}];
+
+/// The FMI 3.0 arrays: the mode shape at the table's points at the current
+/// amplitude (`eq:ansatz`, fundamental harmonic), one entry per point in
+/// the table's order.
+pub const ARRAY_OUTPUTS: &[ArrayOutput] = &[
+    ArrayOutput {
+        name: "mode_shape_re",
+        vr: vr::MODE_SHAPE_RE,
+        dimension_vr: vr::MODE_SHAPE_POINTS,
+        unit: "m",
+        description: "Re q_1,k = Re(a phi_1,k(a) |phi_1,ex|/phi_1,ex): fundamental harmonic of the displacement of each point k of the modal table (table order) at the current amplitude a, phase relative to the drive point; the point moves as Re(q_1,k e^(i psi)) plus higher harmonics",
+        initial_dependencies: &["drive_point", "drive_point_index", "modal_table"],
+    },
+    ArrayOutput {
+        name: "mode_shape_im",
+        vr: vr::MODE_SHAPE_IM,
+        dimension_vr: vr::MODE_SHAPE_POINTS,
+        unit: "m",
+        description: "Im q_1,k: imaginary part of the fundamental harmonic of the displacement of each point of the modal table (see mode_shape_re)",
+        initial_dependencies: &["drive_point", "drive_point_index", "modal_table"],
+    },
+];
 
 /// File name of the modal table in the FMU's `resources/` folder.
 pub const RESOURCE_TABLE: &str = "modal_table.json";
@@ -187,6 +230,8 @@ pub struct Structure {
     /// Residual modes ([`ModalOscillator::with_residual_modes`]).
     residual_modes: i32,
     modal_table: String,
+    /// FMI 3.0 structural parameter `mode_shape_points`.
+    mode_shape_points: u64,
     /// `F` at the start of the next step and its first two time derivatives.
     force: InputPolynomial,
     /// The oscillator from `fmi2ExitInitializationMode` on.
@@ -427,6 +472,7 @@ impl CoSimModel for Structure {
             drive_point_index: -1,
             residual_modes: 0,
             modal_table: String::new(),
+            mode_shape_points: DEFAULT_MODE_SHAPE_POINTS,
             force: InputPolynomial::default(),
             osc: None,
             tip: 0,
@@ -760,6 +806,64 @@ impl CoSimModel for Structure {
         Err(ModelError::error(format!(
             "directional derivative d(vr {unknown})/d(vr {known}) is not available (only der(eta), der(u) and the outputs w.r.t. F, eta, u)"
         )))
+    }
+
+    const STRUCTURAL_PARAMETERS: &'static [StructuralParameter] = STRUCTURAL_PARAMETERS;
+    const ARRAY_OUTPUTS: &'static [ArrayOutput] = ARRAY_OUTPUTS;
+
+    fn get_uint64(&self, vr: u32) -> Result<u64, ModelError> {
+        match vr {
+            vr::MODE_SHAPE_POINTS => Ok(self.mode_shape_points),
+            _ => Err(ModelError::error(format!(
+                "no UInt64 variable with value reference {vr}"
+            ))),
+        }
+    }
+
+    fn set_uint64(&mut self, vr: u32, value: u64) -> Result<(), ModelError> {
+        match vr {
+            vr::MODE_SHAPE_POINTS => {
+                self.mode_shape_points = value;
+                Ok(())
+            }
+            _ => Err(ModelError::error(format!(
+                "no UInt64 variable with value reference {vr}"
+            ))),
+        }
+    }
+
+    /// `mode_shape_re`, `mode_shape_im` at the current state (before
+    /// initialization: the start state, `a = 0`, the table's first
+    /// amplitude's shape times 0) from
+    /// [`ModalOscillator::fundamental_displacements`]; a table whose point
+    /// count is not `mode_shape_points` is an error naming both.
+    fn get_array(&self, vr: u32, out: &mut [f64]) -> Result<(), ModelError> {
+        let name = match vr {
+            vr::MODE_SHAPE_RE => "mode_shape_re",
+            vr::MODE_SHAPE_IM => "mode_shape_im",
+            _ => {
+                return Err(ModelError::error(format!(
+                    "no array variable with value reference {vr}"
+                )))
+            }
+        };
+        self.with_oscillator(|osc, _| {
+            let n = osc.point_count();
+            if n != out.len() {
+                return Err(ModelError::error(format!(
+                    "{name}: the modal table has {n} points but the structural parameter \
+                     mode_shape_points = {} (set mode_shape_points = {n} in Configuration Mode, or \
+                     package the FMU with this table)",
+                    out.len()
+                )));
+            }
+            let mut q = vec![nlmode::Complex64::new(0.0, 0.0); n];
+            osc.fundamental_displacements(&mut q)?;
+            for (o, q) in out.iter_mut().zip(&q) {
+                *o = if vr == vr::MODE_SHAPE_RE { q.re } else { q.im };
+            }
+            Ok(())
+        })
     }
 
     fn serialize_state(&self, w: &mut StateWriter) {

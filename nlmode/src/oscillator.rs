@@ -631,6 +631,34 @@ impl ModalOscillator {
         self.synthesize(&self.state, points, out)
     }
 
+    /// Number of named points of the table.
+    pub fn point_count(&self) -> usize {
+        self.interp.point_count()
+    }
+
+    /// The fundamental harmonic of the displacement of every point of the
+    /// table (table order) at the current amplitude, `q_{1,k} = a
+    /// phi_{1,k}(a) / g(a)` [m] (`eq:ansatz`, `n = 1`; `g = phi_ex/|phi_ex|`,
+    /// the gauge of the module docs, in which the drive point's is real and
+    /// positive), so that the point moves as `Re(q_{1,k} e^{i psi})` plus
+    /// its higher harmonics. The nonlinear mode alone (no residual modes).
+    /// `out` has one entry per point ([`Self::point_count`]).
+    pub fn fundamental_displacements(&self, out: &mut [Complex64]) -> Result<(), OscillatorError> {
+        assert_eq!(out.len(), self.point_count(), "one entry per point");
+        let a = self.state.amplitude();
+        let loc = self.locate(a, self.state.time_s)?;
+        let g = self.interp.shape_at(self.drive, 1, &loc);
+        let g = if g.norm() > 0.0 {
+            g / g.norm()
+        } else {
+            Complex64::new(1.0, 0.0)
+        };
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = a * self.interp.shape_at(k, 1, &loc) / g;
+        }
+        Ok(())
+    }
+
     fn synthesize(
         &self,
         s: &OscillatorState,

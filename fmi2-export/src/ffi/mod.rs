@@ -48,6 +48,8 @@ pub enum State {
     Fatal = 7,
     EventMode = 8,
     ContinuousTimeMode = 9,
+    /// FMI 3.0 Configuration Mode (section 2.3): structural parameters are set.
+    ConfigurationMode = 10,
 }
 
 impl State {
@@ -67,6 +69,7 @@ impl State {
             Fatal,
             EventMode,
             ContinuousTimeMode,
+            ConfigurationMode,
         ]
         .get(v as usize)
         .copied()
@@ -82,7 +85,9 @@ pub(crate) const TERMINATED: u16 = 1 << 5;
 pub(crate) const ERROR: u16 = 1 << 6;
 pub(crate) const EVENT: u16 = 1 << 8;
 pub(crate) const CONTINUOUS: u16 = 1 << 9;
-pub(crate) const ALIVE: u16 = INSTANTIATED
+pub(crate) const CONFIG: u16 = 1 << 10;
+pub(crate) const ALIVE: u16 = CONFIG
+    | INSTANTIATED
     | INIT
     | STEP_COMPLETE
     | STEP_FAILED
@@ -117,7 +122,7 @@ pub struct Instance<M> {
     /// model that might return early ([`CoSimModel::MIGHT_RETURN_EARLY`]):
     /// `fmi3DoStep` runs [`CoSimModel::do_step_early`].
     pub(crate) early_return_allowed: bool,
-    model: M,
+    pub(crate) model: M,
     /// Keeps the strings returned by `fmi2GetString` alive until the next call.
     string_buf: Vec<CString>,
     /// Value references of the Real outputs (built once at instantiation,

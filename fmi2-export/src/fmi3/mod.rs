@@ -11,12 +11,14 @@
 //! parameters, `fmi3EnterInitializationMode` = `fmi2SetupExperiment` +
 //! `fmi2EnterInitializationMode`) and answer what the models do not have:
 //!
-//! * variables of types other than Float64, Int32, Boolean and String
-//!   (a call with value references is an error; with none, `fmi3OK`),
-//!   Binary, clocks, scheduled execution, configuration mode (no
-//!   structural parameters), adjoint derivatives, per-element dependencies,
-//!   event mode in Co-Simulation (`hasEventMode="false"`): `fmi3Error` with
-//!   the reason logged;
+//! * variables of types other than Float64, Int32, Boolean, String and
+//!   the UInt64 structural parameters of [`arrays`] (a call with value
+//!   references is an error; with none, `fmi3OK`), Binary, clocks,
+//!   scheduled execution, Configuration Mode of a model without structural
+//!   parameters, adjoint derivatives, per-element dependencies, event mode
+//!   in Co-Simulation (`hasEventMode="false"`): `fmi3Error` with the reason
+//!   logged;
+//! * Float64 array outputs and Configuration Mode: [`arrays`];
 //! * no event indicators, no discrete states: `fmi3UpdateDiscreteStates`
 //!   reports nothing to do;
 //! * `fmi3DoStep` never asks for event handling and always sets its out
@@ -32,6 +34,9 @@ use crate::ffi::{
 };
 use crate::model::{CoSimModel, LogMessage3, Logger, ModelError, StepOutcome};
 use crate::types::{Component, ComponentEnvironment, FmiString, FmuState, Status, ValueReference};
+
+mod arrays;
+pub use arrays::*;
 
 /// `fmi3IntermediateUpdateCallback` (never called: `providesIntermediateUpdate="false"`,
 /// argued in the FMU READMEs).
@@ -50,10 +55,11 @@ unsafe fn refuse<M: CoSimModel>(c: Component, func: &str, message: String) -> St
 
 /// More value references than any importer passes (a larger count is a
 /// corrupted argument; refused before a buffer of that size is allocated).
-const MAX_VALUE_REFERENCES: usize = 1 << 24;
+pub(crate) const MAX_VALUE_REFERENCES: usize = 1 << 24;
 
-/// `nValues` must equal `nValueReferences` (every variable is a scalar).
-fn check_counts(n_vr: usize, n_values: usize) -> Result<(), ModelError> {
+/// `nValues` must equal `nValueReferences` (every variable is a scalar;
+/// arrays: [`arrays::get_float64`]).
+pub(crate) fn check_counts(n_vr: usize, n_values: usize) -> Result<(), ModelError> {
     if n_vr > MAX_VALUE_REFERENCES {
         return Err(ModelError::error(format!(
             "nValueReferences = {n_vr} exceeds {MAX_VALUE_REFERENCES}"
@@ -69,7 +75,7 @@ fn check_counts(n_vr: usize, n_values: usize) -> Result<(), ModelError> {
 }
 
 /// Refuse a count mismatch (logged, fmi3Error) before the shared function runs.
-unsafe fn counts<M: CoSimModel>(
+pub(crate) unsafe fn counts<M: CoSimModel>(
     c: Component,
     func: &str,
     n_vr: usize,
@@ -224,17 +230,6 @@ pub unsafe fn enter_initialization_mode<M: CoSimModel>(
         return s;
     }
     s.max(ffi::enter_initialization_mode::<M>(c))
-}
-
-/// `fmi3GetFloat64` (also the independent variable `time`).
-pub unsafe fn get_float64<M: CoSimModel>(
-    c: Component,
-    vr: *const ValueReference,
-    n: usize,
-    v: *mut f64,
-    nv: usize,
-) -> Status {
-    counts::<M>(c, "fmi3GetFloat64", n, nv).unwrap_or_else(|| ffi::get_real::<M>(c, vr, n, v))
 }
 
 /// `fmi3SetFloat64`.

@@ -227,14 +227,14 @@ fn package_as(
         path: out_dir.into(),
         source,
     })?;
+    let model_description = if fmi3 {
+        fmi3_description(fmu, &resources)?
+    } else {
+        fmu.model_description.into()
+    };
     let spec = FmuSpec {
         model_identifier: fmu.id.into(),
-        model_description: if fmi3 {
-            fmu.model_description3
-        } else {
-            fmu.model_description
-        }
-        .into(),
+        model_description,
         library: library.into(),
         resources,
         documentation: readme_documentation(fmu.id, fmu.readme),
@@ -248,6 +248,45 @@ fn package_as(
         write_fmu(&spec, &path)?;
         Ok(path)
     }
+}
+
+/// The FMI 3.0 structural parameter of a [`Packaging::WithModalTable`]
+/// FMU (the structure) that is the number of points of its modal table
+/// (the length of its mode-shape arrays).
+pub const TABLE_POINTS_PARAMETER: &str = "mode_shape_points";
+
+/// The FMI 3.0 modelDescription of `fmu` for the `resources` it is shipped
+/// with: for a [`Packaging::WithModalTable`] FMU with `modal_table.json`,
+/// [`TABLE_POINTS_PARAMETER`] starts at that table's number of points
+/// (the checked-in XML has the paper beam's); else the embedded one.
+fn fmi3_description(
+    fmu: &RepoFmu,
+    resources: &[(String, Vec<u8>)],
+) -> Result<String, RepoFmuError> {
+    let table = resources
+        .iter()
+        .find(|(name, _)| name == "modal_table.json")
+        .filter(|_| fmu.packaging == Packaging::WithModalTable);
+    let Some((_, bytes)) = table else {
+        return Ok(fmu.model_description3.into());
+    };
+    let bad = |reason: String| {
+        RepoFmuError::Package(PackageError::BadModelDescription {
+            model: fmu.id.into(),
+            reason,
+        })
+    };
+    let text = std::str::from_utf8(bytes).map_err(|e| bad(format!("modal table: {e}")))?;
+    let points = nlmode::nma::ModalTable::from_json(text)
+        .map_err(|e| bad(format!("modal table: {e}")))?
+        .points
+        .len();
+    fmi2_export::render3::with_structural_start(
+        fmu.model_description3,
+        TABLE_POINTS_PARAMETER,
+        points as u64,
+    )
+    .map_err(bad)
 }
 
 /// Which FMI versions `host package` writes (`--fmi 2|3|all`).
@@ -358,6 +397,36 @@ mod tests {
             assert_eq!(names, ["modelDescription.xml"], "{}", dir3.display());
             assert!(fmu.model_description3.contains("fmiVersion=\"3.0\""));
         }
+    }
+
+    /// The FMI 3.0 structure FMU declares the point count of the table it
+    /// ships as the start of `mode_shape_points` (the checked-in XML: the
+    /// paper beam's 3 points); the other FMUs' descriptions are embedded.
+    #[test]
+    fn fmi3_structure_description_follows_the_shipped_table() {
+        use nlmode::nma::ModalTable;
+        let one = nlmode::Complex64::new(1.0, 0.0);
+        let names = ["tip", "2l3", "l3", "root", "mid"];
+        let start = |n: usize| {
+            let shape: Vec<(&str, nlmode::Complex64)> =
+                names[..n].iter().map(|p| (*p, one)).collect();
+            let t = ModalTable::linear(100.0, 0.01, &shape, 1e-9, 1e-3);
+            let res = vec![("modal_table.json".to_string(), t.to_json().into_bytes())];
+            fmi3_description(&STRUCTURE, &res).unwrap()
+        };
+        assert_eq!(start(3), STRUCTURE.model_description3);
+        let five = start(5);
+        assert!(five.contains("name=\"mode_shape_points\""));
+        assert!(
+            five.contains("min=\"1\" max=\"1000000\" start=\"5\"/>"),
+            "{five}"
+        );
+        assert_eq!(five.len(), STRUCTURE.model_description3.len());
+        let shaker = fmi3_description(&SHAKER, &[]).unwrap();
+        assert_eq!(shaker, SHAKER.model_description3);
+        let bad = vec![("modal_table.json".to_string(), b"{".to_vec())];
+        let e = fmi3_description(&STRUCTURE, &bad).unwrap_err().to_string();
+        assert!(e.contains("modal table"), "{e}");
     }
 
     #[test]
