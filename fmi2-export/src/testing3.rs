@@ -49,20 +49,7 @@ pub fn instantiate3<M: CoSimModel>(cs: bool, res: Option<&Path>) -> Component {
     // SAFETY: valid strings, a logger that ignores its arguments
     unsafe {
         if cs {
-            fmi3::instantiate_co_simulation::<M>(
-                name.as_ptr(),
-                token.as_ptr(),
-                rp,
-                false,
-                false,
-                false,
-                false,
-                std::ptr::null(),
-                0,
-                std::ptr::null_mut(),
-                Some(quiet3),
-                None,
-            )
+            co_simulation3::<M>(&name, &token, rp, false, false, quiet3)
         } else {
             fmi3::instantiate_model_exchange::<M>(
                 name.as_ptr(),
@@ -75,6 +62,31 @@ pub fn instantiate3<M: CoSimModel>(cs: bool, res: Option<&Path>) -> Component {
             )
         }
     }
+}
+
+/// `fmi3InstantiateCoSimulation` without event mode and intermediate update.
+unsafe fn co_simulation3<M: CoSimModel>(
+    name: &CString,
+    token: &CString,
+    resources: *const c_char,
+    logging_on: bool,
+    early_return_allowed: bool,
+    log: crate::LogMessage3,
+) -> Component {
+    fmi3::instantiate_co_simulation::<M>(
+        name.as_ptr(),
+        token.as_ptr(),
+        resources,
+        false,
+        logging_on,
+        false,
+        early_return_allowed,
+        std::ptr::null(),
+        0,
+        std::ptr::null_mut(),
+        Some(log),
+        None,
+    )
 }
 
 thread_local! {
@@ -110,22 +122,7 @@ pub fn instantiate3_early<M: CoSimModel>(
     let res = res.map(|p| cstr(&format!("{}/", p.display())));
     let rp = res.as_ref().map_or(std::ptr::null(), |r| r.as_ptr());
     // SAFETY: valid strings, a logger that copies the message
-    let c = unsafe {
-        fmi3::instantiate_co_simulation::<M>(
-            name.as_ptr(),
-            token.as_ptr(),
-            rp,
-            false,
-            true,
-            false,
-            early_return_allowed,
-            std::ptr::null(),
-            0,
-            std::ptr::null_mut(),
-            Some(record3),
-            None,
-        )
-    };
+    let c = unsafe { co_simulation3::<M>(&name, &token, rp, true, early_return_allowed, record3) };
     if c.is_null() {
         return Err(format!("instantiation failed: {:?}", take_logged()));
     }

@@ -153,32 +153,31 @@ pub unsafe fn set_uint64<M: CoSimModel>(
 /// `fmi3EnterConfigurationMode`: from Instantiated (the structural
 /// parameters are `fixed`: no Reconfiguration Mode).
 pub unsafe fn enter_configuration_mode<M: CoSimModel>(c: Component) -> Status {
-    const F: &str = "fmi3EnterConfigurationMode";
-    if M::STRUCTURAL_PARAMETERS.is_empty() {
-        return unsupported::<M>(
-            c,
-            F,
-            "the FMU has no structural parameters (no Configuration Mode)",
-        );
-    }
-    run::<M>(c, F, INSTANTIATED, |inst| {
-        inst.state = State::ConfigurationMode;
-        Ok(Status::Ok)
-    })
+    configuration::<M>(
+        c,
+        "fmi3EnterConfigurationMode",
+        INSTANTIATED,
+        State::ConfigurationMode,
+    )
 }
 
 /// `fmi3ExitConfigurationMode`: back to Instantiated.
 pub unsafe fn exit_configuration_mode<M: CoSimModel>(c: Component) -> Status {
-    const F: &str = "fmi3ExitConfigurationMode";
+    configuration::<M>(c, "fmi3ExitConfigurationMode", CONFIG, State::Instantiated)
+}
+
+/// The change of state of `func` (allowed in `from`) to `to`; refused for
+/// a model without structural parameters.
+unsafe fn configuration<M: CoSimModel>(c: Component, func: &str, from: u16, to: State) -> Status {
     if M::STRUCTURAL_PARAMETERS.is_empty() {
         return unsupported::<M>(
             c,
-            F,
+            func,
             "the FMU has no structural parameters (no Configuration Mode)",
         );
     }
-    run::<M>(c, F, CONFIG, |inst| {
-        inst.state = State::Instantiated;
+    run::<M>(c, func, from, |inst| {
+        inst.state = to;
         Ok(Status::Ok)
     })
 }
