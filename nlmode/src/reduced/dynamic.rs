@@ -405,9 +405,14 @@ pub(crate) fn simulate(
     let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
     let mut ys: Vec<Complex64> = Vec::with_capacity(ns);
     let mut dys = vec![Complex64::new(0.0, 0.0); ns];
+    let mut dch = vec![Complex64::new(0.0, 0.0); if opts.rate_terms { ntot } else { 0 }];
     let rhs = |t: f64, y: &DVector<f64>, dy: &mut DVector<f64>| -> Result<(), ReducedError> {
         let w = sweep.omega_rad_s(t);
-        cache.eval(w, &mut ch);
+        if opts.rate_terms {
+            cache.eval_with_derivative(w, &mut ch, &mut dch);
+        } else {
+            cache.eval(w, &mut ch);
+        }
         let fi = model.imposed_at(w)?;
         let amp = Complex64::new(y[0], y[1]);
         let a = (y[0] * y[0] + y[1] * y[1]).sqrt();
@@ -419,9 +424,19 @@ pub(crate) fn simulate(
         }
         let (k, fm, _) = model.terms_with(&props, &phi, w, &ch[..nch], fi);
         let z = fm - k * amp;
-        let s = 0.5 / w;
-        dy[0] = z.im * s;
-        dy[1] = -z.re * s;
+        if opts.rate_terms {
+            // the rate terms of the condensed feedthrough Q1 (the carried
+            // states' own rates are in dys); super::rate
+            let wdot = sweep.omega_rate_rad_s2(t);
+            let a = amp.norm();
+            let d = model.first_order_rate(&props, &phi, a, w, wdot, &dch[..nch], z, amp)?;
+            dy[0] = d.re;
+            dy[1] = d.im;
+        } else {
+            let s = 0.5 / w;
+            dy[0] = z.im * s;
+            dy[1] = -z.re * s;
+        }
         for (j, d) in dys.iter().enumerate() {
             dy[2 + 2 * j] = d.re;
             dy[3 + 2 * j] = d.im;
@@ -451,7 +466,7 @@ pub(crate) fn simulate(
             batch.states.push(yt.clone());
             next += 1;
             if batch.ts.len() == SWEEP_BATCH {
-                batch.flush(model, ports, sweep, &cache, sink)?;
+                batch.flush(model, ports, sweep, &cache, sink, opts.rate_terms)?;
             }
         }
         d.eval_into(t1, &mut last_state.1);
@@ -475,7 +490,7 @@ pub(crate) fn simulate(
             status
         }
     };
-    batch.flush(model, ports, sweep, &cache, sink)?;
+    batch.flush(model, ports, sweep, &cache, sink, opts.rate_terms)?;
     Ok(SweepRun {
         status,
         stats,
@@ -626,6 +641,7 @@ impl StateBatch {
         sweep: &LinearSweep,
         cache: &OmegaCache,
         sink: &mut dyn SweepSink,
+        rate_terms: bool,
     ) -> Result<(), ReducedError> {
         if self.ts.is_empty() {
             return Ok(());
@@ -635,16 +651,38 @@ impl StateBatch {
         let mut channels = Vec::with_capacity(nch * w.len());
         let mut amps = Vec::with_capacity(w.len());
         let mut ch = vec![Complex64::new(0.0, 0.0); cache.nch()];
+        let mut dch = vec![Complex64::new(0.0, 0.0); if rate_terms { cache.nch() } else { 0 }];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
         let mut ys = Vec::new();
-        for (&wi, y) in w.iter().zip(&self.states) {
-            cache.eval(wi, &mut ch);
+        for ((&wi, &ti), y) in w.iter().zip(&self.ts).zip(&self.states) {
+            if rate_terms {
+                cache.eval_with_derivative(wi, &mut ch, &mut dch);
+            } else {
+                cache.eval(wi, &mut ch);
+            }
             let amp = Complex64::new(y[0], y[1]);
-            model.gather(amp.norm(), &mut phi)?;
+            let props = model.gather(amp.norm(), &mut phi)?;
             complex_states(y.as_slice(), &mut ys);
             for p in ports {
                 let r = p.state_offset..p.state_offset + p.ns;
                 p.apply(model, &mut ch, &phi, amp, &ys[r], None);
+            }
+            if rate_terms {
+                // the slow flow's A' at the sample, its rate force reported
+                let fi = model.imposed_at(wi)?;
+                let (k, fm, _) = model.terms_with(&props, &phi, wi, &ch[..nch], fi);
+                let wdot = sweep.omega_rate_rad_s2(ti);
+                let rate = model.first_order_rate(
+                    &props,
+                    &phi,
+                    amp.norm(),
+                    wi,
+                    wdot,
+                    &dch[..nch],
+                    fm - k * amp,
+                    amp,
+                )?;
+                model.subtract_rate_forces(&mut ch[..nch], &dch[..nch], &phi, rate);
             }
             channels.extend_from_slice(&ch[..nch]);
             amps.push(amp);
