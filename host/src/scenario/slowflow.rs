@@ -97,17 +97,6 @@ impl SlowFlowSpec {
                 ),
             ));
         }
-        if self.residual_modes > 0 && self.attachments == nlmode::reduced::AttachmentStates::Dynamic
-        {
-            return Err(bad(
-                "slowflow.residual_modes",
-                format!(
-                    "{} residual modes together with attachments = \"dynamic\" are not available \
-                     (the two are not coupled in one slow flow yet): use one of the two",
-                    self.residual_modes
-                ),
-            ));
-        }
         if self.output_samples < 2 {
             return Err(bad(
                 "slowflow.output_samples",

@@ -174,12 +174,6 @@ fn residual_modes_bring_nlmode_closer_and_bad_counts_name_the_key() {
         &format!("{nlmode_only}[slowflow]\nresidual_modes = 51\n"),
         &["slowflow.residual_modes", "0 to 50"],
     );
-    expect_failure(
-        &dir,
-        "run",
-        &format!("{nlmode_only}[slowflow]\nresidual_modes = 2\nattachments = \"dynamic\"\n"),
-        &["slowflow.residual_modes", "dynamic"],
-    );
 }
 
 /// The PLL's `nlmode` plant with `[slowflow] attachments = "dynamic"`: the
@@ -237,6 +231,21 @@ fn rate_terms_bring_the_tmd_peak_within_one_percent() {
     };
     let ((plain, _), (first, c)) = (dynamic(false), dynamic(true));
     eprintln!("TMD dynamic: {plain:?}\nwith rate terms: {first:?}");
+    // the TMD's state carried through the residual receptance of the ten
+    // other modes, with the rate terms: measured 3.36 / 2.82 / +0.34 %
+    // (issue 25's TMD targets 3 / 3 / 1 %: the tip RMS is 0.36 % over)
+    let all = comparison(&run_text(
+        &format!(
+            "{TMD_CASE}{NO_TMD}[slowflow]\nattachments = \"dynamic\"\nresidual_modes = 10\nrate_terms = true\n"
+        ),
+        "tmd-all",
+    ));
+    eprintln!("with residual modes and rate terms: {all:?}");
+    assert!(
+        all.peak_tip_rel.abs() < 0.01 && all.rms_force_rel < 0.03,
+        "{all:?}"
+    );
+    assert!(all.rms_tip_rel < plain.rms_tip_rel + 0.005, "{all:?}");
     assert!(first.peak_tip_rel.abs() < 0.01, "{first:?}");
     assert!(
         first.rms_force_rel < plain.rms_force_rel,

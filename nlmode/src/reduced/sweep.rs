@@ -552,14 +552,6 @@ impl ReducedModel {
         for imp in &self.imposed {
             imp.envelope.check_covers(lo, hi)?;
         }
-        if opts.attachments == AttachmentStates::Dynamic && self.residual.is_some() {
-            return Err(ReducedError::ResidualModes {
-                requested: self.residual_modes().map_or(0, |r| r.len()),
-                why: "not available with attachments = \"dynamic\" (the attachment states and \
-                      the residual modes are not coupled in one slow flow yet): use one of the two"
-                    .into(),
-            });
-        }
         if opts.attachments == AttachmentStates::Dynamic {
             let ports = super::dynamic::StatePort::select(self, lo, hi, opts.fast_pole_factor)?;
             // without a slow attachment state the model is `eq:NM` itself

@@ -227,3 +227,151 @@ fn paper_linear() -> nlmode::structure::PaperStructure {
     })
     .unwrap()
 }
+
+/// The linear beam with the shaker at 2l/3 (2 V) and a lightly damped TMD
+/// at the tip (the issue-25 case's: 13.8 g, 1600 N/m, damping ratio 0.02)
+/// through resonance at 2 % per pseudo period: the TMD's state carried
+/// (`attachments = "dynamic"`) together with the ten other modes as residual
+/// modes (the attachments' states coupled through the residual receptance,
+/// `nlmode::reduced::dynamic`), against the full-order `reference` of the
+/// same assembly.
+#[test]
+fn tmd_states_with_residual_modes_follow_the_full_order_transient() {
+    let ps = paper_linear();
+    let w0 = ps.omega0_rad_s;
+    let table = with_linear_modes(&ps, paper::table(&ps));
+    let sh = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
+    let (m_t, k_t) = (0.0138_f64, 1600.0_f64);
+    let c_t = 2.0 * 0.02 * (k_t * m_t).sqrt();
+    let tmd = LinearAttachment::tuned_mass_damper("tmd", "tip", m_t, k_t, c_t).unwrap();
+    let sweep = LinearSweep::per_pseudo_period(w0, 0.7, 1.3, 0.02, 2.0).unwrap();
+    let reference = nlmode::reference::simulate_sweep(
+        &ps.model,
+        &[sh.clone(), tmd.clone()],
+        &sweep,
+        &nlmode::reference::ReferenceOptions::default(),
+    )
+    .unwrap()
+    .envelope;
+    let p_ref = reference
+        .tip_amplitude_m
+        .iter()
+        .cloned()
+        .fold(0.0, f64::max);
+    let run = |n: usize, rate_terms: bool| {
+        let mut model = ReducedModel::new(&table, "tip", "2l3")
+            .unwrap()
+            .with_linear_attachment(&sh, &[Complex64::new(1.0, 0.0)])
+            .unwrap()
+            .with_linear_attachment(&tmd, &[])
+            .unwrap();
+        if n > 0 {
+            model = model.with_residual_modes(&table, n).unwrap();
+        }
+        let opts = SlowFlowOptions {
+            attachments: nlmode::reduced::AttachmentStates::Dynamic,
+            rate_terms,
+            ..Default::default()
+        };
+        let r = model.simulate_sweep(&sweep, &opts).unwrap();
+        let (tip, force) = paper::rms_differences(&r.envelope(), &reference, w0);
+        let peak = r.summary().unwrap().peak_tip_amplitude_m / p_ref - 1.0;
+        [tip, force, peak]
+    };
+    let (alone, residual, both) = (run(0, false), run(10, false), run(10, true));
+    eprintln!(
+        "linear beam + shaker + TMD, TMD carried: {}; with 10 residual modes {}; and the rate terms {}",
+        pct(alone),
+        pct(residual),
+        pct(both)
+    );
+    // measured: 3.18 / 4.26 / -3.81 % -> 3.14 / 3.86 / -3.35 % with the
+    // residual modes; the rate terms then take the peak to -0.54 % and the
+    // force to 3.23 %, the tip RMS to 3.84 % (the carried states' own rate
+    // terms are not kept, nlmode::reduced::rate)
+    for k in 0..3 {
+        assert!(
+            residual[k].abs() < alone[k].abs(),
+            "{} vs {}",
+            pct(residual),
+            pct(alone)
+        );
+    }
+    assert!(
+        both[2].abs() < 0.01 && both[1] < residual[1],
+        "{}",
+        pct(both)
+    );
+}
+
+/// The carried states through the residual receptance reduce to the
+/// quasi-steady residual-mode model (`eq:NM` with `Z_G -> (I + Z_G G)^-1
+/// Z_G`, exact for a linear structure) in a steady state: a slow sweep
+/// (1e-4 per pseudo period) of the linear beam with shaker and TMD, the TMD
+/// carried or condensed, with and without residual modes. With the paper's
+/// shaker alone (fast poles only) nothing is carried and the dynamic model
+/// is the quasi-steady one bit for bit.
+#[test]
+fn carried_states_through_residual_modes_reduce_to_the_steady_condensation() {
+    let ps = paper_linear();
+    let w0 = ps.omega0_rad_s;
+    let table = with_linear_modes(&ps, paper::table(&ps));
+    let sh = LinearAttachment::shaker("shaker", &ShakerParams::paper(), "2l3").unwrap();
+    let tmd = LinearAttachment::tuned_mass_damper("tmd", "tip", 0.0138, 1600.0, 0.188).unwrap();
+    let model = |with_tmd: bool, n: usize| {
+        let mut m = ReducedModel::new(&table, "tip", "2l3")
+            .unwrap()
+            .with_linear_attachment(&sh, &[Complex64::new(1.0, 0.0)])
+            .unwrap();
+        if with_tmd {
+            m = m.with_linear_attachment(&tmd, &[]).unwrap();
+        }
+        if n > 0 {
+            m = m.with_residual_modes(&table, n).unwrap();
+        }
+        m
+    };
+    let opts = |states| SlowFlowOptions {
+        attachments: states,
+        output_samples: 401,
+        ..Default::default()
+    };
+    use nlmode::reduced::AttachmentStates::{Dynamic, QuasiSteady};
+    let slow = LinearSweep::per_pseudo_period(w0, 0.9, 1.1, 1e-4, 1.0).unwrap();
+    // after the start-up transient (the first tenth: from rest the carried
+    // TMD beats, the condensed one cannot)
+    let run = |n: usize, states| {
+        let t = tips(&model(true, n).simulate_sweep(&slow, &opts(states)).unwrap());
+        t[t.len() / 10..].to_vec()
+    };
+    let (d0, d10, q0, q10) = (
+        run(0, Dynamic),
+        run(10, Dynamic),
+        run(0, QuasiSteady),
+        run(10, QuasiSteady),
+    );
+    let d = max_rel(&d10, &q10);
+    // what the residual modes add, carried and condensed
+    let contribution = |with: &[f64], without: &[f64]| -> Vec<f64> {
+        with.iter().zip(without).map(|(a, b)| a - b).collect()
+    };
+    let (cd, cq) = (contribution(&d10, &d0), contribution(&q10, &q0));
+    let size = cq.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    let dc = cd
+        .iter()
+        .zip(&cq)
+        .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()))
+        / size;
+    let peak = q10.iter().cloned().fold(0.0, f64::max);
+    eprintln!(
+        "slow sweep, TMD carried vs condensed with 10 residual modes: {d:.2e} of the peak; the residual modes add up to {:.2e} of the peak, carried vs condensed {dc:.2e} of that",
+        size / peak
+    );
+    assert!(d < 2e-2, "{d}");
+    assert!(size > 1e-3 * peak && dc < 0.1, "{size} {dc}");
+    let fast = LinearSweep::per_pseudo_period(w0, 0.9, 1.1, 0.02, 1.0).unwrap();
+    let m = model(false, 10);
+    let dynamic = m.simulate_sweep(&fast, &opts(Dynamic)).unwrap();
+    let quasi = m.simulate_sweep(&fast, &opts(QuasiSteady)).unwrap();
+    assert_eq!(tips(&dynamic), tips(&quasi));
+}
