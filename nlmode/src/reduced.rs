@@ -94,6 +94,7 @@ mod imposed;
 mod output;
 mod post;
 pub mod problems;
+mod rate;
 mod residual;
 mod steady;
 mod sweep;
@@ -170,6 +171,12 @@ pub enum ReducedError {
     AttachmentStates { attachment: String, why: String },
     #[error("residual_modes = {requested}: {why}")]
     ResidualModes { requested: usize, why: String },
+    #[error("rate_terms: at Omega = {omega_rad_s} rad/s and a = {a} the modal mass with the attachments' rate terms, |2 i Omega + 2 D omega + z_s| / (2 Omega) = {modal_mass}, is below 0.5: the attachments dominate the modulation there and the first-order terms are no correction; use rate_terms = false")]
+    RateTerms {
+        omega_rad_s: f64,
+        a: f64,
+        modal_mass: f64,
+    },
     #[error("the slow-flow result has no samples")]
     EmptyResult,
     #[error("imposed force at '{point}': {found} imposed forces, at most {max} are supported")]

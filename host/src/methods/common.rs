@@ -233,6 +233,14 @@ pub fn add_slowflow_exciter_forces(
     Ok(())
 }
 
+/// With the first-order terms (`[slowflow] rate_terms`): `rate_terms = true`
+/// in the summary.
+pub fn note_rate_terms(r: &mut MethodResult, opts: &nlmode::reduced::SlowFlowOptions) {
+    if opts.rate_terms {
+        r.summary.set("rate_terms", true);
+    }
+}
+
 /// With residual modes (`[slowflow] residual_modes`): their number in the
 /// summary (`residual_modes`) and a warning for each residual mode near an
 /// integer multiple `k >= 2` of the sweep band: through the nonlinear element

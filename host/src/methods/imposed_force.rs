@@ -66,8 +66,10 @@ impl super::Method for ImposedForce {
             .with_frequency_error(ctx.frequency_error())?
             .with_residual_modes(ctx.table(), ctx.sc.slowflow.residual_modes)?;
         let id = MethodId::ImposedForce;
-        let (mut r, res) = slow_flow(id.name(), setup, &model, &ctx.sc.slowflow.options(id))?;
+        let opts = ctx.sc.slowflow.options(id);
+        let (mut r, res) = slow_flow(id.name(), setup, &model, &opts)?;
         super::common::note_residual_modes(&mut r, setup, &model);
+        super::common::note_rate_terms(&mut r, &opts);
         // several exciters: the forces imposed, per exciter
         if setup.shakers.len() > 1 {
             let forces = envelopes

@@ -36,6 +36,7 @@ impl super::Method for Nlmode {
             reduced_model(ctx.setup, ctx.table(), None)?.with_residual_modes(ctx.table(), n_res)?;
         let (mut r, flow) = exciter_slow_flow(MethodId::Nlmode.name(), ctx.setup, &model, &opts)?;
         super::common::note_residual_modes(&mut r, ctx.setup, &model);
+        super::common::note_rate_terms(&mut r, &opts);
         let mut out = MethodOutput {
             results: vec![r],
             flow: Some(flow),
@@ -87,5 +88,6 @@ fn run_remedy(
     };
     let (mut r, _) = exciter_slow_flow(name, ctx.setup, &model, &opts)?;
     super::common::note_residual_modes(&mut r, ctx.setup, &model);
+    super::common::note_rate_terms(&mut r, &opts);
     Ok(Some(r))
 }

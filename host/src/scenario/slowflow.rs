@@ -19,6 +19,10 @@ pub struct SlowFlowSpec {
     /// `nlmode` and `imposed-force` (`nlmode::reduced::ResidualModes`); 0:
     /// the paper's model.
     pub residual_modes: usize,
+    /// Keep the modulation terms `eq:NM` drops, to first order in the slow
+    /// derivatives (`nlmode::reduced::SlowFlowOptions::rate_terms`): used by
+    /// `nlmode` and `imposed-force`. Default `false`: the paper's model.
+    pub rate_terms: bool,
     /// What the remedies of fired validity checks do: `"name"` lists them in
     /// `summary.json` (`remedies`); `"run"` also runs `nlmode` with each
     /// beside the plain one (`nlmode-dynamic`, `nlmode-residual-modes`).
@@ -49,6 +53,7 @@ impl Default for SlowFlowSpec {
             output_samples: lib.output_samples,
             attachments: lib.attachments,
             residual_modes: 0,
+            rate_terms: lib.rate_terms,
             remedies: RemedyPolicy::Name,
         }
     }
@@ -65,6 +70,7 @@ impl SlowFlowSpec {
             },
             output_samples: self.output_samples,
             attachments: self.attachments,
+            rate_terms: self.rate_terms,
             ..Default::default()
         }
     }
@@ -87,17 +93,6 @@ impl SlowFlowSpec {
                 format!(
                     "expected 0 to {} (the linear modes a modal table carries), got {}",
                     nlmode::table::MAX_LINEAR_MODES,
-                    self.residual_modes
-                ),
-            ));
-        }
-        if self.residual_modes > 0 && self.attachments == nlmode::reduced::AttachmentStates::Dynamic
-        {
-            return Err(bad(
-                "slowflow.residual_modes",
-                format!(
-                    "{} residual modes together with attachments = \"dynamic\" are not available \
-                     (the two are not coupled in one slow flow yet): use one of the two",
                     self.residual_modes
                 ),
             ));

@@ -174,12 +174,6 @@ fn residual_modes_bring_nlmode_closer_and_bad_counts_name_the_key() {
         &format!("{nlmode_only}[slowflow]\nresidual_modes = 51\n"),
         &["slowflow.residual_modes", "0 to 50"],
     );
-    expect_failure(
-        &dir,
-        "run",
-        &format!("{nlmode_only}[slowflow]\nresidual_modes = 2\nattachments = \"dynamic\"\n"),
-        &["slowflow.residual_modes", "dynamic"],
-    );
 }
 
 /// The PLL's `nlmode` plant with `[slowflow] attachments = "dynamic"`: the
@@ -215,4 +209,66 @@ fn the_pll_plant_carries_the_tmd_states() {
         eprintln!("level {i}: settled frequency {dw:.1e}, tip {dx:.1e} apart");
         assert!(dw < 1e-4 && dx < 1e-3, "level {i}: {dw:e} {dx:e}");
     }
+}
+
+/// The TMD case with the TMD carried and the first-order terms
+/// (`[slowflow] rate_terms`, `nlmode::reduced::rate`): the peak within 1 %
+/// of `reference` (issue 25's target; -2.65 % without the terms, measured
+/// -0.16 %), tip and force RMS closer (3.30 / 3.62 % -> 3.33 / 3.06 %:
+/// the tip RMS is the jump's timing, unchanged). Without the TMD the terms
+/// halve the model's own error (2.33 / 1.56 / -2.14 % -> 1.32 / 1.15 /
+/// -1.53 %), and the summary records them.
+#[test]
+fn rate_terms_bring_the_tmd_peak_within_one_percent() {
+    let dynamic = |rate: bool| {
+        let c = run_text(
+            &format!(
+                "{TMD_CASE}{NO_TMD}[slowflow]\nattachments = \"dynamic\"\nrate_terms = {rate}\n"
+            ),
+            &format!("tmd-rate-{rate}"),
+        );
+        (comparison(&c), c)
+    };
+    let ((plain, _), (first, c)) = (dynamic(false), dynamic(true));
+    eprintln!("TMD dynamic: {plain:?}\nwith rate terms: {first:?}");
+    // the TMD's state carried through the residual receptance of the ten
+    // other modes, with the rate terms: measured 3.36 / 2.82 / +0.34 %
+    // (issue 25's TMD targets 3 / 3 / 1 %: the tip RMS is 0.36 % over)
+    let all = comparison(&run_text(
+        &format!(
+            "{TMD_CASE}{NO_TMD}[slowflow]\nattachments = \"dynamic\"\nresidual_modes = 10\nrate_terms = true\n"
+        ),
+        "tmd-all",
+    ));
+    eprintln!("with residual modes and rate terms: {all:?}");
+    assert!(
+        all.peak_tip_rel.abs() < 0.01 && all.rms_force_rel < 0.03,
+        "{all:?}"
+    );
+    assert!(all.rms_tip_rel < plain.rms_tip_rel + 0.005, "{all:?}");
+    assert!(first.peak_tip_rel.abs() < 0.01, "{first:?}");
+    assert!(
+        first.rms_force_rel < plain.rms_force_rel,
+        "{first:?} {plain:?}"
+    );
+    assert!(
+        first.rms_tip_rel < plain.rms_tip_rel + 0.002,
+        "{first:?} {plain:?}"
+    );
+    let json = serde_json::to_value(&c.summary).unwrap();
+    assert_eq!(json["methods"]["nlmode"]["rate_terms"], true, "{json}");
+    let without = |rate: bool| {
+        comparison(&run_text(
+            &format!("{NO_TMD}[slowflow]\nrate_terms = {rate}\n"),
+            &format!("no-tmd-rate-{rate}"),
+        ))
+    };
+    let (p0, f0) = (without(false), without(true));
+    eprintln!("without TMD: {p0:?}\nwith rate terms: {f0:?}");
+    assert!(f0.rms_tip_rel < 0.7 * p0.rms_tip_rel, "{f0:?} {p0:?}");
+    assert!(f0.rms_force_rel < 0.85 * p0.rms_force_rel, "{f0:?} {p0:?}");
+    assert!(
+        f0.peak_tip_rel.abs() < 0.8 * p0.peak_tip_rel.abs(),
+        "{f0:?} {p0:?}"
+    );
 }

@@ -87,6 +87,23 @@
 //! of `Omega` only and are tabulated along the sweep like `Z_G`
 //! ([`super::sweep`], cubic Hermite to `channel_tol`).
 //!
+//! # Residual modes
+//!
+//! With residual modes ([`super::residual`]) the interface displacement is
+//! `U + G F_G`, the residual receptance `G(Omega)` coupling all attachments:
+//! their blocks are stacked (block diagonal over the attachments, the
+//! merged port's rows in turn) and, with `S = (I + Q1 G)^{-1}`,
+//!
+//! ```text
+//! F_G = -S Q1 U - S Q2 y_s + S q,
+//! y_s' = -(P1 - P2 G S Q2) y_s - P2 (I - G S Q1) U + (p - P2 G S q),
+//! ```
+//!
+//! (`F_G = -Q1 (U + G F_G) - Q2 y_s + q` solved for `F_G`, then put in the
+//! states' equation). Without carried states this is the quasi-steady
+//! `Z_G -> S Z_G`, `T_G -> S T_G` of [`super::residual`]; the steady states
+//! are that model's (tested).
+//!
 //! # Scope
 //!
 //! Every attachment given by its coefficient matrices
@@ -97,14 +114,15 @@
 //! Starting from rest, the attachment states start at zero (the exciter
 //! switched on at `t = 0`), as in the full-order `reference`.
 use super::sweep::{emit, stop_status, OmegaCache};
+use super::{Port, ResidualModes, MAX_PHI, SWEEP_BATCH};
 use super::{ReducedError, ReducedModel, SlowFlowOptions, SweepRun, SweepSink, SweepStatus};
-use super::{MAX_PHI, SWEEP_BATCH};
 use crate::attachment::{AveragedBlocks, Condenser};
 use crate::dopri::{integrate, Controller, ErrorScale, Tolerances};
 use crate::excitation::LinearSweep;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// How the attachments enter the slow flow.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -130,16 +148,45 @@ const BASIS_CONDITION_LIMIT: f64 = 1e8;
 
 type CMat = DMatrix<Complex64>;
 
-/// An attachment of a [`ReducedModel`] whose slow internal states are carried.
+/// One attachment's internal states within a [`StatePort`]: its fixed-
+/// interface modes `x_r = T y` with the slow (carried) components first.
+#[derive(Debug, Clone)]
+struct PartStates {
+    name: String,
+    condenser: Condenser,
+    /// Input amplitudes per unit of the sweep amplitude.
+    input: Vec<Complex64>,
+    t: CMat,
+    t_inv: CMat,
+    /// Slow (carried) components.
+    ns: usize,
+    ncon: usize,
+}
+
+/// A port's blocks of the carried slow flow (module docs):
+/// `y' = -P1 y - P2 U + p`, `F_G = -Q1 U - Q2 y + q`.
+struct Blocks {
+    p1: CMat,
+    p2: CMat,
+    p: DVector<Complex64>,
+    q1: CMat,
+    q2: CMat,
+    q: DVector<Complex64>,
+}
+
+/// A port of a [`ReducedModel`] whose attachments' slow internal states are
+/// carried: one attachment, or (with residual modes) the merged port of all
+/// attachments seen through the residual receptance `G` (module docs,
+/// "Residual modes").
 #[derive(Debug, Clone)]
 pub(crate) struct StatePort {
     /// Index in [`ReducedModel::ports`].
     port: usize,
-    condenser: Condenser,
-    /// `x_r = T y`, slow components first.
-    t: CMat,
-    t_inv: CMat,
-    /// Slow (carried) components.
+    /// The port's attachments in the order of its rows.
+    parts: Vec<PartStates>,
+    /// The residual modes and the table point of each row of the merged port.
+    residual: Option<(Arc<ResidualModes>, Vec<usize>)>,
+    /// Slow (carried) components, all parts.
     pub(crate) ns: usize,
     ncon: usize,
     /// Offset of the port's interface shapes among the gathered shapes.
@@ -151,9 +198,188 @@ pub(crate) struct StatePort {
     extra_offset: usize,
 }
 
+impl PartStates {
+    /// The attachment of `port` with its fixed-interface modes split into
+    /// slow ones (pole within `factor * hi` of the band `i [lo, hi]`) and
+    /// fast ones (module docs).
+    fn new(port: &Port, (lo, hi): (f64, f64), factor: f64) -> Result<Self, ReducedError> {
+        let ncon = port.ncon();
+        let name = port.model.name().to_string();
+        let refuse = |why: String| ReducedError::AttachmentStates {
+            attachment: name.clone(),
+            why,
+        };
+        let Some(condenser) = port.model.condenser() else {
+            return Err(refuse(
+                "it is given as a frequency response only, without a state model; use attachments = \"quasi-steady\"".into(),
+            ));
+        };
+        let nr = condenser.internal_states();
+        let mut part = PartStates {
+            name: name.clone(),
+            condenser: condenser.clone(),
+            input: port.input.clone(),
+            t: CMat::identity(nr, nr),
+            t_inv: CMat::identity(nr, nr),
+            ns: 0,
+            ncon,
+        };
+        if nr == 0 {
+            return Ok(part);
+        }
+        let wc = 0.5 * (lo + hi);
+        let b = condenser.averaged_blocks(wc);
+        let binv = b.b_22.clone().try_inverse().ok_or_else(|| {
+            refuse(format!(
+                "B22 = dZ22/d(i Omega) is singular at Omega = {wc} rad/s: an internal state has no dynamics of its own (algebraic), which the averaged model does not cover"
+            ))
+        })?;
+        let n0 = &binv * &b.z_22;
+        let (mu, v) = complex_eigen(&n0).ok_or_else(|| {
+            refuse(format!(
+                "the eigenvalues of B22^-1 Z22 at Omega = {wc} rad/s did not converge"
+            ))
+        })?;
+        // distance of the pole mu + i Omega_c from the band i [lo, hi]
+        let dist = |m: &Complex64| {
+            let s = m + Complex64::new(0.0, wc);
+            let im = s.im.abs().clamp(lo, hi);
+            Complex64::new(s.re, s.im.abs() - im).norm()
+        };
+        let mut order: Vec<usize> = (0..nr).collect();
+        order.sort_by(|&i, &j| dist(&mu[i]).total_cmp(&dist(&mu[j])));
+        let ns = order
+            .iter()
+            .filter(|&&j| dist(&mu[j]) < factor * hi)
+            .count();
+        if ns == 0 {
+            return Ok(part);
+        }
+        let t = CMat::from_fn(nr, nr, |i, k| v[(i, order[k])]);
+        (part.t, part.t_inv, part.ns) = match t.clone().try_inverse() {
+            Some(ti) if t.norm() * ti.norm() < BASIS_CONDITION_LIMIT => (t, ti, ns),
+            // defective or nearly so: carry every internal state as it is
+            _ => (CMat::identity(nr, nr), CMat::identity(nr, nr), nr),
+        };
+        Ok(part)
+    }
+
+    /// The part's [`Blocks`] at `Omega` for the sweep amplitude `amplitude`,
+    /// the fast components eliminated (module docs).
+    fn blocks(&self, omega: f64, amplitude: f64) -> Result<Blocks, ReducedError> {
+        let b: AveragedBlocks = self.condenser.averaged_blocks(omega);
+        let singular = |what: &str| ReducedError::AttachmentStates {
+            attachment: self.name.clone(),
+            why: format!("{what} is singular at Omega = {omega} rad/s"),
+        };
+        let u = DVector::from_iterator(self.input.len(), self.input.iter().map(|u| u * amplitude));
+        let g_q = &b.bu_g * &u;
+        let nr = self.t.nrows();
+        if nr == 0 {
+            let (c, z) = (self.ncon, |r, c| CMat::zeros(r, c));
+            return Ok(Blocks {
+                p1: z(0, 0),
+                p2: z(0, c),
+                p: DVector::zeros(0),
+                q1: b.z_gg,
+                q2: z(c, 0),
+                q: g_q,
+            });
+        }
+        let binv = b
+            .b_22
+            .clone()
+            .try_inverse()
+            .ok_or_else(|| singular("B22 = dZ22/d(i Omega)"))?;
+        let left = &self.t_inv * &binv;
+        let n = &left * &b.z_22 * &self.t;
+        let k = &left * &b.z_2g;
+        let h = &left * (&b.bu_2 * &u);
+        let w = &b.z_g2 * &self.t;
+        let s = self.ns;
+        let f = nr - s;
+        let mut out = Blocks {
+            p1: n.view((0, 0), (s, s)).into_owned(),
+            p2: k.rows(0, s).into_owned(),
+            p: h.rows(0, s).into_owned(),
+            q1: b.z_gg.clone(),
+            q2: w.columns(0, s).into_owned(),
+            q: g_q,
+        };
+        if f > 0 {
+            let nff_inv = n
+                .view((s, s), (f, f))
+                .into_owned()
+                .try_inverse()
+                .ok_or_else(|| singular("the fast block of B22^-1 Z22"))?;
+            let x_n = &nff_inv * n.view((s, 0), (f, s));
+            let x_k = &nff_inv * k.rows(s, f);
+            let x_h = &nff_inv * h.rows(s, f);
+            let n_sf = n.view((0, s), (s, f));
+            let w_f = w.columns(s, f);
+            out.p1 -= n_sf * &x_n;
+            out.p2 -= n_sf * &x_k;
+            out.p -= n_sf * &x_h;
+            out.q1 -= w_f * &x_k;
+            out.q2 -= w_f * &x_n;
+            out.q -= w_f * &x_h;
+        }
+        Ok(out)
+    }
+}
+
+impl Blocks {
+    /// The parts' blocks side by side (block diagonal; `nc` rows, `ns`
+    /// states in all).
+    fn stacked(parts: &[Blocks], nc: usize, ns: usize) -> Blocks {
+        let mut out = Blocks {
+            p1: CMat::zeros(ns, ns),
+            p2: CMat::zeros(ns, nc),
+            p: DVector::zeros(ns),
+            q1: CMat::zeros(nc, nc),
+            q2: CMat::zeros(nc, ns),
+            q: DVector::zeros(nc),
+        };
+        let (mut r, mut s) = (0, 0);
+        for b in parts {
+            let (c, k) = (b.q1.nrows(), b.p1.nrows());
+            out.p1.view_mut((s, s), (k, k)).copy_from(&b.p1);
+            out.p2.view_mut((s, r), (k, c)).copy_from(&b.p2);
+            out.p.rows_mut(s, k).copy_from(&b.p);
+            out.q1.view_mut((r, r), (c, c)).copy_from(&b.q1);
+            out.q2.view_mut((r, s), (c, k)).copy_from(&b.q2);
+            out.q.rows_mut(r, c).copy_from(&b.q);
+            r += c;
+            s += k;
+        }
+        out
+    }
+
+    /// The blocks with the interface displacement `U + G F_G` (the residual
+    /// modes' receptance `g` at the rows' points; module docs):
+    /// `S = (I + Q1 G)^-1`, `Q1 -> S Q1`, `Q2 -> S Q2`, `q -> S q`,
+    /// `P1 -> P1 - P2 G S Q2`, `P2 -> P2 (I - G S Q1)`, `p -> p - P2 G S q`.
+    fn through_residual(self, g: &CMat) -> Option<Blocks> {
+        let nc = g.nrows();
+        let s = (CMat::identity(nc, nc) + &self.q1 * g).try_inverse()?;
+        let (q1, q2, q) = (&s * &self.q1, &s * &self.q2, &s * &self.q);
+        let p2g = &self.p2 * g;
+        Some(Blocks {
+            p1: &self.p1 - &p2g * &q2,
+            p2: &self.p2 - &p2g * &q1,
+            p: &self.p - &p2g * &q,
+            q1,
+            q2,
+            q,
+        })
+    }
+}
+
 impl StatePort {
-    /// The attachments of `model` that have internal states with a pole within
-    /// `factor * hi` of the band `i [lo, hi]` (module docs); empty if none.
+    /// The ports of `model` whose attachments have internal states with a
+    /// pole within `factor * hi` of the band `i [lo, hi]` (module docs);
+    /// empty if none. With residual modes the merged port is one
+    /// [`StatePort`] over all attachments.
     pub(crate) fn select(
         model: &ReducedModel,
         lo: f64,
@@ -162,62 +388,31 @@ impl StatePort {
     ) -> Result<Vec<StatePort>, ReducedError> {
         let mut out = Vec::new();
         let (mut phi_offset, mut state_offset, mut extra_offset) = (0, 0, model.nch);
-        let wc = 0.5 * (lo + hi);
-        for (index, port) in model.ports.iter().enumerate() {
-            let ncon = port.ncon();
-            let name = port.model.name().to_string();
-            let refuse = |why: String| ReducedError::AttachmentStates {
-                attachment: name.clone(),
-                why,
-            };
-            let Some(condenser) = port.model.condenser() else {
-                return Err(refuse(
-                    "it is given as a frequency response only, without a state model; use attachments = \"quasi-steady\"".into(),
-                ));
-            };
-            let nr = condenser.internal_states();
-            phi_offset += ncon;
-            if nr == 0 {
-                continue;
+        // (model port, its attachments, the residual coupling)
+        let groups: Vec<(usize, &[Port], _)> = match &model.residual {
+            Some(res) if !model.ports.is_empty() => {
+                let points = model.ports[0].points.clone();
+                vec![(0, &res.ports[..], Some((res.modes.clone(), points)))]
             }
-            let b = condenser.averaged_blocks(wc);
-            let binv = b.b_22.clone().try_inverse().ok_or_else(|| {
-                refuse(format!(
-                    "B22 = dZ22/d(i Omega) is singular at Omega = {wc} rad/s: an internal state has no dynamics of its own (algebraic), which the averaged model does not cover"
-                ))
-            })?;
-            let n0 = &binv * &b.z_22;
-            let (mu, v) = complex_eigen(&n0).ok_or_else(|| {
-                refuse(format!(
-                    "the eigenvalues of B22^-1 Z22 at Omega = {wc} rad/s did not converge"
-                ))
-            })?;
-            // distance of the pole mu + i Omega_c from the band i [lo, hi]
-            let dist = |m: &Complex64| {
-                let s = m + Complex64::new(0.0, wc);
-                let im = s.im.abs().clamp(lo, hi);
-                Complex64::new(s.re, s.im.abs() - im).norm()
-            };
-            let mut order: Vec<usize> = (0..nr).collect();
-            order.sort_by(|&i, &j| dist(&mu[i]).total_cmp(&dist(&mu[j])));
-            let ns = order
+            _ => (0..model.ports.len())
+                .map(|i| (i, std::slice::from_ref(&model.ports[i]), None))
+                .collect(),
+        };
+        for (index, ports, residual) in groups {
+            let parts = ports
                 .iter()
-                .filter(|&&j| dist(&mu[j]) < factor * hi)
-                .count();
+                .map(|p| PartStates::new(p, (lo, hi), factor))
+                .collect::<Result<Vec<_>, _>>()?;
+            let ncon: usize = parts.iter().map(|p| p.ncon).sum();
+            let ns: usize = parts.iter().map(|p| p.ns).sum();
+            phi_offset += ncon;
             if ns == 0 {
                 continue;
             }
-            let t = CMat::from_fn(nr, nr, |i, k| v[(i, order[k])]);
-            let (t, t_inv, ns) = match t.clone().try_inverse() {
-                Some(ti) if t.norm() * ti.norm() < BASIS_CONDITION_LIMIT => (t, ti, ns),
-                // defective or nearly so: carry every internal state as it is
-                _ => (CMat::identity(nr, nr), CMat::identity(nr, nr), nr),
-            };
             let sp = StatePort {
                 port: index,
-                condenser: condenser.clone(),
-                t,
-                t_inv,
+                parts,
+                residual,
                 ns,
                 ncon,
                 phi_offset: phi_offset - ncon,
@@ -249,49 +444,35 @@ impl StatePort {
         out: &mut [Complex64],
     ) -> Result<(), ReducedError> {
         let port = &model.ports[self.port];
-        let b: AveragedBlocks = self.condenser.averaged_blocks(omega);
-        let singular = |what: &str| ReducedError::AttachmentStates {
-            attachment: port.model.name().into(),
-            why: format!("{what} is singular at Omega = {omega} rad/s"),
+        let parts = self
+            .parts
+            .iter()
+            .map(|p| p.blocks(omega, amplitude))
+            .collect::<Result<Vec<_>, _>>()?;
+        let blocks = match (&self.residual, parts.len()) {
+            (None, 1) => parts.into_iter().next().expect("one part"),
+            (None, _) => Blocks::stacked(&parts, self.ncon, self.ns),
+            (Some((modes, points)), _) => {
+                let (g, _) = modes.receptance_matrix(points, omega);
+                Blocks::stacked(&parts, self.ncon, self.ns)
+                    .through_residual(&g)
+                    .ok_or_else(|| ReducedError::AttachmentStates {
+                        attachment: port.model.name().into(),
+                        why: format!(
+                            "I + Q1 G is singular at Omega = {omega} rad/s (the attachments resonate on the residual modes alone)"
+                        ),
+                    })?
+            }
         };
-        let binv = b
-            .b_22
-            .clone()
-            .try_inverse()
-            .ok_or_else(|| singular("B22 = dZ22/d(i Omega)"))?;
-        let u = DVector::from_iterator(port.input.len(), port.input.iter().map(|u| u * amplitude));
-        let g_q = &b.bu_g * &u;
-        let left = &self.t_inv * &binv;
-        let n = &left * &b.z_22 * &self.t;
-        let k = &left * &b.z_2g;
-        let h = &left * (&b.bu_2 * &u);
-        let w = &b.z_g2 * &self.t;
-        let (nr, s, c) = (n.nrows(), self.ns, self.ncon);
-        let f = nr - s;
-        let (mut p1, mut p2, mut p) = (
-            n.view((0, 0), (s, s)).into_owned(),
-            k.rows(0, s).into_owned(),
-            h.rows(0, s).into_owned(),
-        );
-        let (mut q1, mut q2, mut q) = (b.z_gg.clone(), w.columns(0, s).into_owned(), g_q);
-        if f > 0 {
-            let nff_inv = n
-                .view((s, s), (f, f))
-                .into_owned()
-                .try_inverse()
-                .ok_or_else(|| singular("the fast block of B22^-1 Z22"))?;
-            let x_n = &nff_inv * n.view((s, 0), (f, s));
-            let x_k = &nff_inv * k.rows(s, f);
-            let x_h = &nff_inv * h.rows(s, f);
-            let n_sf = n.view((0, s), (s, f));
-            let w_f = w.columns(s, f);
-            p1 -= n_sf * &x_n;
-            p2 -= n_sf * &x_k;
-            p -= n_sf * &x_h;
-            q1 -= w_f * &x_k;
-            q2 -= w_f * &x_n;
-            q -= w_f * &x_h;
-        }
+        let Blocks {
+            p1,
+            p2,
+            p,
+            q1,
+            q2,
+            q,
+        } = blocks;
+        let (s, c) = (self.ns, self.ncon);
         let o = port.offset;
         for r in 0..c {
             for j in 0..c {
@@ -405,9 +586,14 @@ pub(crate) fn simulate(
     let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
     let mut ys: Vec<Complex64> = Vec::with_capacity(ns);
     let mut dys = vec![Complex64::new(0.0, 0.0); ns];
+    let mut dch = vec![Complex64::new(0.0, 0.0); if opts.rate_terms { ntot } else { 0 }];
     let rhs = |t: f64, y: &DVector<f64>, dy: &mut DVector<f64>| -> Result<(), ReducedError> {
         let w = sweep.omega_rad_s(t);
-        cache.eval(w, &mut ch);
+        if opts.rate_terms {
+            cache.eval_with_derivative(w, &mut ch, &mut dch);
+        } else {
+            cache.eval(w, &mut ch);
+        }
         let fi = model.imposed_at(w)?;
         let amp = Complex64::new(y[0], y[1]);
         let a = (y[0] * y[0] + y[1] * y[1]).sqrt();
@@ -419,9 +605,19 @@ pub(crate) fn simulate(
         }
         let (k, fm, _) = model.terms_with(&props, &phi, w, &ch[..nch], fi);
         let z = fm - k * amp;
-        let s = 0.5 / w;
-        dy[0] = z.im * s;
-        dy[1] = -z.re * s;
+        if opts.rate_terms {
+            // the rate terms of the condensed feedthrough Q1 (the carried
+            // states' own rates are in dys); super::rate
+            let wdot = sweep.omega_rate_rad_s2(t);
+            let a = amp.norm();
+            let d = model.first_order_rate(&props, &phi, a, w, wdot, &dch[..nch], z, amp)?;
+            dy[0] = d.re;
+            dy[1] = d.im;
+        } else {
+            let s = 0.5 / w;
+            dy[0] = z.im * s;
+            dy[1] = -z.re * s;
+        }
         for (j, d) in dys.iter().enumerate() {
             dy[2 + 2 * j] = d.re;
             dy[3 + 2 * j] = d.im;
@@ -451,7 +647,7 @@ pub(crate) fn simulate(
             batch.states.push(yt.clone());
             next += 1;
             if batch.ts.len() == SWEEP_BATCH {
-                batch.flush(model, ports, sweep, &cache, sink)?;
+                batch.flush(model, ports, sweep, &cache, sink, opts.rate_terms)?;
             }
         }
         d.eval_into(t1, &mut last_state.1);
@@ -475,7 +671,7 @@ pub(crate) fn simulate(
             status
         }
     };
-    batch.flush(model, ports, sweep, &cache, sink)?;
+    batch.flush(model, ports, sweep, &cache, sink, opts.rate_terms)?;
     Ok(SweepRun {
         status,
         stats,
@@ -626,6 +822,7 @@ impl StateBatch {
         sweep: &LinearSweep,
         cache: &OmegaCache,
         sink: &mut dyn SweepSink,
+        rate_terms: bool,
     ) -> Result<(), ReducedError> {
         if self.ts.is_empty() {
             return Ok(());
@@ -635,16 +832,38 @@ impl StateBatch {
         let mut channels = Vec::with_capacity(nch * w.len());
         let mut amps = Vec::with_capacity(w.len());
         let mut ch = vec![Complex64::new(0.0, 0.0); cache.nch()];
+        let mut dch = vec![Complex64::new(0.0, 0.0); if rate_terms { cache.nch() } else { 0 }];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
         let mut ys = Vec::new();
-        for (&wi, y) in w.iter().zip(&self.states) {
-            cache.eval(wi, &mut ch);
+        for ((&wi, &ti), y) in w.iter().zip(&self.ts).zip(&self.states) {
+            if rate_terms {
+                cache.eval_with_derivative(wi, &mut ch, &mut dch);
+            } else {
+                cache.eval(wi, &mut ch);
+            }
             let amp = Complex64::new(y[0], y[1]);
-            model.gather(amp.norm(), &mut phi)?;
+            let props = model.gather(amp.norm(), &mut phi)?;
             complex_states(y.as_slice(), &mut ys);
             for p in ports {
                 let r = p.state_offset..p.state_offset + p.ns;
                 p.apply(model, &mut ch, &phi, amp, &ys[r], None);
+            }
+            if rate_terms {
+                // the slow flow's A' at the sample, its rate force reported
+                let fi = model.imposed_at(wi)?;
+                let (k, fm, _) = model.terms_with(&props, &phi, wi, &ch[..nch], fi);
+                let wdot = sweep.omega_rate_rad_s2(ti);
+                let rate = model.first_order_rate(
+                    &props,
+                    &phi,
+                    amp.norm(),
+                    wi,
+                    wdot,
+                    &dch[..nch],
+                    fm - k * amp,
+                    amp,
+                )?;
+                model.subtract_rate_forces(&mut ch[..nch], &dch[..nch], &phi, rate);
             }
             channels.extend_from_slice(&ch[..nch]);
             amps.push(amp);

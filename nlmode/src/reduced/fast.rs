@@ -92,6 +92,12 @@ impl Breaks {
         }
     }
 
+    /// `1 / (x[k+1] - x[k])`.
+    #[inline(always)]
+    pub fn inv_h(&self, k: usize) -> f64 {
+        self.inv_h[k]
+    }
+
     /// `d/dx` of a cubic in `t` with coefficients `c` on segment `loc.k`.
     #[inline(always)]
     pub fn slope(&self, loc: Loc, c: &[f64; 4]) -> f64 {

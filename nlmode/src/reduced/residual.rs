@@ -145,7 +145,7 @@ impl ResidualModes {
     }
 
     /// `G` and `dG/dW` between the points `rows` and `cols`.
-    fn receptance_matrix(&self, points: &[usize], w: f64) -> (CMat, CMat) {
+    pub(crate) fn receptance_matrix(&self, points: &[usize], w: f64) -> (CMat, CMat) {
         let n = points.len();
         let (mut g, mut dg) = (CMat::zeros(n, n), CMat::zeros(n, n));
         for r in 0..self.len() {
@@ -298,6 +298,9 @@ pub(crate) struct Residual {
     /// Interface points of each original attachment (the merged port's rows
     /// in turn), to split its forces per attachment.
     pub split: Vec<usize>,
+    /// The original ports (their attachments' states are carried through
+    /// the merged port with `attachments = "dynamic"`, [`super::dynamic`]).
+    pub ports: Vec<Port>,
 }
 
 impl ReducedModel {
@@ -329,6 +332,7 @@ impl ReducedModel {
         }
         let modes = Arc::new(ResidualModes::from_table(table, n)?);
         let split: Vec<usize> = self.ports.iter().map(|p| p.points.len()).collect();
+        let originals = self.ports.clone();
         if !self.ports.is_empty() {
             let ports = std::mem::take(&mut self.ports);
             let points: Vec<usize> = ports.iter().flat_map(|p| p.points.clone()).collect();
@@ -355,7 +359,11 @@ impl ReducedModel {
             self.nch = port.nchannels();
             self.ports.push(port);
         }
-        self.residual = Some(Residual { modes, split });
+        self.residual = Some(Residual {
+            modes,
+            split,
+            ports: originals,
+        });
         Ok(self)
     }
 

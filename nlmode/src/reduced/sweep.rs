@@ -42,6 +42,13 @@ pub struct SlowFlowOptions {
     /// parts"); `f64::INFINITY` carries every state.
     #[serde(default = "default_fast_pole_factor")]
     pub fast_pole_factor: f64,
+    /// Keep the modulation terms `eq:NM` drops, to first order in the slow
+    /// derivatives: the attachments' rate terms `dZ_A/d(i Omega) A'`, the
+    /// modal damping's `2 D omega A'` and the sweep's `i Omega' A`
+    /// ([`super::rate`]). Steady states are unchanged. Default `false`: the
+    /// paper's `eq:NM`.
+    #[serde(default)]
+    pub rate_terms: bool,
 }
 
 fn default_fast_pole_factor() -> f64 {
@@ -58,6 +65,7 @@ impl Default for SlowFlowOptions {
             channel_tol: 1e-9,
             attachments: AttachmentStates::QuasiSteady,
             fast_pole_factor: super::dynamic::FAST_POLE_FACTOR,
+            rate_terms: false,
         }
     }
 }
@@ -456,6 +464,24 @@ impl OmegaCache {
         }
     }
 
+    /// Interpolated channels at `w` and their derivatives with respect to
+    /// `w` (those of the interpolating cubics; zero outside the tabulated
+    /// range, where the channels are held).
+    pub fn eval_with_derivative(&self, w: f64, out: &mut [Complex64], d: &mut [Complex64]) {
+        if self.nch == 0 {
+            return;
+        }
+        let (lo, hi) = (self.nodes.first(), self.nodes.last());
+        let loc = self.nodes.locate(w.clamp(lo, hi));
+        let c = &self.c[loc.k * self.nch..(loc.k + 1) * self.nch];
+        let (t, inv_h) = (loc.t, self.nodes.inv_h(loc.k));
+        let inside = if w >= lo && w <= hi { inv_h } else { 0.0 };
+        for ((o, d), c) in out.iter_mut().zip(d.iter_mut()).zip(c) {
+            *o = c[0] + (c[1] + (c[2] + c[3] * t) * t) * t;
+            *d = (c[1] + (c[2] * 2.0 + c[3] * (3.0 * t)) * t) * inside;
+        }
+    }
+
     /// Interpolated channels at `w` (clamped to the tabulated range).
     #[inline(always)]
     pub fn eval(&self, w: f64, out: &mut [Complex64]) {
@@ -526,14 +552,6 @@ impl ReducedModel {
         for imp in &self.imposed {
             imp.envelope.check_covers(lo, hi)?;
         }
-        if opts.attachments == AttachmentStates::Dynamic && self.residual.is_some() {
-            return Err(ReducedError::ResidualModes {
-                requested: self.residual_modes().map_or(0, |r| r.len()),
-                why: "not available with attachments = \"dynamic\" (the attachment states and \
-                      the residual modes are not coupled in one slow flow yet): use one of the two"
-                    .into(),
-            });
-        }
         if opts.attachments == AttachmentStates::Dynamic {
             let ports = super::dynamic::StatePort::select(self, lo, hi, opts.fast_pole_factor)?;
             // without a slow attachment state the model is `eq:NM` itself
@@ -556,15 +574,23 @@ impl ReducedModel {
         };
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        let mut dch = vec![Complex64::new(0.0, 0.0); if opts.rate_terms { self.nch } else { 0 }];
         let rhs = |t: f64, y: &[f64; 2], dy: &mut [f64; 2]| -> Result<(), ReducedError> {
             let w = sweep.omega_rad_s(t);
-            cache.eval(w, &mut ch);
             let fi = self.imposed_at(w)?;
-            *dy = self.rhs(y, w, &ch, fi, &mut phi)?;
+            if opts.rate_terms {
+                cache.eval_with_derivative(w, &mut ch, &mut dch);
+                let wdot = sweep.omega_rate_rad_s2(t);
+                let d = self.rhs_first_order(y, w, wdot, &ch, &dch, fi, &mut phi)?;
+                *dy = [d.re, d.im];
+            } else {
+                cache.eval(w, &mut ch);
+                *dy = self.rhs(y, w, &ch, fi, &mut phi)?;
+            }
             Ok(())
         };
         let n = opts.output_samples;
-        let mut batch = OutputBatch::new();
+        let mut batch = OutputBatch::new(opts.rate_terms);
         let mut next = 0usize;
         let dt = duration / (n - 1) as f64;
         let sample_t = |j: usize| if j + 1 == n { duration } else { j as f64 * dt };
@@ -695,11 +721,14 @@ struct OutputBatch {
     channels: Vec<Complex64>,
     scratch: OutputScratch,
     samples: Vec<SlowFlowSample>,
+    /// The slow flow has the rate terms: so has the reported force.
+    rate_terms: bool,
 }
 
 impl OutputBatch {
-    fn new() -> Self {
+    fn new(rate_terms: bool) -> Self {
         Self {
+            rate_terms,
             ts: Vec::with_capacity(SWEEP_BATCH),
             amps: Vec::with_capacity(SWEEP_BATCH),
             emitted: 0,
@@ -732,6 +761,10 @@ impl OutputBatch {
         self.w.extend(self.ts.iter().map(|&t| sweep.omega_rad_s(t)));
         self.channels.clear();
         cache.eval_rows_into(&self.w, &mut self.channels);
+        if self.rate_terms {
+            let states = (&self.ts[..], &self.w[..], &self.amps[..]);
+            model.subtract_rate_forces_in_rows(cache, sweep, states, &mut self.channels)?;
+        }
         let imposed_n = model.drive_imposed_n(&self.w)?;
         self.samples.clear();
         model.output_fields_into(

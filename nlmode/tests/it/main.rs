@@ -7,6 +7,7 @@ mod hb;
 mod matrices;
 mod nma;
 mod nma_nonsmooth;
+mod rate;
 mod reduced;
 mod reference;
 mod residual;
