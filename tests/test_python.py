@@ -292,3 +292,68 @@ def test_example_case_a_plot(tmp_path):
     )
     assert p.returncode == 0, p.stderr
     assert png.stat().st_size > 10_000 and "peak tip" in p.stdout
+
+
+def _frame_without_files():
+    """examples/matrices_frame.toml with its matrices read by scipy instead of
+    named as files: (scenario text, {"mass": M, "stiffness": K})."""
+    import scipy.io
+
+    here = pathlib.Path(__file__).resolve().parent.parent / "examples"
+    text = (here / "matrices_frame.toml").read_text()
+    text = re.sub(r'^(mass_mtx|stiffness_mtx) = .*$', "", text, flags=re.M)
+    mats = {
+        "mass": scipy.io.mmread(here / "matrices" / "frame_M.mtx").tocsr(),
+        "stiffness": scipy.io.mmread(here / "matrices" / "frame_K.mtx").tocsc(),
+    }
+    return text, mats
+
+
+def test_scipy_sparse_matrices_equal_the_files():
+    """The portal frame's M and K as scipy.sparse matrices (no files): the
+    modal table and a sweep equal those of the same matrices read from the
+    Matrix Market files (feio), to the last digits; dense numpy arrays too."""
+    nl = import_nlmode()
+    here = pathlib.Path(__file__).resolve().parent.parent / "examples"
+    text, mats = _frame_without_files()
+    from_files = nl.nma(here / "matrices_frame.toml")
+    in_memory = nl.nma(text, matrices=mats)
+    assert in_memory.omega0_rad_s == pytest.approx(from_files.omega0_rad_s, rel=1e-13)
+    np.testing.assert_allclose(in_memory.omega_rad_s, from_files.omega_rad_s, rtol=1e-11)
+    np.testing.assert_allclose(
+        in_memory.amplitude, from_files.amplitude, rtol=1e-11, atol=1e-18
+    )
+    dense = {k: m.toarray() for k, m in mats.items()}
+    assert nl.nma(text, matrices=dense).omega0_rad_s == pytest.approx(
+        from_files.omega0_rad_s, rel=1e-13
+    )
+    a = nl.run(here / "matrices_frame.toml", ["nlmode"])
+    b = nl.run(text, ["nlmode"], matrices=mats)
+    pa = a.summary["methods"]["nlmode"]["peak_tip_amplitude_m"]
+    pb = b.summary["methods"]["nlmode"]["peak_tip_amplitude_m"]
+    assert pb == pytest.approx(pa, rel=1e-10)
+
+
+def test_bad_in_memory_matrices_name_the_argument():
+    nl = import_nlmode()
+    import scipy.sparse as sp
+
+    text, mats = _frame_without_files()
+    n = mats["mass"].shape[0]
+    cases = [
+        ({"mass": mats["mass"]}, "'stiffness' is missing"),
+        ({**mats, "mas": mats["mass"]}, "unknown key 'mas'"),
+        ({**mats, "mass": sp.eye(n + 1, format="csr")}, "mass"),
+        ({**mats, "mass": np.full((n, n - 1), 1.0)}, "mass"),
+        ({**mats, "stiffness": sp.csr_matrix(np.full((n, n), np.nan))}, "stiffness"),
+        ({**mats, "mass": np.ones(n)}, "2-D"),
+    ]
+    for m, needle in cases:
+        with pytest.raises(nl.ScenarioError, match=re.escape(needle)):
+            nl.nma(text, matrices=m)
+    # the files named as well, or a beam scenario: the key named
+    here = pathlib.Path(__file__).resolve().parent.parent / "examples"
+    with pytest.raises(nl.ScenarioError, match="structure.mass_mtx"):
+        nl.nma(here / "matrices_frame.toml", matrices=mats)
+    with pytest.raises(nl.ScenarioError, match="structure.kind"):
+        nl.nma(None, matrices=mats)

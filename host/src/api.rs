@@ -11,7 +11,8 @@ use crate::scenario::{Method, Scenario};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 
-pub use crate::methods::load_scenario;
+pub use crate::methods::{load_scenario, load_scenario_with_matrices};
+pub use crate::scenario::InMemoryMatrices;
 pub use crate::scenario::ScenarioSource;
 
 /// How [`compute`] runs.

@@ -233,7 +233,22 @@ fn matrices_error(
         | MatricesError::NotSymmetric { role, .. }
         | MatricesError::BadDiagonal { role, .. } => format!("structure.{}", role.key()),
     };
-    anyhow::anyhow!("{k}: {e}")
+    // the input's fault (a file or matrix, a key) is a ScenarioError (the
+    // Python package raises nlmode.ScenarioError for it); a failed
+    // computation of a valid model is not
+    let computation = matches!(
+        &e,
+        MatricesError::Structure(s)
+            if !matches!(s, nlmode::structure::StructureError::MemoryLimit { .. })
+    );
+    if computation {
+        return anyhow::anyhow!("{k}: {e}");
+    }
+    anyhow::Error::new(crate::scenario::ScenarioError {
+        key: k,
+        message: e.to_string(),
+        line: None,
+    })
 }
 
 /// Each point's row: `dof`, or its node and direction in the `labels` of
@@ -347,7 +362,16 @@ pub fn build_matrices_structure(
     }
     let read_start = crate::stages::StageClock::now();
     let mut read = Vec::with_capacity(files.len());
-    for (role, path) in &files {
+    let mut given = Vec::with_capacity(files.len());
+    for (k, (role, path)) in files.iter().enumerate() {
+        // matrices given in memory (the Python package): converted from
+        // their shared entries, no file read
+        if let Some(t) = st.in_memory.as_ref().and_then(|m| m.get(k)) {
+            given.push(Some(sparse_from_feio(*role, path, t).map_err(key)?));
+            read.push(feio::Triplets::default());
+            continue;
+        }
+        given.push(None);
         read.push(read_matrix_triplets(*role, path, format).map_err(key)?);
     }
     // labelled files (Abaqus' labels format) share one numbering: the union of
@@ -378,9 +402,12 @@ pub fn build_matrices_structure(
     } else {
         None
     };
-    let mut sparse_of = |k: usize| {
-        let t = std::mem::take(&mut read[k]);
-        sparse_from_feio(files[k].0, files[k].1, &t).map_err(key)
+    let mut sparse_of = |k: usize| match given[k].take() {
+        Some(a) => Ok(a),
+        None => {
+            let t = std::mem::take(&mut read[k]);
+            sparse_from_feio(files[k].0, files[k].1, &t).map_err(key)
+        }
     };
     let mass = sparse_of(0)?;
     let stiffness = sparse_of(1)?;

@@ -62,6 +62,51 @@ def _source(scenario: Source):
     )
 
 
+Matrices = Mapping[str, Any]
+
+
+def _matrices(matrices: Optional[Matrices]):
+    """The ``matrices`` argument for the native module: each of ``mass``,
+    ``stiffness`` (required) and ``damping`` (optional) as ``(nrows, ncols,
+    rows, cols, values)`` with int64 / float64 arrays of its stored entries
+    (duplicates summed), from a ``scipy.sparse`` matrix or array (any format)
+    or a dense 2-D array. The matrices are not written to files."""
+    if matrices is None:
+        return None
+    if not isinstance(matrices, Mapping):
+        raise TypeError(
+            "matrices: expected a dict {'mass': M, 'stiffness': K[, 'damping': C]}, "
+            f"not {type(matrices).__name__}"
+        )
+    out = {}
+    for key, m in matrices.items():
+        if hasattr(m, "tocoo"):  # scipy.sparse, any format
+            c = m.tocoo(copy=True)
+            c.sum_duplicates()
+            rows, cols, vals = c.row, c.col, c.data
+            shape = c.shape
+        else:
+            a = np.asarray(m)
+            if a.ndim != 2:
+                raise ScenarioError(
+                    f"matrices['{key}']: expected a 2-D array or a scipy.sparse matrix, "
+                    f"got {a.ndim} dimensions"
+                )
+            rows, cols = np.nonzero(a)
+            vals = a[rows, cols]
+            shape = a.shape
+        if np.iscomplexobj(vals):
+            raise ScenarioError(f"matrices['{key}']: expected real values, got complex")
+        out[str(key)] = (
+            int(shape[0]),
+            int(shape[1]),
+            np.ascontiguousarray(rows, dtype=np.int64),
+            np.ascontiguousarray(cols, dtype=np.int64),
+            np.ascontiguousarray(vals, dtype=np.float64),
+        )
+    return out
+
+
 class RunResult:
     """What a sweep computed: ``summary`` (the dict of ``summary.json``),
     ``methods`` (the output names, e.g. ``nlmode``, ``closed-form``),
@@ -141,6 +186,7 @@ def run(
     *,
     out_dir: Union[None, str, "os.PathLike[str]"] = None,
     fmu_dir: Union[None, str, "os.PathLike[str]"] = None,
+    matrices: Optional[Matrices] = None,
 ) -> RunResult:
     """Sweep through resonance by every method the scenario lists (or
     ``methods``, which replaces ``[run] methods``), as ``host run``.
@@ -150,8 +196,13 @@ def run(
     FMUs are packaged as ``output.fmus`` says); default a temporary folder.
     ``fmu_dir``: the FMU libraries for ``cosim`` (else ``$NLMODE_FMU_DIR``);
     without them ``cosim`` is listed under ``summary["failed_methods"]``.
+    ``matrices``: the mass, stiffness and damping matrices of a ``[structure]
+    kind = "matrices"`` scenario in memory (``{"mass": M, "stiffness": K,
+    "damping": C}``, ``scipy.sparse`` or dense; the scenario then names no
+    matrix files).
     """
     text, path = _source(scenario)
+    mats = _matrices(matrices)
     m = None if methods is None else [str(x) for x in methods]
     summary, results = _native.run(
         text,
@@ -159,6 +210,7 @@ def run(
         m,
         None if out_dir is None else os.fspath(out_dir),
         None if fmu_dir is None else os.fspath(fmu_dir),
+        mats,
     )
     return RunResult(json.loads(summary), results)
 
@@ -177,11 +229,13 @@ class ModalTable(dict):
             raise AttributeError(name) from None
 
 
-def nma(scenario: Source = None) -> ModalTable:
+def nma(scenario: Source = None, *, matrices: Optional[Matrices] = None) -> ModalTable:
     """The nonlinear modal analysis of the scenario's structure: the refined
-    modal table that ``host nma`` writes to ``modal_table.json``."""
+    modal table that ``host nma`` writes to ``modal_table.json``.
+    ``matrices``: as for :func:`run` (a ``kind = "matrices"`` structure's
+    matrices in memory)."""
     text, path = _source(scenario)
-    table, note, omega0 = _native.nma(text, path)
+    table, note, omega0 = _native.nma(text, path, _matrices(matrices))
     t = json.loads(table)
     shapes = {
         p["name"]: np.asarray(p["re"], dtype=float) + 1j * np.asarray(p["im"], dtype=float)
@@ -201,13 +255,13 @@ def nma(scenario: Source = None) -> ModalTable:
     )
 
 
-def frf(scenario: Source = None) -> Dict[str, Any]:
+def frf(scenario: Source = None, *, matrices: Optional[Matrices] = None) -> Dict[str, Any]:
     """The steady state of ``eq:NM`` at the scenario's voltage, as ``host frf``:
     every solution branch point (``omega_rad_s``, ``modal_amplitude``,
     ``tip_amplitude_m``, ``force_amplitude_N``, ``stable`` as bool arrays),
     plus ``omega0_rad_s`` and ``note``."""
     text, path = _source(scenario)
-    return _native.frf(text, path)
+    return _native.frf(text, path, _matrices(matrices))
 
 
 def _study_source(study):

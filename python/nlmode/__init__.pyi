@@ -48,13 +48,14 @@ def run(
     *,
     out_dir: Union[None, str, os.PathLike] = None,
     fmu_dir: Union[None, str, os.PathLike] = None,
+    matrices: Optional[Mapping[str, Any]] = None,
 ) -> RunResult:
     """Sweep through resonance by the scenario's methods (or ``methods``), as ``host run``."""
 
-def nma(scenario: Source = None) -> ModalTable:
+def nma(scenario: Source = None, *, matrices: Optional[Mapping[str, Any]] = None) -> ModalTable:
     """The refined nonlinear modal table (``host nma``'s ``modal_table.json``)."""
 
-def frf(scenario: Source = None) -> Dict[str, Any]:
+def frf(scenario: Source = None, *, matrices: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:
     """The steady-state branches of ``eq:NM`` (``host frf``'s ``frf.csv``)."""
 
 def read_results(source: Union[str, os.PathLike]) -> Any:

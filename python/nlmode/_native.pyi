@@ -23,6 +23,7 @@ def run(
     methods: Optional[List[str]] = None,
     out_dir: Optional[str] = None,
     fmu_dir: Optional[str] = None,
+    matrices: Optional[dict] = None,
 ) -> Tuple[
     str,
     List[
@@ -37,10 +38,14 @@ def run(
     """A sweep as ``host run`` computes it: (summary.json text, [(output name,
     envelope columns, time-series columns or None, further tables)])."""
 
-def nma(text: Optional[str] = None, path: Optional[str] = None) -> Tuple[str, str, float]:
+def nma(
+    text: Optional[str] = None, path: Optional[str] = None, matrices: Optional[dict] = None
+) -> Tuple[str, str, float]:
     """(modal_table.json text, how the table was made, omega0 [rad/s])."""
 
-def frf(text: Optional[str] = None, path: Optional[str] = None) -> dict:
+def frf(
+    text: Optional[str] = None, path: Optional[str] = None, matrices: Optional[dict] = None
+) -> dict:
     """The steady-state branches (frf.csv's columns as arrays, ``stable`` as
     bool), ``omega0_rad_s`` and ``note``."""
 

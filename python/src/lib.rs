@@ -17,7 +17,7 @@
 use host::api::{self, ScenarioSource};
 use host::scenario::ScenarioError as HostScenarioError;
 use host::study::{StructureCache, Study as HostStudy, StudyError};
-use numpy::PyArray1;
+use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -139,12 +139,102 @@ fn columns<'py>(py: Python<'py>, cols: Vec<(String, Vec<f64>)>) -> PyResult<Boun
     Ok(d)
 }
 
-/// `run(text, path, methods, out_dir, fmu_dir) -> (summary_json, [(name,
+/// One matrix given in memory, `(nrows, ncols, rows, cols, values)` with
+/// the entries as int64 / float64 arrays (the package's `_matrices` makes
+/// them from `scipy.sparse` or dense arrays), checked: equal lengths,
+/// indices in range. The values are checked with the files' rules later
+/// (finite, square, symmetric, ...: `nlmode::structure::matrices`).
+fn triplets(key: &str, v: &Bound<'_, PyAny>) -> PyResult<feio::Triplets> {
+    let bad = |m: String| ScenarioError::new_err(format!("matrices['{key}']: {m}"));
+    type Entries<'py> = (
+        usize,
+        usize,
+        PyReadonlyArray1<'py, i64>,
+        PyReadonlyArray1<'py, i64>,
+        PyReadonlyArray1<'py, f64>,
+    );
+    let (nrows, ncols, rows, cols, vals): Entries = v.extract().map_err(|e| {
+        bad(format!(
+            "expected (nrows, ncols, rows: int64 array, cols: int64 array, values: float64 array): {e}"
+        ))
+    })?;
+    let (r, c, x) = (rows.as_slice()?, cols.as_slice()?, vals.as_slice()?);
+    if r.len() != x.len() || c.len() != x.len() {
+        return Err(bad(format!(
+            "{} rows, {} cols and {} values: expected one of each per entry",
+            r.len(),
+            c.len(),
+            x.len()
+        )));
+    }
+    let index = |what: &str, i: i64, n: usize, k: usize| {
+        usize::try_from(i)
+            .ok()
+            .filter(|&i| i < n)
+            .ok_or_else(|| bad(format!("entry {k}: {what} index {i} is outside 0..{n}")))
+    };
+    let mut t = feio::Triplets {
+        nrows,
+        ncols,
+        rows: Vec::with_capacity(r.len()),
+        cols: Vec::with_capacity(c.len()),
+        vals: x.to_vec(),
+        ..Default::default()
+    };
+    for (k, (&i, &j)) in r.iter().zip(c).enumerate() {
+        t.rows.push(index("row", i, nrows, k)?);
+        t.cols.push(index("column", j, ncols, k)?);
+    }
+    Ok(t)
+}
+
+/// The `matrices` argument (`{"mass": ..., "stiffness": ..., "damping": ...}`
+/// of [`triplets`]' tuples) as the scenario's in-memory matrices.
+fn in_memory(m: Option<&Bound<'_, PyDict>>) -> PyResult<Option<api::InMemoryMatrices>> {
+    let Some(m) = m else { return Ok(None) };
+    let get = |key: &str| -> PyResult<Option<Arc<feio::Triplets>>> {
+        m.get_item(key)?
+            .map(|v| triplets(key, &v).map(Arc::new))
+            .transpose()
+    };
+    let (mass, stiffness, damping) = (get("mass")?, get("stiffness")?, get("damping")?);
+    for k in m.keys() {
+        let k: String = k.extract()?;
+        if !["mass", "stiffness", "damping"].contains(&k.as_str()) {
+            return Err(ScenarioError::new_err(format!(
+                "matrices: unknown key '{k}', expected 'mass', 'stiffness' and optionally 'damping'"
+            )));
+        }
+    }
+    let need = |x: Option<_>, key| {
+        x.ok_or_else(|| ScenarioError::new_err(format!("matrices: '{key}' is missing")))
+    };
+    Ok(Some(api::InMemoryMatrices {
+        mass: need(mass, "mass")?,
+        stiffness: need(stiffness, "stiffness")?,
+        damping,
+    }))
+}
+
+/// The scenario of `text`/`path` with `methods` and the in-memory matrices.
+fn load(
+    text: &Option<String>,
+    path: &Option<PathBuf>,
+    methods: Option<&[String]>,
+    matrices: Option<api::InMemoryMatrices>,
+) -> anyhow::Result<(host::scenario::Scenario, String)> {
+    match matrices {
+        None => api::load_scenario(source(text, path), methods),
+        Some(m) => api::load_scenario_with_matrices(source(text, path), methods, m),
+    }
+}
+
+/// `run(text, path, methods, out_dir, fmu_dir, matrices) -> (summary_json, [(name,
 /// envelope, time_series or None, tables)])`: a sweep as `host run` computes
 /// it; `tables` maps a further table's name (e.g. `hb_frc`) to its columns
 /// (numpy arrays, lists of str for labels).
 #[pyfunction]
-#[pyo3(signature = (text=None, path=None, methods=None, out_dir=None, fmu_dir=None))]
+#[pyo3(signature = (text=None, path=None, methods=None, out_dir=None, fmu_dir=None, matrices=None))]
 fn run<'py>(
     py: Python<'py>,
     text: Option<String>,
@@ -152,10 +242,12 @@ fn run<'py>(
     methods: Option<Vec<String>>,
     out_dir: Option<PathBuf>,
     fmu_dir: Option<PathBuf>,
+    matrices: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    let mem = in_memory(matrices.as_ref())?;
     let computed = py
         .detach(|| -> anyhow::Result<_> {
-            let (sc, name) = api::load_scenario(source(&text, &path), methods.as_deref())?;
+            let (sc, name) = load(&text, &path, methods.as_deref(), mem)?;
             // the files some methods leave besides their results (packaged
             // FMUs, phase_resonance.csv): the caller's folder or a temporary one
             let tmp;
@@ -219,17 +311,19 @@ fn run<'py>(
     (summary, list).into_pyobject(py)
 }
 
-/// `nma(text, path) -> (table_json, note, omega0_rad_s)`: the refined modal
+/// `nma(text, path, matrices) -> (table_json, note, omega0_rad_s)`: the refined modal
 /// table as `host nma` writes it to `modal_table.json`.
 #[pyfunction]
-#[pyo3(signature = (text=None, path=None))]
+#[pyo3(signature = (text=None, path=None, matrices=None))]
 fn nma(
     py: Python<'_>,
     text: Option<String>,
     path: Option<PathBuf>,
+    matrices: Option<Bound<'_, PyDict>>,
 ) -> PyResult<(String, String, f64)> {
+    let mem = in_memory(matrices.as_ref())?;
     py.detach(|| -> anyhow::Result<_> {
-        let (mut sc, name) = api::load_scenario(source(&text, &path), None)?;
+        let (mut sc, name) = load(&text, &path, None, mem)?;
         let setup =
             host::model::Setup::new(&sc).map_err(|e| e.context(format!("scenario {name}")))?;
         // `host nma` computes the table afresh even if the scenario names a file
@@ -240,18 +334,20 @@ fn nma(
     .map_err(py_err)
 }
 
-/// `frf(text, path) -> dict`: the steady-state branches (`host frf`'s frf.csv
+/// `frf(text, path, matrices) -> dict`: the steady-state branches (`host frf`'s frf.csv
 /// columns, `stable` as bool) and `omega0_rad_s`, `note`.
 #[pyfunction]
-#[pyo3(signature = (text=None, path=None))]
+#[pyo3(signature = (text=None, path=None, matrices=None))]
 fn frf<'py>(
     py: Python<'py>,
     text: Option<String>,
     path: Option<PathBuf>,
+    matrices: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let mem = in_memory(matrices.as_ref())?;
     let (nma, r, omega0) = py
         .detach(|| -> anyhow::Result<_> {
-            let (sc, name) = api::load_scenario(source(&text, &path), None)?;
+            let (sc, name) = load(&text, &path, None, mem)?;
             let setup =
                 host::model::Setup::new(&sc).map_err(|e| e.context(format!("scenario {name}")))?;
             let (nma, r) = api::frf(&setup, &sc)?;

@@ -64,3 +64,13 @@ pub fn load_scenario(
 ) -> Result<(Scenario, String)> {
     load_scenario_in(src, methods, catalog())
 }
+
+/// [`load_scenario`] with the matrices of a `kind = "matrices"` structure
+/// given in memory ([`crate::scenario::load_scenario_with`]).
+pub fn load_scenario_with_matrices(
+    src: ScenarioSource,
+    methods: Option<&[String]>,
+    matrices: crate::scenario::InMemoryMatrices,
+) -> Result<(Scenario, String)> {
+    crate::scenario::load_scenario_with(src, methods, Some(matrices), catalog())
+}

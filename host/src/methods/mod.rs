@@ -30,7 +30,7 @@ mod response_controlled;
 pub mod stepped;
 pub mod test_plan;
 
-pub use self::catalog::{catalog, load_scenario};
+pub use self::catalog::{catalog, load_scenario, load_scenario_with_matrices};
 pub use self::cosim::cosim;
 pub use self::hb::{hb_response, hb_result, hb_table, single_mode_seeds};
 pub use self::nma::{fold_warning, nma_table, Nma};

@@ -1,6 +1,6 @@
 //! Reading a scenario: the one loader of `host run`, `host nma`, `host frf`,
 //! the study's base scenario and the Python package.
-use super::{Catalog, Scenario, ScenarioError, DEFAULT_SCENARIO};
+use super::{Catalog, InMemoryMatrices, Scenario, ScenarioError, StructureSpec, DEFAULT_SCENARIO};
 use anyhow::{Context, Result};
 use std::path::Path;
 
@@ -32,6 +32,20 @@ pub fn load_scenario_in(
     methods: Option<&[String]>,
     catalog: &'static Catalog,
 ) -> Result<(Scenario, String)> {
+    load_scenario_with(src, methods, None, catalog)
+}
+
+/// [`load_scenario_in`] with the matrices of a `kind = "matrices"`
+/// structure given in memory (the Python package's `matrices=`): the
+/// scenario must not name their files (`mass_mtx`, `stiffness_mtx`,
+/// `damping_mtx`), which then hold [`InMemoryMatrices::placeholder`]
+/// names for messages and provenance.
+pub fn load_scenario_with(
+    src: ScenarioSource,
+    methods: Option<&[String]>,
+    matrices: Option<InMemoryMatrices>,
+    catalog: &'static Catalog,
+) -> Result<(Scenario, String)> {
     let (text, name, dir) = match src {
         ScenarioSource::Default => (
             DEFAULT_SCENARIO.to_string(),
@@ -46,27 +60,34 @@ pub fn load_scenario_in(
             p.parent().map(Path::to_path_buf),
         ),
     };
-    let text = match methods {
-        None => text,
-        Some(m) => {
-            let bad = |message: String| {
-                anyhow::Error::new(ScenarioError {
-                    key: "scenario".into(),
-                    message,
-                    line: None,
-                })
-                .context(format!("scenario {name}"))
-            };
-            let mut tree: toml::Value =
-                toml::from_str(&text).map_err(|e| bad(e.message().to_string()))?;
+    let regenerated = methods.is_some() || matrices.is_some();
+    let text = if regenerated {
+        let bad = |key: &str, message: String| {
+            anyhow::Error::new(ScenarioError {
+                key: key.into(),
+                message,
+                line: None,
+            })
+            .context(format!("scenario {name}"))
+        };
+        let mut tree: toml::Value =
+            toml::from_str(&text).map_err(|e| bad("scenario", e.message().to_string()))?;
+        if let Some(m) = methods {
             let list = toml::Value::Array(m.iter().cloned().map(toml::Value::String).collect());
-            set_path(&mut tree, "run.methods", list).map_err(bad)?;
-            toml::to_string(&tree).map_err(|e| bad(e.to_string()))?
+            set_path(&mut tree, "run.methods", list).map_err(|e| bad("scenario", e))?;
         }
+        if let Some(mem) = &matrices {
+            for (key, value) in in_memory_keys(&tree, mem).map_err(|(k, e)| bad(&k, e))? {
+                set_path(&mut tree, &key, value).map_err(|e| bad(&key, e))?;
+            }
+        }
+        toml::to_string(&tree).map_err(|e| bad("scenario", e.to_string()))?
+    } else {
+        text
     };
     let mut sc = Scenario::parse_in(&text, catalog).map_err(|e| {
-        // with `methods` the text is regenerated: its line numbers mean nothing
-        let e = if methods.is_some() {
+        // a regenerated text's line numbers mean nothing
+        let e = if regenerated {
             ScenarioError { line: None, ..e }
         } else {
             e
@@ -74,7 +95,54 @@ pub fn load_scenario_in(
         anyhow::Error::new(e).context(format!("scenario {name}"))
     })?;
     sc.resolve_paths(dir.as_deref().unwrap_or(Path::new("")));
+    if let (Some(mem), StructureSpec::Matrices(st)) = (matrices, &mut sc.structure) {
+        st.mass_mtx = InMemoryMatrices::placeholder("mass_mtx").into();
+        st.stiffness_mtx = InMemoryMatrices::placeholder("stiffness_mtx").into();
+        if mem.damping.is_some() {
+            st.damping_mtx = Some(InMemoryMatrices::placeholder("damping_mtx").into());
+        }
+        st.in_memory = Some(mem);
+    }
     Ok((sc, name))
+}
+
+/// The `[structure]` keys naming the in-memory matrices in the scenario
+/// tree: `kind = "matrices"` is required and the file keys must be absent
+/// (`(key, message)` otherwise).
+fn in_memory_keys(
+    tree: &toml::Value,
+    mem: &InMemoryMatrices,
+) -> Result<Vec<(String, toml::Value)>, (String, String)> {
+    let st = tree.get("structure");
+    let kind = st.and_then(|s| s.get("kind")).and_then(|k| k.as_str());
+    if kind != Some("matrices") {
+        return Err((
+            "structure.kind".into(),
+            format!(
+                "matrices given in memory need [structure] kind = \"matrices\", got {}",
+                kind.map_or("none (a beam)".to_string(), |k| format!("\"{k}\""))
+            ),
+        ));
+    }
+    let mut keys = vec!["mass_mtx", "stiffness_mtx"];
+    if mem.damping.is_some() {
+        keys.push("damping_mtx");
+    }
+    let mut out = Vec::new();
+    for key in keys {
+        if st.and_then(|s| s.get(key)).is_some() {
+            return Err((
+                format!("structure.{key}"),
+                format!(
+                    "given both as a file here and in memory as {}: give one of the two",
+                    InMemoryMatrices::placeholder(key)
+                ),
+            ));
+        }
+        let name = InMemoryMatrices::placeholder(key);
+        out.push((format!("structure.{key}"), toml::Value::String(name)));
+    }
+    Ok(out)
 }
 
 /// Set `value` at the dotted `key` of a TOML tree: tables are entered (a

@@ -50,7 +50,9 @@ mod test_plan;
 pub use self::test_plan::*;
 mod attachment;
 pub use self::attachment::*;
-pub use self::load::{load_scenario_in, set_path, ScenarioSource, MAX_SCENARIO_BYTES};
+pub use self::load::{
+    load_scenario_in, load_scenario_with, set_path, ScenarioSource, MAX_SCENARIO_BYTES,
+};
 
 /// The default scenario (paper case (a)), embedded from `sweep.toml`;
 /// it deserializes to exactly [`Scenario::default`].

@@ -132,6 +132,7 @@ impl<'de> Deserialize<'de> for StructureSpec {
                     memory_limit_gb: r.memory_limit_gb,
                     matrix_format: r.matrix_format.unwrap_or_default(),
                     ordering: r.ordering.unwrap_or_default(),
+                    in_memory: None,
                 }))
             }
         }
@@ -311,6 +312,53 @@ pub struct MatricesStructureSpec {
     /// (`auto`, `amd`, `nested-dissection`).
     #[serde(skip_serializing_if = "is_auto_ordering")]
     pub ordering: nlmode::structure::sparse::Ordering,
+    /// The matrices given in memory instead of read from the files (the
+    /// Python package's `matrices=`: `scipy.sparse` or numpy arrays); the
+    /// file keys then hold their names in messages ([`InMemoryMatrices`]).
+    #[serde(skip)]
+    pub in_memory: Option<InMemoryMatrices>,
+}
+
+/// `M`, `K` and optionally `C` of a `kind = "matrices"` structure given in
+/// memory (the entries as stored, every one given: no symmetric storage),
+/// shared, not copied, by the clones of the scenario.
+#[derive(Debug, Clone)]
+pub struct InMemoryMatrices {
+    pub mass: std::sync::Arc<feio::Triplets>,
+    pub stiffness: std::sync::Arc<feio::Triplets>,
+    pub damping: Option<std::sync::Arc<feio::Triplets>>,
+}
+
+impl PartialEq for InMemoryMatrices {
+    /// The same matrices: the same shared storage.
+    fn eq(&self, other: &Self) -> bool {
+        use std::sync::Arc;
+        Arc::ptr_eq(&self.mass, &other.mass)
+            && Arc::ptr_eq(&self.stiffness, &other.stiffness)
+            && match (&self.damping, &other.damping) {
+                (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                (None, None) => true,
+                _ => false,
+            }
+    }
+}
+
+impl InMemoryMatrices {
+    /// Matrix `k` in the order mass, stiffness, damping.
+    pub fn get(&self, k: usize) -> Option<&feio::Triplets> {
+        match k {
+            0 => Some(&self.mass),
+            1 => Some(&self.stiffness),
+            2 => self.damping.as_deref(),
+            _ => None,
+        }
+    }
+
+    /// The name of matrix `key` (`mass_mtx`, `stiffness_mtx`, `damping_mtx`)
+    /// in messages and in the modal table's provenance.
+    pub fn placeholder(key: &str) -> String {
+        format!("matrices['{}'] (in memory)", key.trim_end_matches("_mtx"))
+    }
 }
 
 fn is_auto_ordering(o: &nlmode::structure::sparse::Ordering) -> bool {
