@@ -33,8 +33,9 @@ impl super::Method for LinearSlowflow {
     fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
         let id = MethodId::LinearSlowflow;
         let model = reduced_model(ctx.setup, ctx.table(), None)?.linear()?;
-        let (r, flow) =
-            exciter_slow_flow(id.name(), ctx.setup, &model, &ctx.sc.slowflow.options(id))?;
+        let opts = ctx.sc.slowflow.options(id);
+        let (mut r, flow) = exciter_slow_flow(id.name(), ctx.setup, &model, &opts)?;
+        super::common::note_rate_terms(&mut r, &opts);
         Ok(MethodOutput {
             results: vec![r],
             flow: Some(flow),

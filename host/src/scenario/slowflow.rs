@@ -21,7 +21,8 @@ pub struct SlowFlowSpec {
     pub residual_modes: usize,
     /// Keep the modulation terms `eq:NM` drops, to first order in the slow
     /// derivatives (`nlmode::reduced::SlowFlowOptions::rate_terms`): used by
-    /// `nlmode` and `imposed-force`. Default `false`: the paper's model.
+    /// `nlmode`, `imposed-force` and `linear-slowflow`. Default `false`: the
+    /// paper's model.
     pub rate_terms: bool,
     /// What the remedies of fired validity checks do: `"name"` lists them in
     /// `summary.json` (`remedies`); `"run"` also runs `nlmode` with each
