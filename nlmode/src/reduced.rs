@@ -325,6 +325,12 @@ pub(crate) struct ImposedForces {
 }
 
 impl ImposedForces {
+    /// No imposed force.
+    pub(crate) const NONE: Self = Self {
+        f: [Complex64::new(0.0, 0.0); MAX_IMPOSED],
+        n: 0,
+    };
+
     /// The forces \[N\], one per imposed force of the model.
     #[inline(always)]
     pub(crate) fn forces(&self) -> &[Complex64] {
@@ -617,10 +623,7 @@ impl ReducedModel {
     /// Fundamental shape at table point `pt` (fast path).
     #[inline(always)]
     pub(crate) fn phi1(&self, loc: fast::Loc, pt: usize) -> Complex64 {
-        Complex64::new(
-            self.fast.value(loc, 2 + 2 * pt),
-            self.fast.value(loc, 3 + 2 * pt),
-        )
+        self.fast.shape(loc, pt)
     }
 
     /// Fills the channel vector at `Omega` exactly from the attachment models:
@@ -888,7 +891,7 @@ impl ReducedModel {
             t_s: &[f64::NAN],
             omega_rad_s: &[omega_rad_s],
             amplitude: &[Complex64::new(0.0, 0.0)],
-            channels: &ch,
+            channels: output::Channels::Rows(&ch),
             imposed_n: &fi,
         })?;
         Ok(s[0].force_n)

@@ -2,7 +2,7 @@
 //! `a |K(a, Omega)| = |phi(a)^H f_ex(a, Omega)|` at each `Omega`, their
 //! stability from the slow-flow Jacobian, and the single-mode linear steady
 //! state (`linear-steady`, `eq:LMss`) with the force drop (`eq:forcedrop`).
-use super::output::OutputStates;
+use super::output::{Channels, OutputStates};
 use super::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
 use crate::table::TableError;
 use num_complex::Complex64;
@@ -290,7 +290,7 @@ impl ReducedModel {
             t_s: &vec![f64::NAN; n],
             omega_rad_s: &fixed.omega,
             amplitude: &fixed.amplitude,
-            channels: &fixed.channels,
+            channels: Channels::Rows(&fixed.channels),
             imposed_n,
         })?;
         Ok(samples

@@ -1,9 +1,9 @@
 //! Slow-flow integration of `eq:NM` along a sine sweep (`nlmode`,
 //! `linear-slowflow`, `imposed-force`).
 use super::dynamic::AttachmentStates;
-use super::fast::Breaks;
-use super::output::{OutputScratch, OutputStates, SampleFields};
-use super::{ReducedError, ReducedModel, MAX_PHI};
+use super::fast::{cubic, Breaks};
+use super::output::{Channels, OutputScratch, OutputStates, SampleFields};
+use super::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
 use crate::dopri::{integrate, Controller, ErrorScale, IntegratorStats, Stop, Tolerances};
 use crate::excitation::LinearSweep;
 use crate::table::TableError;
@@ -437,39 +437,27 @@ impl OmegaCache {
         self.nodes.len()
     }
 
-    /// Interpolated channels at each of `w`, one row of `nch` after the
-    /// other, appended to `out`.
-    pub fn eval_rows_into(&self, w: &[f64], out: &mut Vec<Complex64>) {
-        if self.nch == 0 {
-            return;
-        }
-        out.reserve(self.nch * w.len());
-        let (lo, hi) = (self.nodes.first(), self.nodes.last());
-        for &w in w {
-            let loc = self.nodes.locate(w.clamp(lo, hi));
-            let t = loc.t;
-            out.extend(
-                self.c[loc.k * self.nch..(loc.k + 1) * self.nch]
-                    .iter()
-                    .map(|c| c[0] + (c[1] + (c[2] + c[3] * t) * t) * t),
-            );
-        }
-    }
-
     /// Interpolated channels at `w` (clamped to the tabulated range).
     #[inline(always)]
     pub fn eval(&self, w: f64, out: &mut [Complex64]) {
         if self.nch == 0 {
             return;
         }
+        let (c, t) = self.segment(w);
+        for (o, c) in out.iter_mut().zip(c) {
+            *o = cubic(c, t);
+        }
+    }
+
+    /// The channels' cubics on the segment of `w` (clamped to the tabulated
+    /// range) and the local coordinate there: channel `ch` at `w` is
+    /// `cubic(&c[ch], t)` (the numbers of [`Self::eval`]).
+    #[inline(always)]
+    pub fn segment(&self, w: f64) -> (&[[Complex64; 4]], f64) {
         let loc = self
             .nodes
             .locate(w.clamp(self.nodes.first(), self.nodes.last()));
-        let c = &self.c[loc.k * self.nch..(loc.k + 1) * self.nch];
-        let t = loc.t;
-        for (o, c) in out.iter_mut().zip(c) {
-            *o = c[0] + (c[1] + (c[2] + c[3] * t) * t) * t;
-        }
+        (&self.c[loc.k * self.nch..(loc.k + 1) * self.nch], loc.t)
     }
 }
 
@@ -556,10 +544,17 @@ impl ReducedModel {
         };
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        let no_imposed = self.imposed.is_empty();
         let rhs = |t: f64, y: &[f64; 2], dy: &mut [f64; 2]| -> Result<(), ReducedError> {
             let w = sweep.omega_rad_s(t);
             cache.eval(w, &mut ch);
-            let fi = self.imposed_at(w)?;
+            // (without imposed forces their empty list is a constant: no
+            // forces evaluated, copied or summed)
+            let fi = if no_imposed {
+                ImposedForces::NONE
+            } else {
+                self.imposed_at(w)?
+            };
             *dy = self.rhs(y, w, &ch, fi, &mut phi)?;
             Ok(())
         };
@@ -571,16 +566,18 @@ impl ReducedModel {
         let mut last_state = (0.0, [a0.re, a0.im]);
         let (stats, stop) = integrate(rhs, 0.0, [a0.re, a0.im], duration, &tol, |d, _| {
             let t1 = d.t0 + d.h;
+            // the step's continuous extension, its coefficients once
+            let poly = d.polynomial();
             while next < n && sample_t(next) <= t1 * (1.0 + 1e-14) {
                 let t = sample_t(next).max(d.t0);
-                let y = d.eval(t);
+                let y = poly.eval(t);
                 batch.push(t, Complex64::new(y[0], y[1]));
                 next += 1;
                 if batch.ts.len() == SWEEP_BATCH {
                     batch.flush(self, sweep, &cache, sink)?;
                 }
             }
-            last_state = (t1, d.eval(t1));
+            last_state = (t1, poly.eval(t1));
             Ok(())
         });
         if batch.last_t.is_none() {
@@ -690,9 +687,8 @@ struct OutputBatch {
     emitted: usize,
     /// Time of the last sample taken.
     last_t: Option<f64>,
-    /// Excitation frequency and attachment channels of the pending samples.
+    /// Excitation frequency of the pending samples.
     w: Vec<f64>,
-    channels: Vec<Complex64>,
     scratch: OutputScratch,
     samples: Vec<SlowFlowSample>,
 }
@@ -705,7 +701,6 @@ impl OutputBatch {
             emitted: 0,
             last_t: None,
             w: Vec::with_capacity(SWEEP_BATCH),
-            channels: Vec::new(),
             scratch: OutputScratch::default(),
             samples: Vec::with_capacity(SWEEP_BATCH),
         }
@@ -730,8 +725,6 @@ impl OutputBatch {
         }
         self.w.clear();
         self.w.extend(self.ts.iter().map(|&t| sweep.omega_rad_s(t)));
-        self.channels.clear();
-        cache.eval_rows_into(&self.w, &mut self.channels);
         let imposed_n = model.drive_imposed_n(&self.w)?;
         self.samples.clear();
         model.output_fields_into(
@@ -739,7 +732,7 @@ impl OutputBatch {
                 t_s: &self.ts,
                 omega_rad_s: &self.w,
                 amplitude: &self.amps,
-                channels: &self.channels,
+                channels: Channels::Tabulated(cache),
                 imposed_n: &imposed_n,
             },
             sink.fields(),
@@ -770,7 +763,7 @@ pub(crate) fn emit(
             t_s: ts,
             omega_rad_s: w,
             amplitude: amps,
-            channels,
+            channels: Channels::Rows(channels),
             imposed_n: &imposed_n,
         },
         sink.fields(),
