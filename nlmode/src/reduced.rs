@@ -697,7 +697,7 @@ impl ReducedModel {
             a,
             omega,
             ch,
-            f_imposed,
+            &f_imposed,
             &mut [Complex64::new(0.0, 0.0); MAX_PHI],
         )
     }
@@ -710,7 +710,7 @@ impl ReducedModel {
         a: f64,
         omega: f64,
         ch: &[Complex64],
-        f_imposed: ImposedForces,
+        f_imposed: &ImposedForces,
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<(Complex64, Complex64, Complex64, ModalProperties), ReducedError> {
         let p = self.gather(a, phi)?;
@@ -749,15 +749,12 @@ impl ReducedModel {
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<ModalProperties, ReducedError> {
         let p = self.properties_at(loc, a)?;
-        let mut j = 0;
-        for port in &self.ports {
-            for &pt in &port.points {
-                phi[j] = self.phi1(loc, pt);
-                j += 1;
-            }
-        }
-        for (k, imp) in self.imposed.iter().enumerate() {
-            phi[j + k] = self.phi1(loc, imp.point);
+        // the shapes of the segment once, each point's cubic from them
+        let shapes = self.fast.shapes(loc.k);
+        let points = self.ports.iter().flat_map(|port| &port.points);
+        let points = points.chain(self.imposed.iter().map(|imp| &imp.point));
+        for (phi, &pt) in phi.iter_mut().zip(points) {
+            *phi = fast::cubic(&shapes[pt], loc.t);
         }
         Ok(p)
     }
@@ -770,7 +767,7 @@ impl ReducedModel {
         phi: &[Complex64; MAX_PHI],
         omega: f64,
         ch: &[Complex64],
-        f_imposed: ImposedForces,
+        f_imposed: &ImposedForces,
     ) -> (Complex64, Complex64, Complex64) {
         let mut za = Complex64::new(0.0, 0.0);
         let mut fm = Complex64::new(0.0, 0.0);
@@ -864,7 +861,7 @@ impl ReducedModel {
         y: &[f64; 2],
         omega: f64,
         ch: &[Complex64],
-        f_imposed: ImposedForces,
+        f_imposed: &ImposedForces,
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<[f64; 2], ReducedError> {
         let amp = Complex64::new(y[0], y[1]);

@@ -417,7 +417,7 @@ pub(crate) fn simulate(
             let r = p.state_offset..p.state_offset + p.ns;
             p.apply(model, &mut ch, &phi, amp, &ys[r.clone()], Some(&mut dys[r]));
         }
-        let (k, fm, _) = model.terms_with(&props, &phi, w, &ch[..nch], fi);
+        let (k, fm, _) = model.terms_with(&props, &phi, w, &ch[..nch], &fi);
         let z = fm - k * amp;
         let s = 0.5 / w;
         dy[0] = z.im * s;

@@ -25,8 +25,9 @@ pub(crate) struct Loc {
 #[derive(Debug)]
 pub(crate) struct Breaks {
     x: Vec<f64>,
-    /// `1 / (x[k+1] - x[k])`.
-    inv_h: Vec<f64>,
+    /// Per segment `k`: `[x[k], x[k+1], 1 / (x[k+1] - x[k])]` (the hinted
+    /// lookup reads one entry).
+    seg: Vec<[f64; 3]>,
     /// Segment of the previous lookup (relaxed atomic: only a hint, any value
     /// is safe, and the model stays `Sync`). Threads sweeping one shared
     /// model at once overwrite it for each other at every lookup (and move
@@ -39,7 +40,7 @@ impl Clone for Breaks {
     fn clone(&self) -> Self {
         Self {
             x: self.x.clone(),
-            inv_h: self.inv_h.clone(),
+            seg: self.seg.clone(),
             hint: AtomicUsize::new(0),
         }
     }
@@ -51,7 +52,10 @@ impl Breaks {
         debug_assert!(x.len() >= 2 && x.windows(2).all(|w| w[0] < w[1]));
         Self {
             x: x.to_vec(),
-            inv_h: x.windows(2).map(|w| 1.0 / (w[1] - w[0])).collect(),
+            seg: x
+                .windows(2)
+                .map(|w| [w[0], w[1], 1.0 / (w[1] - w[0])])
+                .collect(),
             hint: AtomicUsize::new(0),
         }
     }
@@ -72,16 +76,16 @@ impl Breaks {
     /// Segment `k` with `x[k] <= a < x[k+1]` (a breakpoint starts its segment:
     /// `t = 0`; the last breakpoint belongs to the last segment) for `a` in
     /// `[first, last]`. The segment of the previous lookup is tried first
-    /// (one comparison pair); the neighbours and the search are
+    /// (one entry, one comparison pair); the neighbours and the search are
     /// [`Self::locate_near`].
     #[inline(always)]
     pub fn locate(&self, a: f64) -> Loc {
         let h = self.hint.load(Ordering::Relaxed);
-        if let Some(&[x0, x1]) = self.x.get(h..h.wrapping_add(2)) {
-            if x0 <= a && (a < x1 || h + 2 == self.x.len()) {
+        if let Some(&[x0, x1, inv_h]) = self.seg.get(h) {
+            if x0 <= a && (a < x1 || h + 1 == self.seg.len()) {
                 return Loc {
                     k: h,
-                    t: (a - x0) * self.inv_h[h],
+                    t: (a - x0) * inv_h,
                 };
             }
         }
@@ -105,16 +109,17 @@ impl Breaks {
             self.x.partition_point(|&v| v <= a).clamp(1, n - 1) - 1
         };
         self.hint.store(k, Ordering::Relaxed);
+        let [xk, _, inv_h] = self.seg[k];
         Loc {
             k,
-            t: (a - self.x[k]) * self.inv_h[k],
+            t: (a - xk) * inv_h,
         }
     }
 
     /// `d/dx` of a cubic in `t` with coefficients `c` on segment `loc.k`.
     #[inline(always)]
     pub fn slope(&self, loc: Loc, c: &[f64; 4]) -> f64 {
-        (c[1] + loc.t * (2.0 * c[2] + 3.0 * loc.t * c[3])) * self.inv_h[loc.k]
+        (c[1] + loc.t * (2.0 * c[2] + 3.0 * loc.t * c[3])) * self.seg[loc.k][2]
     }
 }
 

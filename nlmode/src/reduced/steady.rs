@@ -178,7 +178,7 @@ impl ReducedModel {
             // K and F at the nodes, then adaptive refinement between them
             nodes.clear();
             for (&a, (p, phi)) in scan.iter().zip(&node_data) {
-                let (k, f, _) = self.terms_with(p, phi, w, &ch, fi);
+                let (k, f, _) = self.terms_with(p, phi, w, &ch, &fi);
                 nodes.push((a, k, f));
             }
             samples.clear();
@@ -329,10 +329,10 @@ impl ReducedModel {
             let mut ym = y;
             yp[c] += h;
             ym[c] -= h;
-            let f0 = self.rhs(&y, w, ch, fi, &mut phi)?;
+            let f0 = self.rhs(&y, w, ch, &fi, &mut phi)?;
             let (fp, fm, den) = match (
-                self.rhs(&yp, w, ch, fi, &mut phi),
-                self.rhs(&ym, w, ch, fi, &mut phi),
+                self.rhs(&yp, w, ch, &fi, &mut phi),
+                self.rhs(&ym, w, ch, &fi, &mut phi),
             ) {
                 (Ok(fp), Ok(fm)) => (fp, fm, 2.0 * h),
                 (Err(ReducedError::Table(TableError::AboveRange { .. })), Ok(fm)) => (f0, fm, h),

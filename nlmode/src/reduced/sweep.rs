@@ -545,17 +545,16 @@ impl ReducedModel {
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
         let no_imposed = self.imposed.is_empty();
+        // (without imposed forces their empty list, set once: no forces
+        // evaluated, copied or summed per evaluation)
+        let mut fi = ImposedForces::NONE;
         let rhs = |t: f64, y: &[f64; 2], dy: &mut [f64; 2]| -> Result<(), ReducedError> {
             let w = sweep.omega_rad_s(t);
             cache.eval(w, &mut ch);
-            // (without imposed forces their empty list is a constant: no
-            // forces evaluated, copied or summed)
-            let fi = if no_imposed {
-                ImposedForces::NONE
-            } else {
-                self.imposed_at(w)?
-            };
-            *dy = self.rhs(y, w, &ch, fi, &mut phi)?;
+            if !no_imposed {
+                fi = self.imposed_at(w)?;
+            }
+            *dy = self.rhs(y, w, &ch, &fi, &mut phi)?;
             Ok(())
         };
         let n = opts.output_samples;
@@ -568,8 +567,14 @@ impl ReducedModel {
             let t1 = d.t0 + d.h;
             // the step's continuous extension, its coefficients once
             let poly = d.polynomial();
-            while next < n && sample_t(next) <= t1 * (1.0 + 1e-14) {
-                let t = sample_t(next).max(d.t0);
+            let t_last = t1 * (1.0 + 1e-14);
+            while next < n {
+                let ts = sample_t(next);
+                if !(ts <= t_last) {
+                    break;
+                }
+                // `ts.max(t0)` (neither is NaN)
+                let t = if ts < d.t0 { d.t0 } else { ts };
                 let y = poly.eval(t);
                 batch.push(t, Complex64::new(y[0], y[1]));
                 next += 1;
