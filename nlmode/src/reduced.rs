@@ -774,15 +774,20 @@ impl ReducedModel {
         let mut j = 0;
         for port in &self.ports {
             let nc = port.ncon();
+            if nc == 0 {
+                continue;
+            }
             let ph = &phi[j..j + nc];
-            let o = port.offset;
-            for r in 0..nc {
+            // the port's channels: Z_G row major, then T_G u_hat (slices:
+            // one bounds check per port instead of one per term)
+            let (z_g, t_g) = ch[port.offset..port.offset + nc * nc + nc].split_at(nc * nc);
+            for ((z_row, t_r), ph_r) in z_g.chunks_exact(nc).zip(t_g).zip(ph) {
                 let mut zr = Complex64::new(0.0, 0.0);
-                for c in 0..nc {
-                    zr += ch[o + r * nc + c] * ph[c];
+                for (z_rc, ph_c) in z_row.iter().zip(ph) {
+                    zr += z_rc * ph_c;
                 }
-                za += ph[r].conj() * zr;
-                fm += ph[r].conj() * ch[o + nc * nc + r];
+                za += ph_r.conj() * zr;
+                fm += ph_r.conj() * t_r;
             }
             j += nc;
         }

@@ -25,6 +25,9 @@ pub(crate) struct Loc {
 #[derive(Debug)]
 pub(crate) struct Breaks {
     x: Vec<f64>,
+    /// `x[0]` and the last breakpoint (read without an index).
+    first: f64,
+    last: f64,
     /// Per segment `k`: `[x[k], x[k+1], 1 / (x[k+1] - x[k])]` (the hinted
     /// lookup reads one entry).
     seg: Vec<[f64; 3]>,
@@ -40,6 +43,8 @@ impl Clone for Breaks {
     fn clone(&self) -> Self {
         Self {
             x: self.x.clone(),
+            first: self.first,
+            last: self.last,
             seg: self.seg.clone(),
             hint: AtomicUsize::new(0),
         }
@@ -52,6 +57,8 @@ impl Breaks {
         debug_assert!(x.len() >= 2 && x.windows(2).all(|w| w[0] < w[1]));
         Self {
             x: x.to_vec(),
+            first: x[0],
+            last: x[x.len() - 1],
             seg: x
                 .windows(2)
                 .map(|w| [w[0], w[1], 1.0 / (w[1] - w[0])])
@@ -60,12 +67,14 @@ impl Breaks {
         }
     }
 
+    #[inline(always)]
     pub fn first(&self) -> f64 {
-        self.x[0]
+        self.first
     }
 
+    #[inline(always)]
     pub fn last(&self) -> f64 {
-        self.x[self.x.len() - 1]
+        self.last
     }
 
     /// Number of breakpoints.
