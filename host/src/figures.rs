@@ -55,7 +55,7 @@ impl Figures {
         for (x, y, f) in samples {
             fold.push(x, y, f);
         }
-        debug_assert_eq!(fold.count, n, "Figures::fold: n must be the sample count");
+        debug_assert_eq!(fold.count(), n, "Figures::fold: n must be the sample count");
         fold.finish(is_sweep)
     }
 
@@ -94,9 +94,16 @@ impl Figures {
 /// window is the same ([`Fold::is_exact`]).
 #[derive(Debug, Clone)]
 pub struct Fold {
-    w: usize,
     /// The last `w + 1` samples (omega, tip); sample `j` in slot `j % (w + 1)`.
     ring: Vec<(f64, f64)>,
+    state: FoldState,
+}
+
+/// The figures so far of a [`Fold`] (all but its ring): a copy lives in
+/// registers while a batch is folded ([`Fold`]'s `SweepSink::samples`).
+#[derive(Debug, Clone, Copy)]
+struct FoldState {
+    w: usize,
     /// Slot of the next sample.
     slot: usize,
     peak: (f64, f64),
@@ -113,45 +120,95 @@ impl Fold {
     pub fn new(n: usize) -> Self {
         let w = (n / 400).max(1);
         Self {
-            w,
             ring: vec![(0.0, 0.0); w + 1],
-            slot: 0,
-            peak: (f64::NAN, f64::NAN),
-            fmin: f64::INFINITY,
-            fmax: f64::NEG_INFINITY,
-            top: None,
-            best: None,
-            count: 0,
+            state: FoldState {
+                w,
+                slot: 0,
+                peak: (f64::NAN, f64::NAN),
+                fmin: f64::INFINITY,
+                fmax: f64::NEG_INFINITY,
+                top: None,
+                best: None,
+                count: 0,
+            },
         }
     }
 
     /// The next sample `(omega [rad/s], tip amplitude [m], force amplitude [N])`.
     #[inline]
+    pub fn push(&mut self, x: f64, y: f64, f: f64) {
+        self.state.push(&mut self.ring, x, y, f);
+    }
+
+    /// Samples folded.
+    pub fn count(&self) -> usize {
+        self.state.count
+    }
+
+    /// Whether the samples folded so far give the figures of [`Figures::fold`]
+    /// of exactly these samples (the window of their count is the one used).
+    pub fn is_exact(&self) -> bool {
+        (self.state.count / 400).max(1) == self.state.w
+    }
+
+    /// The figures of the samples folded; `is_sweep`: a transient sweep.
+    pub fn finish(&self, is_sweep: bool) -> Figures {
+        let st = &self.state;
+        let finite = |v: f64| v.is_finite().then_some(v);
+        Figures {
+            peak_tip_amplitude_m: finite(st.peak.0),
+            peak_omega_rad_s: finite(st.peak.1),
+            jump_down_omega_rad_s: if is_sweep && st.count >= 8 {
+                st.best.map(|(_, x)| x)
+            } else {
+                None
+            },
+            min_force_amplitude_n: finite(st.fmin),
+            max_force_amplitude_n: finite(st.fmax),
+        }
+    }
+}
+
+impl FoldState {
+    /// [`Fold::push`] with the fold's ring (`w + 1` slots).
+    #[inline(always)]
     // `!(a <= b)` on purpose: true where a comparison involves NaN
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    pub fn push(&mut self, x: f64, y: f64, f: f64) {
+    fn push(&mut self, ring: &mut [(f64, f64)], x: f64, y: f64, f: f64) {
         let (j, w) = (self.count, self.w);
         self.count += 1;
         if y.is_finite() && !(y <= self.peak.0) {
             self.peak = (y, x);
         }
+        // (`fmin.min(f)`, `fmax.max(f)` as compiled: the extremes are never
+        // NaN, and a tie keeps the one held)
         if f.is_finite() {
-            self.fmin = self.fmin.min(f);
-            self.fmax = self.fmax.max(f);
+            if f < self.fmin {
+                self.fmin = f;
+            }
+            if f > self.fmax {
+                self.fmax = f;
+            }
         }
         // slot of sample j - w (= (j + 1) % (w + 1)), read after j is written
         let slot = self.slot;
         let older = if slot == w { 0 } else { slot + 1 };
-        self.ring[slot] = (x, y);
+        ring[slot] = (x, y);
         self.slot = older;
-        if y.is_finite() && self.top.is_none_or(|(_, v)| y.total_cmp(&v).is_ge()) {
+        // `y >= v` in the total order: decided by `>` unless the two are
+        // equal as numbers (then by `total_cmp`: -0 < +0)
+        if y.is_finite()
+            && self
+                .top
+                .is_none_or(|(_, v)| y > v || (y == v && y.total_cmp(&v).is_ge()))
+        {
             self.top = Some((j, y));
             self.best = None;
         }
         // the window (i, i + w) = (j - w, j), for i at or after the maximum
         if let Some((ipk, _)) = self.top {
             if j >= w && j - w >= ipk {
-                let (xi, yi) = self.ring[older];
+                let (xi, yi) = ring[older];
                 let dx = x - xi;
                 if dx != 0.0 {
                     let slope = (y - yi) / dx.abs();
@@ -160,33 +217,6 @@ impl Fold {
                     }
                 }
             }
-        }
-    }
-
-    /// Samples folded.
-    pub fn count(&self) -> usize {
-        self.count
-    }
-
-    /// Whether the samples folded so far give the figures of [`Figures::fold`]
-    /// of exactly these samples (the window of their count is the one used).
-    pub fn is_exact(&self) -> bool {
-        (self.count / 400).max(1) == self.w
-    }
-
-    /// The figures of the samples folded; `is_sweep`: a transient sweep.
-    pub fn finish(&self, is_sweep: bool) -> Figures {
-        let finite = |v: f64| v.is_finite().then_some(v);
-        Figures {
-            peak_tip_amplitude_m: finite(self.peak.0),
-            peak_omega_rad_s: finite(self.peak.1),
-            jump_down_omega_rad_s: if is_sweep && self.count >= 8 {
-                self.best.map(|(_, x)| x)
-            } else {
-                None
-            },
-            min_force_amplitude_n: finite(self.fmin),
-            max_force_amplitude_n: finite(self.fmax),
         }
     }
 }
@@ -198,9 +228,17 @@ impl nlmode::reduced::SweepSink for Fold {
         &mut self,
         batch: &[nlmode::reduced::SlowFlowSample],
     ) -> Result<(), nlmode::reduced::ReducedError> {
+        // the state in a local (registers) over the batch, the ring apart
+        let mut st = self.state;
         for s in batch {
-            self.push(s.omega_rad_s, s.tip_amplitude_m, s.force_amplitude_n);
+            st.push(
+                &mut self.ring,
+                s.omega_rad_s,
+                s.tip_amplitude_m,
+                s.force_amplitude_n,
+            );
         }
+        self.state = st;
         Ok(())
     }
 
@@ -294,6 +332,21 @@ mod tests {
             }
         }
         cases.push(vec![(1.0, f64::NAN, f64::NAN); 20]);
+        // signed zeros: the last largest tip amplitude in the total order
+        // (+0 above -0) starts the jump-down search
+        cases.push(
+            (0..20)
+                .map(|i| {
+                    let y = if i % 3 == 0 { -0.0 } else { 0.0 };
+                    (300.0 + i as f64, y, 1.0)
+                })
+                .collect(),
+        );
+        cases.push(
+            (0..20)
+                .map(|i| (300.0 + i as f64, if i < 15 { 0.0 } else { -0.0 }, 1.0))
+                .collect(),
+        );
         for (k, c) in cases.iter().enumerate() {
             let env = Envelope {
                 omega_rad_s: c.iter().map(|s| s.0).collect(),

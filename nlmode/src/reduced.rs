@@ -332,6 +332,12 @@ pub(crate) struct ImposedForces {
 }
 
 impl ImposedForces {
+    /// No imposed force.
+    pub(crate) const NONE: Self = Self {
+        f: [Complex64::new(0.0, 0.0); MAX_IMPOSED],
+        n: 0,
+    };
+
     /// The forces \[N\], one per imposed force of the model.
     #[inline(always)]
     pub(crate) fn forces(&self) -> &[Complex64] {
@@ -624,10 +630,7 @@ impl ReducedModel {
     /// Fundamental shape at table point `pt` (fast path).
     #[inline(always)]
     pub(crate) fn phi1(&self, loc: fast::Loc, pt: usize) -> Complex64 {
-        Complex64::new(
-            self.fast.value(loc, 2 + 2 * pt),
-            self.fast.value(loc, 3 + 2 * pt),
-        )
+        self.fast.shape(loc, pt)
     }
 
     /// Fills the channel vector at `Omega` exactly from the attachment models:
@@ -701,7 +704,7 @@ impl ReducedModel {
             a,
             omega,
             ch,
-            f_imposed,
+            &f_imposed,
             &mut [Complex64::new(0.0, 0.0); MAX_PHI],
         )
     }
@@ -714,7 +717,7 @@ impl ReducedModel {
         a: f64,
         omega: f64,
         ch: &[Complex64],
-        f_imposed: ImposedForces,
+        f_imposed: &ImposedForces,
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<(Complex64, Complex64, Complex64, ModalProperties), ReducedError> {
         let p = self.gather(a, phi)?;
@@ -753,15 +756,12 @@ impl ReducedModel {
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<ModalProperties, ReducedError> {
         let p = self.properties_at(loc, a)?;
-        let mut j = 0;
-        for port in &self.ports {
-            for &pt in &port.points {
-                phi[j] = self.phi1(loc, pt);
-                j += 1;
-            }
-        }
-        for (k, imp) in self.imposed.iter().enumerate() {
-            phi[j + k] = self.phi1(loc, imp.point);
+        // the shapes of the segment once, each point's cubic from them
+        let shapes = self.fast.shapes(loc.k);
+        let points = self.ports.iter().flat_map(|port| &port.points);
+        let points = points.chain(self.imposed.iter().map(|imp| &imp.point));
+        for (phi, &pt) in phi.iter_mut().zip(points) {
+            *phi = fast::cubic(&shapes[pt], loc.t);
         }
         Ok(p)
     }
@@ -774,22 +774,27 @@ impl ReducedModel {
         phi: &[Complex64; MAX_PHI],
         omega: f64,
         ch: &[Complex64],
-        f_imposed: ImposedForces,
+        f_imposed: &ImposedForces,
     ) -> (Complex64, Complex64, Complex64) {
         let mut za = Complex64::new(0.0, 0.0);
         let mut fm = Complex64::new(0.0, 0.0);
         let mut j = 0;
         for port in &self.ports {
             let nc = port.ncon();
+            if nc == 0 {
+                continue;
+            }
             let ph = &phi[j..j + nc];
-            let o = port.offset;
-            for r in 0..nc {
+            // the port's channels: Z_G row major, then T_G u_hat (slices:
+            // one bounds check per port instead of one per term)
+            let (z_g, t_g) = ch[port.offset..port.offset + nc * nc + nc].split_at(nc * nc);
+            for ((z_row, t_r), ph_r) in z_g.chunks_exact(nc).zip(t_g).zip(ph) {
                 let mut zr = Complex64::new(0.0, 0.0);
-                for c in 0..nc {
-                    zr += ch[o + r * nc + c] * ph[c];
+                for (z_rc, ph_c) in z_row.iter().zip(ph) {
+                    zr += z_rc * ph_c;
                 }
-                za += ph[r].conj() * zr;
-                fm += ph[r].conj() * ch[o + nc * nc + r];
+                za += ph_r.conj() * zr;
+                fm += ph_r.conj() * t_r;
             }
             j += nc;
         }
@@ -868,7 +873,7 @@ impl ReducedModel {
         y: &[f64; 2],
         omega: f64,
         ch: &[Complex64],
-        f_imposed: ImposedForces,
+        f_imposed: &ImposedForces,
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<[f64; 2], ReducedError> {
         let amp = Complex64::new(y[0], y[1]);
@@ -895,7 +900,7 @@ impl ReducedModel {
             t_s: &[f64::NAN],
             omega_rad_s: &[omega_rad_s],
             amplitude: &[Complex64::new(0.0, 0.0)],
-            channels: &ch,
+            channels: output::Channels::Rows(&ch),
             imposed_n: &fi,
         })?;
         Ok(s[0].force_n)

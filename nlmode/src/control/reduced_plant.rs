@@ -231,7 +231,7 @@ impl ReducedPlant {
     ) -> Result<Complex64, ControlError> {
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
         let p = model.gather(a, &mut phi).map_err(reduced)?;
-        let (k, fm, _) = model.terms_with(&p, &phi, omega, ch, fi);
+        let (k, fm, _) = model.terms_with(&p, &phi, omega, ch, &fi);
         let t = 2.0 * std::f64::consts::PI / omega;
         if k.norm() == 0.0 {
             // undamped and tuned: A grows linearly, A' = -i fm / (2 Omega)
@@ -268,7 +268,7 @@ impl ReducedPlant {
                 let r = p.state_offset..p.state_offset + p.ns;
                 p.apply(model, &mut work, &phi, amp, &y[r.clone()], Some(&mut dy[r]));
             }
-            let (k, fm, _) = model.terms_with(&props, &phi, omega, &work[..model.nch], fi);
+            let (k, fm, _) = model.terms_with(&props, &phi, omega, &work[..model.nch], &fi);
             out[0] = Complex64::new(0.0, -0.5 / omega) * (fm - k * amp);
             out[1..].copy_from_slice(&dy);
         };

@@ -603,7 +603,7 @@ pub(crate) fn simulate(
             let r = p.state_offset..p.state_offset + p.ns;
             p.apply(model, &mut ch, &phi, amp, &ys[r.clone()], Some(&mut dys[r]));
         }
-        let (k, fm, _) = model.terms_with(&props, &phi, w, &ch[..nch], fi);
+        let (k, fm, _) = model.terms_with(&props, &phi, w, &ch[..nch], &fi);
         let z = fm - k * amp;
         if opts.rate_terms {
             // the rate terms of the condensed feedthrough Q1 (the carried
@@ -851,7 +851,7 @@ impl StateBatch {
             if rate_terms {
                 // the slow flow's A' at the sample, its rate force reported
                 let fi = model.imposed_at(wi)?;
-                let (k, fm, _) = model.terms_with(&props, &phi, wi, &ch[..nch], fi);
+                let (k, fm, _) = model.terms_with(&props, &phi, wi, &ch[..nch], &fi);
                 let wdot = sweep.omega_rate_rad_s2(ti);
                 let rate = model.first_order_rate(
                     &props,

@@ -9,6 +9,7 @@
 //! slopes), and one segment search serves all quantities. The range policy is the table's:
 //! held below the first amplitude, [`TableError::AboveRange`] above the last.
 use crate::table::{TableError, TableInterpolator};
+use num_complex::Complex64;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Segment and local coordinate `t in [0, 1]` of an abscissa.
@@ -24,8 +25,12 @@ pub(crate) struct Loc {
 #[derive(Debug)]
 pub(crate) struct Breaks {
     x: Vec<f64>,
-    /// `1 / (x[k+1] - x[k])`.
-    inv_h: Vec<f64>,
+    /// `x[0]` and the last breakpoint (read without an index).
+    first: f64,
+    last: f64,
+    /// Per segment `k`: `[x[k], x[k+1], 1 / (x[k+1] - x[k])]` (the hinted
+    /// lookup reads one entry).
+    seg: Vec<[f64; 3]>,
     /// Segment of the previous lookup (relaxed atomic: only a hint, any value
     /// is safe, and the model stays `Sync`). Threads sweeping one shared
     /// model at once overwrite it for each other at every lookup (and move
@@ -38,7 +43,9 @@ impl Clone for Breaks {
     fn clone(&self) -> Self {
         Self {
             x: self.x.clone(),
-            inv_h: self.inv_h.clone(),
+            first: self.first,
+            last: self.last,
+            seg: self.seg.clone(),
             hint: AtomicUsize::new(0),
         }
     }
@@ -50,17 +57,24 @@ impl Breaks {
         debug_assert!(x.len() >= 2 && x.windows(2).all(|w| w[0] < w[1]));
         Self {
             x: x.to_vec(),
-            inv_h: x.windows(2).map(|w| 1.0 / (w[1] - w[0])).collect(),
+            first: x[0],
+            last: x[x.len() - 1],
+            seg: x
+                .windows(2)
+                .map(|w| [w[0], w[1], 1.0 / (w[1] - w[0])])
+                .collect(),
             hint: AtomicUsize::new(0),
         }
     }
 
+    #[inline(always)]
     pub fn first(&self) -> f64 {
-        self.x[0]
+        self.first
     }
 
+    #[inline(always)]
     pub fn last(&self) -> f64 {
-        self.x[self.x.len() - 1]
+        self.last
     }
 
     /// Number of breakpoints.
@@ -70,9 +84,27 @@ impl Breaks {
 
     /// Segment `k` with `x[k] <= a < x[k+1]` (a breakpoint starts its segment:
     /// `t = 0`; the last breakpoint belongs to the last segment) for `a` in
-    /// `[first, last]`.
+    /// `[first, last]`. The segment of the previous lookup is tried first
+    /// (one entry, one comparison pair); the neighbours and the search are
+    /// [`Self::locate_near`].
     #[inline(always)]
     pub fn locate(&self, a: f64) -> Loc {
+        let h = self.hint.load(Ordering::Relaxed);
+        if let Some(&[x0, x1, inv_h]) = self.seg.get(h) {
+            if x0 <= a && (a < x1 || h + 1 == self.seg.len()) {
+                return Loc {
+                    k: h,
+                    t: (a - x0) * inv_h,
+                };
+            }
+        }
+        self.locate_near(a)
+    }
+
+    /// [`Self::locate`] outside the hinted segment: its neighbours, else a
+    /// binary search.
+    #[inline(never)]
+    fn locate_near(&self, a: f64) -> Loc {
         let n = self.x.len();
         let inside = |k: usize| self.x[k] <= a && (a < self.x[k + 1] || k + 2 == n);
         let h = self.hint.load(Ordering::Relaxed).min(n - 2);
@@ -86,47 +118,87 @@ impl Breaks {
             self.x.partition_point(|&v| v <= a).clamp(1, n - 1) - 1
         };
         self.hint.store(k, Ordering::Relaxed);
+        let [xk, _, inv_h] = self.seg[k];
         Loc {
             k,
-            t: (a - self.x[k]) * self.inv_h[k],
+            t: (a - xk) * inv_h,
         }
     }
 
     /// `1 / (x[k+1] - x[k])`.
     #[inline(always)]
     pub fn inv_h(&self, k: usize) -> f64 {
-        self.inv_h[k]
+        self.seg[k][2]
     }
 
     /// `d/dx` of a cubic in `t` with coefficients `c` on segment `loc.k`.
     #[inline(always)]
     pub fn slope(&self, loc: Loc, c: &[f64; 4]) -> f64 {
-        (c[1] + loc.t * (2.0 * c[2] + 3.0 * loc.t * c[3])) * self.inv_h[loc.k]
+        (c[1] + loc.t * (2.0 * c[2] + 3.0 * loc.t * c[3])) * self.seg[loc.k][2]
     }
 }
 
 #[derive(Debug, Clone)]
 pub(crate) struct FastTable {
     x: Breaks,
-    /// Quantities: 0 = omega, 1 = D, then `2 + 2 p`, `3 + 2 p` = Re, Im of the
-    /// fundamental shape at table point `p`.
-    nq: usize,
-    /// `c[k * nq + q]`: cubic in `t in [0, 1]` on segment `k`.
-    c: Vec<[f64; 4]>,
+    /// `a` in `(lo, hi]` is inside the table (the fast path of
+    /// [`Self::locate`]): `lo = max(first amplitude, 0)`, `hi` the last.
+    lo: f64,
+    hi: f64,
+    /// `modal[k]`: `omega` and `D`, cubics in `t in [0, 1]` on segment `k`.
+    modal: Vec<[[f64; 4]; 2]>,
+    /// `shape[k * np + p]`: the fundamental shape at table point `p` on
+    /// segment `k`, a cubic in `t` with complex coefficients (the real and
+    /// imaginary parts' cubics side by side: one evaluation gives both, the
+    /// same numbers as evaluating each part).
+    shape: Vec<[Complex64; 4]>,
+    /// Table points.
+    np: usize,
 }
 
 impl FastTable {
     /// The table's fundamental-harmonic interpolants in power form.
     pub fn new(table: &TableInterpolator) -> Self {
+        let np = table.point_count();
+        // per segment: omega, D, then Re, Im of each point's shape
+        let c = table.fundamental_power_form();
+        let seg = c.chunks_exact(2 + 2 * np);
+        let modal = seg.clone().map(|s| [s[0], s[1]]).collect();
+        let shape = seg
+            .flat_map(|s| {
+                s[2..]
+                    .chunks_exact(2)
+                    .map(|ri| std::array::from_fn(|j| Complex64::new(ri[0][j], ri[1][j])))
+            })
+            .collect();
+        let x = Breaks::new(table.amplitudes());
         Self {
-            x: Breaks::new(table.amplitudes()),
-            nq: 2 + 2 * table.point_count(),
-            c: table.fundamental_power_form(),
+            lo: x.first().max(0.0),
+            hi: x.last(),
+            x,
+            modal,
+            shape,
+            np,
         }
     }
 
+    /// The location of `a`; below the table it is held (segment 0, `t = 0`),
+    /// above it [`TableError::AboveRange`], not finite or negative
+    /// [`TableError::BadAmplitude`]. Inside the table (the hot path) two
+    /// comparisons decide; the edges are [`Self::locate_edge`].
     #[inline(always)]
     pub fn locate(&self, a: f64) -> Result<Loc, TableError> {
+        if a > self.lo && a <= self.hi {
+            Ok(self.x.locate(a))
+        } else {
+            self.locate_edge(a)
+        }
+    }
+
+    /// [`Self::locate`] for every `a` (the checks in their order).
+    #[cold]
+    #[inline(never)]
+    fn locate_edge(&self, a: f64) -> Result<Loc, TableError> {
         if !(a.is_finite() && a >= 0.0) {
             return Err(TableError::BadAmplitude(a));
         }
@@ -142,21 +214,45 @@ impl FastTable {
         Ok(self.x.locate(a))
     }
 
-    /// Value of quantity `q` at `loc`.
+    /// Value of `omega` (`q = 0`) or `D` (`q = 1`) at `loc`.
     #[inline(always)]
     pub fn value(&self, loc: Loc, q: usize) -> f64 {
-        let c = &self.c[loc.k * self.nq + q];
+        let c = &self.modal[loc.k][q];
         c[0] + loc.t * (c[1] + loc.t * (c[2] + loc.t * c[3]))
     }
 
-    /// `d/da` of quantity `q` at `loc` (zero below the range).
+    /// The fundamental shape at table point `pt` at `loc` (its real and
+    /// imaginary parts each `c0 + t (c1 + t (c2 + t c3))`, as [`Self::value`]).
+    #[inline(always)]
+    pub fn shape(&self, loc: Loc, pt: usize) -> Complex64 {
+        cubic(&self.shape[loc.k * self.np + pt], loc.t)
+    }
+
+    /// The shapes of segment `k`, one per table point (for several points
+    /// at one location: one bounds check per point instead of an index
+    /// computation each).
+    #[inline(always)]
+    pub fn shapes(&self, k: usize) -> &[[Complex64; 4]] {
+        &self.shape[k * self.np..(k + 1) * self.np]
+    }
+
+    /// `d/da` of `omega` (`q = 0`) or `D` (`q = 1`) at `loc` (zero below the range).
     #[inline(always)]
     pub fn derivative(&self, loc: Loc, a: f64, q: usize) -> f64 {
         if a <= self.x.first() {
             return 0.0;
         }
-        self.x.slope(loc, &self.c[loc.k * self.nq + q])
+        self.x.slope(loc, &self.modal[loc.k][q])
     }
+}
+
+/// A cubic with complex coefficients in power form at the local coordinate
+/// `t` (a shape of [`FastTable::shapes`], a channel of the sweep's
+/// tabulation): `c0 + t (c1 + t (c2 + t c3))`, real and imaginary parts
+/// each evaluated as a real cubic would be.
+#[inline(always)]
+pub(crate) fn cubic(c: &[Complex64; 4], t: f64) -> Complex64 {
+    c[0] + (c[1] + (c[2] + c[3] * t) * t) * t
 }
 
 #[cfg(test)]
@@ -212,8 +308,8 @@ mod tests {
             );
             for pt in 0..2 {
                 let s = ip.shape(pt, 1, x).unwrap();
-                let d = (f.value(loc, 2 + 2 * pt) - s.re).abs()
-                    + (f.value(loc, 3 + 2 * pt) - s.im).abs();
+                let g = f.shape(loc, pt);
+                let d = (g.re - s.re).abs() + (g.im - s.im).abs();
                 worst = worst.max(d / s.norm());
             }
         }

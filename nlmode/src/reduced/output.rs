@@ -9,6 +9,8 @@
 //! arithmetic (~580 instructions per sample, callgrind; half of a sweep). Here
 //! the structure is compiled once per batch into flat term lists
 //! ([`ForcePlan`]), and each quantity is one short loop over all samples.
+use super::fast::cubic;
+use super::sweep::OmegaCache;
 use super::{ReducedError, ReducedModel, SlowFlowSample};
 use num_complex::Complex64;
 
@@ -21,12 +23,23 @@ pub(crate) struct OutputStates<'a> {
     pub omega_rad_s: &'a [f64],
     /// Complex modal amplitude `A` of each sample \[sqrt(kg) m\].
     pub amplitude: &'a [Complex64],
-    /// Attachment channels of each sample in turn (`nch` per sample: per port
+    /// Attachment channels of the samples (`nch` per sample: per port
     /// `Z_G` row major, then `T_G u_hat`).
-    pub channels: &'a [Complex64],
+    pub channels: Channels<'a>,
     /// Imposed force of each sample at the drive point \[N\] (the imposed
     /// forces there summed); empty without one there.
     pub imposed_n: &'a [Complex64],
+}
+
+/// The attachment channels of a batch of output samples.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Channels<'a> {
+    /// Each sample's row in turn.
+    Rows(&'a [Complex64]),
+    /// Interpolated at each sample's `Omega` from the sweep's tabulation
+    /// (the numbers of its [`OmegaCache::eval`], without a row stored per
+    /// sample).
+    Tabulated(&'a OmegaCache),
 }
 
 impl OutputStates<'_> {
@@ -117,12 +130,14 @@ impl ReducedModel {
     /// `scratch` (a sweep keeps both across its batches: no allocation per
     /// batch). On an error `out` is left as it was.
     ///
-    /// The amplitudes are located in the table first (in sample order, so
-    /// the first sample outside the table is the error, as before), then
-    /// the detuned frequencies checked, then each sample is computed in one
-    /// pass. Each quantity is the same expression as before, element by
-    /// element (the same operations in the same order): the numbers do not
-    /// change by a bit.
+    /// One pass over the samples: table location, channels (from the
+    /// sweep's tabulation if [`Channels::Tabulated`]), `eq:fc1`, the
+    /// amplitudes. The error is the one of checking all samples' table
+    /// locations first (in sample order), then their detuned frequencies,
+    /// then the residual displacements ([`Self::first_output_error`]). Each
+    /// quantity is the same expression as before, element by element (the
+    /// same operations in the same order): the numbers do not change by a
+    /// bit.
     pub(crate) fn output_fields_into(
         &self,
         s: &OutputStates,
@@ -130,89 +145,113 @@ impl ReducedModel {
         scratch: &mut OutputScratch,
         out: &mut Vec<SlowFlowSample>,
     ) -> Result<(), ReducedError> {
-        let all = fields == SampleFields::All;
-        let n = s.len();
         let nch = self.nch;
         debug_assert!(
-            s.omega_rad_s.len() == n
-                && s.amplitude.len() == n
-                && s.channels.len() == nch * n
-                && (s.imposed_n.is_empty() || s.imposed_n.len() == n)
-        );
-        let OutputScratch {
-            plan,
-            locs,
-            omega,
-            phi,
-        } = scratch;
-        let plan = &*plan.get_or_insert_with(|| self.force_plan());
-        // |z| by a plain sqrt (vectorizes; hypot's overflow guard is not needed)
-        let modulus = |z: &Complex64| (z.re * z.re + z.im * z.im).sqrt();
-        locs.clear();
-        locs.reserve(n);
-        for z in s.amplitude {
-            let a = modulus(z);
-            locs.push((a, self.fast.locate(a)?));
-        }
-        omega.clear();
-        if all {
-            omega.extend(locs.iter().map(|&(_, l)| self.fast.value(l, 0)));
-            let fe = self.frequency_error;
-            if fe.eps != 0.0 || fe.offset_rad_s != 0.0 {
-                for (w, &(a, _)) in omega.iter_mut().zip(locs.iter()) {
-                    *w = self.detuned_omega(*w, a)?;
+            s.omega_rad_s.len() == s.len()
+                && s.amplitude.len() == s.len()
+                && match s.channels {
+                    Channels::Rows(r) => r.len() == nch * s.len(),
+                    Channels::Tabulated(c) => c.nch() == nch,
                 }
-            }
+                && (s.imposed_n.is_empty() || s.imposed_n.len() == s.len())
+        );
+        // one pass per kind of channel source (each compiled for its own)
+        match s.channels {
+            Channels::Rows(rows) => self.output_pass(s, fields, scratch, out, |i, _| {
+                RowValues(&rows[i * nch..(i + 1) * nch])
+            }),
+            Channels::Tabulated(cache) => self.output_pass(s, fields, scratch, out, |_, w| {
+                let (c, t) = cache.segment(w);
+                RowCubics(c, t)
+            }),
         }
+    }
+
+    /// [`Self::output_fields_into`] with the channels of sample `i` at
+    /// `Omega` given by `channels(i, Omega)`.
+    fn output_pass<C: SampleChannels>(
+        &self,
+        s: &OutputStates,
+        fields: SampleFields,
+        scratch: &mut OutputScratch,
+        out: &mut Vec<SlowFlowSample>,
+        channels: impl Fn(usize, f64) -> C,
+    ) -> Result<(), ReducedError> {
+        let all = fields == SampleFields::All;
+        let OutputScratch { plan, phi, row } = scratch;
+        let plan = &*plan.get_or_insert_with(|| self.force_plan());
         phi.clear();
         phi.resize(plan.points.len(), Complex64::new(0.0, 0.0));
-        out.reserve(n);
+        row.clear();
+        row.resize(self.nch, Complex64::new(0.0, 0.0));
+        let base = out.len();
+        out.reserve(s.len());
         let zero = Complex64::new(0.0, 0.0);
+        let detuned = self.frequency_error.eps != 0.0 || self.frequency_error.offset_rad_s != 0.0;
         // (iterators rather than indices: no bounds check per sample)
-        let states = s
-            .t_s
-            .iter()
-            .zip(s.omega_rad_s)
-            .zip(s.amplitude)
-            .zip(locs.iter());
-        for (i, (((&t_s, &omega_rad_s), &amp), &(a, loc))) in states.enumerate() {
-            for (p, &pt) in phi.iter_mut().zip(&plan.points) {
-                *p = self.phi1(loc, pt);
+        let states = s.t_s.iter().zip(s.omega_rad_s).zip(s.amplitude);
+        for (i, ((&t_s, &omega_rad_s), &amp)) in states.enumerate() {
+            let a = modulus(&amp);
+            let fail = |out: &mut Vec<SlowFlowSample>, stage, e| {
+                out.truncate(base);
+                Err(self.first_output_error(s, all, i, stage, e))
+            };
+            let loc = match self.fast.locate(a) {
+                Ok(loc) => loc,
+                Err(e) => return fail(out, 0, e.into()),
+            };
+            let mut omega = f64::NAN;
+            if all {
+                omega = self.fast.value(loc, 0);
+                if detuned {
+                    omega = match self.detuned_omega(omega, a) {
+                        Ok(w) => w,
+                        Err(e) => return fail(out, 1, e),
+                    };
+                }
             }
+            // the shapes at the plan's points: tip, drive, then the others
+            let shapes = self.fast.shapes(loc.k);
+            let (tip, drive) = (
+                cubic(&shapes[self.tip], loc.t),
+                cubic(&shapes[self.drive], loc.t),
+            );
+            if let [p0, p1, others @ ..] = &mut phi[..] {
+                (*p0, *p1) = (tip, drive);
+                for (p, &pt) in others.iter_mut().zip(&plan.points[2..]) {
+                    *p = cubic(&shapes[pt], loc.t);
+                }
+            }
+            let ch = channels(i, omega_rad_s);
             // eq:fc1, term by term
             let mut f = s.imposed_n.get(i).copied().unwrap_or(zero);
             let mut z = zero;
-            if nch > 0 {
-                let row = &s.channels[i * nch..(i + 1) * nch];
-                for &t in &plan.t_channels {
-                    f += row[t];
-                }
-                for &(c, p) in &plan.z_terms {
-                    z += row[c] * phi[p];
-                }
+            for &t in &plan.t_channels {
+                f += ch.channel(t);
+            }
+            for &(c, p) in &plan.z_terms {
+                z += ch.channel(c) * phi[p];
             }
             f -= z * amp;
-            let (tip, drive) = (phi[0], phi[1]);
             let (tip_m, drive_m) = if self.residual.is_some() {
                 // the residual modes' displacement G F added (super::residual)
-                let row = &s.channels[i * nch..(i + 1) * nch];
+                let row = ch.row(row);
                 let [dt, dd] = match self.residual_at(omega_rad_s, row, loc, amp) {
                     Ok(d) => d,
-                    Err(e) => {
-                        out.truncate(out.len() - i);
-                        return Err(e);
-                    }
+                    Err(e) => return fail(out, 2, e),
                 };
                 ((amp * tip + dt).norm(), (amp * drive + dd).norm())
-            } else {
+            } else if all {
                 (a * modulus(&tip), a * modulus(&drive))
+            } else {
+                (a * modulus(&tip), f64::NAN)
             };
             out.push(SlowFlowSample {
                 t_s,
                 omega_rad_s,
                 a,
                 amplitude: amp,
-                modal_frequency_rad_s: if all { omega[i] } else { f64::NAN },
+                modal_frequency_rad_s: omega,
                 tip_amplitude_m: tip_m,
                 drive_amplitude_m: if all { drive_m } else { f64::NAN },
                 force_amplitude_n: modulus(&f),
@@ -221,6 +260,90 @@ impl ReducedModel {
         }
         Ok(())
     }
+
+    /// The error of the output samples of `s` when sample `i` is the first
+    /// to fail check `stage` (0: table location, 1: detuned frequency, 2:
+    /// residual displacement) with `error`: the checks run over all samples
+    /// one after the other (every location, then every detuned frequency,
+    /// then the samples), so a later sample's failure of an earlier check
+    /// comes first.
+    #[cold]
+    #[inline(never)]
+    fn first_output_error(
+        &self,
+        s: &OutputStates,
+        all: bool,
+        i: usize,
+        stage: u8,
+        error: ReducedError,
+    ) -> ReducedError {
+        let later = || s.amplitude[i + 1..].iter().map(modulus);
+        if stage >= 1 {
+            for a in later() {
+                if let Err(e) = self.fast.locate(a) {
+                    return e.into();
+                }
+            }
+        }
+        let detuned = self.frequency_error.eps != 0.0 || self.frequency_error.offset_rad_s != 0.0;
+        if stage >= 2 && all && detuned {
+            for a in later() {
+                // located above
+                let Ok(loc) = self.fast.locate(a) else {
+                    continue;
+                };
+                if let Err(e) = self.detuned_omega(self.fast.value(loc, 0), a) {
+                    return e;
+                }
+            }
+        }
+        error
+    }
+}
+
+/// The attachment channels of one output sample.
+trait SampleChannels {
+    /// Channel `c`.
+    fn channel(&self, c: usize) -> Complex64;
+    /// All channels, in `buf` if they are not stored (`nch` long).
+    fn row<'b>(&'b self, buf: &'b mut [Complex64]) -> &'b [Complex64];
+}
+
+/// A stored row of channels.
+struct RowValues<'a>(&'a [Complex64]);
+
+impl SampleChannels for RowValues<'_> {
+    #[inline(always)]
+    fn channel(&self, c: usize) -> Complex64 {
+        self.0[c]
+    }
+    fn row<'b>(&'b self, _: &'b mut [Complex64]) -> &'b [Complex64] {
+        self.0
+    }
+}
+
+/// The channels' cubics on a segment of the sweep's tabulation and the
+/// local coordinate: each channel evaluated where it is needed (the numbers
+/// of [`OmegaCache::eval`]).
+struct RowCubics<'a>(&'a [[Complex64; 4]], f64);
+
+impl SampleChannels for RowCubics<'_> {
+    #[inline(always)]
+    fn channel(&self, c: usize) -> Complex64 {
+        cubic(&self.0[c], self.1)
+    }
+    fn row<'b>(&'b self, buf: &'b mut [Complex64]) -> &'b [Complex64] {
+        for (o, c) in buf.iter_mut().zip(self.0) {
+            *o = cubic(c, self.1);
+        }
+        buf
+    }
+}
+
+/// `|z|` by a plain sqrt (vectorizes; hypot's overflow guard is not needed).
+#[inline(always)]
+fn modulus(z: &Complex64) -> f64 {
+    (z.re * z.re + z.im * z.im).sqrt()
 }
 
 impl ReducedModel {
@@ -256,12 +379,10 @@ impl ReducedModel {
 #[derive(Debug, Default)]
 pub(crate) struct OutputScratch {
     plan: Option<ForcePlan>,
-    /// `(a, table location)` of each sample.
-    locs: Vec<(f64, super::fast::Loc)>,
-    /// Modal frequency of each sample (with [`SampleFields::All`]).
-    omega: Vec<f64>,
     /// Fundamental shapes at the plan's points, of the current sample.
     phi: Vec<Complex64>,
+    /// The attachment channels of the current sample ([`Channels::Tabulated`]).
+    row: Vec<Complex64>,
 }
 
 #[cfg(test)]
@@ -399,7 +520,7 @@ mod tests {
                 t_s: &ts,
                 omega_rad_s: &w,
                 amplitude: &amp,
-                channels: &channels,
+                channels: Channels::Rows(&channels),
                 imposed_n: &fi,
             })
             .unwrap();
@@ -434,7 +555,7 @@ mod tests {
             t_s: &ts[..1],
             omega_rad_s: &w[..1],
             amplitude: &above,
-            channels: &channels[..m.nch],
+            channels: Channels::Rows(&channels[..m.nch]),
             imposed_n: &fi[..1],
         });
         assert!(matches!(

@@ -46,7 +46,7 @@
 //! ([`super::dynamic`]), from the derivative of the condensed channels
 //! (`Q1`).
 use super::sweep::OmegaCache;
-use super::{ImposedForces, ReducedError, ReducedModel, MAX_IMPOSED, MAX_PHI};
+use super::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
 use crate::excitation::LinearSweep;
 use num_complex::Complex64;
 
@@ -69,7 +69,7 @@ impl ReducedModel {
         omega_dot: f64,
         ch: &[Complex64],
         dch: &[Complex64],
-        fi: ImposedForces,
+        fi: &ImposedForces,
         phi: &mut [Complex64; MAX_PHI],
     ) -> Result<Complex64, ReducedError> {
         let amp = Complex64::new(y[0], y[1]);
@@ -95,12 +95,8 @@ impl ReducedModel {
         z: Complex64,
         amp: Complex64,
     ) -> Result<Complex64, ReducedError> {
-        let none = ImposedForces {
-            f: [Complex64::new(0.0, 0.0); MAX_IMPOSED],
-            n: 0,
-        };
         // Z_A evaluated on the derivative channels: phi^H dZ_G/dOmega phi
-        let (_, _, dza) = self.terms_with(p, phi, omega, dch, none);
+        let (_, _, dza) = self.terms_with(p, phi, omega, dch, &ImposedForces::NONE);
         let zs = Complex64::new(dza.im, -dza.re);
         let den = Complex64::new(2.0 * p.damping_ratio * p.omega_rad_s, 2.0 * omega) + zs;
         let mass = den.norm() / (2.0 * omega);
@@ -165,7 +161,7 @@ impl ReducedModel {
             let fi = self.imposed_at(w[i])?;
             let y = [amps[i].re, amps[i].im];
             let wdot = sweep.omega_rate_rad_s2(ts[i]);
-            let rate = self.rhs_first_order(&y, w[i], wdot, &ch, &dch, fi, &mut phi)?;
+            let rate = self.rhs_first_order(&y, w[i], wdot, &ch, &dch, &fi, &mut phi)?;
             self.subtract_rate_forces(row, &dch, &phi, rate);
         }
         Ok(())

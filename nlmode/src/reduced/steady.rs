@@ -2,7 +2,7 @@
 //! `a |K(a, Omega)| = |phi(a)^H f_ex(a, Omega)|` at each `Omega`, their
 //! stability from the slow-flow Jacobian, and the single-mode linear steady
 //! state (`linear-steady`, `eq:LMss`) with the force drop (`eq:forcedrop`).
-use super::output::OutputStates;
+use super::output::{Channels, OutputStates};
 use super::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
 use crate::table::TableError;
 use num_complex::Complex64;
@@ -178,7 +178,7 @@ impl ReducedModel {
             // K and F at the nodes, then adaptive refinement between them
             nodes.clear();
             for (&a, (p, phi)) in scan.iter().zip(&node_data) {
-                let (k, f, _) = self.terms_with(p, phi, w, &ch, fi);
+                let (k, f, _) = self.terms_with(p, phi, w, &ch, &fi);
                 nodes.push((a, k, f));
             }
             samples.clear();
@@ -290,7 +290,7 @@ impl ReducedModel {
             t_s: &vec![f64::NAN; n],
             omega_rad_s: &fixed.omega,
             amplitude: &fixed.amplitude,
-            channels: &fixed.channels,
+            channels: Channels::Rows(&fixed.channels),
             imposed_n,
         })?;
         Ok(samples
@@ -329,10 +329,10 @@ impl ReducedModel {
             let mut ym = y;
             yp[c] += h;
             ym[c] -= h;
-            let f0 = self.rhs(&y, w, ch, fi, &mut phi)?;
+            let f0 = self.rhs(&y, w, ch, &fi, &mut phi)?;
             let (fp, fm, den) = match (
-                self.rhs(&yp, w, ch, fi, &mut phi),
-                self.rhs(&ym, w, ch, fi, &mut phi),
+                self.rhs(&yp, w, ch, &fi, &mut phi),
+                self.rhs(&ym, w, ch, &fi, &mut phi),
             ) {
                 (Ok(fp), Ok(fm)) => (fp, fm, 2.0 * h),
                 (Err(ReducedError::Table(TableError::AboveRange { .. })), Ok(fm)) => (f0, fm, h),

@@ -1,9 +1,9 @@
 //! Slow-flow integration of `eq:NM` along a sine sweep (`nlmode`,
 //! `linear-slowflow`, `imposed-force`).
 use super::dynamic::AttachmentStates;
-use super::fast::Breaks;
-use super::output::{OutputScratch, OutputStates, SampleFields};
-use super::{ReducedError, ReducedModel, MAX_PHI};
+use super::fast::{cubic, Breaks};
+use super::output::{Channels, OutputScratch, OutputStates, SampleFields};
+use super::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
 use crate::dopri::{integrate, Controller, ErrorScale, IntegratorStats, Stop, Tolerances};
 use crate::excitation::LinearSweep;
 use crate::table::TableError;
@@ -488,14 +488,21 @@ impl OmegaCache {
         if self.nch == 0 {
             return;
         }
+        let (c, t) = self.segment(w);
+        for (o, c) in out.iter_mut().zip(c) {
+            *o = cubic(c, t);
+        }
+    }
+
+    /// The channels' cubics on the segment of `w` (clamped to the tabulated
+    /// range) and the local coordinate there: channel `ch` at `w` is
+    /// `cubic(&c[ch], t)` (the numbers of [`Self::eval`]).
+    #[inline(always)]
+    pub fn segment(&self, w: f64) -> (&[[Complex64; 4]], f64) {
         let loc = self
             .nodes
             .locate(w.clamp(self.nodes.first(), self.nodes.last()));
-        let c = &self.c[loc.k * self.nch..(loc.k + 1) * self.nch];
-        let t = loc.t;
-        for (o, c) in out.iter_mut().zip(c) {
-            *o = c[0] + (c[1] + (c[2] + c[3] * t) * t) * t;
-        }
+        (&self.c[loc.k * self.nch..(loc.k + 1) * self.nch], loc.t)
     }
 }
 
@@ -574,18 +581,24 @@ impl ReducedModel {
         };
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
+        let no_imposed = self.imposed.is_empty();
+        // (without imposed forces their empty list, set once: no forces
+        // evaluated, copied or summed per evaluation)
+        let mut fi = ImposedForces::NONE;
         let mut dch = vec![Complex64::new(0.0, 0.0); if opts.rate_terms { self.nch } else { 0 }];
         let rhs = |t: f64, y: &[f64; 2], dy: &mut [f64; 2]| -> Result<(), ReducedError> {
             let w = sweep.omega_rad_s(t);
-            let fi = self.imposed_at(w)?;
+            if !no_imposed {
+                fi = self.imposed_at(w)?;
+            }
             if opts.rate_terms {
                 cache.eval_with_derivative(w, &mut ch, &mut dch);
                 let wdot = sweep.omega_rate_rad_s2(t);
-                let d = self.rhs_first_order(y, w, wdot, &ch, &dch, fi, &mut phi)?;
+                let d = self.rhs_first_order(y, w, wdot, &ch, &dch, &fi, &mut phi)?;
                 *dy = [d.re, d.im];
             } else {
                 cache.eval(w, &mut ch);
-                *dy = self.rhs(y, w, &ch, fi, &mut phi)?;
+                *dy = self.rhs(y, w, &ch, &fi, &mut phi)?;
             }
             Ok(())
         };
@@ -597,16 +610,24 @@ impl ReducedModel {
         let mut last_state = (0.0, [a0.re, a0.im]);
         let (stats, stop) = integrate(rhs, 0.0, [a0.re, a0.im], duration, &tol, |d, _| {
             let t1 = d.t0 + d.h;
-            while next < n && sample_t(next) <= t1 * (1.0 + 1e-14) {
-                let t = sample_t(next).max(d.t0);
-                let y = d.eval(t);
+            // the step's continuous extension, its coefficients once
+            let poly = d.polynomial();
+            let t_last = t1 * (1.0 + 1e-14);
+            while next < n {
+                let ts = sample_t(next);
+                if !(ts <= t_last) {
+                    break;
+                }
+                // `ts.max(t0)` (neither is NaN)
+                let t = if ts < d.t0 { d.t0 } else { ts };
+                let y = poly.eval(t);
                 batch.push(t, Complex64::new(y[0], y[1]));
                 next += 1;
                 if batch.ts.len() == SWEEP_BATCH {
                     batch.flush(self, sweep, &cache, sink)?;
                 }
             }
-            last_state = (t1, d.eval(t1));
+            last_state = (t1, poly.eval(t1));
             Ok(())
         });
         if batch.last_t.is_none() {
@@ -716,8 +737,9 @@ struct OutputBatch {
     emitted: usize,
     /// Time of the last sample taken.
     last_t: Option<f64>,
-    /// Excitation frequency and attachment channels of the pending samples.
+    /// Excitation frequency of the pending samples.
     w: Vec<f64>,
+    /// Attachment channels of the pending samples, with the rate terms only.
     channels: Vec<Complex64>,
     scratch: OutputScratch,
     samples: Vec<SlowFlowSample>,
@@ -759,9 +781,11 @@ impl OutputBatch {
         }
         self.w.clear();
         self.w.extend(self.ts.iter().map(|&t| sweep.omega_rad_s(t)));
-        self.channels.clear();
-        cache.eval_rows_into(&self.w, &mut self.channels);
+        // with the rate terms each sample's row, its rate force subtracted
+        // (super::rate); else the channels from the tabulation
         if self.rate_terms {
+            self.channels.clear();
+            cache.eval_rows_into(&self.w, &mut self.channels);
             let states = (&self.ts[..], &self.w[..], &self.amps[..]);
             model.subtract_rate_forces_in_rows(cache, sweep, states, &mut self.channels)?;
         }
@@ -772,7 +796,11 @@ impl OutputBatch {
                 t_s: &self.ts,
                 omega_rad_s: &self.w,
                 amplitude: &self.amps,
-                channels: &self.channels,
+                channels: if self.rate_terms {
+                    Channels::Rows(&self.channels)
+                } else {
+                    Channels::Tabulated(cache)
+                },
                 imposed_n: &imposed_n,
             },
             sink.fields(),
@@ -803,7 +831,7 @@ pub(crate) fn emit(
             t_s: ts,
             omega_rad_s: w,
             amplitude: amps,
-            channels,
+            channels: Channels::Rows(channels),
             imposed_n: &imposed_n,
         },
         sink.fields(),
