@@ -95,6 +95,11 @@ impl Pencil<'_> {
         y
     }
 
+    /// `max_i |M_ii|`, the scale of the rounding of `x^T M x` ([`m_norm`]).
+    pub fn mass_scale(&self) -> f64 {
+        diagonal(self.m).iter().fold(0.0, |a, d| a.max(d.abs()))
+    }
+
     /// `lambda_scale = max_i K_ii / M_ii` over the free DOFs (a lower bound of
     /// the largest eigenvalue).
     pub fn lambda_scale(&self) -> f64 {
@@ -123,6 +128,23 @@ pub struct SparseModes {
     pub residual: Vec<f64>,
     /// Size of the Lanczos basis at convergence.
     pub basis: usize,
+}
+
+/// `x^T M x` below `-MASS_NORM_RTOL max_i |M_ii| x^T x` proves `M` indefinite
+/// (the rounding of `x^T M x` is about `eps` times the row count of `M`
+/// times that scale).
+pub const MASS_NORM_RTOL: f64 = 1e-8;
+
+/// The `M`-norm `sqrt(q)` of a vector `x` from `q = x^T M x` and `x_sq = x^T
+/// x` (0 for a rounding-size negative `q`);
+/// [`StructureError::MassNotPositiveDefinite`] when `q` is clearly negative
+/// ([`MASS_NORM_RTOL`], `m_scale` = [`Pencil::mass_scale`]): the Lanczos
+/// recurrence is then no inner product and `M` is indefinite.
+pub fn m_norm(q: f64, x_sq: f64, m_scale: f64) -> Result<f64> {
+    if q < -MASS_NORM_RTOL * m_scale * x_sq {
+        return Err(StructureError::MassNotPositiveDefinite { name: "mass" });
+    }
+    Ok(q.max(0.0).sqrt())
 }
 
 /// `lambda_scale = max_i K_ii / M_ii` (a lower bound of the largest eigenvalue).
@@ -179,6 +201,7 @@ pub fn lanczos(
         });
     }
     let nn = pencil.m.nrows();
+    let m_scale = pencil.mass_scale();
     let b = n_modes.min(3);
     let m_max = max_basis(n_modes, n);
     let op = |x: &DMatrix<f64>| {
@@ -197,7 +220,7 @@ pub fn lanczos(
     // start block: Op applied to a random block, M-orthonormalised
     let w0 = op(&rng.block(nn, b));
     let (w0, mw0, _) = reorthogonalize(pencil, &basis, w0);
-    let (q, mq, _) = orthonormalize_block(pencil, &basis, w0, mw0, b, &mut rng);
+    let (q, mq, _) = orthonormalize_block(pencil, &basis, w0, mw0, b, &mut rng, m_scale)?;
     basis.push(&q, &mq);
     let mut m_cur = q.ncols();
     let mut m0 = 0;
@@ -217,7 +240,7 @@ pub fn lanczos(
                 DMatrix::zeros(0, bl),
             )
         } else {
-            orthonormalize_block(pencil, &basis, w, mw, keep, &mut rng)
+            orthonormalize_block(pencil, &basis, w, mw, keep, &mut rng, m_scale)?
         };
         t.view_mut((m_cur, m0), (r.nrows(), bl)).copy_from(&r);
         let full = exact || m_cur + q.ncols() > m_max;
@@ -308,7 +331,8 @@ fn reorthogonalize(
 /// `M`-orthonormalises `w` (already orthogonal to the basis) by modified
 /// Gram-Schmidt into at most `keep` columns, `w[.., ..keep] = Q R` (`R` is
 /// `keep x w.ncols()`); a direction that vanishes (relative `1e-10`) is replaced
-/// by a random one orthogonal to the basis, with a zero factor.
+/// by a random one orthogonal to the basis, with a zero factor. A clearly
+/// negative `M`-norm is [`StructureError::MassNotPositiveDefinite`] ([`m_norm`]).
 fn orthonormalize_block(
     pencil: &Pencil,
     basis: &Basis,
@@ -316,11 +340,13 @@ fn orthonormalize_block(
     mut mw: DMatrix<f64>,
     keep: usize,
     rng: &mut Xorshift,
-) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    m_scale: f64,
+) -> Result<(DMatrix<f64>, DMatrix<f64>, DMatrix<f64>)> {
     let bl = w.ncols();
     let mut r = DMatrix::zeros(keep, bl);
     for c in 0..keep {
-        let before = w.column(c).dot(&mw.column(c)).max(0.0).sqrt();
+        let (wc, mwc) = (w.column(c), mw.column(c));
+        let before = m_norm(wc.dot(&mwc), wc.norm_squared(), m_scale)?;
         for _ in 0..2 {
             // coefficients against the normalised columns, M w_d known exactly
             let s = mw.columns(0, c).tr_mul(&w.column(c));
@@ -332,7 +358,7 @@ fn orthonormalize_block(
         }
         let wc = w.column(c).into_owned();
         let mwc = pencil.mul_m(&DMatrix::from_column_slice(wc.len(), 1, wc.as_slice()));
-        let norm = wc.dot(&mwc.column(0)).max(0.0).sqrt();
+        let norm = m_norm(wc.dot(&mwc.column(0)), wc.norm_squared(), m_scale)?;
         if norm > 1e-10 * before && norm > 0.0 {
             w.column_mut(c).scale_mut(1.0 / norm);
             mw.set_column(c, &(mwc.column(0) / norm));
@@ -343,16 +369,20 @@ fn orthonormalize_block(
             pencil.mask(&mut fresh);
             let (f, _, _) = reorthogonalize(pencil, basis, fresh);
             let (f, mf) = reorthogonalize_local(pencil, &w, c, f);
-            let norm = f.column(0).dot(&mf.column(0)).max(0.0).sqrt();
+            let (fc, mfc) = (f.column(0), mf.column(0));
+            let norm = m_norm(fc.dot(&mfc), fc.norm_squared(), m_scale)?;
+            if !(norm > 0.0) {
+                return Err(StructureError::MassNotPositiveDefinite { name: "mass" });
+            }
             w.set_column(c, &(f.column(0) / norm));
             mw.set_column(c, &(mf.column(0) / norm));
         }
     }
-    (
+    Ok((
         w.columns(0, keep).into_owned(),
         mw.columns(0, keep).into_owned(),
         r,
-    )
+    ))
 }
 
 /// Two Gram-Schmidt passes of the column `f` against the first `c` columns of
