@@ -346,14 +346,26 @@ pub fn build_matrices_structure(
         files.push((MatrixRole::Damping, p));
     }
     let read_start = crate::stages::StageClock::now();
+    // each unlabelled file to its sparse matrix as soon as it is read (its
+    // triplets freed); labelled files are renumbered onto the union of their
+    // labels first
     let mut read = Vec::with_capacity(files.len());
+    let mut sparse = Vec::with_capacity(files.len());
     for (role, path) in &files {
-        read.push(read_matrix_triplets(*role, path, format).map_err(key)?);
+        let t = read_matrix_triplets(*role, path, format).map_err(key)?;
+        if t.labels.is_none() {
+            sparse.push(Some(sparse_from_feio(*role, path, &t).map_err(key)?));
+            drop(t);
+            read.push(feio::Triplets::default());
+        } else {
+            sparse.push(None);
+            read.push(t);
+        }
     }
     // labelled files (Abaqus' labels format) share one numbering: the union of
     // their (node, dof) labels, ascending
     let labels: Option<Vec<feio::Label>> = if read.iter().any(|t| t.labels.is_some()) {
-        if let Some(k) = read.iter().position(|t| t.labels.is_none()) {
+        if let Some(k) = sparse.iter().position(|s| s.is_some()) {
             let l = read.iter().position(|t| t.labels.is_some()).unwrap_or(0);
             anyhow::bail!(
                 "structure.{}: {} carries no node labels, but {} {} does: give all matrices \
@@ -378,9 +390,12 @@ pub fn build_matrices_structure(
     } else {
         None
     };
-    let mut sparse_of = |k: usize| {
-        let t = std::mem::take(&mut read[k]);
-        sparse_from_feio(files[k].0, files[k].1, &t).map_err(key)
+    let mut sparse_of = |k: usize| match sparse[k].take() {
+        Some(a) => Ok(a),
+        None => {
+            let t = std::mem::take(&mut read[k]);
+            sparse_from_feio(files[k].0, files[k].1, &t).map_err(key)
+        }
     };
     let mass = sparse_of(0)?;
     let stiffness = sparse_of(1)?;

@@ -20,8 +20,11 @@
 //!   master points and fixed-interface modes.
 //! * [`matrix_structure_sparse`] does the same from sparse matrices
 //!   ([`read_matrix_market_sparse`]) for large FE models: with Craig-Bampton the
-//!   full model stays sparse from the file to the reduction (sparse Cholesky for
-//!   `M` positive definite and the constraint modes, the shift-invert Lanczos of
+//!   full model stays sparse from the file to the reduction (one sparse
+//!   Cholesky factorisation of `K`, the masters ordered last, for the full
+//!   model's modes, the fixed-interface modes and the constraint modes; `M`
+//!   checked by the Lanczos `M`-norms and the reduced mass, see
+//!   [`matrix_structure_sparse_cb_with`]; the shift-invert Lanczos of
 //!   [`super::sparse`] for the full model's lowest modes and the fixed-interface
 //!   modes); without reduction the model is made dense, up to [`DENSE_MAX_DOF`].
 use super::craig_bampton::craig_bampton;
@@ -30,9 +33,8 @@ use super::damping::{rayleigh_damping, stiffness_proportional_damping_from_modes
 use super::lanczos::{max_basis, modal_factor, modes, Pencil};
 use super::modal::modal_analysis;
 use super::sparse::{
-    asymmetry, diagonal, for_each_entry, sparse_from_dense, sparse_from_triplets, sparse_mul,
-    sparse_to_dense, MemoryEstimate, SparseMatrix, SparseOptions, Stage, StageTimings,
-    SymbolicFactor,
+    asymmetry, diagonal, for_each_entry, sparse_from_dense, sparse_mul, sparse_to_dense,
+    MemoryEstimate, SparseMatrix, SparseOptions, Stage, StageTimings, SymbolicFactor,
 };
 use super::{CubicSpring, NamedPoint, NonlinearElement, StructuralModel, StructureError};
 use nalgebra::{DMatrix, DVector};
@@ -662,6 +664,23 @@ pub fn matrix_structure_sparse_cb(
 /// the memory estimate, refused above [`SparseOptions::memory_limit_bytes`]
 /// before any numeric work), factor, eigen (full model), then the reduction;
 /// their times in [`MatrixStructure::timings`].
+///
+/// One numeric factorisation: `K` ordered with the masters last, whose
+/// leading block is the factor of `K_ii` ([`SymbolicFactor::with_last`]).
+/// `M` is not factorised: every result depends on `M` only through the
+/// subspaces the Lanczos bases and `T` span, and there it is checked. The
+/// `M`-norm of every new Lanczos direction must be positive (a clearly
+/// negative `x^T M x` proves `M` indefinite,
+/// [`super::lanczos::MASS_NORM_RTOL`]); with `K` positive definite (its
+/// factor) `K^{-1} M` is self-adjoint in the `K` inner product whatever `M`
+/// is, so its largest eigenvalues, the lowest modes, are real and verified
+/// by their residuals, and a negative eigenvalue there proves `M` indefinite;
+/// the reduced `T^T M T` that the methods integrate must pass a dense
+/// Cholesky factorisation ([`StructuralModel::validate`]). An `M` that is
+/// indefinite only in directions none of these touch (high-frequency
+/// content the reduced model does not contain) is not detected and does not
+/// change a number of the result. Each failure is
+/// [`MatricesError::MassNotPositiveDefinite`] naming how it was found.
 pub fn matrix_structure_sparse_cb_with(
     opts: &MatrixStructureOptions<SparseMatrix>,
     sparse: &SparseOptions,

@@ -12,8 +12,11 @@
 //! Memory of the large-model path (`n` DOFs, `nnz(A)` stored entries of the
 //! full symmetric matrices, `nnz(L)` of the factor, `m` the Lanczos basis,
 //! `r` the reduced size): `M`, `K` (and a `C` file) `16 nnz(A)` bytes each, the
-//! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m`, dense blocks
-//! `8 n r` a few times, and for the fixed-interface problem the values of `K`
+//! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m` and dense blocks
+//! `8 n r` a few times. One factorisation of `K`, ordered with the
+//! Craig-Bampton masters last, serves the full model and the fixed-interface
+//! problem ([`SymbolicFactor::with_last`]); only when `K` is singular
+//! (rigid-body modes) is `K_ii` factorised separately, from the values of `K`
 //! with the masters decoupled (`8 nnz(A)`, on `K`'s pattern:
 //! [`SparseCholesky::with_values`]). Nothing of size `n x n` is formed; one
 //! factorisation is alive at a time.
@@ -245,7 +248,7 @@ impl Xorshift {
 /// A stage of the large-model path, for progress reports and [`StageTimings`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stage {
-    /// Symmetry, diagonals, `M` positive definite.
+    /// Symmetry, finite values, diagonals.
     Check,
     /// Fill-reducing ordering and symbolic factorisation (and the memory estimate).
     Order,
