@@ -103,6 +103,26 @@ pub struct Triplets {
 }
 
 impl Triplets {
+    /// An unlabelled `nrows x ncols` matrix of the entries `(rows, cols,
+    /// vals)` read as `format`.
+    pub fn unlabelled(
+        (nrows, ncols): (usize, usize),
+        (rows, cols, vals): (Vec<usize>, Vec<usize>, Vec<f64>),
+        symmetric_storage: bool,
+        format: Format,
+    ) -> Self {
+        Self {
+            nrows,
+            ncols,
+            rows,
+            cols,
+            vals,
+            symmetric_storage,
+            labels: None,
+            format,
+        }
+    }
+
     /// Number of stored entries.
     pub fn nnz(&self) -> usize {
         self.vals.len()

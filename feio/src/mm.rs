@@ -39,20 +39,16 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
     let h = header(path, first)?;
     let size = size_line(path, b, pos, h)?;
     let data = &b[size.data_start..];
-    let (rows, cols, vals) = match h.layout {
+    let entries = match h.layout {
         Layout::Coordinate => coordinate_entries(path, data, &size, h)?,
         Layout::Array => array_values(path, data, &size, h)?,
     };
-    Ok(Triplets {
-        nrows: size.nrows,
-        ncols: size.ncols,
-        rows,
-        cols,
-        vals,
-        symmetric_storage: h.symmetric,
-        labels: None,
-        format: F,
-    })
+    Ok(Triplets::unlabelled(
+        (size.nrows, size.ncols),
+        entries,
+        h.symmetric,
+        F,
+    ))
 }
 
 /// The error at `line` of `path`.
@@ -428,17 +424,12 @@ pub fn parse_reader_window(
         s.window(&buf[..end])?;
         buf.drain(..end);
     }
-    let (rows, cols, vals) = s.finish()?;
-    Ok(Triplets {
-        nrows: size.nrows,
-        ncols: size.ncols,
-        rows,
-        cols,
-        vals,
-        symmetric_storage: h.symmetric,
-        labels: None,
-        format: F,
-    })
+    Ok(Triplets::unlabelled(
+        (size.nrows, size.ncols),
+        s.finish()?,
+        h.symmetric,
+        F,
+    ))
 }
 
 /// The chunks' first error in file order (its line counted over the chunks
