@@ -12,7 +12,8 @@
 //! Memory of the large-model path (`n` DOFs, `nnz(A)` stored entries of the
 //! full symmetric matrices, `nnz(L)` of the factor, `m` the Lanczos basis,
 //! `r` the reduced size): `M`, `K` (and a `C` file) `16 nnz(A)` bytes each, the
-//! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m` and dense blocks
+//! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m` (`8 n m` from
+//! [`super::lanczos::LEAN_BASIS_MIN_DOF`] DOFs on) and dense blocks
 //! `8 n r` a few times. One factorisation of `K`, ordered with the
 //! Craig-Bampton masters last, serves the full model and the fixed-interface
 //! problem ([`SymbolicFactor::with_last`]); only when `K` is singular
@@ -795,8 +796,14 @@ impl MemoryEstimate {
         let matrices_bytes = held.iter().map(|a| matrix_bytes(a)).sum();
         let factor_bytes = symbolic.factor_bytes();
         let workspace_bytes = symbolic.workspace_bytes(par);
-        // V and M V, the block products and solves, T and three n x r blocks
-        let eigen_bytes = 8 * (ndof * (2 * basis + 12 + 4 * reduced)) as u64;
+        // V and M V (V only from LEAN_BASIS_MIN_DOF on), the block products
+        // and solves, T and three n x r blocks
+        let per = if ndof < super::lanczos::LEAN_BASIS_MIN_DOF {
+            2
+        } else {
+            1
+        };
+        let eigen_bytes = 8 * (ndof * (per * basis + 12 + 4 * reduced)) as u64;
         Self {
             ndof,
             matrices_bytes,
@@ -946,6 +953,26 @@ mod tests {
         let (_, k) = beam(6, BoundaryCondition::ClampedFree);
         assert!(SymbolicFactor::with_last(&k, Ordering::Amd, &[1, 1]).is_none());
         assert!(SymbolicFactor::with_last(&k, Ordering::Amd, &[k.nrows()]).is_none());
+    }
+
+    #[test]
+    fn a_basis_without_m_v_gives_the_same_modes() {
+        use crate::structure::lanczos::{lanczos_with, Pencil};
+        let (m, k) = beam(61, BoundaryCondition::ClampedFree);
+        let f = SparseCholesky::new(&k).unwrap();
+        let p = Pencil {
+            m: &m,
+            k: &k,
+            fixed: &[],
+            par: Par::Seq,
+        };
+        let a = lanczos_with(&p, &f, 0.0, 8, "n", true).unwrap();
+        let b = lanczos_with(&p, &f, 0.0, 8, "n", false).unwrap();
+        for (x, y) in a.lambda.iter().zip(&b.lambda) {
+            assert!((x - y).abs() < 1e-12 * x, "{x} vs {y}");
+        }
+        let e = (&a.shapes - &b.shapes).amax() / a.shapes.amax();
+        assert!(e < 1e-8, "{e:e}");
     }
 
     #[test]
