@@ -270,16 +270,12 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
             ));
         }
     }
-    Ok(Triplets {
-        nrows,
-        ncols,
-        rows,
-        cols,
-        vals,
-        symmetric_storage: h.symmetric,
-        labels: None,
-        format: F,
-    })
+    Ok(Triplets::unlabelled(
+        (nrows, ncols),
+        (rows, cols, vals),
+        h.symmetric,
+        F,
+    ))
 }
 
 /// The error at `line` of `path`.

@@ -103,6 +103,26 @@ pub struct Triplets {
 }
 
 impl Triplets {
+    /// An unlabelled `nrows x ncols` matrix of the entries `(rows, cols,
+    /// vals)` read as `format`.
+    pub fn unlabelled(
+        (nrows, ncols): (usize, usize),
+        (rows, cols, vals): (Vec<usize>, Vec<usize>, Vec<f64>),
+        symmetric_storage: bool,
+        format: Format,
+    ) -> Self {
+        Self {
+            nrows,
+            ncols,
+            rows,
+            cols,
+            vals,
+            symmetric_storage,
+            labels: None,
+            format,
+        }
+    }
+
     /// Number of stored entries.
     pub fn nnz(&self) -> usize {
         self.vals.len()
@@ -251,14 +271,33 @@ pub(crate) fn expected_error(
     )
 }
 
-/// Reads the file at `path` (gzip-compressed or not) in `format`.
+/// Reads the file at `path` (gzip-compressed or not) in `format`. A plain
+/// Matrix Market file is read in windows of whole lines
+/// ([`mm::parse_reader`]): the memory is its entries plus one window of
+/// text, not the file's text; other files are read whole.
 pub fn read(path: &Path, format: Format) -> Result<Triplets, Error> {
     let io = |e: std::io::Error| Error::Io {
         path: path.into(),
         message: e.to_string(),
     };
-    let bytes = std::fs::read(path).map_err(io)?;
-    read_bytes(path, &bytes, format)
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let file_bytes = file.metadata().ok().map(|m| m.len());
+    let mut first = Vec::new();
+    (&mut file)
+        .take(mm::WINDOW_BYTES as u64)
+        .read_to_end(&mut first)
+        .map_err(io)?;
+    let gzip = first.starts_with(&[0x1f, 0x8b]);
+    let mm = match format {
+        Format::MatrixMarket => true,
+        Format::Auto => detect(path, &first) == Some(Format::MatrixMarket),
+        _ => false,
+    };
+    if mm && !gzip {
+        return mm::parse_reader(path, first, &mut file, file_bytes);
+    }
+    file.read_to_end(&mut first).map_err(io)?;
+    read_bytes(path, &first, format)
 }
 
 /// As [`read`] from the file's bytes (`path` names it in errors and gives the

@@ -10,6 +10,7 @@
 use crate::text::{self, shown, skip_ws, uint};
 use crate::{parse_error, Detail, Error, Format, Triplets, MAX_DIM};
 use rayon::prelude::*;
+use std::io::Read;
 use std::path::Path;
 
 /// Coordinate data of at least this many bytes is parsed on all threads.
@@ -38,20 +39,16 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
     let h = header(path, first)?;
     let size = size_line(path, b, pos, h)?;
     let data = &b[size.data_start..];
-    let (rows, cols, vals) = match h.layout {
+    let entries = match h.layout {
         Layout::Coordinate => coordinate_entries(path, data, &size, h)?,
         Layout::Array => array_values(path, data, &size, h)?,
     };
-    Ok(Triplets {
-        nrows: size.nrows,
-        ncols: size.ncols,
-        rows,
-        cols,
-        vals,
-        symmetric_storage: h.symmetric,
-        labels: None,
-        format: F,
-    })
+    Ok(Triplets::unlabelled(
+        (size.nrows, size.ncols),
+        entries,
+        h.symmetric,
+        F,
+    ))
 }
 
 /// The error at `line` of `path`.
@@ -242,72 +239,209 @@ type Entries = (Vec<usize>, Vec<usize>, Vec<f64>);
 /// parallel above [`PARALLEL_MIN_BYTES`]); the first error in file order,
 /// then the count against the size line's.
 fn coordinate_entries(path: &Path, data: &[u8], size: &Size, h: Header) -> Result<Entries, Error> {
-    let (nrows, ncols, symmetric) = (size.nrows, size.ncols, h.symmetric);
-    let size_line_no = size.line;
-    let nnz = size.nnz.unwrap_or(0);
-    // more entries than the matrix has places: refused before reading on
-    // (a smaller wrong count is found at the end, naming the line)
-    let full = if symmetric {
-        (nrows as u64) * (nrows as u64 + 1) / 2
-    } else {
-        nrows as u64 * ncols as u64
-    };
-    if nnz > full {
-        return Err(err(
-            path,
-            size_line_no,
-            Detail::TooLarge {
-                what: "entries",
-                value: nnz,
-                limit: full,
-            },
-        ));
-    }
-    let ctx = Ctx {
-        nrows,
-        ncols,
-        symmetric,
-        field: h.field,
-    };
-    let chunks = chunks(data);
-    let outs: Vec<Chunk> = if chunks.len() > 1 {
-        chunks
-            .par_iter()
-            .map(|r| parse_chunk(&data[r.clone()], ctx))
-            .collect()
-    } else {
-        chunks
-            .iter()
-            .map(|r| parse_chunk(&data[r.clone()], ctx))
-            .collect()
-    };
-    check_entry_count(path, data, size_line_no, nnz, &chunks, &outs)?;
-    let n = nnz as usize;
-    let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
-    if outs.len() == 1 {
-        let o = outs.into_iter().next().unwrap_or_default();
-        (rows, cols, vals) = (o.rows, o.cols, o.vals);
-    } else {
-        rows.reserve_exact(n);
-        cols.reserve_exact(n);
-        vals.reserve_exact(n);
-        for o in outs {
-            rows.extend_from_slice(&o.rows);
-            cols.extend_from_slice(&o.cols);
-            vals.extend_from_slice(&o.vals);
+    let mut s = Stream::new(path, size, h, data.len() as u64)?;
+    s.window(data)?;
+    s.finish()
+}
+
+/// The coordinate entries of a file read in windows of whole lines
+/// ([`Stream::window`]), so that the file's text is never held whole: the
+/// entries so far and the lines before the current window (for the errors'
+/// line numbers).
+struct Stream<'p> {
+    path: &'p Path,
+    ctx: Ctx,
+    nnz: u64,
+    size_line_no: usize,
+    lines_before: usize,
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    vals: Vec<f64>,
+}
+
+impl<'p> Stream<'p> {
+    /// After the size line; `data_bytes` (the bytes of data the file can
+    /// hold) bounds what is reserved from the size line's count.
+    fn new(path: &'p Path, size: &Size, h: Header, data_bytes: u64) -> Result<Self, Error> {
+        let (nrows, ncols, symmetric) = (size.nrows, size.ncols, h.symmetric);
+        let nnz = size.nnz.unwrap_or(0);
+        // more entries than the matrix has places: refused before reading on
+        // (a smaller wrong count is found at the end, naming the line)
+        let full = if symmetric {
+            (nrows as u64) * (nrows as u64 + 1) / 2
+        } else {
+            nrows as u64 * ncols as u64
+        };
+        if nnz > full {
+            return Err(err(
+                path,
+                size.line,
+                Detail::TooLarge {
+                    what: "entries",
+                    value: nnz,
+                    limit: full,
+                },
+            ));
         }
+        // an entry line has at least 6 bytes (`1 1 1\n`)
+        let cap = nnz.min(data_bytes / 6) as usize;
+        Ok(Self {
+            path,
+            ctx: Ctx {
+                nrows,
+                ncols,
+                symmetric,
+                field: h.field,
+            },
+            nnz,
+            size_line_no: size.line,
+            lines_before: 0,
+            rows: Vec::with_capacity(cap),
+            cols: Vec::with_capacity(cap),
+            vals: Vec::with_capacity(cap),
+        })
     }
-    Ok((rows, cols, vals))
+
+    /// The entries of `data` (whole lines, the next ones of the file).
+    fn window(&mut self, data: &[u8]) -> Result<(), Error> {
+        let chunks = chunks(data);
+        let ctx = self.ctx;
+        let outs: Vec<Chunk> = if chunks.len() > 1 {
+            chunks
+                .par_iter()
+                .map(|r| parse_chunk(&data[r.clone()], ctx))
+                .collect()
+        } else {
+            chunks
+                .iter()
+                .map(|r| parse_chunk(&data[r.clone()], ctx))
+                .collect()
+        };
+        let base = self.size_line_no + self.lines_before;
+        let seen = self.vals.len() as u64;
+        check_entry_count(self.path, data, base, self.nnz, seen, &chunks, &outs)?;
+        for o in outs {
+            self.rows.extend_from_slice(&o.rows);
+            self.cols.extend_from_slice(&o.cols);
+            self.vals.extend_from_slice(&o.vals);
+        }
+        self.lines_before += count_lines(data);
+        Ok(())
+    }
+
+    /// The entries, after the count check at the end of the file.
+    fn finish(self) -> Result<Entries, Error> {
+        let found = self.vals.len() as u64;
+        if found < self.nnz {
+            return Err(err(
+                self.path,
+                self.size_line_no + self.lines_before,
+                Detail::Count {
+                    what: "entries (the size line's count): the file ends early",
+                    expected: self.nnz,
+                    found,
+                },
+            ));
+        }
+        Ok((self.rows, self.cols, self.vals))
+    }
+}
+
+/// Bytes of Matrix Market text read and parsed at a time by [`parse_reader`].
+pub const WINDOW_BYTES: usize = 64 << 20;
+
+/// Parses a Matrix Market file whose first bytes are `buf` (at most
+/// `WINDOW_BYTES` of them; fewer: the whole file) and whose rest `rest`
+/// gives: `coordinate` data is read and parsed in windows of about
+/// [`WINDOW_BYTES`] of whole lines (each in parallel chunks), so that the
+/// memory is the entries plus one window, not the file's text; `array` data,
+/// or a header and size line longer than the first window, is read whole and
+/// parsed by [`parse`]. `file_bytes` (the file's size, if known) bounds what
+/// is reserved.
+pub fn parse_reader(
+    path: &Path,
+    buf: Vec<u8>,
+    rest: &mut dyn Read,
+    file_bytes: Option<u64>,
+) -> Result<Triplets, Error> {
+    parse_reader_window(path, buf, rest, file_bytes, WINDOW_BYTES)
+}
+
+/// As [`parse_reader`] with windows of `window` bytes (`buf`: the first
+/// `window` bytes of the file, or all of it).
+pub fn parse_reader_window(
+    path: &Path,
+    mut buf: Vec<u8>,
+    rest: &mut dyn Read,
+    file_bytes: Option<u64>,
+    window: usize,
+) -> Result<Triplets, Error> {
+    let io = |e: std::io::Error| Error::Io {
+        path: path.into(),
+        message: e.to_string(),
+    };
+    let head = buf.iter().position(|&c| c == b'\n').and_then(|i| {
+        let h = header(path, &buf[..i]).ok()?;
+        let size = size_line(path, &buf, i + 1, h).ok()?;
+        // the size line ends inside the buffer (not cut by its end)
+        (h.layout == Layout::Coordinate && size.data_start < buf.len()).then_some((h, size))
+    });
+    let Some((h, size)) = head.filter(|_| buf.len() >= window) else {
+        rest.read_to_end(&mut buf).map_err(io)?;
+        return parse(path, &buf);
+    };
+    let data_bytes = file_bytes.map_or(u64::MAX, |b| b.saturating_sub(size.data_start as u64));
+    let mut s = Stream::new(path, &size, h, data_bytes)?;
+    buf.drain(..size.data_start);
+    let mut eof = false;
+    while !eof {
+        // fill the window, then parse its whole lines and keep the last partial one
+        while buf.len() < window && !eof {
+            let got = (&mut *rest)
+                .take((window - buf.len()) as u64)
+                .read_to_end(&mut buf)
+                .map_err(io)?;
+            eof = got == 0;
+        }
+        let end = if eof {
+            buf.len()
+        } else {
+            match buf.iter().rposition(|&c| c == b'\n') {
+                Some(i) => i + 1,
+                // a line longer than the window: read on
+                None => {
+                    let more = buf.len();
+                    buf.reserve(more);
+                    let got = (&mut *rest)
+                        .take(more as u64)
+                        .read_to_end(&mut buf)
+                        .map_err(io)?;
+                    eof = got == 0;
+                    continue;
+                }
+            }
+        };
+        s.window(&buf[..end])?;
+        buf.drain(..end);
+    }
+    Ok(Triplets::unlabelled(
+        (size.nrows, size.ncols),
+        s.finish()?,
+        h.symmetric,
+        F,
+    ))
 }
 
 /// The chunks' first error in file order (its line counted over the chunks
-/// before it), then the number of entries against `nnz`: too many names the
-/// line of entry `nnz + 1`, too few the file's end.
+/// before it, `base` the lines before `data`), then the number of entries
+/// (`seen` before `data`) against `nnz`: too many names the line of entry
+/// `nnz + 1`.
 fn check_entry_count(
     path: &Path,
     data: &[u8],
-    size_line_no: usize,
+    base: usize,
     nnz: u64,
+    seen: u64,
     chunks: &[std::ops::Range<usize>],
     outs: &[Chunk],
 ) -> Result<(), Error> {
@@ -315,13 +449,13 @@ fn check_entry_count(
     for (k, o) in outs.iter().enumerate() {
         if let Some((l, d)) = &o.err {
             let before = count_lines(&data[..chunks[k].start]);
-            return Err(err(path, size_line_no + before + l, d.clone()));
+            return Err(err(path, base + before + l, d.clone()));
         }
     }
-    let found: u64 = outs.iter().map(|o| o.vals.len() as u64).sum();
+    let found: u64 = seen + outs.iter().map(|o| o.vals.len() as u64).sum::<u64>();
     if found > nnz {
         // the line of entry nnz + 1
-        let mut seen = 0u64;
+        let mut seen = seen;
         for (k, o) in outs.iter().enumerate() {
             if seen + o.vals.len() as u64 > nnz {
                 let chunk = &data[chunks[k].clone()];
@@ -329,7 +463,7 @@ fn check_entry_count(
                 let before = count_lines(&data[..chunks[k].start]);
                 return Err(err(
                     path,
-                    size_line_no + before + l,
+                    base + before + l,
                     Detail::Count {
                         what: "entries (the size line's count)",
                         expected: nnz,
@@ -339,17 +473,6 @@ fn check_entry_count(
             }
             seen += o.vals.len() as u64;
         }
-    }
-    if found < nnz {
-        return Err(err(
-            path,
-            size_line_no + count_lines(data),
-            Detail::Count {
-                what: "entries (the size line's count): the file ends early",
-                expected: nnz,
-                found,
-            },
-        ));
     }
     Ok(())
 }

@@ -698,3 +698,70 @@ fn matrix_market_gives_nalgebra_sparse_triplets_bit_for_bit() {
     let e = rd("big.mtx", &lines.join("\n"), Format::Auto).unwrap_err();
     assert_eq!(line_of(&e, "big.mtx"), lines.len(), "{e}");
 }
+
+/// `text` read in windows of `window` bytes ([`feio::mm::parse_reader_window`]).
+fn windowed(text: &str, window: usize) -> Result<Triplets, Error> {
+    let b = text.as_bytes();
+    let first = b[..b.len().min(window)].to_vec();
+    let mut rest = &b[first.len()..];
+    feio::mm::parse_reader_window(
+        Path::new("w.mtx"),
+        first,
+        &mut rest,
+        Some(b.len() as u64),
+        window,
+    )
+}
+
+#[test]
+fn matrix_market_read_in_windows_equals_the_whole_text() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let good = random_mm(&mut rng, 200, 4, true);
+    let mut cases = vec![good.clone(), MM_SYM.to_string(), MM_GEN.to_string()];
+    let lines: Vec<&str> = good.lines().collect();
+    // a bad value, a NaN, an index out of range, a truncated line, too many
+    // and too few entries, deep in the file
+    for (k, bad) in [
+        (400, "1 1 oops"),
+        (500, "3 2 nan"),
+        (600, "201 1 1.0"),
+        (700, "5 4"),
+    ] {
+        let mut l = lines.clone();
+        l[k] = bad;
+        cases.push(l.join("\n"));
+    }
+    let mut l = lines.clone();
+    let size = format!("200 200 {}", 200 * 4 - 3);
+    l[2] = &size;
+    cases.push(l.join("\n"));
+    cases.push(lines[..lines.len() - 5].join("\n"));
+    for text in &cases {
+        let whole = rd("w.mtx", text, Format::MatrixMarket);
+        for window in [40, 64, 97, 1000, 1 << 20] {
+            let w = windowed(text, window);
+            match (&whole, &w) {
+                (Ok(a), Ok(b)) => assert_eq!(a, b, "window {window}"),
+                (Err(a), Err(b)) => {
+                    assert_eq!(a.line(), b.line(), "window {window}: {a} / {b}");
+                    assert_eq!(
+                        std::mem::discriminant(a),
+                        std::mem::discriminant(b),
+                        "{a} / {b}"
+                    );
+                }
+                _ => panic!("window {window}: {whole:?} vs {w:?}"),
+            }
+        }
+    }
+    // and from a file (read() streams a plain Matrix Market file)
+    let dir = std::env::temp_dir().join(format!("feio_window_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("good.mtx");
+    std::fs::write(&p, &good).unwrap();
+    let mut a = read(&p, Format::Auto).unwrap();
+    let b = rd("good.mtx", &good, Format::Auto).unwrap();
+    a.format = b.format;
+    assert_eq!(a, b);
+    std::fs::remove_dir_all(&dir).ok();
+}

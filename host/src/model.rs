@@ -361,23 +361,33 @@ pub fn build_matrices_structure(
         files.push((MatrixRole::Damping, p));
     }
     let read_start = crate::stages::StageClock::now();
+    // each unlabelled file to its sparse matrix as soon as it is read (its
+    // triplets freed); labelled files are renumbered onto the union of their
+    // labels first
     let mut read = Vec::with_capacity(files.len());
-    let mut given = Vec::with_capacity(files.len());
+    let mut sparse = Vec::with_capacity(files.len());
     for (k, (role, path)) in files.iter().enumerate() {
         // matrices given in memory (the Python package): converted from
         // their shared entries, no file read
         if let Some(t) = st.in_memory.as_ref().and_then(|m| m.get(k)) {
-            given.push(Some(sparse_from_feio(*role, path, t).map_err(key)?));
+            sparse.push(Some(sparse_from_feio(*role, path, t).map_err(key)?));
             read.push(feio::Triplets::default());
             continue;
         }
-        given.push(None);
-        read.push(read_matrix_triplets(*role, path, format).map_err(key)?);
+        let t = read_matrix_triplets(*role, path, format).map_err(key)?;
+        if t.labels.is_none() {
+            sparse.push(Some(sparse_from_feio(*role, path, &t).map_err(key)?));
+            drop(t);
+            read.push(feio::Triplets::default());
+        } else {
+            sparse.push(None);
+            read.push(t);
+        }
     }
     // labelled files (Abaqus' labels format) share one numbering: the union of
     // their (node, dof) labels, ascending
     let labels: Option<Vec<feio::Label>> = if read.iter().any(|t| t.labels.is_some()) {
-        if let Some(k) = read.iter().position(|t| t.labels.is_none()) {
+        if let Some(k) = sparse.iter().position(|s| s.is_some()) {
             let l = read.iter().position(|t| t.labels.is_some()).unwrap_or(0);
             anyhow::bail!(
                 "structure.{}: {} carries no node labels, but {} {} does: give all matrices \
@@ -402,7 +412,7 @@ pub fn build_matrices_structure(
     } else {
         None
     };
-    let mut sparse_of = |k: usize| match given[k].take() {
+    let mut sparse_of = |k: usize| match sparse[k].take() {
         Some(a) => Ok(a),
         None => {
             let t = std::mem::take(&mut read[k]);

@@ -17,7 +17,7 @@
 //!
 //! [`craig_bampton`] works on the dense [`StructuralModel`]; [`craig_bampton_sparse`]
 //! on sparse `M`, `K`, `C` of a large FE model, with the same `T` (sparse solves
-//! with the factor of `K` bordered by the masters for `Psi` and inside the
+//! with the leading block of `K`'s factor, the masters ordered last, for `Psi` and inside the
 //! shift-invert Lanczos of [`super::lanczos`] for `Phi_i`, [`InteriorSolver`]),
 //! never forming a dense full-size matrix nor a copy of `K_ii`, `M_ii`.
 use super::lanczos::{lanczos, Pencil, ShiftInvert};
@@ -209,21 +209,19 @@ pub struct SparseCraigBampton {
 /// Solves `K_ii x_i = f_i` on full-size vectors (rows of the masters `b` zero
 /// in and out) without forming `K_ii`:
 ///
-/// * `Bordered`, from the factor of the whole `K` (positive definite): with
-///   `Z = K^{-1} E` (`E` the masters' unit columns) and `S = E^T Z`,
-///   `x = K^{-1} f - Z S^{-1} E^T K^{-1} f`, i.e. `K x = f + E lambda` with
-///   `x_b = 0`, whose interior rows are `K_ii x_i = f_i`. `Z S^{-1}` are the
-///   constraint modes (`Psi = -K_ii^{-1} K_ib` in the interior rows, `I` at
-///   the masters): one factorisation serves the full model's modes, the
-///   fixed-interface modes and the constraint modes.
+/// * `Leading`, from the factor of the whole `K` (positive definite) ordered
+///   with the masters last ([`SymbolicFactor::with_last`]): its leading block
+///   is the Cholesky factor of `K_ii`
+///   ([`SparseCholesky::solve_leading_in_place`]), so one factorisation
+///   serves the full model's modes, the fixed-interface modes and the
+///   constraint modes, each solve as accurate as with a factorisation of its
+///   own matrix.
 /// * `Clamped`, when `K` itself is singular (rigid-body modes): the factor of
 ///   `K` with the masters' rows and columns replaced by their diagonal (same
 ///   pattern, decoupled masters).
 pub enum InteriorSolver<'a> {
-    Bordered {
+    Leading {
         factor: &'a SparseCholesky,
-        z: DMatrix<f64>,
-        s: nalgebra::Cholesky<f64, nalgebra::Dyn>,
         masters: &'a [usize],
     },
     Clamped {
@@ -233,22 +231,10 @@ pub enum InteriorSolver<'a> {
 }
 
 impl<'a> InteriorSolver<'a> {
-    /// The bordered solver from the factor of `K` (`None` if `S` is not
-    /// positive definite, which a positive definite `K` excludes).
-    pub fn bordered(factor: &'a SparseCholesky, n: usize, masters: &'a [usize]) -> Option<Self> {
-        let mut z = DMatrix::zeros(n, masters.len());
-        for (c, &d) in masters.iter().enumerate() {
-            z[(d, c)] = 1.0;
-        }
-        factor.solve_in_place(&mut z);
-        let s = DMatrix::from_fn(masters.len(), masters.len(), |i, j| z[(masters[i], j)]);
-        let s = nalgebra::Cholesky::new(symmetrize(s))?;
-        Some(Self::Bordered {
-            factor,
-            z,
-            s,
-            masters,
-        })
+    /// The solver from the factor of `K` ordered with the masters last
+    /// (`None` if its last DOFs are not `masters`).
+    pub fn leading(factor: &'a SparseCholesky, masters: &'a [usize]) -> Option<Self> {
+        (factor.symbolic().last() == masters).then_some(Self::Leading { factor, masters })
     }
 
     /// The clamped solver: factorises `K` with the masters decoupled (`None`
@@ -291,27 +277,18 @@ impl<'a> InteriorSolver<'a> {
     /// The `n x nb` constraint modes: `I` at the masters, `Psi` in the interior.
     pub fn constraint_modes(&self, k: &SparseMatrix) -> DMatrix<f64> {
         let (n, masters) = (k.nrows(), self.masters());
-        let mut psi = match self {
-            InteriorSolver::Bordered { z, s, .. } => {
-                // Z S^{-1} = (S^{-1} Z^T)^T (S symmetric)
-                s.solve(&z.transpose()).transpose()
+        // -K_ii^{-1} K_ib from the columns of K at the masters
+        let mut psi = DMatrix::zeros(n, masters.len());
+        let (sym, val) = (k.symbolic(), k.val());
+        for (c, &d) in masters.iter().enumerate() {
+            for p in sym.col_range(d) {
+                psi[(sym.row_idx()[p], c)] = -val[p];
             }
-            InteriorSolver::Clamped { factor, .. } => {
-                // -K_ii^{-1} K_ib from the columns of K at the masters
-                let mut rhs = DMatrix::zeros(n, masters.len());
-                let (sym, val) = (k.symbolic(), k.val());
-                for (c, &d) in masters.iter().enumerate() {
-                    for p in sym.col_range(d) {
-                        rhs[(sym.row_idx()[p], c)] = -val[p];
-                    }
-                }
-                for &d in masters {
-                    rhs.row_mut(d).fill(0.0);
-                }
-                factor.solve_in_place(&mut rhs);
-                rhs
-            }
-        };
+        }
+        for &d in masters {
+            psi.row_mut(d).fill(0.0);
+        }
+        ShiftInvert::solve_in_place(self, &mut psi);
         for &d in masters {
             psi.row_mut(d).fill(0.0);
         }
@@ -323,7 +300,7 @@ impl<'a> InteriorSolver<'a> {
 
     fn masters(&self) -> &[usize] {
         match self {
-            InteriorSolver::Bordered { masters, .. } | InteriorSolver::Clamped { masters, .. } => {
+            InteriorSolver::Leading { masters, .. } | InteriorSolver::Clamped { masters, .. } => {
                 masters
             }
         }
@@ -333,17 +310,7 @@ impl<'a> InteriorSolver<'a> {
 impl ShiftInvert for InteriorSolver<'_> {
     fn solve_in_place(&self, b: &mut DMatrix<f64>) {
         match self {
-            InteriorSolver::Bordered {
-                factor,
-                z,
-                s,
-                masters,
-            } => {
-                factor.solve_in_place(b);
-                let xb = DMatrix::from_fn(masters.len(), b.ncols(), |i, j| b[(masters[i], j)]);
-                let coef = s.solve(&xb);
-                *b -= z * coef;
-            }
+            InteriorSolver::Leading { factor, .. } => factor.solve_leading_in_place(b),
             InteriorSolver::Clamped { factor, .. } => factor.solve_in_place(b),
         }
         for &d in self.masters() {
@@ -384,8 +351,9 @@ pub fn craig_bampton_sparse(
 }
 
 /// As [`craig_bampton_sparse`] with the factor of `K` when it is positive
-/// definite (`k_factor`, e.g. from the full model's modal analysis; `None`:
-/// `K` is singular and `K_ii` is factorised with the masters decoupled), the
+/// definite (`k_factor`, e.g. from the full model's modal analysis, ordered
+/// with `masters` last: [`SymbolicFactor::with_last`]; `None`, or another
+/// ordering: `K_ii` is factorised with the masters decoupled), the
 /// options and the stage timings (eigen, constraint modes, project).
 #[allow(clippy::too_many_arguments)]
 pub fn craig_bampton_sparse_with(
@@ -412,8 +380,8 @@ pub fn craig_bampton_sparse_with(
     if !interior.is_empty() {
         let par = opts.par();
         let solver = match k_factor {
-            Some(f) => InteriorSolver::bordered(f, n, masters),
-            None => {
+            Some(f) if f.symbolic().last() == masters => InteriorSolver::leading(f, masters),
+            _ => {
                 // K with the masters decoupled has K's pattern: its ordering
                 // is K's (from the options' cache when K was ordered before)
                 let sym = timings

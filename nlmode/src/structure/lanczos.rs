@@ -95,6 +95,11 @@ impl Pencil<'_> {
         y
     }
 
+    /// `max_i |M_ii|`, the scale of the rounding of `x^T M x` ([`m_norm`]).
+    pub fn mass_scale(&self) -> f64 {
+        diagonal(self.m).iter().fold(0.0, |a, d| a.max(d.abs()))
+    }
+
     /// `lambda_scale = max_i K_ii / M_ii` over the free DOFs (a lower bound of
     /// the largest eigenvalue).
     pub fn lambda_scale(&self) -> f64 {
@@ -125,6 +130,23 @@ pub struct SparseModes {
     pub basis: usize,
 }
 
+/// `x^T M x` below `-MASS_NORM_RTOL max_i |M_ii| x^T x` proves `M` indefinite
+/// (the rounding of `x^T M x` is about `eps` times the row count of `M`
+/// times that scale).
+pub const MASS_NORM_RTOL: f64 = 1e-8;
+
+/// The `M`-norm `sqrt(q)` of a vector `x` from `q = x^T M x` and `x_sq = x^T
+/// x` (0 for a rounding-size negative `q`);
+/// [`StructureError::MassNotPositiveDefinite`] when `q` is clearly negative
+/// ([`MASS_NORM_RTOL`], `m_scale` = [`Pencil::mass_scale`]): the Lanczos
+/// recurrence is then no inner product and `M` is indefinite.
+pub fn m_norm(q: f64, x_sq: f64, m_scale: f64) -> Result<f64> {
+    if q < -MASS_NORM_RTOL * m_scale * x_sq {
+        return Err(StructureError::MassNotPositiveDefinite { name: "mass" });
+    }
+    Ok(q.max(0.0).sqrt())
+}
+
 /// `lambda_scale = max_i K_ii / M_ii` (a lower bound of the largest eigenvalue).
 pub fn lambda_scale(m: &SparseMatrix, k: &SparseMatrix) -> f64 {
     Pencil {
@@ -136,12 +158,19 @@ pub fn lambda_scale(m: &SparseMatrix, k: &SparseMatrix) -> f64 {
     .lambda_scale()
 }
 
-/// The `M`-orthonormal Lanczos basis `V` and `M V`, grown column block by
-/// column block (column-major storage).
+/// From this many DOFs on the Lanczos basis keeps `V` only and the
+/// Gram-Schmidt coefficients `V^T M w` take `M w` afresh in each pass (two
+/// more products with `M` per block step, about 10 % of a step at 10^6 DOFs)
+/// instead of `(M V)^T w`: half the basis' memory (0.38 GB of 48 vectors at
+/// 10^6 DOFs, the peak of the sparse path). Below it `M V` is kept.
+pub const LEAN_BASIS_MIN_DOF: usize = 500_000;
+
+/// The `M`-orthonormal Lanczos basis `V` and, below [`LEAN_BASIS_MIN_DOF`],
+/// `M V`, grown column block by column block (column-major storage).
 struct Basis {
     n: usize,
     v: Vec<f64>,
-    mv: Vec<f64>,
+    mv: Option<Vec<f64>>,
 }
 
 impl Basis {
@@ -151,12 +180,15 @@ impl Basis {
     fn v(&self) -> DMatrixView<'_, f64> {
         DMatrixView::from_slice(&self.v, self.n, self.cols())
     }
-    fn mv(&self) -> DMatrixView<'_, f64> {
-        DMatrixView::from_slice(&self.mv, self.n, self.cols())
+    fn mv(&self) -> Option<DMatrixView<'_, f64>> {
+        let mv = self.mv.as_ref()?;
+        Some(DMatrixView::from_slice(mv, self.n, self.cols()))
     }
     fn push(&mut self, q: &DMatrix<f64>, mq: &DMatrix<f64>) {
         self.v.extend_from_slice(q.as_slice());
-        self.mv.extend_from_slice(mq.as_slice());
+        if let Some(mv) = &mut self.mv {
+            mv.extend_from_slice(mq.as_slice());
+        }
     }
 }
 
@@ -170,6 +202,19 @@ pub fn lanczos(
     n_modes: usize,
     name: &'static str,
 ) -> Result<SparseModes> {
+    let keep_mv = pencil.m.nrows() < LEAN_BASIS_MIN_DOF;
+    lanczos_with(pencil, solver, sigma, n_modes, name, keep_mv)
+}
+
+/// [`lanczos`] with `M V` kept in the basis or not ([`LEAN_BASIS_MIN_DOF`]).
+pub(crate) fn lanczos_with(
+    pencil: &Pencil,
+    solver: &dyn ShiftInvert,
+    sigma: f64,
+    n_modes: usize,
+    name: &'static str,
+    keep_mv: bool,
+) -> Result<SparseModes> {
     let n = pencil.m.nrows() - pencil.fixed.len();
     if n_modes == 0 || n_modes > n || n_modes > MAX_SPARSE_MODES {
         return Err(StructureError::ModeCount {
@@ -179,6 +224,7 @@ pub fn lanczos(
         });
     }
     let nn = pencil.m.nrows();
+    let m_scale = pencil.mass_scale();
     let b = n_modes.min(3);
     let m_max = max_basis(n_modes, n);
     let op = |x: &DMatrix<f64>| {
@@ -191,13 +237,13 @@ pub fn lanczos(
     let mut basis = Basis {
         n: nn,
         v: Vec::new(),
-        mv: Vec::new(),
+        mv: keep_mv.then(Vec::new),
     };
     let mut t = DMatrix::<f64>::zeros(m_max + b, m_max + b);
     // start block: Op applied to a random block, M-orthonormalised
     let w0 = op(&rng.block(nn, b));
     let (w0, mw0, _) = reorthogonalize(pencil, &basis, w0);
-    let (q, mq, _) = orthonormalize_block(pencil, &basis, w0, mw0, b, &mut rng);
+    let (q, mq, _) = orthonormalize_block(pencil, &basis, w0, mw0, b, &mut rng, m_scale)?;
     basis.push(&q, &mq);
     let mut m_cur = q.ncols();
     let mut m0 = 0;
@@ -217,7 +263,7 @@ pub fn lanczos(
                 DMatrix::zeros(0, bl),
             )
         } else {
-            orthonormalize_block(pencil, &basis, w, mw, keep, &mut rng)
+            orthonormalize_block(pencil, &basis, w, mw, keep, &mut rng, m_scale)?
         };
         t.view_mut((m_cur, m0), (r.nrows(), bl)).copy_from(&r);
         let full = exact || m_cur + q.ncols() > m_max;
@@ -284,7 +330,8 @@ fn ritz_pairs(
 }
 
 /// Two classical Gram-Schmidt passes of `w` against the `M`-orthonormal basis:
-/// the orthogonalised `w`, `M w` and the summed coefficients `V^T M w`.
+/// the orthogonalised `w`, `M w` and the summed coefficients `V^T M w`
+/// (`(M V)^T w`, or `V^T (M w)` for a basis without `M V`).
 fn reorthogonalize(
     pencil: &Pencil,
     basis: &Basis,
@@ -296,7 +343,10 @@ fn reorthogonalize(
         for _ in 0..2 {
             // M w afresh each pass: updating it as M w - (M V) c would lose the small
             // remainder to cancellation once the Krylov space has converged
-            let c = mvv.tr_mul(&w);
+            let c = match &mvv {
+                Some(mvv) => mvv.tr_mul(&w),
+                None => vv.tr_mul(&pencil.mul_m(&w)),
+            };
             w -= &vv * &c;
             coef += c;
         }
@@ -308,7 +358,8 @@ fn reorthogonalize(
 /// `M`-orthonormalises `w` (already orthogonal to the basis) by modified
 /// Gram-Schmidt into at most `keep` columns, `w[.., ..keep] = Q R` (`R` is
 /// `keep x w.ncols()`); a direction that vanishes (relative `1e-10`) is replaced
-/// by a random one orthogonal to the basis, with a zero factor.
+/// by a random one orthogonal to the basis, with a zero factor. A clearly
+/// negative `M`-norm is [`StructureError::MassNotPositiveDefinite`] ([`m_norm`]).
 fn orthonormalize_block(
     pencil: &Pencil,
     basis: &Basis,
@@ -316,11 +367,13 @@ fn orthonormalize_block(
     mut mw: DMatrix<f64>,
     keep: usize,
     rng: &mut Xorshift,
-) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    m_scale: f64,
+) -> Result<(DMatrix<f64>, DMatrix<f64>, DMatrix<f64>)> {
     let bl = w.ncols();
     let mut r = DMatrix::zeros(keep, bl);
     for c in 0..keep {
-        let before = w.column(c).dot(&mw.column(c)).max(0.0).sqrt();
+        let (wc, mwc) = (w.column(c), mw.column(c));
+        let before = m_norm(wc.dot(&mwc), wc.norm_squared(), m_scale)?;
         for _ in 0..2 {
             // coefficients against the normalised columns, M w_d known exactly
             let s = mw.columns(0, c).tr_mul(&w.column(c));
@@ -332,7 +385,7 @@ fn orthonormalize_block(
         }
         let wc = w.column(c).into_owned();
         let mwc = pencil.mul_m(&DMatrix::from_column_slice(wc.len(), 1, wc.as_slice()));
-        let norm = wc.dot(&mwc.column(0)).max(0.0).sqrt();
+        let norm = m_norm(wc.dot(&mwc.column(0)), wc.norm_squared(), m_scale)?;
         if norm > 1e-10 * before && norm > 0.0 {
             w.column_mut(c).scale_mut(1.0 / norm);
             mw.set_column(c, &(mwc.column(0) / norm));
@@ -343,16 +396,20 @@ fn orthonormalize_block(
             pencil.mask(&mut fresh);
             let (f, _, _) = reorthogonalize(pencil, basis, fresh);
             let (f, mf) = reorthogonalize_local(pencil, &w, c, f);
-            let norm = f.column(0).dot(&mf.column(0)).max(0.0).sqrt();
+            let (fc, mfc) = (f.column(0), mf.column(0));
+            let norm = m_norm(fc.dot(&mfc), fc.norm_squared(), m_scale)?;
+            if !(norm > 0.0) {
+                return Err(StructureError::MassNotPositiveDefinite { name: "mass" });
+            }
             w.set_column(c, &(f.column(0) / norm));
             mw.set_column(c, &(mf.column(0) / norm));
         }
     }
-    (
+    Ok((
         w.columns(0, keep).into_owned(),
         mw.columns(0, keep).into_owned(),
         r,
-    )
+    ))
 }
 
 /// Two Gram-Schmidt passes of the column `f` against the first `c` columns of

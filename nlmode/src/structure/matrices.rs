@@ -20,8 +20,11 @@
 //!   master points and fixed-interface modes.
 //! * [`matrix_structure_sparse`] does the same from sparse matrices
 //!   ([`read_matrix_market_sparse`]) for large FE models: with Craig-Bampton the
-//!   full model stays sparse from the file to the reduction (sparse Cholesky for
-//!   `M` positive definite and the constraint modes, the shift-invert Lanczos of
+//!   full model stays sparse from the file to the reduction (one sparse
+//!   Cholesky factorisation of `K`, the masters ordered last, for the full
+//!   model's modes, the fixed-interface modes and the constraint modes; `M`
+//!   checked by the Lanczos `M`-norms and the reduced mass, see
+//!   [`matrix_structure_sparse_cb_with`]; the shift-invert Lanczos of
 //!   [`super::sparse`] for the full model's lowest modes and the fixed-interface
 //!   modes); without reduction the model is made dense, up to [`DENSE_MAX_DOF`].
 use super::craig_bampton::craig_bampton;
@@ -30,12 +33,10 @@ use super::damping::{rayleigh_damping, stiffness_proportional_damping_from_modes
 use super::lanczos::{max_basis, modal_factor, modes, Pencil};
 use super::modal::modal_analysis;
 use super::sparse::{
-    asymmetry, diagonal, for_each_entry, is_diagonal, same_pattern, sparse_from_dense,
-    sparse_from_triplets, sparse_mul, sparse_to_dense, MemoryEstimate, SparseCholesky,
-    SparseMatrix, SparseOptions, Stage, StageTimings, SymbolicFactor,
+    asymmetry, diagonal, for_each_entry, sparse_from_dense, sparse_mul, sparse_to_dense,
+    MemoryEstimate, SparseMatrix, SparseOptions, Stage, StageTimings, SymbolicFactor,
 };
 use super::{CubicSpring, NamedPoint, NonlinearElement, StructuralModel, StructureError};
-use faer::Par;
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -156,9 +157,12 @@ pub enum MatricesError {
         what: &'static str,
         expected: &'static str,
     },
-    /// `M` is not positive definite.
-    #[error("mass_mtx: {} is not positive definite (Cholesky factorisation failed)", path.display())]
-    MassNotPositiveDefinite { path: PathBuf },
+    /// `M` is not positive definite; `reason` says how it was found (its
+    /// Cholesky factorisation failed, a Lanczos vector of negative `M`-norm,
+    /// a negative eigenvalue of `K phi = lambda M phi` with `K` positive
+    /// definite, or the reduced mass `T^T M T`).
+    #[error("mass_mtx: {} is not positive definite ({reason})", path.display())]
+    MassNotPositiveDefinite { path: PathBuf, reason: &'static str },
     /// `K` is not positive semi-definite.
     #[error("stiffness_mtx: {} is not positive semi-definite: K phi = lambda M phi has the eigenvalue {lambda:e}", path.display())]
     StiffnessIndefinite { path: PathBuf, lambda: f64 },
@@ -557,6 +561,7 @@ pub fn matrix_structure(opts: &MatrixStructureOptions) -> Result<MatrixStructure
     if n == 0 || opts.mass.clone().cholesky().is_none() {
         return Err(MatricesError::MassNotPositiveDefinite {
             path: opts.mass_path.clone(),
+            reason: "Cholesky factorisation failed",
         });
     }
     let mut full = StructuralModel::new(opts.mass.clone(), opts.stiffness.clone());
@@ -655,37 +660,27 @@ pub fn matrix_structure_sparse_cb(
     matrix_structure_sparse_cb_with(opts, &SparseOptions::default())
 }
 
-/// `M` positive definite: a positive diagonal (checked before) for a lumped
-/// `M`, else its Cholesky factorisation (with `K`'s symbolic factorisation when
-/// the patterns agree, as for consistent FE mass matrices).
-fn mass_positive_definite(
-    m: &SparseMatrix,
-    k: &SparseMatrix,
-    sym: &SymbolicFactor,
-    par: Par,
-) -> bool {
-    if is_diagonal(m) {
-        return true;
-    }
-    let own;
-    let sym = if same_pattern(m, k) {
-        sym
-    } else {
-        match SymbolicFactor::new(m) {
-            Some(s) => {
-                own = s;
-                &own
-            }
-            None => return false,
-        }
-    };
-    SparseCholesky::with_symbolic(sym, m, par).is_some()
-}
-
 /// [`matrix_structure_sparse_cb`] with options: the stages check, order (and
 /// the memory estimate, refused above [`SparseOptions::memory_limit_bytes`]
 /// before any numeric work), factor, eigen (full model), then the reduction;
 /// their times in [`MatrixStructure::timings`].
+///
+/// One numeric factorisation: `K` ordered with the masters last, whose
+/// leading block is the factor of `K_ii` ([`SymbolicFactor::with_last`]).
+/// `M` is not factorised: every result depends on `M` only through the
+/// subspaces the Lanczos bases and `T` span, and there it is checked. The
+/// `M`-norm of every new Lanczos direction must be positive (a clearly
+/// negative `x^T M x` proves `M` indefinite,
+/// [`super::lanczos::MASS_NORM_RTOL`]); with `K` positive definite (its
+/// factor) `K^{-1} M` is self-adjoint in the `K` inner product whatever `M`
+/// is, so its largest eigenvalues, the lowest modes, are real and verified
+/// by their residuals, and a negative eigenvalue there proves `M` indefinite;
+/// the reduced `T^T M T` that the methods integrate must pass a dense
+/// Cholesky factorisation ([`StructuralModel::validate`]). An `M` that is
+/// indefinite only in directions none of these touch (high-frequency
+/// content the reduced model does not contain) is not detected and does not
+/// change a number of the result. Each failure is
+/// [`MatricesError::MassNotPositiveDefinite`] naming how it was found.
 pub fn matrix_structure_sparse_cb_with(
     opts: &MatrixStructureOptions<SparseMatrix>,
     sparse: &SparseOptions,
@@ -713,11 +708,11 @@ pub fn matrix_structure_sparse_cb_with(
         }
         Ok::<_, MatricesError>(())
     })?;
-    let not_pd = || MatricesError::MassNotPositiveDefinite {
-        path: opts.mass_path.clone(),
-    };
     if n == 0 {
-        return Err(not_pd());
+        return Err(MatricesError::MassNotPositiveDefinite {
+            path: opts.mass_path.clone(),
+            reason: "no rows",
+        });
     }
     check_points(&opts.points, n)?;
     let spring = cubic_spring_dof(opts)?;
@@ -732,24 +727,22 @@ pub fn matrix_structure_sparse_cb_with(
     held.extend(c_matrix);
     let basis = max_basis(n_modes.max(*cb_modes), n);
     let reduced = dofs.len() + cb_modes;
-    let sym = order_within_memory(&held, sparse, basis, reduced, &mut timings)?;
-    if !timings.time(Stage::Check, sparse, || {
-        mass_positive_definite(m, k, &sym, par)
-    }) {
-        return Err(not_pd());
-    }
-    let indefinite = |e| match e {
-        StructureError::NegativeEigenvalue { lambda, .. } => MatricesError::StiffnessIndefinite {
-            path: opts.stiffness_path.clone(),
-            lambda,
-        },
-        e => e.into(),
+    // K ordered with the masters last: its factor's leading block is K_ii's
+    // (repeated masters are the reduction's error, below)
+    let mut sorted = dofs.clone();
+    sorted.sort_unstable();
+    sorted.dedup();
+    let last = if sorted.len() == dofs.len() {
+        &dofs[..]
+    } else {
+        &[]
     };
+    let sym = order_within_memory(&held, sparse, basis, reduced, last, &mut timings)?;
     let mf = timings
         .time(Stage::Factor, sparse, || {
             modal_factor(m, k, Some(&sym), par)
         })
-        .map_err(indefinite)?;
+        .map_err(|e| sparse_error(opts, e, None))?;
     drop(sym);
     let pencil = Pencil {
         m,
@@ -761,7 +754,7 @@ pub fn matrix_structure_sparse_cb_with(
         .time(Stage::Eigen, sparse, || {
             modes(&pencil, &mf, n_modes, "n_modes")
         })
-        .map_err(indefinite)?;
+        .map_err(|e| sparse_error(opts, e, Some(mf.sigma)))?;
     timings.lanczos_basis.push(basis);
     let (rigid_body_modes, omega0_rad_s) = rigid_and_omega0(opts, &omega)?;
     if let MatrixDamping::StiffnessProportional { mode_index, .. } = &opts.damping {
@@ -778,14 +771,28 @@ pub fn matrix_structure_sparse_cb_with(
         c_matrix.map_or(0.0, |c| p.dot(&sparse_mul(c, &p)))
     });
     drop(phi);
-    // K_ii is factorised on its own (K with the masters decoupled): the
-    // bordered solve with K's factor misses the verified residual (1.8e-10 >
-    // 1e-10) on the paper beam; one factorisation is alive at a time
-    drop(mf);
-    let cb =
-        craig_bampton_sparse_with(m, k, c_matrix, &dofs, *cb_modes, None, sparse, &mut timings)?;
+    // K positive definite: its factor (masters last) serves K_ii as well; a
+    // shifted factor (rigid-body modes) is freed and K_ii factorised on its
+    // own (one factorisation alive at a time)
+    let k_factor = (mf.sigma == 0.0).then_some(mf.factor);
+    let cb = craig_bampton_sparse_with(
+        m,
+        k,
+        c_matrix,
+        &dofs,
+        *cb_modes,
+        k_factor.as_ref(),
+        sparse,
+        &mut timings,
+    )
+    .map_err(|e| sparse_error(opts, e, None))?;
+    drop(k_factor);
     let interface_omega_rad_s = cb.interface_omega_rad_s.clone();
-    let (model, transform) = cb_structural_model(opts, cb, &omega, spring)?;
+    let (model, transform) =
+        cb_structural_model(opts, cb, &omega, spring).map_err(|e| match e {
+            MatricesError::Structure(e) => sparse_error(opts, e, None),
+            e => e,
+        })?;
     Ok(MatrixStructure {
         model,
         full: None,
@@ -799,7 +806,38 @@ pub fn matrix_structure_sparse_cb_with(
     })
 }
 
-/// The symbolic factorisation (ordering) of `K = held[1]` and the memory
+/// The errors of the sparse path named by their file: a negative eigenvalue
+/// of `K phi = lambda M phi` is `K`'s ([`MatricesError::StiffnessIndefinite`])
+/// unless `K` was factorised unshifted (`sigma = Some(0)`: `K` positive
+/// definite, so the mass is indefinite), an indefinite mass found by the
+/// Lanczos recurrence or in the reduced model is `M`'s
+/// ([`MatricesError::MassNotPositiveDefinite`]).
+fn sparse_error(
+    opts: &MatrixStructureOptions<SparseMatrix>,
+    e: StructureError,
+    sigma: Option<f64>,
+) -> MatricesError {
+    let mass = |reason| MatricesError::MassNotPositiveDefinite {
+        path: opts.mass_path.clone(),
+        reason,
+    };
+    match e {
+        StructureError::NegativeEigenvalue { .. } if sigma == Some(0.0) => {
+            mass("K phi = lambda M phi has a negative eigenvalue with K positive definite")
+        }
+        StructureError::NegativeEigenvalue { lambda, .. } => MatricesError::StiffnessIndefinite {
+            path: opts.stiffness_path.clone(),
+            lambda,
+        },
+        StructureError::MassNotPositiveDefinite { .. } => {
+            mass("x^T M x < 0 for a vector of the Lanczos basis, or the reduced mass T^T M T")
+        }
+        e => e.into(),
+    }
+}
+
+/// The symbolic factorisation (ordering) of `K = held[1]`, the DOFs `last`
+/// (the Craig-Bampton masters) ordered last, and the memory
 /// estimate of the sparse path (`held`: the matrices kept, `basis` Lanczos
 /// vectors, `reduced` reduced coordinates), refused above
 /// [`SparseOptions::memory_limit_bytes`] before any numeric work; the
@@ -809,12 +847,13 @@ fn order_within_memory(
     sparse: &SparseOptions,
     basis: usize,
     reduced: usize,
+    last: &[usize],
     timings: &mut StageTimings,
 ) -> Result<SymbolicFactor, MatricesError> {
     let (k, n) = (held[1], held[1].nrows());
     let par = sparse.par();
     let sym = timings.time(Stage::Order, sparse, || {
-        SymbolicFactor::with_options(k, sparse)
+        SymbolicFactor::with_options_last(k, sparse, last)
     });
     let estimate = sym
         .as_ref()
@@ -832,6 +871,7 @@ fn order_within_memory(
     };
     timings.factor_nnz = estimate.factor_nnz;
     timings.memory_estimate_bytes = estimate.total_bytes;
+    timings.ordering = sym.ordering().name().into();
     estimate.check(sparse.memory_limit_bytes)?;
     Ok(sym)
 }

@@ -1,5 +1,6 @@
 //! Tests of `matrices.rs`.
 use super::*;
+use crate::structure::sparse::sparse_from_triplets;
 
 /// The 3-DOF chain of `tests/it/matrices.rs` and a 30-node beam (58 DOFs),
 /// through the dense and the sparse Craig-Bampton paths.

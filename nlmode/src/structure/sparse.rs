@@ -12,8 +12,12 @@
 //! Memory of the large-model path (`n` DOFs, `nnz(A)` stored entries of the
 //! full symmetric matrices, `nnz(L)` of the factor, `m` the Lanczos basis,
 //! `r` the reduced size): `M`, `K` (and a `C` file) `16 nnz(A)` bytes each, the
-//! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m`, dense blocks
-//! `8 n r` a few times, and for the fixed-interface problem the values of `K`
+//! factor `8 nnz(L)` plus faer's workspace, the basis `16 n m` (`8 n m` from
+//! [`super::lanczos::LEAN_BASIS_MIN_DOF`] DOFs on) and dense blocks
+//! `8 n r` a few times. One factorisation of `K`, ordered with the
+//! Craig-Bampton masters last, serves the full model and the fixed-interface
+//! problem ([`SymbolicFactor::with_last`]); only when `K` is singular
+//! (rigid-body modes) is `K_ii` factorised separately, from the values of `K`
 //! with the masters decoupled (`8 nnz(A)`, on `K`'s pattern:
 //! [`SparseCholesky::with_values`]). Nothing of size `n x n` is formed; one
 //! factorisation is alive at a time.
@@ -245,7 +249,7 @@ impl Xorshift {
 /// A stage of the large-model path, for progress reports and [`StageTimings`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stage {
-    /// Symmetry, diagonals, `M` positive definite.
+    /// Symmetry, finite values, diagonals.
     Check,
     /// Fill-reducing ordering and symbolic factorisation (and the memory estimate).
     Order,
@@ -399,6 +403,10 @@ impl StageTimings {
 pub struct SymbolicFactor {
     inner: Arc<SymbolicCholesky<usize>>,
     ordering: Ordering,
+    /// DOFs ordered last, in this order ([`SymbolicFactor::with_last`]):
+    /// the factor's leading block is then the factor of the matrix without
+    /// them ([`SparseCholesky::solve_leading_in_place`]).
+    last: Arc<[usize]>,
 }
 
 /// A fingerprint of a sparsity pattern (size, column pointers, row indices).
@@ -425,6 +433,19 @@ impl SymbolicFactor {
     /// dissection fails (METIS reports an error, or is not built in) the
     /// ordering is AMD, and [`SymbolicFactor::ordering`] says so.
     pub fn with_ordering(a: &SparseMatrix, ordering: Ordering) -> Option<Self> {
+        Self::with_last(a, ordering, &[])
+    }
+
+    /// As [`SymbolicFactor::with_ordering`] with the DOFs `last` moved to the
+    /// end of the fill-reducing permutation (in this order; the rest keeps
+    /// its order). The factor `L` of `A` is then `[L_ii 0; L_bi L_bb]` with
+    /// `L_ii` the Cholesky factor of `A` without the rows and columns `last`
+    /// (Cholesky's column `j` depends on the columns before it only): one
+    /// numeric factorisation solves with `A` and with `A_ii`
+    /// ([`SparseCholesky::solve_leading_in_place`]). Moving a few DOFs to the
+    /// end adds at most their rows of `L` (a path of the elimination tree
+    /// each) to the fill.
+    pub fn with_last(a: &SparseMatrix, ordering: Ordering, last: &[usize]) -> Option<Self> {
         let params = CholeskySymbolicParams {
             // supernodal unless the factor is very sparse (faer's own choice)
             supernodal_flop_ratio_threshold: SupernodalThreshold::AUTO,
@@ -438,6 +459,25 @@ impl SymbolicFactor {
         if nd.is_none() {
             ordering = Ordering::Amd;
         }
+        let nd = match nd {
+            Some(fwd) if !last.is_empty() => Some(move_last(fwd, last)?),
+            None if !last.is_empty() => {
+                // faer's AMD permutation, then the DOFs `last` moved to the end
+                let amd = factorize_symbolic_cholesky(
+                    a.symbolic(),
+                    Side::Lower,
+                    SymmetricOrdering::Amd,
+                    params,
+                )
+                .ok()?;
+                let fwd = match amd.perm() {
+                    Some(p) => p.arrays().0.to_vec(),
+                    None => (0..a.nrows()).collect(),
+                };
+                Some(move_last(fwd, last)?)
+            }
+            nd => nd,
+        };
         let inner = match nd {
             Some(fwd) => {
                 let mut inv = vec![0usize; fwd.len()];
@@ -463,13 +503,30 @@ impl SymbolicFactor {
         Some(Self {
             inner: Arc::new(inner),
             ordering,
+            last: last.into(),
         })
+    }
+
+    /// The DOFs ordered last ([`SymbolicFactor::with_last`]; empty otherwise).
+    pub fn last(&self) -> &[usize] {
+        &self.last
     }
 
     /// As [`SymbolicFactor::with_ordering`] with `opts.ordering`, reusing the
     /// symbolic factorisation in `opts.symbolic_cache` when `a` has its
     /// pattern (and storing the new one there otherwise).
     pub fn with_options(a: &SparseMatrix, opts: &SparseOptions) -> Option<Self> {
+        Self::with_options_last(a, opts, &[])
+    }
+
+    /// As [`SymbolicFactor::with_options`] with the DOFs `last` ordered last
+    /// ([`SymbolicFactor::with_last`]); a cached factorisation serves when
+    /// `last` is empty (any ordering does) or its own.
+    pub fn with_options_last(
+        a: &SparseMatrix,
+        opts: &SparseOptions,
+        last: &[usize],
+    ) -> Option<Self> {
         let key = pattern_fingerprint(a);
         let mut cache = opts
             .symbolic_cache
@@ -477,12 +534,12 @@ impl SymbolicFactor {
             .lock()
             .unwrap_or_else(|e| e.into_inner());
         if let Some((k, s)) = cache.as_ref() {
-            if *k == key && s.inner.nrows() == a.nrows() {
+            if *k == key && s.inner.nrows() == a.nrows() && (last.is_empty() || *s.last == *last) {
                 return Some(s.clone());
             }
         }
         *cache = None;
-        let s = Self::with_ordering(a, opts.ordering)?;
+        let s = Self::with_last(a, opts.ordering, last)?;
         *cache = Some((key, s.clone()));
         Some(s)
     }
@@ -515,6 +572,21 @@ impl SymbolicFactor {
             .factorize_numeric_llt_scratch::<f64>(par, Default::default())
             .size_bytes() as u64
     }
+}
+
+/// The permutation `fwd` (new to old) with the indices `last` moved to its
+/// end in that order; `None` if one is out of range or repeated.
+fn move_last(fwd: Vec<usize>, last: &[usize]) -> Option<Vec<usize>> {
+    let mut is_last = vec![false; fwd.len()];
+    for &d in last {
+        if d >= fwd.len() || is_last[d] {
+            return None;
+        }
+        is_last[d] = true;
+    }
+    let mut out: Vec<usize> = fwd.into_iter().filter(|&old| !is_last[old]).collect();
+    out.extend_from_slice(last);
+    Some(out)
 }
 
 /// Whether `a` and `b` store the same pattern (then one [`SymbolicFactor`] serves both).
@@ -636,6 +708,53 @@ impl SparseCholesky {
         );
     }
 
+    /// Solves `A_ii X_i = B_i` in place, `A_ii` the matrix without the DOFs
+    /// ordered last ([`SymbolicFactor::with_last`]), from the leading block
+    /// `L_ii` of the factor: `L z = P B`, the last rows of `z` set to zero,
+    /// `L^T y = z`, `X = P^T y` (faer's triangular solves with `L` and
+    /// `L^T`). The rows of the DOFs `last` of `X` are zero, those of `B` are
+    /// not read. With no DOF ordered last this is [`Self::solve_in_place`].
+    pub fn solve_leading_in_place(&self, b: &mut DMatrix<f64>) {
+        use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+        use faer::sparse::linalg::triangular_solve;
+        let (nr, nc) = b.shape();
+        let sym = &self.symbolic.inner;
+        let keep = nr - self.symbolic.last.len();
+        let fwd: Vec<usize> = match sym.perm() {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..nr).collect(),
+        };
+        let mut x = DMatrix::from_fn(nr, nc, |i, j| b[(fwd[i], j)]);
+        let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(nc, self.par));
+        let stack = MemStack::new(&mut mem);
+        let mut view = MatMut::from_column_major_slice_mut(x.as_mut_slice(), nr, nc);
+        let par = self.par;
+        match sym.raw() {
+            SymbolicCholeskyRaw::Simplicial(s) => {
+                let l = SparseColMatRef::new(s.factor(), &self.values);
+                triangular_solve::solve_lower_triangular_in_place(l, Conj::No, view.as_mut(), par);
+                view.as_mut().subrows_mut(keep, nr - keep).fill(0.0);
+                triangular_solve::solve_lower_triangular_transpose_in_place(
+                    l,
+                    Conj::No,
+                    view.as_mut(),
+                    par,
+                );
+            }
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                let l = SupernodalLltRef::new(s, &self.values);
+                l.l_solve_with_conj(Conj::No, view.as_mut(), par, stack);
+                view.as_mut().subrows_mut(keep, nr - keep).fill(0.0);
+                l.l_transpose_solve_with_conj(Conj::No, view.as_mut(), par, stack);
+            }
+        }
+        for j in 0..nc {
+            for (i, &old) in fwd.iter().enumerate() {
+                b[(old, j)] = x[(i, j)];
+            }
+        }
+    }
+
     /// The symbolic factorisation (shared with other matrices of the pattern).
     pub fn symbolic(&self) -> &SymbolicFactor {
         &self.symbolic
@@ -677,8 +796,14 @@ impl MemoryEstimate {
         let matrices_bytes = held.iter().map(|a| matrix_bytes(a)).sum();
         let factor_bytes = symbolic.factor_bytes();
         let workspace_bytes = symbolic.workspace_bytes(par);
-        // V and M V, the block products and solves, T and three n x r blocks
-        let eigen_bytes = 8 * (ndof * (2 * basis + 12 + 4 * reduced)) as u64;
+        // V and M V (V only from LEAN_BASIS_MIN_DOF on), the block products
+        // and solves, T and three n x r blocks
+        let per = if ndof < super::lanczos::LEAN_BASIS_MIN_DOF {
+            2
+        } else {
+            1
+        };
+        let eigen_bytes = 8 * (ndof * (per * basis + 12 + 4 * reduced)) as u64;
         Self {
             ndof,
             matrices_bytes,
@@ -789,6 +914,65 @@ mod tests {
         assert!(SparseCholesky::with_values(&sym, &k, &vals[1..], Par::Seq).is_none());
         let neg: Vec<f64> = vals.iter().map(|v| -v).collect();
         assert!(SparseCholesky::with_values(&sym, &k, &neg, Par::Seq).is_none());
+    }
+
+    #[test]
+    fn the_leading_block_of_a_factor_with_masters_last_solves_the_interior() {
+        for ordering in [Ordering::Amd, Ordering::NestedDissection] {
+            let (_, k) = beam(41, BoundaryCondition::ClampedFree);
+            let n = k.nrows();
+            let masters = [n - 2, 10, 3];
+            let sym = SymbolicFactor::with_last(&k, ordering, &masters).unwrap();
+            assert_eq!(sym.last(), &masters);
+            let f = SparseCholesky::with_symbolic(&sym, &k, Par::Seq).unwrap();
+            // K_ii on its own
+            let mut pos = vec![None; n];
+            let interior: Vec<usize> = (0..n).filter(|d| !masters.contains(d)).collect();
+            for (i, &d) in interior.iter().enumerate() {
+                pos[d] = Some(i);
+            }
+            let kii = sparse_submatrix(&k, &pos, interior.len());
+            let fii = SparseCholesky::new(&kii).unwrap();
+            let mut b = Xorshift(3).block(n, 2);
+            let mut bi = DMatrix::from_fn(interior.len(), 2, |i, j| b[(interior[i], j)]);
+            f.solve_leading_in_place(&mut b);
+            fii.solve_in_place(&mut bi);
+            for &d in &masters {
+                assert_eq!(b.row(d).amax(), 0.0);
+            }
+            let xi = DMatrix::from_fn(interior.len(), 2, |i, j| b[(interior[i], j)]);
+            let e = (&xi - &bi).amax() / bi.amax();
+            assert!(e < 1e-10, "{ordering:?}: {e:e}");
+            // and the factor is still K's
+            let x = Xorshift(5).block(n, 1);
+            let mut y = sparse_mul(&k, &x);
+            f.solve_in_place(&mut y);
+            assert!((&y - &x).amax() < 1e-8 * x.amax());
+        }
+        // a master out of range or repeated: no ordering
+        let (_, k) = beam(6, BoundaryCondition::ClampedFree);
+        assert!(SymbolicFactor::with_last(&k, Ordering::Amd, &[1, 1]).is_none());
+        assert!(SymbolicFactor::with_last(&k, Ordering::Amd, &[k.nrows()]).is_none());
+    }
+
+    #[test]
+    fn a_basis_without_m_v_gives_the_same_modes() {
+        use crate::structure::lanczos::{lanczos_with, Pencil};
+        let (m, k) = beam(61, BoundaryCondition::ClampedFree);
+        let f = SparseCholesky::new(&k).unwrap();
+        let p = Pencil {
+            m: &m,
+            k: &k,
+            fixed: &[],
+            par: Par::Seq,
+        };
+        let a = lanczos_with(&p, &f, 0.0, 8, "n", true).unwrap();
+        let b = lanczos_with(&p, &f, 0.0, 8, "n", false).unwrap();
+        for (x, y) in a.lambda.iter().zip(&b.lambda) {
+            assert!((x - y).abs() < 1e-12 * x, "{x} vs {y}");
+        }
+        let e = (&a.shapes - &b.shapes).amax() / a.shapes.amax();
+        assert!(e < 1e-8, "{e:e}");
     }
 
     #[test]
