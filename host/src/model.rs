@@ -337,38 +337,25 @@ fn default_masters(
     m
 }
 
-/// The matrices structure of the scenario (paths already resolved), built by
-/// `nlmode::structure::matrix_structure`. Errors name the scenario key (and
-/// file, line).
-pub fn build_matrices_structure(
-    sc: &Scenario,
+/// The matrices of `files` (role, path) read in `format`: each unlabelled
+/// file to its sparse matrix as soon as it is read (its triplets freed), a
+/// matrix given in memory (the Python package) converted from its shared
+/// entries, a labelled file's triplets kept to be renumbered onto the union
+/// of the labels (`(sparse, triplets)`, one of the two per file).
+#[allow(clippy::type_complexity)]
+fn read_matrices(
     st: &MatricesStructureSpec,
-) -> Result<nlmode::structure::MatrixStructure> {
-    // sparse from the files to the reduction (dense only for reduction = "none"
-    // or a small model, nlmode::structure::matrices::SPARSE_MIN_DOF)
-    use nlmode::structure::{
-        matrices::{matrix_structure_sparse_with, read_matrix_triplets, sparse_from_feio},
-        MatricesError, MatrixDamping, MatrixRole, MatrixStructureOptions,
-    };
-    let key = |e: MatricesError| matrices_error(st, e);
-    // the files in their format (feio), then nlmode's checked sparse matrices
-    let format = st.matrix_format.feio();
-    let mut files = vec![
-        (MatrixRole::Mass, &st.mass_mtx),
-        (MatrixRole::Stiffness, &st.stiffness_mtx),
-    ];
-    if let Some(p) = &st.damping_mtx {
-        files.push((MatrixRole::Damping, p));
-    }
-    let read_start = crate::stages::StageClock::now();
-    // each unlabelled file to its sparse matrix as soon as it is read (its
-    // triplets freed); labelled files are renumbered onto the union of their
-    // labels first
+    files: &[(nlmode::structure::MatrixRole, &std::path::PathBuf)],
+    format: feio::Format,
+) -> Result<(
+    Vec<Option<nlmode::structure::sparse::SparseMatrix>>,
+    Vec<feio::Triplets>,
+)> {
+    use nlmode::structure::matrices::{read_matrix_triplets, sparse_from_feio};
+    let key = |e| matrices_error(st, e);
     let mut read = Vec::with_capacity(files.len());
     let mut sparse = Vec::with_capacity(files.len());
     for (k, (role, path)) in files.iter().enumerate() {
-        // matrices given in memory (the Python package): converted from
-        // their shared entries, no file read
         if let Some(t) = st.in_memory.as_ref().and_then(|m| m.get(k)) {
             sparse.push(Some(sparse_from_feio(*role, path, t).map_err(key)?));
             read.push(feio::Triplets::default());
@@ -384,6 +371,34 @@ pub fn build_matrices_structure(
             read.push(t);
         }
     }
+    Ok((sparse, read))
+}
+
+/// The matrices structure of the scenario (paths already resolved), built by
+/// `nlmode::structure::matrix_structure`. Errors name the scenario key (and
+/// file, line).
+pub fn build_matrices_structure(
+    sc: &Scenario,
+    st: &MatricesStructureSpec,
+) -> Result<nlmode::structure::MatrixStructure> {
+    // sparse from the files to the reduction (dense only for reduction = "none"
+    // or a small model, nlmode::structure::matrices::SPARSE_MIN_DOF)
+    use nlmode::structure::{
+        matrices::{matrix_structure_sparse_with, sparse_from_feio},
+        MatricesError, MatrixDamping, MatrixRole, MatrixStructureOptions,
+    };
+    let key = |e: MatricesError| matrices_error(st, e);
+    // the files in their format (feio), then nlmode's checked sparse matrices
+    let format = st.matrix_format.feio();
+    let mut files = vec![
+        (MatrixRole::Mass, &st.mass_mtx),
+        (MatrixRole::Stiffness, &st.stiffness_mtx),
+    ];
+    if let Some(p) = &st.damping_mtx {
+        files.push((MatrixRole::Damping, p));
+    }
+    let read_start = crate::stages::StageClock::now();
+    let (mut sparse, mut read) = read_matrices(st, &files, format)?;
     // labelled files (Abaqus' labels format) share one numbering: the union of
     // their (node, dof) labels, ascending
     let labels: Option<Vec<feio::Label>> = if read.iter().any(|t| t.labels.is_some()) {
