@@ -96,6 +96,7 @@ mod post;
 pub mod problems;
 mod rate;
 mod residual;
+mod single;
 mod steady;
 mod sweep;
 

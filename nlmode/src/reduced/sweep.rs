@@ -586,6 +586,8 @@ impl ReducedModel {
         // evaluated, copied or summed per evaluation)
         let mut fi = ImposedForces::NONE;
         let mut dch = vec![Complex64::new(0.0, 0.0); if opts.rate_terms { self.nch } else { 0 }];
+        // one port with one point, no imposed force: straight-line code
+        let single = self.single_point();
         let rhs = |t: f64, y: &[f64; 2], dy: &mut [f64; 2]| -> Result<(), ReducedError> {
             let w = sweep.omega_rad_s(t);
             if !no_imposed {
@@ -596,6 +598,9 @@ impl ReducedModel {
                 let wdot = sweep.omega_rate_rad_s2(t);
                 let d = self.rhs_first_order(y, w, wdot, &ch, &dch, &fi, &mut phi)?;
                 *dy = [d.re, d.im];
+            } else if let Some(sp) = single {
+                let (c, tc) = cache.segment(w);
+                *dy = self.rhs_single(sp, y, w, c, tc)?;
             } else {
                 cache.eval(w, &mut ch);
                 *dy = self.rhs(y, w, &ch, &fi, &mut phi)?;
