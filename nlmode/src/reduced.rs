@@ -91,6 +91,7 @@ use std::sync::Arc;
 pub mod dynamic;
 mod fast;
 mod imposed;
+mod omega_cache;
 mod output;
 mod post;
 pub mod problems;
