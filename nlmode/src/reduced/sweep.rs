@@ -542,6 +542,9 @@ impl OutputBatch {
         }
     }
 
+    // (inlined: called per output sample; left to itself it was not, with
+    // the inlining decided by the codegen units' partition)
+    #[inline(always)]
     fn push(&mut self, t: f64, a: Complex64) {
         self.ts.push(t);
         self.amps.push(a);
