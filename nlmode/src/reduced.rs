@@ -91,11 +91,13 @@ use std::sync::Arc;
 pub mod dynamic;
 mod fast;
 mod imposed;
+mod omega_cache;
 mod output;
 mod post;
 pub mod problems;
 mod rate;
 mod residual;
+mod single;
 mod steady;
 mod sweep;
 

@@ -155,27 +155,44 @@ impl ReducedModel {
                 }
                 && (s.imposed_n.is_empty() || s.imposed_n.len() == s.len())
         );
-        // one pass per kind of channel source (each compiled for its own)
+        // one pass per kind of channel source (each compiled for its own),
+        // and for one interface point at the drive point without residual
+        // modes or imposed force (`eq:fc1` with one term: no term lists)
+        let one = match self.single_point() {
+            Some(sp) if sp.pt == self.drive && self.residual.is_none() => Some(sp.z),
+            _ => None,
+        };
         match s.channels {
-            Channels::Rows(rows) => self.output_pass(s, fields, scratch, out, |i, _| {
-                RowValues(&rows[i * nch..(i + 1) * nch])
-            }),
-            Channels::Tabulated(cache) => self.output_pass(s, fields, scratch, out, |_, w| {
-                let (c, t) = cache.segment(w);
-                RowCubics(c, t)
-            }),
+            Channels::Rows(rows) => {
+                let ch = FromRows(rows, nch);
+                match one {
+                    Some(z) => self.output_pass::<_, true>(s, fields, z, scratch, out, ch),
+                    None => self.output_pass::<_, false>(s, fields, 0, scratch, out, ch),
+                }
+            }
+            Channels::Tabulated(cache) => {
+                let ch = FromCache(cache);
+                match one {
+                    Some(z) => self.output_pass::<_, true>(s, fields, z, scratch, out, ch),
+                    None => self.output_pass::<_, false>(s, fields, 0, scratch, out, ch),
+                }
+            }
         }
     }
 
     /// [`Self::output_fields_into`] with the channels of sample `i` at
-    /// `Omega` given by `channels(i, Omega)`.
-    fn output_pass<C: SampleChannels>(
+    /// `Omega` given by `channels.at(i, Omega)`; `ONE`: the model has one
+    /// interface point, at the drive point, its `Z_G` channel `z_one` (the
+    /// force plan's one term of each list), no residual modes, no imposed
+    /// force.
+    fn output_pass<S: ChannelSource, const ONE: bool>(
         &self,
         s: &OutputStates,
         fields: SampleFields,
+        z_one: usize,
         scratch: &mut OutputScratch,
         out: &mut Vec<SlowFlowSample>,
-        channels: impl Fn(usize, f64) -> C,
+        channels: S,
     ) -> Result<(), ReducedError> {
         let all = fields == SampleFields::All;
         let OutputScratch { plan, phi, row } = scratch;
@@ -216,24 +233,31 @@ impl ReducedModel {
                 cubic(&shapes[self.tip], loc.t),
                 cubic(&shapes[self.drive], loc.t),
             );
-            if let [p0, p1, others @ ..] = &mut phi[..] {
-                (*p0, *p1) = (tip, drive);
-                for (p, &pt) in others.iter_mut().zip(&plan.points[2..]) {
-                    *p = cubic(&shapes[pt], loc.t);
+            let ch = channels.at(i, omega_rad_s);
+            // eq:fc1, term by term
+            let mut f = zero;
+            let mut z = zero;
+            if ONE {
+                // the plan's terms: T_G u_hat, then Z_G at the drive point
+                f += ch.channel(z_one + 1);
+                z += ch.channel(z_one) * drive;
+            } else {
+                if let [p0, p1, others @ ..] = &mut phi[..] {
+                    (*p0, *p1) = (tip, drive);
+                    for (p, &pt) in others.iter_mut().zip(&plan.points[2..]) {
+                        *p = cubic(&shapes[pt], loc.t);
+                    }
+                }
+                f = s.imposed_n.get(i).copied().unwrap_or(zero);
+                for &t in &plan.t_channels {
+                    f += ch.channel(t);
+                }
+                for &(c, p) in &plan.z_terms {
+                    z += ch.channel(c) * phi[p];
                 }
             }
-            let ch = channels(i, omega_rad_s);
-            // eq:fc1, term by term
-            let mut f = s.imposed_n.get(i).copied().unwrap_or(zero);
-            let mut z = zero;
-            for &t in &plan.t_channels {
-                f += ch.channel(t);
-            }
-            for &(c, p) in &plan.z_terms {
-                z += ch.channel(c) * phi[p];
-            }
             f -= z * amp;
-            let (tip_m, drive_m) = if self.residual.is_some() {
+            let (tip_m, drive_m) = if !ONE && self.residual.is_some() {
                 // the residual modes' displacement G F added (super::residual)
                 let row = ch.row(row);
                 let [dt, dd] = match self.residual_at(omega_rad_s, row, loc, amp) {
@@ -307,6 +331,39 @@ trait SampleChannels {
     fn channel(&self, c: usize) -> Complex64;
     /// All channels, in `buf` if they are not stored (`nch` long).
     fn row<'b>(&'b self, buf: &'b mut [Complex64]) -> &'b [Complex64];
+}
+
+/// Where the channels of the output samples come from.
+trait ChannelSource {
+    /// The channels of one sample.
+    type C: SampleChannels;
+    /// The channels of sample `i` at `Omega`.
+    fn at(&self, i: usize, omega: f64) -> Self::C;
+}
+
+/// Each sample's stored row (`nch` channels) in turn.
+#[derive(Clone, Copy)]
+struct FromRows<'a>(&'a [Complex64], usize);
+
+impl<'a> ChannelSource for FromRows<'a> {
+    type C = RowValues<'a>;
+    #[inline(always)]
+    fn at(&self, i: usize, _: f64) -> RowValues<'a> {
+        RowValues(&self.0[i * self.1..(i + 1) * self.1])
+    }
+}
+
+/// Interpolated at each sample's `Omega` from the sweep's tabulation.
+#[derive(Clone, Copy)]
+struct FromCache<'a>(&'a OmegaCache);
+
+impl<'a> ChannelSource for FromCache<'a> {
+    type C = RowCubics<'a>;
+    #[inline(always)]
+    fn at(&self, _: usize, omega: f64) -> RowCubics<'a> {
+        let (c, t) = self.0.segment(omega);
+        RowCubics(c, t)
+    }
 }
 
 /// A stored row of channels.
