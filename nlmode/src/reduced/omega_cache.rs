@@ -168,25 +168,6 @@ impl OmegaCache {
         self.nodes.len()
     }
 
-    /// Interpolated channels at each of `w`, one row of `nch` after the
-    /// other, appended to `out`.
-    pub fn eval_rows_into(&self, w: &[f64], out: &mut Vec<Complex64>) {
-        if self.nch == 0 {
-            return;
-        }
-        out.reserve(self.nch * w.len());
-        let (lo, hi) = (self.nodes.first(), self.nodes.last());
-        for &w in w {
-            let loc = self.nodes.locate(w.clamp(lo, hi));
-            let t = loc.t;
-            out.extend(
-                self.c[loc.k * self.nch..(loc.k + 1) * self.nch]
-                    .iter()
-                    .map(|c| c[0] + (c[1] + (c[2] + c[3] * t) * t) * t),
-            );
-        }
-    }
-
     /// Interpolated channels at `w` and their derivatives with respect to
     /// `w` (those of the interpolating cubics; zero outside the tabulated
     /// range, where the channels are held).

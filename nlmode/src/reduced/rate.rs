@@ -138,16 +138,18 @@ impl ReducedModel {
         }
     }
 
-    /// [`Self::subtract_rate_forces`] on the channel rows of a batch of
-    /// output samples of the quasi-steady sweep (times `ts`, frequencies
-    /// `w`, amplitudes `amps`; `channels` row by row, `nch` each), with `A'`
-    /// from the first-order slow flow at each sample.
-    pub(crate) fn subtract_rate_forces_in_rows(
+    /// The channel rows of a batch of output samples of the quasi-steady
+    /// sweep (times `ts`, frequencies `w`, amplitudes `amps`), appended to
+    /// `rows` (`nch` each), each with its rate force subtracted
+    /// ([`Self::subtract_rate_forces`], `A'` from the first-order slow flow
+    /// at the sample): the channels and their derivatives from one
+    /// evaluation of the tabulation.
+    pub(crate) fn rate_rows_into(
         &self,
         cache: &OmegaCache,
         sweep: &LinearSweep,
         (ts, w, amps): (&[f64], &[f64], &[Complex64]),
-        channels: &mut [Complex64],
+        rows: &mut Vec<Complex64>,
     ) -> Result<(), ReducedError> {
         let nch = self.nch;
         if nch == 0 {
@@ -156,13 +158,15 @@ impl ReducedModel {
         let mut ch = vec![Complex64::new(0.0, 0.0); nch];
         let mut dch = vec![Complex64::new(0.0, 0.0); nch];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
-        for (i, row) in channels.chunks_exact_mut(nch).enumerate() {
-            cache.eval_with_derivative(w[i], &mut ch, &mut dch);
-            let fi = self.imposed_at(w[i])?;
-            let y = [amps[i].re, amps[i].im];
-            let wdot = sweep.omega_rate_rad_s2(ts[i]);
-            let rate = self.rhs_first_order(&y, w[i], wdot, &ch, &dch, &fi, &mut phi)?;
-            self.subtract_rate_forces(row, &dch, &phi, rate);
+        rows.reserve(nch * w.len());
+        for ((&t, &wi), amp) in ts.iter().zip(w).zip(amps) {
+            cache.eval_with_derivative(wi, &mut ch, &mut dch);
+            let fi = self.imposed_at(wi)?;
+            let y = [amp.re, amp.im];
+            let wdot = sweep.omega_rate_rad_s2(t);
+            let rate = self.rhs_first_order(&y, wi, wdot, &ch, &dch, &fi, &mut phi)?;
+            self.subtract_rate_forces(&mut ch, &dch, &phi, rate);
+            rows.extend_from_slice(&ch);
         }
         Ok(())
     }

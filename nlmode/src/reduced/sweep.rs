@@ -568,9 +568,8 @@ impl OutputBatch {
         // (super::rate); else the channels from the tabulation
         if self.rate_terms {
             self.channels.clear();
-            cache.eval_rows_into(&self.w, &mut self.channels);
             let states = (&self.ts[..], &self.w[..], &self.amps[..]);
-            model.subtract_rate_forces_in_rows(cache, sweep, states, &mut self.channels)?;
+            model.rate_rows_into(cache, sweep, states, &mut self.channels)?;
         }
         let imposed_n = model.drive_imposed_n(&self.w)?;
         self.samples.clear();
