@@ -33,6 +33,8 @@ pub mod vr {
     /// Integer parameters.
     pub const DRIVE_POINT_INDEX: u32 = 0;
     pub const RESIDUAL_MODES: u32 = 1;
+    /// Boolean parameters.
+    pub const HARMONIC_FORCE_PROJECTION: u32 = 0;
     /// FMI 3.0 only: the UInt64 structural parameter and the Float64 arrays
     /// it sizes (value references unique over all FMI 3.0 variables).
     pub const MODE_SHAPE_POINTS: u32 = 400_000_000;
@@ -116,11 +118,13 @@ pub const VARIABLES: &[Variable] = &[
     Variable::real("u", vr::U, C::Local, V::Continuous, None, "sqrt(kg).m")
         .describe("Normalized modal velocity u = eta'/omega(a), a = sqrt(eta^2 + u^2) (continuous state; 0 at the start)"),
     Variable::real("der(eta)", vr::DER_ETA, C::Local, V::Continuous, None, "sqrt(kg).m/s")
-        .describe("eta' = omega(a) u"),
+        .describe("eta' = omega(a) u (plus the force's term with harmonic_force_projection)"),
     Variable::real("der(u)", vr::DER_U, C::Local, V::Continuous, None, "sqrt(kg).m/s")
-        .describe("u' = -omega(a) eta - 2 D(a) omega(a) u + |phi_ex(a)| F / omega(a)"),
+        .describe("u' = -omega(a) eta - 2 D(a) omega(a) u + |phi_ex(a)| F / omega(a) (the force's term projected on every harmonic with harmonic_force_projection)"),
     Variable::integer_parameter("residual_modes", vr::RESIDUAL_MODES, 0)
         .describe("Linear modes of the structure (the modal table's linear_modes, lowest first) carried beside the nonlinear mode as linear modal oscillators driven by F; x, v, x_tip include them. 0: the single nonlinear mode. Co-Simulation only"),
+    Variable::boolean_parameter("harmonic_force_projection", vr::HARMONIC_FORCE_PROJECTION, false)
+        .describe("true: F acts on every harmonic of the mode at the drive point (its work on the whole motion Re(a sum_n phi_n,ex e^(i n psi))), so the power F's higher harmonics exchange with the mode's own is kept (e.g. a shaker's third harmonic at phase resonance); false: on the fundamental only (the paper's eq. NM)"),
 ];
 
 /// The normal-form state `(eta, u)` of [`nlmode::oscillator`] (nominal:
@@ -185,7 +189,8 @@ pub const INFO: ModelInfo = ModelInfo {
     model_structure: ModelStructure {
         outputs: &[],
         derivatives: &[
-            Dependencies::on("der(eta)", &["eta", "u"]),
+            // F with harmonic_force_projection (module nlmode::oscillator::projection)
+            Dependencies::on("der(eta)", &["F", "eta", "u"]),
             Dependencies::on("der(u)", &["F", "eta", "u"]),
         ],
         initial_unknowns: &[
@@ -229,6 +234,8 @@ pub struct Structure {
     drive_point_index: i32,
     /// Residual modes ([`ModalOscillator::with_residual_modes`]).
     residual_modes: i32,
+    /// [`ModalOscillator::with_harmonic_force_projection`].
+    harmonic_force_projection: bool,
     modal_table: String,
     /// FMI 3.0 structural parameter `mode_shape_points`.
     mode_shape_points: u64,
@@ -313,7 +320,8 @@ impl Structure {
             ))
         })?;
         let mut osc = ModalOscillator::new(&table, &drive, self.frequency_error)?
-            .with_residual_modes(&table, n)?;
+            .with_residual_modes(&table, n)?
+            .with_harmonic_force_projection(self.harmonic_force_projection);
         let tip = osc.point_index(TIP_POINT)?;
         osc.set_state(OscillatorState {
             time_s: self.start_time_s,
@@ -471,6 +479,7 @@ impl CoSimModel for Structure {
             drive_point: DEFAULT_DRIVE_POINT.into(),
             drive_point_index: -1,
             residual_modes: 0,
+            harmonic_force_projection: false,
             modal_table: String::new(),
             mode_shape_points: DEFAULT_MODE_SHAPE_POINTS,
             force: InputPolynomial::default(),
@@ -498,11 +507,16 @@ impl CoSimModel for Structure {
         let (a_min, a_max) = osc.table().amplitude_range();
         log.info(&format!(
             "modal table {} loaded: a in [{a_min:e}, {a_max:e}] sqrt(kg) m, H = {}, drive point index {}, \
-             {} residual modes, frequency factor {}, RK4 sub-step <= {:e} s",
+             {} residual modes, force on {}, frequency factor {}, RK4 sub-step <= {:e} s",
             self.table_path()?.display(),
             osc.table().harmonics(),
             osc.drive_index(),
             osc.residual_modes(),
+            if osc.harmonic_force_projection() {
+                "every harmonic of the mode"
+            } else {
+                "the mode's fundamental"
+            },
             1.0 + self.frequency_error,
             osc.max_substep_s()
         ));
@@ -586,6 +600,28 @@ impl CoSimModel for Structure {
             }
             _ => Err(ModelError::error(format!(
                 "no Integer variable with value reference {vr}"
+            ))),
+        }
+    }
+
+    fn get_boolean(&self, vr: u32) -> Result<bool, ModelError> {
+        match vr {
+            vr::HARMONIC_FORCE_PROJECTION => Ok(self.harmonic_force_projection),
+            _ => Err(ModelError::error(format!(
+                "no Boolean variable with value reference {vr}"
+            ))),
+        }
+    }
+
+    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), ModelError> {
+        match vr {
+            vr::HARMONIC_FORCE_PROJECTION => {
+                self.harmonic_force_projection = value;
+                self.parameters_changed();
+                Ok(())
+            }
+            _ => Err(ModelError::error(format!(
+                "no Boolean variable with value reference {vr}"
             ))),
         }
     }

@@ -272,8 +272,13 @@ pub struct ModalOscillator {
     residual: Option<residual::Residual>,
     /// Their state `[q_1, q_1', q_2, q_2', ...]` \[m / (sqrt(kg) m) * sqrt(kg) m, /s\].
     residual_state: Vec<f64>,
+    /// The modal force on every harmonic of the mode
+    /// ([`Self::with_harmonic_force_projection`]; module `projection`).
+    harmonic_projection: bool,
 }
 
+mod derivatives;
+mod projection;
 mod residual;
 
 impl ModalOscillator {
@@ -306,6 +311,7 @@ impl ModalOscillator {
             state: OscillatorState::default(),
             residual: None,
             residual_state: Vec::new(),
+            harmonic_projection: false,
         })
     }
 
@@ -327,6 +333,22 @@ impl ModalOscillator {
         self.residual = Some(residual::Residual::new(modes, self.drive));
         self.residual_state = vec![0.0; 2 * n];
         Ok(self)
+    }
+
+    /// With `on`, the drive-point force acts on every harmonic of the mode
+    /// at the drive point, not on its fundamental alone (module
+    /// `projection`: the power the force's higher harmonics exchange with
+    /// the mode's own, which an attachment answering the mode's harmonics,
+    /// such as the paper's shaker at phase resonance, makes large). `false`
+    /// (the default) is `eq:NM`'s projection, bit for bit.
+    pub fn with_harmonic_force_projection(mut self, on: bool) -> Self {
+        self.harmonic_projection = on;
+        self
+    }
+
+    /// Whether the force is projected on every harmonic of the mode.
+    pub fn harmonic_force_projection(&self) -> bool {
+        self.harmonic_projection
     }
 
     /// Number of residual modes.
@@ -440,8 +462,29 @@ impl ModalOscillator {
     /// Right-hand side `(eta', u')` of the normal form.
     #[inline]
     fn rhs(&self, eta: f64, u: f64, c: f64, time_s: f64) -> Result<(f64, f64), OscillatorError> {
-        let (w, d, phi_ex) = self.properties(eta.hypot(u), time_s)?;
+        let a = eta.hypot(u);
+        if self.harmonic_projection && a > 0.0 {
+            let loc = self.locate(a, time_s)?;
+            return Ok(self.rhs_projected(&loc, (eta, u), a, c));
+        }
+        let (w, d, phi_ex) = self.properties(a, time_s)?;
         Ok((w * u, -w * eta - 2.0 * d * w * u + phi_ex * c / w))
+    }
+
+    /// [`Self::rhs`] with the force on every harmonic (module `projection`)
+    /// at `a = hypot(eta, u) > 0` located at `loc`.
+    #[inline]
+    fn rhs_projected(
+        &self,
+        loc: &TableLocation,
+        (eta, u): (f64, f64),
+        a: f64,
+        c: f64,
+    ) -> (f64, f64) {
+        let (w, d, phi_ex) = self.properties_at(loc);
+        let (fe, fu) =
+            projection::harmonic_forcing(&self.interp, self.drive, loc, (eta, u), a, c, w, phi_ex);
+        (w * u + fe, -w * eta - 2.0 * d * w * u + fu)
     }
 
     /// Advance by `dt_s` under the input polynomial (relative to the current time).
@@ -721,221 +764,6 @@ impl ModalOscillator {
     /// Rates `(eta', u')` of the state under the force `c_n` [N].
     pub fn state_rate(&self, c_n: f64) -> Result<(f64, f64), OscillatorError> {
         self.rhs(self.state.eta, self.state.u, c_n, self.state.time_s)
-    }
-
-    /// Jacobian of [`Self::state_rate`] at the current state under the force
-    /// `c_n` [N]: rows `eta'`, `u'`, columns `eta`, `u`, `c`; the exact
-    /// derivative of the normal form's right-hand side
-    /// `eta' = w u`, `u' = -w eta - 2 D w u + |phi_ex| c / w`
-    /// with `w = (1 + eps) omega(a)`, `D(a)`, `phi_ex(a)` the PCHIP cubics of
-    /// the table ([`TableInterpolator::slopes_at`],
-    /// [`TableInterpolator::shape_slope_at`]) and `a = hypot(eta, u)`,
-    /// `da/deta = eta/a`, `da/du = u/a`. Below the first tabulated amplitude
-    /// (in particular at `a = 0`, where `hypot` has no derivative) the
-    /// properties are held, their amplitude derivatives are 0 and the
-    /// Jacobian is the linear oscillator's.
-    pub fn jacobian(&self, c_n: f64) -> Result<[[f64; 3]; 2], OscillatorError> {
-        let s = self.state;
-        let a = s.amplitude();
-        let loc = self.locate(a, s.time_s)?;
-        let (w, d, phi) = self.properties_at(&loc);
-        let p = phi.norm();
-        let (domega, dd) = self.interp.slopes_at(&loc);
-        let dw = self.frequency_factor * domega;
-        let dphi = self.interp.shape_slope_at(self.drive, 1, &loc);
-        // d|phi|/da = Re(conj(phi) phi')/|phi|
-        let dp = if p > 0.0 {
-            (phi.conj() * dphi).re / p
-        } else {
-            0.0
-        };
-        let (a_eta, a_u) = if a > 0.0 {
-            (s.eta / a, s.u / a)
-        } else {
-            (0.0, 0.0)
-        };
-        // d(eta')/da and d(u')/da at fixed (eta, u, c)
-        let de_da = dw * s.u;
-        let du_da = -dw * s.eta - 2.0 * (dd * w + d * dw) * s.u + c_n * (dp / w - p * dw / (w * w));
-        Ok([
-            [de_da * a_eta, w + de_da * a_u, 0.0],
-            [-w + du_da * a_eta, -2.0 * d * w + du_da * a_u, p / w],
-        ])
-    }
-
-    /// Derivatives of the outputs with respect to the state: for each of
-    /// `points`, `[[dx/deta, dx/du], [dv/deta, dv/du]]` of
-    /// [`Self::point_response`] written into `out`, and
-    /// `[[da/deta, da/du], [domega/deta, domega/du]]` returned.
-    ///
-    /// `a` and `omega` exactly (`da/deta = eta/a`, `da/du = u/a`, 0 at `a = 0`,
-    /// the symmetric value at the kink of `hypot`; `domega = (1 + eps)
-    /// omega'(a) da`). `x`, `v` by a central difference of the synthesis in
-    /// each state component with the step `h = 6e-6 max(a, 1e-3 a_max)`: the
-    /// synthesis is a smooth function of `(eta, u)` on the scale `a` (the PCHIP
-    /// cubics are C1, the phasor `z/a` turns on the scale `a`), so the
-    /// truncation error `h^2 f'''/6` is about `(h/a)^2 ~ 4e-11` relative and
-    /// the round-off `1e-16 a/h` about `2e-11` (a step of about
-    /// `eps_mach^(1/3) a` balances the two). Where `a + h` would leave the
-    /// table the one-sided second-order difference
-    /// `(3 f(x) - 4 f(x - h) + f(x - 2h))/(2h)` towards the origin is used.
-    /// The residual modes do not depend on `(eta, u)`.
-    pub fn output_state_jacobian(
-        &self,
-        points: &[usize],
-        out: &mut [[[f64; 2]; 2]],
-    ) -> Result<[[f64; 2]; 2], OscillatorError> {
-        assert_eq!(points.len(), out.len());
-        let s = self.state;
-        let a = s.amplitude();
-        let loc = self.locate(a, s.time_s)?;
-        let (domega, _) = self.interp.slopes_at(&loc);
-        let dw = self.frequency_factor * domega;
-        let (a_eta, a_u) = if a > 0.0 {
-            (s.eta / a, s.u / a)
-        } else {
-            (0.0, 0.0)
-        };
-        if !points.is_empty() {
-            let h = 6e-6 * a.max(1e-3 * self.a_max);
-            let zero = PointResponse {
-                x_m: 0.0,
-                v_m_s: 0.0,
-            };
-            let mut r = vec![zero; 3 * points.len()];
-            let (r0, rest) = r.split_at_mut(points.len());
-            let (r1, r2) = rest.split_at_mut(points.len());
-            for j in 0..2 {
-                let comp = if j == 0 { s.eta } else { s.u };
-                let dir = |k: f64| OscillatorState {
-                    time_s: s.time_s,
-                    eta: s.eta + if j == 0 { k } else { 0.0 },
-                    u: s.u + if j == 1 { k } else { 0.0 },
-                };
-                if a + h <= self.a_max {
-                    self.synthesize(&dir(h), points, r1)?;
-                    self.synthesize(&dir(-h), points, r2)?;
-                    for (o, (p, m)) in out.iter_mut().zip(r1.iter().zip(r2.iter())) {
-                        o[0][j] = (p.x_m - m.x_m) / (2.0 * h);
-                        o[1][j] = (p.v_m_s - m.v_m_s) / (2.0 * h);
-                    }
-                } else {
-                    // towards the origin: sg = -1 for a positive component
-                    let sg = if comp >= 0.0 { -1.0 } else { 1.0 };
-                    self.synthesize(&s, points, r0)?;
-                    self.synthesize(&dir(sg * h), points, r1)?;
-                    self.synthesize(&dir(2.0 * sg * h), points, r2)?;
-                    for (o, ((f0, f1), f2)) in
-                        out.iter_mut().zip(r0.iter().zip(r1.iter()).zip(r2.iter()))
-                    {
-                        o[0][j] = sg * (-3.0 * f0.x_m + 4.0 * f1.x_m - f2.x_m) / (2.0 * h);
-                        o[1][j] = sg * (-3.0 * f0.v_m_s + 4.0 * f1.v_m_s - f2.v_m_s) / (2.0 * h);
-                    }
-                }
-            }
-        }
-        Ok([[a_eta, a_u], [dw * a_eta, dw * a_u]])
-    }
-
-    /// Time derivatives `(dx/dt, dv/dt)` of [`Self::point_response`] along the
-    /// oscillator's flow under the force `c_n` [N] (for extrapolating masters).
-    /// Central difference along the flow with the time increment
-    /// `1e-5 / omega(a)`: truncation error ~1e-10 relative, round-off ~1e-11.
-    pub fn point_response_rate(
-        &self,
-        point: usize,
-        c_n: f64,
-    ) -> Result<PointResponse, OscillatorError> {
-        let mut out = [PointResponse {
-            x_m: 0.0,
-            v_m_s: 0.0,
-        }];
-        self.output_rates(&[point], c_n, &mut out)?;
-        Ok(out[0])
-    }
-
-    /// `(da/dt, d omega/dt)` along the flow under the force `c_n` [N].
-    pub fn modal_rate(&self, c_n: f64) -> Result<(f64, f64), OscillatorError> {
-        self.output_rates(&[], c_n, &mut [])
-    }
-
-    /// All output rates at once (the FMU's output-derivative path): the rates
-    /// [`Self::point_response_rate`] of several points written into `out`, and
-    /// [`Self::modal_rate`] returned, with one state rate, one table look-up
-    /// at the state and one synthesis of all points per side of the central
-    /// difference. Equal to the single-quantity functions bit for bit.
-    pub fn output_rates(
-        &self,
-        points: &[usize],
-        c_n: f64,
-        out: &mut [PointResponse],
-    ) -> Result<(f64, f64), OscillatorError> {
-        assert_eq!(points.len(), out.len());
-        let s = self.state;
-        let a = s.amplitude();
-        let loc = self.locate(a, s.time_s)?;
-        let (w, d, phi_ex) = self.properties_at(&loc);
-        // the normal form's right-hand side, as `rhs`
-        let (de, du) = (
-            w * s.u,
-            -w * s.eta - 2.0 * d * w * s.u + phi_ex.norm() * c_n / w,
-        );
-        if !points.is_empty() {
-            let eps = 1e-5 / w;
-            let plus = OscillatorState {
-                time_s: s.time_s,
-                eta: s.eta + eps * de,
-                u: s.u + eps * du,
-            };
-            let minus = OscillatorState {
-                time_s: s.time_s,
-                eta: s.eta - eps * de,
-                u: s.u - eps * du,
-            };
-            // two points (drive and tip) on the stack, more on the heap
-            let mut stack = [PointResponse {
-                x_m: 0.0,
-                v_m_s: 0.0,
-            }; 4];
-            let mut heap = Vec::new();
-            let both: &mut [PointResponse] = if 2 * points.len() <= stack.len() {
-                &mut stack[..2 * points.len()]
-            } else {
-                heap.resize(
-                    2 * points.len(),
-                    PointResponse {
-                        x_m: 0.0,
-                        v_m_s: 0.0,
-                    },
-                );
-                &mut heap
-            };
-            let (p, m) = both.split_at_mut(points.len());
-            self.synthesize(&plus, points, p)?;
-            self.synthesize(&minus, points, m)?;
-            for ((o, p), m) in out.iter_mut().zip(p.iter()).zip(m.iter()) {
-                *o = PointResponse {
-                    x_m: (p.x_m - m.x_m) / (2.0 * eps),
-                    v_m_s: (p.v_m_s - m.v_m_s) / (2.0 * eps),
-                };
-            }
-            // the residual modes' part cancels in the difference: exactly
-            if let Some(res) = &self.residual {
-                for (o, &k) in out.iter_mut().zip(points) {
-                    let (dx, dv) = res.response_rate(&self.residual_state, k, c_n);
-                    o.x_m += dx;
-                    o.v_m_s += dv;
-                }
-            }
-        }
-        if a == 0.0 {
-            return Ok((0.0, 0.0));
-        }
-        let a_dot = (s.eta * de + s.u * du) / a;
-        Ok((
-            a_dot,
-            self.frequency_factor * self.interp.eval_at(&loc).domega_da * a_dot,
-        ))
     }
 }
 

@@ -55,6 +55,9 @@ pub struct CosimParams {
     pub frequency_error: f64,
     /// The structure FMU's `residual_modes` (0: not set, the FMU's default).
     pub residual_modes: usize,
+    /// The structure FMU's `harmonic_force_projection` (false: not set, the
+    /// FMU's default).
+    pub harmonic_force_projection: bool,
     /// End time [s]; `None`: the sweep duration.
     pub stop_time_s: Option<f64>,
     /// Sample interval of the time series [s], rounded to a multiple of the
@@ -79,6 +82,7 @@ impl CosimParams {
             modal_table: None,
             frequency_error: 0.0,
             residual_modes: 0,
+            harmonic_force_projection: false,
             stop_time_s: None,
             output_interval_s: 0.0,
             iteration_rtol: 1e-6,
@@ -184,6 +188,12 @@ pub fn parameters(p: &CosimParams) -> Result<Vec<(String, ParamValue)>, CosimErr
         v.push((
             "structure.residual_modes".into(),
             ParamValue::Integer(i32::try_from(p.residual_modes).unwrap_or(i32::MAX)),
+        ));
+    }
+    if p.harmonic_force_projection {
+        v.push((
+            "structure.harmonic_force_projection".into(),
+            ParamValue::Boolean(true),
         ));
     }
     if let Some(t) = &p.modal_table {

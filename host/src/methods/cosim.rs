@@ -44,6 +44,7 @@ pub fn cosim(
     p.macro_step_s = sc.cosim.macro_step_s;
     p.drive_point = setup.exciter_points[0].clone();
     p.residual_modes = sc.cosim.residual_modes;
+    p.harmonic_force_projection = sc.cosim.harmonic_force_projection;
     if let Some((table, out)) = table {
         let mut t = table.clone();
         let tip = nlmode::structure::paper::TIP;
@@ -97,6 +98,9 @@ pub fn cosim(
         ],
     });
     r.summary.set("algorithm", sc.cosim.algorithm);
+    if p.harmonic_force_projection {
+        r.summary.set("harmonic_force_projection", true);
+    }
     r.summary.set("macro_step_s", p.macro_step_s);
     r.summary.set("macro_steps", out.stats.steps as u64);
     if let Some((t, msg)) = &out.stopped {

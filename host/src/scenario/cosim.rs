@@ -13,6 +13,10 @@ pub struct CosimSpec {
     /// The structure FMU's `residual_modes` (its linear modes beside the
     /// nonlinear mode) in `cosim` and `phase-resonance` with `model = "cosim"`.
     pub residual_modes: usize,
+    /// The structure FMU's `harmonic_force_projection` (the stinger force
+    /// on every harmonic of the mode, `nlmode::oscillator` module
+    /// `projection`) in the same methods.
+    pub harmonic_force_projection: bool,
 }
 
 /// Co-simulation master algorithm (`cosim.algorithm`).
@@ -36,6 +40,7 @@ impl Default for CosimSpec {
             structure_fmu: None,
             shaker_fmu: None,
             residual_modes: 0,
+            harmonic_force_projection: false,
         }
     }
 }
