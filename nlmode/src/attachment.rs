@@ -896,6 +896,12 @@ impl Condenser {
         &self.name
     }
 
+    /// The internal block's coefficients `A_k^22 = L2^T A_k L2`, `k = 0, 1, ...`
+    /// (`Z22 = sum_k (i Omega)^k A_k^22`).
+    pub fn internal_coefficients(&self) -> &[DMatrix<f64>] {
+        &self.a_22
+    }
+
     /// Inverts `Z22` after checking its condition; see
     /// [`AttachmentError::SingularZ22`].
     ///

@@ -757,7 +757,12 @@ fn harmonic_force_projection_follows_the_oscillator() {
         );
         largest = largest.max((on.get_real(vr::A) / off.get_real(vr::A) - 1.0).abs());
     }
-    assert!(largest > 1e-4, "the projection changed the amplitude by {largest:e}");
+    assert!(
+        largest > 1e-4,
+        "the projection changed the amplitude by {largest:e}"
+    );
     assert!(largest < 0.5, "{largest:e}");
-    eprintln!("harmonic projection against the fundamental: amplitude differs by up to {largest:e}");
+    eprintln!(
+        "harmonic projection against the fundamental: amplitude differs by up to {largest:e}"
+    );
 }

@@ -50,7 +50,9 @@ fn comparison(c: &Computed) -> nlmode::envelope::EnvelopeComparison {
 /// 0.02) makes the assembly beat as the sweep passes. With the TMD in
 /// quasi-steady state `nlmode` misses `reference` by 14 % tip RMS, 12 %
 /// force RMS, the peak 7.5 % low (measured; the validity check says so and
-/// names the remedy). Carried as a state: 3.3 %, 3.6 %, -2.6 %. The rest is
+/// names the remedy). Carried as a state (its pole exact, `nlmode::reduced::
+/// dynamic` "Exact poles"): 2.4 %, 2.5 %, -2.6 % (3.3 %, 3.6 %, -2.6 % with
+/// the first-order pole, whose beat is 7.5 % off at 1.18 omega_t). The rest is
 /// the single-mode model's own error on this sweep, measured on the same
 /// case without the TMD: 2.3 % tip RMS, 1.6 % force RMS, peak -2.1 % (what
 /// `residual_modes` of issue 25 addresses; the issue's 3 % / 1 % targets lie
@@ -211,15 +213,17 @@ fn the_pll_plant_carries_the_tmd_states() {
     }
 }
 
-/// The TMD case with the TMD carried and the first-order terms
-/// (`[slowflow] rate_terms`, `nlmode::reduced::rate`): the peak within 1 %
-/// of `reference` (issue 25's target; -2.65 % without the terms, measured
-/// -0.16 %), tip and force RMS closer (3.30 / 3.62 % -> 3.33 / 3.06 %:
-/// the tip RMS is the jump's timing, unchanged). Without the TMD the terms
-/// halve the model's own error (2.33 / 1.56 / -2.14 % -> 1.32 / 1.15 /
-/// -1.53 %), and the summary records them.
+/// Issue 25's TMD targets: the TMD carried with its exact pole and the
+/// first-order terms (`[slowflow] rate_terms`, `nlmode::reduced::rate`)
+/// within 3 % tip RMS, 3 % force RMS and 1 % peak of `reference`. Measured
+/// (tip RMS / force RMS / peak): carried alone 2.44 / 2.52 / -2.61 %; with
+/// the rate terms 2.02 / 1.88 / -0.43 %; with the ten residual modes too
+/// 1.97 / 1.68 / -0.07 % (with the first-order pole these were 3.30 / 3.62 /
+/// -2.65, 3.33 / 3.06 / -0.16 and 3.36 / 2.82 / +0.34 %). The tolerances are
+/// the issue's. Without the TMD the terms halve the model's own error (2.33
+/// / 1.56 / -2.14 % -> 1.32 / 1.15 / -1.53 %), and the summary records them.
 #[test]
-fn rate_terms_bring_the_tmd_peak_within_one_percent() {
+fn rate_terms_bring_the_tmd_case_within_the_targets() {
     let dynamic = |rate: bool| {
         let c = run_text(
             &format!(
@@ -232,8 +236,7 @@ fn rate_terms_bring_the_tmd_peak_within_one_percent() {
     let ((plain, _), (first, c)) = (dynamic(false), dynamic(true));
     eprintln!("TMD dynamic: {plain:?}\nwith rate terms: {first:?}");
     // the TMD's state carried through the residual receptance of the ten
-    // other modes, with the rate terms: measured 3.36 / 2.82 / +0.34 %
-    // (issue 25's TMD targets 3 / 3 / 1 %: the tip RMS is 0.36 % over)
+    // other modes, with the rate terms
     let all = comparison(&run_text(
         &format!(
             "{TMD_CASE}{NO_TMD}[slowflow]\nattachments = \"dynamic\"\nresidual_modes = 10\nrate_terms = true\n"
@@ -241,12 +244,13 @@ fn rate_terms_bring_the_tmd_peak_within_one_percent() {
         "tmd-all",
     ));
     eprintln!("with residual modes and rate terms: {all:?}");
-    assert!(
-        all.peak_tip_rel.abs() < 0.01 && all.rms_force_rel < 0.03,
-        "{all:?}"
-    );
-    assert!(all.rms_tip_rel < plain.rms_tip_rel + 0.005, "{all:?}");
-    assert!(first.peak_tip_rel.abs() < 0.01, "{first:?}");
+    for c in [&first, &all] {
+        assert!(
+            c.rms_tip_rel < 0.03 && c.rms_force_rel < 0.03 && c.peak_tip_rel.abs() < 0.01,
+            "{c:?}"
+        );
+    }
+    assert!(all.rms_tip_rel < plain.rms_tip_rel, "{all:?}");
     assert!(
         first.rms_force_rel < plain.rms_force_rel,
         "{first:?} {plain:?}"

@@ -285,10 +285,12 @@ fn tmd_states_with_residual_modes_follow_the_full_order_transient() {
         pct(residual),
         pct(both)
     );
-    // measured: 3.18 / 4.26 / -3.81 % -> 3.14 / 3.86 / -3.35 % with the
+    // measured (the TMD's pole exact, nlmode::reduced::dynamic "Exact
+    // poles"): 1.97 / 2.87 / -3.41 % -> 1.79 / 2.47 / -3.06 % with the
     // residual modes; the rate terms then take the peak to -0.54 % and the
-    // force to 3.23 %, the tip RMS to 3.84 % (the carried states' own rate
-    // terms are not kept, nlmode::reduced::rate)
+    // force to 1.79 %, the tip RMS to 2.20 % (with the first-order pole:
+    // 3.18 / 4.26 / -3.81, 3.14 / 3.86 / -3.35 and 3.84 / 3.23 / -0.54 %);
+    // all three within issue 25's TMD targets (3 / 3 / 1 %)
     for k in 0..3 {
         assert!(
             residual[k].abs() < alone[k].abs(),
@@ -298,7 +300,7 @@ fn tmd_states_with_residual_modes_follow_the_full_order_transient() {
         );
     }
     assert!(
-        both[2].abs() < 0.01 && both[1] < residual[1],
+        both[2].abs() < 0.01 && both[1] < residual[1] && both[0] < 0.03 && both[1] < 0.03,
         "{}",
         pct(both)
     );
