@@ -177,7 +177,7 @@ impl Setup {
                         .filter(|p| dist(p) < limit)
                     {
                         w.push(format!(
-                            "attachment '{}': fixed-interface pole {:.4e}{:+.4e}i rad/s lies {:.3e} rad/s from the swept band [{w_lo:.1}, {w_hi:.1}] rad/s, less than {QUASI_STEADY_FACTOR} / T_mod = {limit:.3e} rad/s (T_mod = 2 D0 omega0 / |dOmega/dt| = {t_mod:.3e} s): the quasi-steady attachment assumption of eq:NM is doubtful: carry the attachment's states with [slowflow] attachments = \"dynamic\" (or sweep slower)",
+                            "attachment '{}': fixed-interface pole {:.4e}{:+.4e}i rad/s lies {:.3e} rad/s from the swept band [{w_lo:.1}, {w_hi:.1}] rad/s, less than {QUASI_STEADY_FACTOR} / T_mod = {limit:.3e} rad/s (T_mod = 2 D0 omega0 / |dOmega/dt| = {t_mod:.3e} s): the quasi-steady attachment assumption of eq:NM is doubtful: carry the attachment's states with [slowflow] attachments = \"dynamic\" (together with [slowflow] rate_terms = true, which keeps the modulation's first-order terms; or sweep slower)",
                             att.name, p.re, p.im, dist(p)
                         ));
                         v.remedies.push(Remedy::DynamicAttachments {
