@@ -74,30 +74,29 @@ impl ModalOscillator {
             w,
             phi_ex,
         );
-        let mut j = [[0.0, 0.0, fe], [0.0, 0.0, fu]];
         let h = 6e-6 * a.max(1e-3 * self.a_max);
         let rhs = |eta: f64, u: f64| self.rhs(eta, u, c_n, s.time_s);
-        for k in 0..2 {
+        // the column of state component k (0: eta, 1: u)
+        let column = |k: usize| -> Result<[f64; 2], OscillatorError> {
             let (de, du) = if k == 0 { (1.0, 0.0) } else { (0.0, 1.0) };
-            let d = if a + h <= self.a_max {
+            if a + h <= self.a_max {
                 let p = rhs(s.eta + h * de, s.u + h * du)?;
                 let m = rhs(s.eta - h * de, s.u - h * du)?;
-                [(p.0 - m.0) / (2.0 * h), (p.1 - m.1) / (2.0 * h)]
-            } else {
-                // towards the origin: sg = -1 for a positive component
-                let comp = if k == 0 { s.eta } else { s.u };
-                let sg = if comp >= 0.0 { -1.0 } else { 1.0 };
-                let f0 = rhs(s.eta, s.u)?;
-                let f1 = rhs(s.eta + sg * h * de, s.u + sg * h * du)?;
-                let f2 = rhs(s.eta + 2.0 * sg * h * de, s.u + 2.0 * sg * h * du)?;
-                [
-                    sg * (-3.0 * f0.0 + 4.0 * f1.0 - f2.0) / (2.0 * h),
-                    sg * (-3.0 * f0.1 + 4.0 * f1.1 - f2.1) / (2.0 * h),
-                ]
-            };
-            j[0][k] = d[0];
-            j[1][k] = d[1];
-        }
+                return Ok([(p.0 - m.0) / (2.0 * h), (p.1 - m.1) / (2.0 * h)]);
+            }
+            // towards the origin: sg = -1 for a positive component
+            let comp = if k == 0 { s.eta } else { s.u };
+            let sg = if comp >= 0.0 { -1.0 } else { 1.0 };
+            let f0 = rhs(s.eta, s.u)?;
+            let f1 = rhs(s.eta + sg * h * de, s.u + sg * h * du)?;
+            let f2 = rhs(s.eta + 2.0 * sg * h * de, s.u + 2.0 * sg * h * du)?;
+            Ok([
+                sg * (-3.0 * f0.0 + 4.0 * f1.0 - f2.0) / (2.0 * h),
+                sg * (-3.0 * f0.1 + 4.0 * f1.1 - f2.1) / (2.0 * h),
+            ])
+        };
+        let (d_eta, d_u) = (column(0)?, column(1)?);
+        let j = [[d_eta[0], d_u[0], fe], [d_eta[1], d_u[1], fu]];
         Ok(j)
     }
 

@@ -45,7 +45,10 @@ impl Solvent {
         let mut order: Vec<usize> = (0..2 * nr).collect();
         order.sort_by(|&i, &j| poles[j].im.total_cmp(&poles[i].im));
         let sel = &order[..nr];
-        if sel.iter().any(|&j| !(poles[j].im > 0.0)) {
+        if sel
+            .iter()
+            .any(|&j| poles[j].im.is_nan() || poles[j].im <= 0.0)
+        {
             return None;
         }
         let v = CMat::from_fn(nr, nr, |i, j| vecs[(i, sel[j])]);
