@@ -271,10 +271,11 @@ pub(crate) fn expected_error(
     )
 }
 
-/// Reads the file at `path` (gzip-compressed or not) in `format`. A plain
-/// Matrix Market file is read in windows of whole lines
-/// ([`mm::parse_reader`]): the memory is its entries plus one window of
-/// text, not the file's text; other files are read whole.
+/// Reads the file at `path` (gzip-compressed or not) in `format`. A Matrix
+/// Market file, plain or gzip-compressed (`.mtx.gz`, decompressed as it is
+/// parsed), is read in windows of whole lines ([`mm::parse_reader`]): the
+/// memory is its entries plus one window of text, not the file's text; other
+/// files are read whole.
 pub fn read(path: &Path, format: Format) -> Result<Triplets, Error> {
     let io = |e: std::io::Error| Error::Io {
         path: path.into(),
@@ -287,17 +288,101 @@ pub fn read(path: &Path, format: Format) -> Result<Triplets, Error> {
         .take(mm::WINDOW_BYTES as u64)
         .read_to_end(&mut first)
         .map_err(io)?;
-    let gzip = first.starts_with(&[0x1f, 0x8b]);
-    let mm = match format {
-        Format::MatrixMarket => true,
-        Format::Auto => detect(path, &first) == Some(Format::MatrixMarket),
-        _ => false,
-    };
-    if mm && !gzip {
+    if first.starts_with(&[0x1f, 0x8b]) {
+        let compressed = std::io::Cursor::new(first).chain(file);
+        let reserve = file_bytes.map(|b| b.saturating_mul(GZIP_RESERVE_RATIO));
+        return read_gzip(
+            path,
+            compressed,
+            format,
+            reserve,
+            mm::WINDOW_BYTES,
+            MAX_DECOMPRESSED,
+        );
+    }
+    if is_matrix_market(path, &first, format) {
         return mm::parse_reader(path, first, &mut file, file_bytes);
     }
     file.read_to_end(&mut first).map_err(io)?;
-    read_bytes(path, &first, format)
+    read_plain(path, &first, format)
+}
+
+/// Whether text starting with `first` is read as Matrix Market.
+fn is_matrix_market(path: &Path, first: &[u8], format: Format) -> bool {
+    match format {
+        Format::MatrixMarket => true,
+        Format::Auto => detect(path, first) == Some(Format::MatrixMarket),
+        _ => false,
+    }
+}
+
+/// Decompressed bytes per compressed byte assumed for the entries reserved
+/// ahead from a `.mtx.gz` file's size line (Matrix Market text compresses
+/// 3-5 times): a reservation bound only, more entries grow the arrays, and a
+/// size line claiming more than the file can hold reserves no more.
+const GZIP_RESERVE_RATIO: u64 = 32;
+
+/// A gzip-compressed file's stream `compressed`, decompressed as it is
+/// read: Matrix Market text parsed in windows of `window` bytes
+/// ([`mm::parse_reader_window`]), other formats read whole; more than
+/// `limit` decompressed bytes is an error naming the limit, and a broken
+/// stream an error saying `gzip`. `reserve`: the data bytes that bound the
+/// entries reserved ahead.
+fn read_gzip(
+    path: &Path,
+    compressed: impl Read,
+    format: Format,
+    reserve: Option<u64>,
+    window: usize,
+    limit: u64,
+) -> Result<Triplets, Error> {
+    let io = |e: std::io::Error| Error::Io {
+        path: path.into(),
+        message: e.to_string(),
+    };
+    let mut dec = GzipLimit {
+        inner: flate2::read::MultiGzDecoder::new(compressed),
+        read: 0,
+        limit,
+    };
+    let mut first = Vec::new();
+    (&mut dec)
+        .take(window as u64)
+        .read_to_end(&mut first)
+        .map_err(io)?;
+    if !is_matrix_market(path, &first, format) {
+        dec.read_to_end(&mut first).map_err(io)?;
+        return read_plain(path, &first, format);
+    }
+    let mut t = mm::parse_reader_window(path, first, &mut dec, reserve, window)?;
+    t.format = Format::MatrixMarket;
+    Ok(t)
+}
+
+/// A gzip decoder that counts what it gives and fails past `limit` bytes
+/// (so a decompression bomb stops at the limit, not at the memory's end),
+/// its errors prefixed `gzip:`.
+struct GzipLimit<R> {
+    inner: R,
+    read: u64,
+    limit: u64,
+}
+
+impl<R: Read> Read for GzipLimit<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self
+            .inner
+            .read(buf)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("gzip: {e}")))?;
+        self.read += n as u64;
+        if self.read > self.limit {
+            return Err(std::io::Error::other(format!(
+                "gzip: decompresses to more than {} bytes",
+                self.limit
+            )));
+        }
+        Ok(n)
+    }
 }
 
 /// As [`read`] from the file's bytes (`path` names it in errors and gives the
@@ -366,5 +451,78 @@ pub fn detect(path: &Path, bytes: &[u8]) -> Option<Format> {
     match fields.count() {
         3 | 5 => Some(Format::Abaqus),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    /// A coordinate file of `n` entries on the diagonal and the first
+    /// subdiagonal (symmetric, lower triangle).
+    fn text(n: usize) -> String {
+        let mut t = format!(
+            "%%MatrixMarket matrix coordinate real symmetric\n{n} {n} {}\n",
+            2 * n - 1
+        );
+        for i in 1..=n {
+            t.push_str(&format!("{i} {i} {}\n", 2.0 + i as f64 * 1e-3));
+            if i > 1 {
+                t.push_str(&format!("{i} {} -1.25e0\n", i - 1));
+            }
+        }
+        t
+    }
+
+    fn gzip(t: &str) -> Vec<u8> {
+        let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        enc.write_all(t.as_bytes()).unwrap();
+        enc.finish().unwrap()
+    }
+
+    /// Decompressed while parsed in windows much smaller than the file (4 KiB
+    /// of a 250 kB text): the entries of the plain parse, exactly.
+    #[test]
+    fn gzip_matrix_market_streams_in_windows() {
+        let t = text(10_000);
+        let p = Path::new("K.mtx.gz");
+        let z = gzip(&t);
+        let streamed = read_gzip(
+            p,
+            &z[..],
+            Format::Auto,
+            Some(z.len() as u64 * 32),
+            4096,
+            1 << 30,
+        )
+        .unwrap();
+        let plain = mm::parse(p, t.as_bytes()).unwrap();
+        assert_eq!((streamed.nrows, streamed.ncols), (plain.nrows, plain.ncols));
+        assert_eq!(streamed.rows, plain.rows);
+        assert_eq!(streamed.cols, plain.cols);
+        assert_eq!(streamed.vals, plain.vals);
+        assert_eq!(streamed.format, Format::MatrixMarket);
+        // a malformed line is named by its line in the decompressed text
+        // (entry i below the diagonal: line 2 i + 1)
+        let bad = t.replacen("5000 4999 -1.25e0", "5000 4999 nope", 1);
+        let e = read_gzip(p, &gzip(&bad)[..], Format::Auto, None, 4096, 1 << 30).unwrap_err();
+        assert_eq!(e.line(), Some(2 * 5000 + 1), "{e}");
+    }
+
+    /// More decompressed bytes than the limit, and a stream cut short: Io
+    /// errors naming the file and `gzip`.
+    #[test]
+    fn gzip_limit_and_truncation_are_errors() {
+        let t = text(10_000);
+        let p = Path::new("K.mtx.gz");
+        let z = gzip(&t);
+        let e = read_gzip(p, &z[..], Format::Auto, None, 4096, 100_000).unwrap_err();
+        assert!(
+            matches!(e, Error::Io { .. }) && e.to_string().contains("more than 100000 bytes"),
+            "{e}"
+        );
+        let e = read_gzip(p, &z[..z.len() / 2], Format::Auto, None, 4096, 1 << 30).unwrap_err();
+        assert!(e.to_string().contains("K.mtx.gz"), "{e}");
     }
 }
