@@ -155,6 +155,34 @@ fn above_range_hint(step_s: Option<f64>) -> String {
 /// `omega` about 400 rad/s, sub-step 3.9e-4 s) allows steps up to about 390 s.
 pub const MAX_SUBSTEPS_PER_STEP: u64 = 1_000_000;
 
+/// The gauge `g = phi_ex/|phi_ex|` of the module docs (1 where `phi_ex = 0`).
+#[inline]
+fn gauge(phi_ex: Complex64) -> Complex64 {
+    if phi_ex.norm() > 0.0 {
+        phi_ex / phi_ex.norm()
+    } else {
+        Complex64::new(1.0, 0.0)
+    }
+}
+
+/// Harmonics `phi_0..phi_H` held on the stack (the paper uses `H <= 13`).
+const HARMONICS_ON_STACK: usize = 32;
+
+/// A buffer of `nh` harmonics: `stack` when it is long enough, else `heap`.
+#[inline]
+fn harmonic_buffer<'a>(
+    nh: usize,
+    stack: &'a mut [Complex64; HARMONICS_ON_STACK],
+    heap: &'a mut Vec<Complex64>,
+) -> &'a mut [Complex64] {
+    if nh <= stack.len() {
+        &mut stack[..nh]
+    } else {
+        heap.resize(nh, Complex64::new(0.0, 0.0));
+        heap
+    }
+}
+
 /// The integration state: modal coordinate `eta` [sqrt(kg) m], `u = eta'/omega(a)`
 /// [sqrt(kg) m] and time [s]. `z = eta - i u = a e^{i psi}`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -690,12 +718,7 @@ impl ModalOscillator {
         assert_eq!(out.len(), self.point_count(), "one entry per point");
         let a = self.state.amplitude();
         let loc = self.locate(a, self.state.time_s)?;
-        let g = self.interp.shape_at(self.drive, 1, &loc);
-        let g = if g.norm() > 0.0 {
-            g / g.norm()
-        } else {
-            Complex64::new(1.0, 0.0)
-        };
+        let g = gauge(self.interp.shape_at(self.drive, 1, &loc));
         for (k, o) in out.iter_mut().enumerate() {
             *o = a * self.interp.shape_at(k, 1, &loc) / g;
         }
@@ -712,28 +735,17 @@ impl ModalOscillator {
         let z = s.z();
         let a = z.norm();
         let loc = self.locate(a, s.time_s)?;
-        let (w_rad_s, d, g) = self.properties_at(&loc);
-        let g = if g.norm() > 0.0 {
-            g / g.norm()
-        } else {
-            Complex64::new(1.0, 0.0)
-        };
+        let (w_rad_s, d, phi_ex) = self.properties_at(&loc);
+        let g = gauge(phi_ex);
         // w = e^{i psi} / g: unit phasor of the original gauge of the table
         let unit = if a > 0.0 {
             z / (a * g)
         } else {
             Complex64::new(1.0, 0.0)
         };
-        let nh = self.interp.harmonics() + 1;
-        // harmonics on the stack up to H = 31 (the paper uses H <= 13)
-        let mut stack = [Complex64::new(0.0, 0.0); 32];
+        let mut stack = [Complex64::new(0.0, 0.0); HARMONICS_ON_STACK];
         let mut heap = Vec::new();
-        let phi: &mut [Complex64] = if nh <= stack.len() {
-            &mut stack[..nh]
-        } else {
-            heap.resize(nh, Complex64::new(0.0, 0.0));
-            &mut heap
-        };
+        let phi = harmonic_buffer(self.interp.harmonics() + 1, &mut stack, &mut heap);
         for (&point, o) in points.iter().zip(out.iter_mut()) {
             self.interp.shape_all_at(point, &loc, phi);
             let mut x = 0.0;

@@ -52,6 +52,7 @@
 //! -5.5e-3` with this one, `-3.8e-4 / -1.2e-3 / -2.4e-3` with ten residual
 //! modes beside it; frequency and response within 4e-4 throughout
 //! (`host/tests/it/phase_resonance_cosim.rs`).
+use super::{gauge, harmonic_buffer, HARMONICS_ON_STACK};
 use crate::table::{TableInterpolator, TableLocation};
 use num_complex::Complex64;
 
@@ -71,24 +72,13 @@ pub(super) fn harmonic_forcing(
     w: f64,
     phi_ex: Complex64,
 ) -> (f64, f64) {
-    let g = if phi_ex.norm() > 0.0 {
-        phi_ex / phi_ex.norm()
-    } else {
-        Complex64::new(1.0, 0.0)
-    };
+    let g = gauge(phi_ex);
     // e^{i psi}, and the table's own gauge's unit phasor e^{i psi}/g
     let e = Complex64::new(eta, -u) / a;
     let unit = e / g;
-    let nh = interp.harmonics() + 1;
-    // harmonics on the stack up to H = 31 (the paper uses H <= 13)
-    let mut stack = [Complex64::new(0.0, 0.0); 32];
+    let mut stack = [Complex64::new(0.0, 0.0); HARMONICS_ON_STACK];
     let mut heap = Vec::new();
-    let phi: &mut [Complex64] = if nh <= stack.len() {
-        &mut stack[..nh]
-    } else {
-        heap.resize(nh, Complex64::new(0.0, 0.0));
-        &mut heap
-    };
+    let phi = harmonic_buffer(interp.harmonics() + 1, &mut stack, &mut heap);
     interp.shape_all_at(drive, loc, phi);
     // s = Re sum phi_n w^n, s' = Re sum i n phi_n w^n = -sum n Im(phi_n w^n)
     let (mut s, mut ds) = (0.0, 0.0);
