@@ -47,6 +47,7 @@ const SINGLE_MODE: StructureOptions = StructureOptions {
 
 #[allow(clippy::needless_range_loop)] // the levels of two envelopes and their tolerances
 fn compare(
+    name: &str,
     algorithm: &str,
     macro_step_s: f64,
     levels: &[f64],
@@ -67,10 +68,11 @@ fn compare(
     let setup = Setup::new(&sc).unwrap();
     let (nma, _) = methods::nma_table(&setup, &sc, false).unwrap();
     let t0 = Instant::now();
-    let reference = phase_resonance(&setup, &sc, &nma.table, &tmpdir("ref")).unwrap();
+    let reference =
+        phase_resonance(&setup, &sc, &nma.table, &tmpdir(&format!("{name}-ref"))).unwrap();
     let t_ref = t0.elapsed().as_secs_f64();
     sc.phase_resonance.model = PhaseResonanceModel::Cosim;
-    let dir = tmpdir(algorithm);
+    let dir = tmpdir(&format!("{name}-{algorithm}"));
     let t0 = Instant::now();
     let r = phase_resonance(&setup, &sc, &nma.table, &dir).unwrap();
     let t_cosim = t0.elapsed().as_secs_f64();
@@ -121,13 +123,27 @@ fn compare(
 
 #[test]
 fn three_fmu_loop_matches_the_reference_pll() {
-    let remedy = compare("iterative", 2e-5, &[0.5, 1.0], &[0.01, 0.01], SINGLE_MODE);
+    let remedy = compare(
+        "linear",
+        "iterative",
+        2e-5,
+        &[0.5, 1.0],
+        &[0.01, 0.01],
+        SINGLE_MODE,
+    );
     assert!(remedy.is_empty(), "{remedy:?}");
 }
 
 #[test]
 fn three_fmu_loop_matches_the_reference_pll_up_the_backbone() {
-    let remedy = compare("iterative", 1e-5, &[1.0, 5.0], &[0.01, 0.03], SINGLE_MODE);
+    let remedy = compare(
+        "backbone",
+        "iterative",
+        1e-5,
+        &[1.0, 5.0],
+        &[0.01, 0.03],
+        SINGLE_MODE,
+    );
     // 5 V: the harmonics' 2.5 % share of the power, the remedy named
     assert_eq!(remedy.len(), 1, "{remedy:?}");
     assert!(remedy[0].contains("at 5 V"), "{remedy:?}");
@@ -151,7 +167,14 @@ fn three_fmu_loop_with_residual_modes_up_the_backbone() {
         residual_modes: 10,
         ..SINGLE_MODE
     };
-    compare("iterative", 1e-5, &[1.0, 5.0], &[0.01, 0.03], structure);
+    compare(
+        "residual",
+        "iterative",
+        1e-5,
+        &[1.0, 5.0],
+        &[0.01, 0.03],
+        structure,
+    );
 }
 
 /// Issue 25's target: the three-FMU loop with the structure FMU's force on
@@ -179,7 +202,14 @@ fn three_fmu_loop_with_harmonic_projection_within_one_percent() {
         residual_modes: 10,
         harmonic_force_projection: true,
     };
-    compare("iterative", 1e-5, &[1.0, 5.0, 10.0], &[0.01; 3], structure);
+    compare(
+        "projection",
+        "iterative",
+        1e-5,
+        &[1.0, 5.0, 10.0],
+        &[0.01; 3],
+        structure,
+    );
 }
 
 /// More harmonics than the controller FMU outputs: an error naming the key,
