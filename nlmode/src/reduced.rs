@@ -90,6 +90,7 @@ use std::sync::Arc;
 
 pub mod dynamic;
 mod fast;
+mod harmonic;
 mod imposed;
 mod omega_cache;
 mod output;

@@ -24,6 +24,13 @@ pub struct SlowFlowSpec {
     /// `nlmode`, `imposed-force` and `linear-slowflow`. Default `false`: the
     /// paper's model.
     pub rate_terms: bool,
+    /// The attachments' forces on every harmonic of the mode in the
+    /// controllers' `nlmode` plant (`nlmode::control::ReducedPlant::
+    /// with_harmonic_force_projection`; `phase-resonance`, `force-controlled`,
+    /// `response-controlled`, `test-plan` with `model = "nlmode"`). The
+    /// slow-flow sweeps (`nlmode`, `imposed-force`, `linear-slowflow`) refuse
+    /// it: they keep `eq:NM`'s projection. Default `false`.
+    pub harmonic_force_projection: bool,
     /// What the remedies of fired validity checks do: `"name"` lists them in
     /// `summary.json` (`remedies`); `"run"` also runs `nlmode` with each
     /// beside the plain one (`nlmode-dynamic`, `nlmode-residual-modes`).
@@ -55,6 +62,7 @@ impl Default for SlowFlowSpec {
             attachments: lib.attachments,
             residual_modes: 0,
             rate_terms: lib.rate_terms,
+            harmonic_force_projection: false,
             remedies: RemedyPolicy::Name,
         }
     }
@@ -109,6 +117,23 @@ impl SlowFlowSpec {
 }
 
 impl SlowFlowSpec {
+    /// The slow-flow sweep `method` (`nlmode`, `imposed-force`,
+    /// `linear-slowflow`) refuses `harmonic_force_projection`, which only the
+    /// controllers' plant applies (the key named).
+    pub fn check_sweep_projection(&self, method: &str) -> Result<(), ScenarioError> {
+        if !self.harmonic_force_projection {
+            return Ok(());
+        }
+        Err(bad(
+            "slowflow.harmonic_force_projection",
+            format!(
+                "true applies to the controllers' nlmode plant (phase-resonance, force-controlled, \
+                 response-controlled, test-plan with model = \"nlmode\"); the {method} sweep keeps eq:NM's \
+                 projection on the fundamental: remove {method} from [run] methods or set it to false"
+            ),
+        ))
+    }
+
     /// `residual_modes` against the linear modes `table` carries (after the
     /// modal analysis; the key and the limit named).
     pub fn check_residual_modes(

@@ -233,3 +233,63 @@ fn bad_phase_resonance_keys_name_the_key() {
     let ex = Scenario::parse(&ex).unwrap();
     assert_eq!(ex.phase_resonance, Scenario::default().phase_resonance);
 }
+
+/// `[slowflow] harmonic_force_projection` in the controllers' `nlmode` plant
+/// (`nlmode::reduced` module `harmonic`): the attachments' work on the
+/// mode's harmonics added to `eq:NM`'s modal impedance. Against the reference
+/// PLL (full order, every harmonic), per level: relative differences of the
+/// settled frequency, `|q_tip,1|` and the force fundamental `|F_1|`.
+/// Measured (test profile): `eq:NM`'s projection F_1 -7e-5 / -2.41e-2 /
+/// -1.24e-1 at 1 / 5 / 10 V (the stinger force's third harmonic working on
+/// the mode's own third harmonic at the drive point, module docs of
+/// `phase_resonance.rs`); with the projection F_1 1.3e-6 / 6.0e-4 / 5.9e-3,
+/// frequency within 6.5e-5 and `|q_tip,1|` within 2.7e-4. The tolerance is
+/// the issue's for the closed loop, 1 %. The default's figures are
+/// asserted as well (more than 2 % off at 5 V), so that a projection that
+/// did nothing fails.
+#[test]
+fn nlmode_plant_with_harmonic_projection_within_one_percent() {
+    let levels = [1.0, 5.0, 10.0];
+    let text = "[run]\nmethods = [\"phase-resonance\"]\n[[exciter]]\nlocation = \"2l/3\"\n\
+                [output]\nplots = false\n\
+                [phase_resonance]\nvoltage_levels_v = [1.0, 5.0, 10.0]\n";
+    let mut sc = Scenario::parse(text).unwrap();
+    let setup = Setup::new(&sc).unwrap();
+    let (nma, _) = methods::nma_table(&setup, &sc, false).unwrap();
+    let reference = phase_resonance(&setup, &sc, &nma.table, &tmpdir("projection-ref")).unwrap();
+    sc.phase_resonance.model = PhaseResonanceModel::Nlmode;
+    let default = phase_resonance(&setup, &sc, &nma.table, &tmpdir("projection-off")).unwrap();
+    assert_eq!(
+        default.summary.get::<bool>("harmonic_force_projection"),
+        None
+    );
+    sc.slowflow.harmonic_force_projection = true;
+    let projected = phase_resonance(&setup, &sc, &nma.table, &tmpdir("projection-on")).unwrap();
+    assert_eq!(
+        projected.summary.get::<bool>("harmonic_force_projection"),
+        Some(true)
+    );
+    let a = &reference.envelope;
+    for (i, u) in levels.iter().enumerate() {
+        let rel = |x: f64, y: f64| x / y - 1.0;
+        let diffs = |b: &host::results::Envelope| {
+            (
+                rel(b.omega_rad_s[i], a.omega_rad_s[i]),
+                rel(b.tip_amplitude_m[i], a.tip_amplitude_m[i]),
+                rel(b.force_amplitude_n[i], a.force_amplitude_n[i]),
+            )
+        };
+        let (dw0, dq0, df0) = diffs(&default.envelope);
+        let (dw, dq, df) = diffs(&projected.envelope);
+        eprintln!(
+            "{u} V: eq:NM omega {dw0:.2e} q_tip {dq0:.2e} F_1 {df0:.2e}; \
+             projected omega {dw:.2e} q_tip {dq:.2e} F_1 {df:.2e}"
+        );
+        for d in [dw, dq, df] {
+            assert!(d.abs() < 0.01, "{u} V: {d}");
+        }
+        if *u >= 5.0 {
+            assert!(df0 < -0.02, "{u} V: eq:NM's F_1 {df0}");
+        }
+    }
+}

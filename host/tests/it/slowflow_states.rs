@@ -178,6 +178,25 @@ fn residual_modes_bring_nlmode_closer_and_bad_counts_name_the_key() {
     );
 }
 
+/// `[slowflow] harmonic_force_projection` applies to the controllers'
+/// `nlmode` plant only: a slow-flow sweep asked for with it is refused
+/// (exit 2) naming the key and the method, before anything runs.
+#[test]
+fn harmonic_projection_in_a_sweep_names_the_key() {
+    let dir = tmpdir("projection-bad");
+    for method in ["nlmode", "imposed-force", "linear-slowflow"] {
+        expect_failure(
+            &dir,
+            "run",
+            &format!(
+                "[run]\nmethods = [\"{method}\"]\n[slowflow]\nharmonic_force_projection = true\n"
+            ),
+            &["slowflow.harmonic_force_projection", method],
+        );
+        assert!(!dir.join("out").join("summary.json").exists());
+    }
+}
+
 /// The PLL's `nlmode` plant with `[slowflow] attachments = "dynamic"`: the
 /// TMD's slow mode (340 rad/s, inside the backbone's band) is carried
 /// (`summary.json` `attachment_states`), and since the carried states only

@@ -82,6 +82,9 @@ pub struct ReducedPlant {
     channels: Option<((u64, u64), Vec<Complex64>, ImposedForces)>,
     /// The attachments' carried states (module docs), if any.
     carried: Option<Carried>,
+    /// The attachments' work on the mode's harmonics in `K`
+    /// ([`Self::with_harmonic_force_projection`]).
+    harmonic_projection: bool,
 }
 
 /// The attachments whose slow states the plant carries, and the states.
@@ -130,6 +133,7 @@ impl ReducedPlant {
             phasors,
             channels: None,
             carried: None,
+            harmonic_projection: false,
         })
     }
 
@@ -176,6 +180,25 @@ impl ReducedPlant {
         Ok(self)
     }
 
+    /// With `on`, the attachments' forces act on every harmonic of the mode,
+    /// not on its fundamental alone: `K` gets the harmonic impedance
+    /// [`ReducedModel::harmonic_impedance`] at each period's amplitude (the
+    /// averaged counterpart of the structure FMU's `harmonic_force_projection`;
+    /// the power the shaker's third harmonic takes at phase resonance).
+    /// `false` (the default) is `eq:NM`.
+    pub fn with_harmonic_force_projection(mut self, on: bool) -> Self {
+        self.harmonic_projection = on;
+        self
+    }
+
+    /// `z_h` at the amplitude `a` if the projection is on, else 0.
+    fn harmonic_term(&self, a: f64, omega: f64) -> Result<Complex64, ControlError> {
+        if !self.harmonic_projection {
+            return Ok(Complex64::new(0.0, 0.0));
+        }
+        self.model.harmonic_impedance(a, omega).map_err(reduced)
+    }
+
     /// Number of attachment states carried (0: the quasi-steady plant).
     pub fn carried_states(&self) -> usize {
         self.carried.as_ref().map_or(0, |c| c.y.len())
@@ -219,19 +242,20 @@ impl ReducedPlant {
         Ok(())
     }
 
-    /// `A` after one period from `a0` with `K` and the modal force of
-    /// `eq:NM` frozen at the amplitude `a` (channels `ch`, imposed force `fi`
-    /// at `omega`).
+    /// `A` after one period from `a0` with `K` (plus the harmonic term `zh`)
+    /// and the modal force of `eq:NM` frozen at the amplitude `a` (channels
+    /// `ch`, imposed force `fi` at `omega`).
     fn frozen_step(
         model: &ReducedModel,
         (ch, fi): (&[Complex64], ImposedForces),
         a0: Complex64,
-        a: f64,
+        (a, zh): (f64, Complex64),
         omega: f64,
     ) -> Result<Complex64, ControlError> {
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
         let p = model.gather(a, &mut phi).map_err(reduced)?;
         let (k, fm, _) = model.terms_with(&p, &phi, omega, ch, &fi);
+        let k = k + zh;
         let t = 2.0 * std::f64::consts::PI / omega;
         if k.norm() == 0.0 {
             // undamped and tuned: A grows linearly, A' = -i fm / (2 Omega)
@@ -251,7 +275,7 @@ impl ReducedPlant {
         carried: &Carried,
         (ch, fi): (&[Complex64], ImposedForces),
         (a0, y0): (Complex64, &[Complex64]),
-        a: f64,
+        (a, zh): (f64, Complex64),
         omega: f64,
     ) -> Result<(Complex64, Vec<Complex64>), ControlError> {
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
@@ -269,7 +293,7 @@ impl ReducedPlant {
                 p.apply(model, &mut work, &phi, amp, &y[r.clone()], Some(&mut dy[r]));
             }
             let (k, fm, _) = model.terms_with(&props, &phi, omega, &work[..model.nch], &fi);
-            out[0] = Complex64::new(0.0, -0.5 / omega) * (fm - k * amp);
+            out[0] = Complex64::new(0.0, -0.5 / omega) * (fm - (k + zh) * amp);
             out[1..].copy_from_slice(&dy);
         };
         let t = 2.0 * std::f64::consts::PI / omega;
@@ -380,16 +404,20 @@ impl Plant for ReducedPlant {
         let c = (ch.as_slice(), *fi);
         let m = &self.model;
         let a0 = self.amp;
+        let at = |a: f64| -> Result<(f64, Complex64), ControlError> {
+            Ok((a, self.harmonic_term(a, omega)?))
+        };
         let (next, states) = match &self.carried {
             None => {
-                let pred = Self::frozen_step(m, c, a0, a0.norm(), omega)?;
-                let next = Self::frozen_step(m, c, a0, (0.5 * (a0 + pred)).norm(), omega)?;
+                let pred = Self::frozen_step(m, c, a0, at(a0.norm())?, omega)?;
+                let mid = at((0.5 * (a0 + pred)).norm())?;
+                let next = Self::frozen_step(m, c, a0, mid, omega)?;
                 (next, None)
             }
             Some(cs) => {
                 let z0 = (a0, cs.y.as_slice());
-                let (pred, _) = Self::frozen_step_carried(m, cs, c, z0, a0.norm(), omega)?;
-                let mid = (0.5 * (a0 + pred)).norm();
+                let (pred, _) = Self::frozen_step_carried(m, cs, c, z0, at(a0.norm())?, omega)?;
+                let mid = at((0.5 * (a0 + pred)).norm())?;
                 let (next, y) = Self::frozen_step_carried(m, cs, c, z0, mid, omega)?;
                 (next, Some(y))
             }

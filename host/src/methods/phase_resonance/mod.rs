@@ -98,6 +98,9 @@ pub fn phase_resonance(
                 r.summary
                     .set("attachment_states", p.carried_states() as u64);
             }
+            if sc.slowflow.harmonic_force_projection {
+                r.summary.set("harmonic_force_projection", true);
+            }
         }
     }
     Ok(r)
@@ -152,7 +155,8 @@ pub fn plant(
             let m = super::reduced_model(setup, table, None)
                 .context("controlled test on the nlmode model")?;
             let mut p = ReducedPlant::new(m, samples_per_period)
-                .context("controlled test on the nlmode model")?;
+                .context("controlled test on the nlmode model")?
+                .with_harmonic_force_projection(sc.slowflow.harmonic_force_projection);
             if sc.slowflow.attachments == nlmode::reduced::AttachmentStates::Dynamic {
                 p = p
                     .with_attachment_states(
