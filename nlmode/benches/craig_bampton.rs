@@ -103,9 +103,9 @@ fn frame(nx: usize) -> (SparseMatrix, SparseMatrix, usize) {
         let mut kg = [[0.0; 6]; 6];
         for (i, row) in kg.iter_mut().enumerate() {
             for (j, v) in row.iter_mut().enumerate() {
-                for p in 0..6 {
-                    for q in 0..6 {
-                        *v += t(p, i) * kl[p][q] * t(q, j);
+                for (p, klp) in kl.iter().enumerate() {
+                    for (q, klpq) in klp.iter().enumerate() {
+                        *v += t(p, i) * klpq * t(q, j);
                     }
                 }
             }

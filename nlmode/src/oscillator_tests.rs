@@ -595,7 +595,7 @@ fn step_to_table_end_stops_at_the_last_substep_inside_the_table() {
     assert!(a > a_max && osc.state().amplitude() <= a_max);
     let j = (elapsed_s / h).round();
     assert!(
-        j >= 10.0 && j < 15.0 && (j * h - elapsed_s).abs() < 1e-15,
+        (10.0..15.0).contains(&j) && (j * h - elapsed_s).abs() < 1e-15,
         "{j}"
     );
     // the same sub-steps one step each: the same state, then the error

@@ -378,8 +378,10 @@ struct Entry {
 /// Studies kept in this process (most recent last), each with its cache of
 /// structures and modal tables, keyed by the study fingerprint: a Dask
 /// worker loads a study and computes its NMA once for all its batches.
-fn registry() -> &'static Mutex<Vec<(String, Arc<Entry>)>> {
-    static R: OnceLock<Mutex<Vec<(String, Arc<Entry>)>>> = OnceLock::new();
+type Registry = Mutex<Vec<(String, Arc<Entry>)>>;
+
+fn registry() -> &'static Registry {
+    static R: OnceLock<Registry> = OnceLock::new();
     R.get_or_init(Default::default)
 }
 

@@ -705,19 +705,19 @@ impl StreamingPll {
         let ok = finite(self.theta_rad)
             && (0.0..TAU + TAU / MIN_STEPS_PER_PERIOD).contains(&self.theta_rad)
             && finite(self.time_s)
-            && self.last_error_rad.map_or(true, finite)
+            && self.last_error_rad.is_none_or(finite)
             && self
                 .pending_voltage_v
-                .map_or(true, |v| check_voltage(v).is_ok())
-            && self.last_amplitude_m.map_or(true, finite)
+                .is_none_or(|v| check_voltage(v).is_ok())
+            && self.last_amplitude_m.is_none_or(finite)
             && self.next_index <= n
             && self
                 .grid
                 .iter()
                 .all(|g| g.len() == self.next_index && g.iter().all(|x| x.is_finite()))
-            && self.prev.map_or(true, |(t, s)| {
-                t.is_finite() && s.values().iter().all(|x| x.is_finite())
-            })
+            && self
+                .prev
+                .is_none_or(|(t, s)| t.is_finite() && s.values().iter().all(|x| x.is_finite()))
             && self.omega_start_rad_s.is_finite()
             && self.omega_start_rad_s >= 0.0
             && self.settled_levels.len() <= LEVEL_START_FIT
@@ -725,7 +725,7 @@ impl StreamingPll {
                 .settled_levels
                 .iter()
                 .all(|&(u, w)| u.is_finite() && w.is_finite())
-            && self.completed.as_ref().map_or(true, |c| {
+            && self.completed.as_ref().is_none_or(|c| {
                 c.grid
                     .iter()
                     .all(|g| g.len() == n && g.iter().all(|x| x.is_finite()))

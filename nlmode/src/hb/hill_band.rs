@@ -78,11 +78,15 @@ impl ModalForm {
     /// eigenvalue with a non-negative real part (the full Hill matrix is used).
     pub(crate) fn new(fo: &FirstOrderSystem) -> Option<Self> {
         let (lambda, v) = real_eigen(&fo.a)?;
-        if lambda.iter().any(|l| !(l.re < 0.0) || !l.im.is_finite()) {
+        if lambda
+            .iter()
+            .any(|l| l.re.is_nan() || l.re >= 0.0 || !l.im.is_finite())
+        {
             return None;
         }
         let vinv = v.clone().try_inverse()?;
-        if !(v.norm() * vinv.norm() < MAX_CONDITION) {
+        let condition = v.norm() * vinv.norm();
+        if condition.is_nan() || condition >= MAX_CONDITION {
             return None;
         }
         let c = |m: &DMatrix<f64>| m.map(|x| Complex64::new(x, 0.0));

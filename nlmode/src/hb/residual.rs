@@ -107,6 +107,7 @@ impl<'a> HbResidual<'a> {
     }
 
     /// Residual and Jacobian given the linear part at `x`'s `Omega`.
+    #[allow(clippy::needless_range_loop)] // the harmonic `n` indexes `f`, `lin.r`, `lin.dr` and the columns
     fn assemble(&self, x: &DVector<f64>, lin: &Linear) -> (DVector<f64>, DMatrix<f64>) {
         let n_unk = x.len();
         let (ne, h) = (self.ne(), self.harmonics());

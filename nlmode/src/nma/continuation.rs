@@ -221,6 +221,9 @@ pub struct BranchState<'a> {
 pub type NewtonOk<J> = (DVector<f64>, J, usize);
 /// A failed Newton solve: last residual norm, iterations.
 pub type NewtonErr = (f64, usize);
+/// A step across a corner of the branch: the point, its Jacobian, the
+/// Newton iterations and the new tangent.
+type CornerOk<J> = (DVector<f64>, J, usize, DVector<f64>);
 
 /// The stopping rules both Newton variants ([`newton`] and
 /// [`solve_fixed_parameter_chord`]) apply to the bordered residual
@@ -412,7 +415,7 @@ fn corner_step<R: Residual>(
     last_dlambda: f64,
     (lo, hi): (f64, f64),
     opts: &ContinuationOptions,
-) -> Option<(DVector<f64>, R::Jacobian, usize, DVector<f64>)> {
+) -> Option<CornerOk<R::Jacobian>> {
     let n = x.len();
     let fixed = ContinuationOptions {
         max_contraction: None,
@@ -462,7 +465,7 @@ fn corner_turn<R: Residual>(
     t: &DVector<f64>,
     scale: &DVector<f64>,
     opts: &ContinuationOptions,
-) -> Option<(DVector<f64>, R::Jacobian, usize, DVector<f64>)> {
+) -> Option<CornerOk<R::Jacobian>> {
     let xs = x.component_div(scale);
     let mut iterations = 0;
     for k in [1.0, 4.0, 16.0] {

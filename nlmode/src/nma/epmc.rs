@@ -289,8 +289,8 @@ impl EpmcResidual {
         let mut cl = basis.cm.clone();
         for (e, &(k, c)) in tangents.iter().enumerate() {
             let we = basis.w.column(e);
-            kl += (&we * we.transpose()) * k;
-            cl += (&we * we.transpose()) * c;
+            kl += (we * we.transpose()) * k;
+            cl += (we * we.transpose()) * c;
         }
         let j = self.mode;
         let mut psi =
@@ -313,7 +313,7 @@ impl EpmcResidual {
                 }
             };
             let norm = next.norm();
-            if !(norm > 0.0) {
+            if norm.is_nan() || norm <= 0.0 {
                 break;
             }
             psi = next / C64::new(norm, 0.0);
@@ -325,7 +325,7 @@ impl EpmcResidual {
                 break;
             }
         }
-        if !converged || !(s.re > 0.0) || psi[j].norm() == 0.0 {
+        if !converged || s.re.is_nan() || s.re <= 0.0 || psi[j].norm() == 0.0 {
             return self.linear_guess(log10_a);
         }
         // unit norm, psi_j real and positive

@@ -613,8 +613,8 @@ impl AssembledSystem {
     /// first_order.n_inputs()`: in-phase, then quadrature).
     pub fn observe_inputs(&self, z: &DVector<f64>, u: &[f64], f: &[f64], out: &mut DVector<f64>) {
         out.gemv(1.0, &self.obs.z, z, 0.0);
-        for c in 0..self.obs.u.ncols() {
-            out.axpy(u[c], &self.obs.u.column(c), 1.0);
+        for (c, column) in self.obs.u.column_iter().enumerate() {
+            out.axpy(u[c], &column, 1.0);
         }
         for (e, fe) in f.iter().enumerate() {
             out.axpy(*fe, &self.obs.f.column(e), 1.0);

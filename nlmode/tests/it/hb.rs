@@ -318,7 +318,14 @@ fn linear_limit_paper_beam_with_shaker_equals_assembled_frf() {
     let sp = ShakerParams::paper();
     let shaker = LinearAttachment::shaker("shaker", &sp, "2l3").unwrap();
     let u = DVector::from_element(1, Complex64::new(10.0, 0.0));
-    let sys = HbSystem::new(&p.model, &[shaker.clone()], &[u.clone()], &[], "tip").unwrap();
+    let sys = HbSystem::new(
+        &p.model,
+        std::slice::from_ref(&shaker),
+        std::slice::from_ref(&u),
+        &[],
+        "tip",
+    )
+    .unwrap();
     let w0 = p.omega0_rad_s;
     let opts = HbOptions {
         harmonics: 3,
@@ -331,7 +338,13 @@ fn linear_limit_paper_beam_with_shaker_equals_assembled_frf() {
     let b = &res.branches[0];
     assert!(b.points.len() > 20);
     let omegas: Vec<f64> = b.points.iter().map(|q| q.omega_rad_s).collect();
-    let frf = assembled_frf(&p.model, &[shaker.clone()], &[u.clone()], &omegas).unwrap();
+    let frf = assembled_frf(
+        &p.model,
+        std::slice::from_ref(&shaker),
+        std::slice::from_ref(&u),
+        &omegas,
+    )
+    .unwrap();
     let ti = tip_index(&p);
     let mut worst: f64 = 0.0;
     for (q, f) in b.points.iter().zip(&frf) {

@@ -108,15 +108,17 @@ fn jenkins_residual_fine(b: &BranchPoint, harmonics: usize, n: usize) -> f64 {
     }
     let (om, d) = (b.omega_rad_s, b.damping_ratio);
     let mut r2 = 0.0;
-    for h in 0..=harmonics {
-        let fh: Complex64 = (0..n)
-            .map(|t| f[t] * Complex64::from_polar(1.0, -(h as f64) * tau(t)))
+    for (h, qh) in q[..=harmonics].iter().enumerate() {
+        let fh: Complex64 = f
+            .iter()
+            .enumerate()
+            .map(|(t, ft)| ft * Complex64::from_polar(1.0, -(h as f64) * tau(t)))
             .sum::<Complex64>()
             * if h == 0 { 1.0 } else { 2.0 }
             / n as f64;
         let nh = h as f64;
         let lin = Complex64::new(K - nh * nh * om * om * M, nh * om * (C - 2.0 * d * om * M));
-        r2 += (lin * q[h] + fh).norm_sqr();
+        r2 += (lin * qh + fh).norm_sqr();
     }
     r2.sqrt() / (K * q[1].norm())
 }
