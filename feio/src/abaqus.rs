@@ -18,49 +18,26 @@ const F: Format = Format::Abaqus;
 
 /// Parses an Abaqus matrix file's bytes.
 pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
-    let Read {
-        nfields,
-        mut rows,
-        mut cols,
-        vals,
-        labels,
-        bad_value,
-        last,
-    } = read_entries(path, b)?;
-    if nfields == 0 {
-        return Err(err(
-            path,
-            last.max(1),
-            Detail::Expected {
-                expected:
-                    "at least one entry `row, column, value` or `node, dof, node, dof, value`"
-                        .into(),
-                found: String::from("end of file"),
-            },
-        ));
-    }
-    let mut names = None;
-    let n = if nfields == 3 {
-        rows.iter().chain(&cols).max().map_or(0, |m| m + 1)
-    } else {
-        let all;
-        (rows, cols, all) = label_indices(path, last, &labels, bad_value)?;
-        let n = all.len();
-        names = Some(all);
-        n
-    };
-    let lower = rows.iter().zip(&cols).any(|(r, c)| r > c);
-    let upper = rows.iter().zip(&cols).any(|(r, c)| r < c);
-    Ok(Triplets {
-        nrows: n,
-        ncols: n,
-        rows,
-        cols,
-        vals,
-        symmetric_storage: !(lower && upper),
-        labels: names,
-        format: F,
-    })
+    let mut r = Entries::new(path, b.len() as u64);
+    r.window(b)?;
+    r.finish()
+}
+
+/// Parses an Abaqus matrix file whose first bytes are `buf` and whose rest
+/// `rest` gives, in windows of about `window` bytes of whole lines
+/// ([`crate::text::for_each_window`]): the memory is the entries plus one
+/// window of text, not the file's text. `file_bytes` (the file's size, if
+/// known) bounds what is reserved. The same entries and errors as [`parse`].
+pub fn parse_reader_window(
+    path: &Path,
+    buf: Vec<u8>,
+    rest: &mut dyn std::io::Read,
+    file_bytes: Option<u64>,
+    window: usize,
+) -> Result<Triplets, Error> {
+    let mut r = Entries::new(path, file_bytes.unwrap_or(buf.len() as u64));
+    text::for_each_window(path, buf, rest, window, |w| r.window(w))?;
+    r.finish()
 }
 
 /// The error at `line` of `path`.
@@ -84,60 +61,133 @@ struct Read {
     last: usize,
 }
 
-/// Every entry line (the format is the first entry's), checked.
-fn read_entries(path: &Path, b: &[u8]) -> Result<Read, Error> {
-    let cap = (b.len() / 16).min(1 << 24);
-    let mut out = Read {
-        nfields: 0,
-        rows: Vec::with_capacity(cap),
-        cols: Vec::with_capacity(cap),
-        vals: Vec::with_capacity(cap),
-        // labels format: the raw labels of each entry and the line of a non-finite value
-        labels: Vec::new(),
-        bad_value: None,
-        last: 0,
-    };
-    let mut fields: Vec<&[u8]> = Vec::with_capacity(6);
-    for (l, line) in text::lines(b) {
-        out.last = l;
-        let t = text::trim(line);
-        if t.is_empty() || t[0] == b'*' {
-            continue;
+/// The entry lines read so far (the format is the first entry's), checked
+/// as they come, window by window.
+struct Entries<'p> {
+    path: &'p Path,
+    out: Read,
+    /// Lines of the windows before the current one.
+    lines_before: usize,
+}
+
+impl<'p> Entries<'p> {
+    /// For a file of about `bytes` bytes (bounds the entries reserved).
+    fn new(path: &'p Path, bytes: u64) -> Self {
+        let cap = (bytes / 16).min(1 << 24) as usize;
+        Entries {
+            path,
+            out: Read {
+                nfields: 0,
+                rows: Vec::with_capacity(cap),
+                cols: Vec::with_capacity(cap),
+                vals: Vec::with_capacity(cap),
+                labels: Vec::new(),
+                bad_value: None,
+                last: 0,
+            },
+            lines_before: 0,
         }
-        fields.clear();
-        fields.extend(t.split(|&c| c == b','));
-        // a trailing comma
-        if fields.len() > 1 && text::trim(fields[fields.len() - 1]).is_empty() {
-            fields.pop();
-        }
-        if out.nfields == 0 {
-            out.nfields = fields.len();
-            if out.nfields != 3 && out.nfields != 5 {
-                return Err(err(
-                    path,
-                    l,
-                    Detail::Expected {
-                        expected: "`row, column, value` or `node, dof, node, dof, value`".into(),
-                        found: shown(t),
-                    },
-                ));
-            }
-        }
-        let (ints, v) = entry_fields(path, l, t, &fields, out.nfields)?;
-        if out.nfields == 3 {
-            let (r, c) = coordinate_entry(path, l, &ints, v)?;
-            out.rows.push(r);
-            out.cols.push(c);
-        } else {
-            let entry = labels_entry(path, l, &ints)?;
-            if !v.is_finite() && out.bad_value.is_none() {
-                out.bad_value = Some((l, out.labels.len(), v));
-            }
-            out.labels.push(entry);
-        }
-        out.vals.push(v);
     }
-    Ok(out)
+
+    /// The whole lines of the next window of the file.
+    fn window(&mut self, b: &[u8]) -> Result<(), Error> {
+        let (path, out) = (self.path, &mut self.out);
+        let mut fields: Vec<&[u8]> = Vec::with_capacity(6);
+        let mut count = 0;
+        for (k, line) in text::lines(b) {
+            count = k;
+            let l = self.lines_before + k;
+            out.last = l;
+            let t = text::trim(line);
+            if t.is_empty() || t[0] == b'*' {
+                continue;
+            }
+            fields.clear();
+            fields.extend(t.split(|&c| c == b','));
+            // a trailing comma
+            if fields.len() > 1 && text::trim(fields[fields.len() - 1]).is_empty() {
+                fields.pop();
+            }
+            if out.nfields == 0 {
+                out.nfields = fields.len();
+                if out.nfields != 3 && out.nfields != 5 {
+                    return Err(err(
+                        path,
+                        l,
+                        Detail::Expected {
+                            expected: "`row, column, value` or `node, dof, node, dof, value`"
+                                .into(),
+                            found: shown(t),
+                        },
+                    ));
+                }
+            }
+            let (ints, v) = entry_fields(path, l, t, &fields, out.nfields)?;
+            if out.nfields == 3 {
+                let (r, c) = coordinate_entry(path, l, &ints, v)?;
+                out.rows.push(r);
+                out.cols.push(c);
+            } else {
+                let entry = labels_entry(path, l, &ints)?;
+                if !v.is_finite() && out.bad_value.is_none() {
+                    out.bad_value = Some((l, out.labels.len(), v));
+                }
+                out.labels.push(entry);
+            }
+            out.vals.push(v);
+        }
+        self.lines_before += count;
+        Ok(())
+    }
+
+    /// The matrix of the entries read: the coordinate format's size from its
+    /// largest index, the labels format's rows the distinct labels.
+    fn finish(self) -> Result<Triplets, Error> {
+        let path = self.path;
+        let Read {
+            nfields,
+            mut rows,
+            mut cols,
+            vals,
+            labels,
+            bad_value,
+            last,
+        } = self.out;
+        if nfields == 0 {
+            return Err(err(
+                path,
+                last.max(1),
+                Detail::Expected {
+                    expected:
+                        "at least one entry `row, column, value` or `node, dof, node, dof, value`"
+                            .into(),
+                    found: String::from("end of file"),
+                },
+            ));
+        }
+        let mut names = None;
+        let n = if nfields == 3 {
+            rows.iter().chain(&cols).max().map_or(0, |m| m + 1)
+        } else {
+            let all;
+            (rows, cols, all) = label_indices(path, last, &labels, bad_value)?;
+            let n = all.len();
+            names = Some(all);
+            n
+        };
+        let lower = rows.iter().zip(&cols).any(|(r, c)| r > c);
+        let upper = rows.iter().zip(&cols).any(|(r, c)| r < c);
+        Ok(Triplets {
+            nrows: n,
+            ncols: n,
+            rows,
+            cols,
+            vals,
+            symmetric_storage: !(lower && upper),
+            labels: names,
+            format: F,
+        })
+    }
 }
 
 /// The integers and the value of the entry line `l` (text `t`, split into

@@ -272,10 +272,10 @@ pub(crate) fn expected_error(
 }
 
 /// Reads the file at `path` (gzip-compressed or not) in `format`. A Matrix
-/// Market file, plain or gzip-compressed (`.mtx.gz`, decompressed as it is
-/// parsed), is read in windows of whole lines ([`mm::parse_reader`]): the
-/// memory is its entries plus one window of text, not the file's text; other
-/// files are read whole.
+/// Market or Abaqus file, plain or gzip-compressed (`.mtx.gz`, decompressed
+/// as it is parsed), is read in windows of whole lines ([`parse_stream`]):
+/// the memory is its entries plus one window of text, not the file's text;
+/// a Harwell-Boeing file is read whole.
 pub fn read(path: &Path, format: Format) -> Result<Triplets, Error> {
     let io = |e: std::io::Error| Error::Io {
         path: path.into(),
@@ -300,20 +300,40 @@ pub fn read(path: &Path, format: Format) -> Result<Triplets, Error> {
             MAX_DECOMPRESSED,
         );
     }
-    if is_matrix_market(path, &first, format) {
-        return mm::parse_reader(path, first, &mut file, file_bytes);
-    }
-    file.read_to_end(&mut first).map_err(io)?;
-    read_plain(path, &first, format)
+    parse_stream(path, first, &mut file, format, file_bytes, mm::WINDOW_BYTES)
 }
 
-/// Whether text starting with `first` is read as Matrix Market.
-fn is_matrix_market(path: &Path, first: &[u8], format: Format) -> bool {
-    match format {
-        Format::MatrixMarket => true,
-        Format::Auto => detect(path, first) == Some(Format::MatrixMarket),
-        _ => false,
-    }
+/// Parses the text whose first bytes are `first` (at most `window` of them;
+/// fewer: all of it) and whose rest `rest` gives, in `format` (`Auto`: from
+/// `first` and the name): Matrix Market and Abaqus in windows of `window`
+/// bytes of whole lines ([`mm::parse_reader_window`],
+/// [`abaqus::parse_reader_window`]), Harwell-Boeing read whole. `reserve`:
+/// the data bytes that bound the entries reserved ahead.
+fn parse_stream(
+    path: &Path,
+    mut first: Vec<u8>,
+    rest: &mut dyn Read,
+    format: Format,
+    reserve: Option<u64>,
+    window: usize,
+) -> Result<Triplets, Error> {
+    let format = match format {
+        Format::Auto => detect(path, &first).unwrap_or(Format::Auto),
+        f => f,
+    };
+    let mut t = match format {
+        Format::MatrixMarket => mm::parse_reader_window(path, first, rest, reserve, window)?,
+        Format::Abaqus => abaqus::parse_reader_window(path, first, rest, reserve, window)?,
+        Format::HarwellBoeing | Format::Auto => {
+            rest.read_to_end(&mut first).map_err(|e| Error::Io {
+                path: path.into(),
+                message: e.to_string(),
+            })?;
+            return read_plain(path, &first, format);
+        }
+    };
+    t.format = format;
+    Ok(t)
 }
 
 /// Decompressed bytes per compressed byte assumed for the entries reserved
@@ -323,8 +343,8 @@ fn is_matrix_market(path: &Path, first: &[u8], format: Format) -> bool {
 const GZIP_RESERVE_RATIO: u64 = 32;
 
 /// A gzip-compressed file's stream `compressed`, decompressed as it is
-/// read: Matrix Market text parsed in windows of `window` bytes
-/// ([`mm::parse_reader_window`]), other formats read whole; more than
+/// read: Matrix Market and Abaqus text parsed in windows of `window` bytes
+/// ([`parse_stream`]), Harwell-Boeing read whole; more than
 /// `limit` decompressed bytes is an error naming the limit, and a broken
 /// stream an error saying `gzip`. `reserve`: the data bytes that bound the
 /// entries reserved ahead.
@@ -350,13 +370,7 @@ fn read_gzip(
         .take(window as u64)
         .read_to_end(&mut first)
         .map_err(io)?;
-    if !is_matrix_market(path, &first, format) {
-        dec.read_to_end(&mut first).map_err(io)?;
-        return read_plain(path, &first, format);
-    }
-    let mut t = mm::parse_reader_window(path, first, &mut dec, reserve, window)?;
-    t.format = Format::MatrixMarket;
-    Ok(t)
+    parse_stream(path, first, &mut dec, format, reserve, window)
 }
 
 /// A gzip decoder that counts what it gives and fails past `limit` bytes

@@ -393,37 +393,7 @@ pub fn parse_reader_window(
     let data_bytes = file_bytes.map_or(u64::MAX, |b| b.saturating_sub(size.data_start as u64));
     let mut s = Stream::new(path, &size, h, data_bytes)?;
     buf.drain(..size.data_start);
-    let mut eof = false;
-    while !eof {
-        // fill the window, then parse its whole lines and keep the last partial one
-        while buf.len() < window && !eof {
-            let got = (&mut *rest)
-                .take((window - buf.len()) as u64)
-                .read_to_end(&mut buf)
-                .map_err(io)?;
-            eof = got == 0;
-        }
-        let end = if eof {
-            buf.len()
-        } else {
-            match buf.iter().rposition(|&c| c == b'\n') {
-                Some(i) => i + 1,
-                // a line longer than the window: read on
-                None => {
-                    let more = buf.len();
-                    buf.reserve(more);
-                    let got = (&mut *rest)
-                        .take(more as u64)
-                        .read_to_end(&mut buf)
-                        .map_err(io)?;
-                    eof = got == 0;
-                    continue;
-                }
-            }
-        };
-        s.window(&buf[..end])?;
-        buf.drain(..end);
-    }
+    crate::text::for_each_window(path, buf, rest, window, |w| s.window(w))?;
     Ok(Triplets::unlabelled(
         (size.nrows, size.ncols),
         s.finish()?,

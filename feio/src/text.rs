@@ -1,4 +1,62 @@
 //! Byte-level helpers shared by the readers.
+use crate::Error;
+use std::io::Read;
+use std::path::Path;
+
+/// Reads the text `buf` (already read) and then `rest` in windows of about
+/// `window` bytes of whole lines, handing each window to `f` in file order
+/// (the last may end without `\n`); a line longer than the window is read
+/// on until it ends. So a line-oriented reader holds one window of text,
+/// not the file's.
+pub(crate) fn for_each_window(
+    path: &Path,
+    mut buf: Vec<u8>,
+    rest: &mut dyn Read,
+    window: usize,
+    mut f: impl FnMut(&[u8]) -> Result<(), Error>,
+) -> Result<(), Error> {
+    let io = |e: std::io::Error| Error::Io {
+        path: path.into(),
+        message: e.to_string(),
+    };
+    let window = window.max(1);
+    let mut eof = false;
+    while !eof {
+        // fill the window, then hand on its whole lines and keep the last partial one
+        while buf.len() < window && !eof {
+            let got = (&mut *rest)
+                .take((window - buf.len()) as u64)
+                .read_to_end(&mut buf)
+                .map_err(io)?;
+            eof = got == 0;
+        }
+        let end = if eof {
+            buf.len()
+        } else {
+            match buf.iter().rposition(|&c| c == b'\n') {
+                Some(i) => i + 1,
+                // a line longer than the window: read on (at the end of
+                // the file, it is the last line)
+                None => {
+                    let more = buf.len();
+                    buf.reserve(more);
+                    let got = (&mut *rest)
+                        .take(more as u64)
+                        .read_to_end(&mut buf)
+                        .map_err(io)?;
+                    if got > 0 {
+                        continue;
+                    }
+                    eof = true;
+                    buf.len()
+                }
+            }
+        };
+        f(&buf[..end])?;
+        buf.drain(..end);
+    }
+    Ok(())
+}
 
 /// `(1-based line number, line without its `\n` and a trailing `\r`)`.
 pub(crate) fn lines(b: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {

@@ -738,7 +738,7 @@ fn matrix_market_read_in_windows_equals_the_whole_text() {
     cases.push(lines[..lines.len() - 5].join("\n"));
     for text in &cases {
         let whole = rd("w.mtx", text, Format::MatrixMarket);
-        for window in [40, 64, 97, 1000, 1 << 20] {
+        for window in [1, 40, 64, 97, 1000, 1 << 20] {
             let w = windowed(text, window);
             match (&whole, &w) {
                 (Ok(a), Ok(b)) => assert_eq!(a, b, "window {window}"),
@@ -763,5 +763,123 @@ fn matrix_market_read_in_windows_equals_the_whole_text() {
     let b = rd("good.mtx", &good, Format::Auto).unwrap();
     a.format = b.format;
     assert_eq!(a, b);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A random Abaqus file of `n` nodes with 3 DOFs each: the labels format
+/// (`node, dof, node, dof, value`, lower triangle of a band of 2 nodes, a
+/// keyword line and a comment line between entries now and then) or, with
+/// `coordinate`, the same entries as `row, column, value`.
+fn random_abaqus(rng: &mut ChaCha8Rng, n: u64, coordinate: bool) -> String {
+    let mut t = String::from("** MATRIX OUTPUT, STIFFNESS\n*MATRIX, TYPE=STIFFNESS\n");
+    for a in 1..=n {
+        for b in a.saturating_sub(2).max(1)..=a {
+            for da in 1..=3u64 {
+                for db in 1..=3u64 {
+                    if (b, db) > (a, da) {
+                        continue;
+                    }
+                    let v: f64 = rng.gen_range(-1e8..1e8);
+                    if coordinate {
+                        let (r, c) = (3 * (a - 1) + da, 3 * (b - 1) + db);
+                        t.push_str(&format!("{r}, {c}, {v:.16e}\n"));
+                    } else {
+                        t.push_str(&format!("{a}, {da}, {b}, {db}, {v:.16e}\n"));
+                    }
+                }
+            }
+        }
+        if a % 37 == 0 {
+            t.push_str("** a comment\n\n");
+        }
+    }
+    t
+}
+
+/// Abaqus text read in windows ([`feio::abaqus::parse_reader_window`], what
+/// `read` does with a file): the whole text's matrix, labels and errors
+/// (the same line) at every window size, bad lines deep in the file; and
+/// `read` of the plain and the gzip-compressed file equal to the bytes'.
+#[test]
+fn abaqus_read_in_windows_equals_the_whole_text() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let labels = random_abaqus(&mut rng, 60, false);
+    let coordinate = random_abaqus(&mut rng, 60, true);
+    let mut cases = vec![labels.clone(), coordinate.clone()];
+    for good in [&labels, &coordinate] {
+        let lines: Vec<&str> = good.lines().collect();
+        let n = lines.len();
+        for (k, bad) in [
+            (n / 3, "1, 1, oops"),
+            (n / 2, "7, 2, 5, 1, nan"),
+            (2 * n / 3, "0, 1, 1.0"),
+            (n - 3, "5, 4"),
+        ] {
+            let mut l = lines.clone();
+            l[k] = bad;
+            cases.push(l.join("\n"));
+        }
+        cases.push(lines[..n - 5].join("\r\n"));
+    }
+    let window_read = |text: &str, window: usize| {
+        let b = text.as_bytes();
+        let first = b[..b.len().min(window)].to_vec();
+        let mut rest = &b[first.len()..];
+        feio::abaqus::parse_reader_window(
+            Path::new("K.mtx"),
+            first,
+            &mut rest,
+            Some(b.len() as u64),
+            window,
+        )
+    };
+    for text in &cases {
+        let whole = rd("K.mtx", text, Format::Abaqus);
+        for window in [1, 40, 64, 97, 1000, 1 << 20] {
+            let w = window_read(text, window);
+            match (&whole, &w) {
+                (Ok(a), Ok(b)) => {
+                    let first = (0..a.rows.len().min(b.rows.len()))
+                        .find(|&k| (a.rows[k], a.cols[k]) != (b.rows[k], b.cols[k]));
+                    assert!(
+                        a.rows == b.rows && a.cols == b.cols,
+                        "window {window}: {} / {} entries, first difference {first:?}",
+                        a.rows.len(),
+                        b.rows.len()
+                    );
+                    assert!(a.vals == b.vals && a.labels == b.labels, "window {window}");
+                    assert_eq!((a.nrows, a.ncols), (b.nrows, b.ncols), "window {window}");
+                    assert_eq!(a.symmetric_storage, b.symmetric_storage);
+                    assert_eq!(a.format, b.format, "window {window}");
+                }
+                (Err(a), Err(b)) => {
+                    assert_eq!(a.to_string(), b.to_string(), "window {window}");
+                    assert!(a.line().unwrap() > 100, "{a}");
+                }
+                _ => panic!("window {window}: {whole:?} vs {w:?}"),
+            }
+        }
+    }
+    let t = rd("K.mtx", &labels, Format::Auto).unwrap();
+    assert_eq!(t.format, Format::Abaqus);
+    assert_eq!(t.nrows, 180);
+    let dir = std::env::temp_dir().join(format!("feio_abaqus_window_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, text) in [("job_STIF1.mtx", &labels), ("K.txt", &coordinate)] {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        assert_eq!(
+            read(&p, Format::Auto).unwrap(),
+            rd(name, text, Format::Auto).unwrap()
+        );
+        let pz = dir.join(format!("{name}.gz"));
+        let mut enc = flate2_writer(std::fs::File::create(&pz).unwrap());
+        std::io::Write::write_all(&mut enc, text.as_bytes()).unwrap();
+        enc.finish().unwrap();
+        assert_eq!(
+            read(&pz, Format::Auto).unwrap(),
+            rd(name, text, Format::Auto).unwrap()
+        );
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
