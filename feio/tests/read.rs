@@ -779,7 +779,7 @@ fn random_abaqus(rng: &mut ChaCha8Rng, n: u64, coordinate: bool) -> String {
                     if (b, db) > (a, da) {
                         continue;
                     }
-                    let v: f64 = rng.gen_range(-1e8..1e8);
+                    let v: f64 = rng.random_range(-1e8..1e8);
                     if coordinate {
                         let (r, c) = (3 * (a - 1) + da, 3 * (b - 1) + db);
                         t.push_str(&format!("{r}, {c}, {v:.16e}\n"));
