@@ -18,6 +18,7 @@
 //! exponents and Fortran's exponent without a letter (`1.5-100`).
 use crate::text::{self, shown};
 use crate::{parse_error, Detail, Error, Format, Triplets, MAX_DIM};
+use std::io::{BufRead, Read};
 use std::path::Path;
 
 const F: Format = Format::HarwellBoeing;
@@ -128,11 +129,50 @@ struct Want {
 /// `(index of its first value, its line)` of each record of a section.
 type Records = Vec<(usize, usize)>;
 
+/// The file's lines one at a time, numbered from 1, without their `\n` and a
+/// trailing `\r` (as [`text::lines`]): each line is borrowed until the next is
+/// read, so a file is parsed holding one line of its text, not all of it.
+struct Lines<'p, R> {
+    path: &'p Path,
+    inner: R,
+    buf: Vec<u8>,
+    n: usize,
+}
+
+impl<'p, R: BufRead> Lines<'p, R> {
+    fn new(path: &'p Path, inner: R) -> Self {
+        Lines {
+            path,
+            inner,
+            buf: Vec::new(),
+            n: 0,
+        }
+    }
+
+    /// The next line and its number, `None` at the end of the file.
+    fn next(&mut self) -> Result<Option<(usize, &[u8])>, Error> {
+        self.buf.clear();
+        let got = self
+            .inner
+            .read_until(b'\n', &mut self.buf)
+            .map_err(|e| Error::Io {
+                path: self.path.into(),
+                message: e.to_string(),
+            })?;
+        if got == 0 {
+            return Ok(None);
+        }
+        self.n += 1;
+        let line = self.buf.strip_suffix(b"\n").unwrap_or(&self.buf);
+        Ok(Some((self.n, line.strip_suffix(b"\r").unwrap_or(line))))
+    }
+}
+
 /// The fields of one section from the next lines of `lines` (`last_line`: the
 /// last line read); returns the values and their records.
-fn section<'a, T>(
+fn section<T, R: BufRead>(
     path: &Path,
-    lines: &mut impl Iterator<Item = (usize, &'a [u8])>,
+    lines: &mut Lines<'_, R>,
     want: Want,
     last_line: &mut usize,
     parse: impl Fn(&[u8]) -> Option<T>,
@@ -147,7 +187,7 @@ fn section<'a, T>(
     let mut out = Vec::with_capacity(count.min(max_fields));
     let mut at = Vec::new();
     while out.len() < count {
-        let Some((l, rec)) = lines.next() else {
+        let Some((l, rec)) = lines.next()? else {
             return Err(parse_error(
                 path,
                 *last_line,
@@ -215,16 +255,48 @@ fn line_of(at: &[(usize, usize)], k: usize) -> usize {
 
 /// Parses a Harwell-Boeing / Rutherford-Boeing file's bytes.
 pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
-    let mut lines = text::lines(b);
-    let h = header(path, b, &mut lines)?;
+    parse_lines(
+        path,
+        Lines::new(path, b),
+        Some(b.len() as u64),
+        b.len() as u64,
+    )
+}
+
+/// Parses a Harwell-Boeing / Rutherford-Boeing file whose first bytes are
+/// `buf` and whose rest `rest` gives, line by line: the memory is the
+/// pointers, indices and values, not the file's text. `file_bytes`: the
+/// file's size if known (the header's counts are checked against it, as by
+/// [`parse`]); `reserve`: the bytes that bound what is reserved ahead.
+pub fn parse_reader(
+    path: &Path,
+    buf: Vec<u8>,
+    rest: &mut dyn std::io::Read,
+    file_bytes: Option<u64>,
+    reserve: u64,
+) -> Result<Triplets, Error> {
+    let text = std::io::BufReader::with_capacity(1 << 20, std::io::Cursor::new(buf).chain(rest));
+    parse_lines(path, Lines::new(path, text), file_bytes, reserve)
+}
+
+/// [`parse`] from the file's lines (`len`: its size if known; `reserve`:
+/// bounds the fields reserved ahead, one per field width).
+fn parse_lines<R: BufRead>(
+    path: &Path,
+    mut lines: Lines<'_, R>,
+    len: Option<u64>,
+    reserve: u64,
+) -> Result<Triplets, Error> {
+    let h = header(path, len, &mut lines)?;
     let (nrows, ncols, nnz, fmts) = (h.nrows, h.ncols, h.nnz, h.fmts);
+    let max_fields = |f: Fmt| (reserve / f.width as u64).saturating_add(1) as usize;
     let mut last = h.last;
     let (ptr, ptr_at) = section(
         path,
         &mut lines,
         Want {
             count: ncols + 1,
-            max_fields: b.len() / fmts[0].width + 1,
+            max_fields: max_fields(fmts[0]),
             fmt: fmts[0],
             what: "column pointers",
         },
@@ -237,7 +309,7 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         &mut lines,
         Want {
             count: nnz,
-            max_fields: b.len() / fmts[1].width + 1,
+            max_fields: max_fields(fmts[1]),
             fmt: fmts[1],
             what: "row indices",
         },
@@ -249,7 +321,7 @@ pub fn parse(path: &Path, b: &[u8]) -> Result<Triplets, Error> {
         &mut lines,
         Want {
             count: nnz,
-            max_fields: b.len() / fmts[2].width + 1,
+            max_fields: max_fields(fmts[2]),
             fmt: fmts[2],
             what: "values",
         },
@@ -297,14 +369,14 @@ fn ints(l: &[u8]) -> Option<Vec<u64>> {
 }
 
 /// The next line (its number and bytes), or "expected `what`" after `last`.
-fn next_line<'a>(
+fn next_line<'l, R: BufRead>(
     path: &Path,
-    lines: &mut impl Iterator<Item = (usize, &'a [u8])>,
+    lines: &'l mut Lines<'_, R>,
     what: &str,
     last: usize,
-) -> Result<(usize, &'a [u8]), Error> {
+) -> Result<(usize, &'l [u8]), Error> {
     lines
-        .next()
+        .next()?
         .ok_or_else(|| expected(path, last + 1, what, b""))
 }
 
@@ -320,12 +392,12 @@ struct Header {
     last: usize,
 }
 
-/// Reads the header lines from `lines` (`b`: the whole file, which bounds
-/// the counts it announces).
-fn header<'a>(
+/// Reads the header lines from `lines` (`len`: the file's size if known,
+/// which bounds the counts it announces).
+fn header<R: BufRead>(
     path: &Path,
-    b: &[u8],
-    lines: &mut impl Iterator<Item = (usize, &'a [u8])>,
+    len: Option<u64>,
+    lines: &mut Lines<'_, R>,
 ) -> Result<Header, Error> {
     let (_, _title) = next_line(path, lines, "the title line", 0)?;
     let (l2, counts) = next_line(
@@ -348,7 +420,7 @@ fn header<'a>(
     let rhscrd = cards.get(4).copied().unwrap_or(0);
     let (l3, tl) = next_line(path, lines, "line 3: MXTYPE NROW NCOL NNZERO [NELTVL]", l2)?;
     let (symmetric, dims) = matrix_type(path, l3, tl)?;
-    let (nrows, ncols, nnz) = dimensions(path, l3, &dims, b.len(), symmetric)?;
+    let (nrows, ncols, nnz) = dimensions(path, l3, &dims, len, symmetric)?;
     let (l4, fl) = next_line(path, lines, "line 4: PTRFMT INDFMT VALFMT", l3)?;
     let fmts = formats(path, l4, fl)?;
     let mut last = l4;
@@ -457,14 +529,16 @@ fn matrix_type(path: &Path, l3: usize, tl: &[u8]) -> Result<(bool, Vec<u64>), Er
 }
 
 /// NROW, NCOL and NNZERO of line 3 (`l3`), bounded by [`MAX_DIM`] and the
-/// file's length `len` (each value and pointer takes at least a character).
+/// file's length `len` if known (each value and pointer takes at least a
+/// character).
 fn dimensions(
     path: &Path,
     l3: usize,
     dims: &[u64],
-    len: usize,
+    len: Option<u64>,
     symmetric: bool,
 ) -> Result<(usize, usize, usize), Error> {
+    let len = len.unwrap_or(u64::MAX);
     let limit = MAX_DIM as u64;
     for (v, what) in [(dims[0], "NROW"), (dims[1], "NCOL")] {
         if v > limit {
@@ -481,25 +555,25 @@ fn dimensions(
     }
     let (nrows, ncols, nnz) = (dims[0] as usize, dims[1] as usize, dims[2]);
     // each value takes at least one character of the file
-    if nnz > len as u64 {
+    if nnz > len {
         return Err(err(
             path,
             l3,
             Detail::TooLarge {
                 what: "NNZERO",
                 value: nnz,
-                limit: len as u64,
+                limit: len,
             },
         ));
     }
-    if ncols as u64 + 1 > len as u64 {
+    if ncols as u64 + 1 > len {
         return Err(err(
             path,
             l3,
             Detail::TooLarge {
                 what: "NCOL",
                 value: ncols as u64,
-                limit: len as u64,
+                limit: len,
             },
         ));
     }

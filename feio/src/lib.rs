@@ -275,7 +275,7 @@ pub(crate) fn expected_error(
 /// Market or Abaqus file, plain or gzip-compressed (`.mtx.gz`, decompressed
 /// as it is parsed), is read in windows of whole lines ([`parse_stream`]):
 /// the memory is its entries plus one window of text, not the file's text;
-/// a Harwell-Boeing file is read whole.
+/// a Harwell-Boeing file is read line by line.
 pub fn read(path: &Path, format: Format) -> Result<Triplets, Error> {
     let io = |e: std::io::Error| Error::Io {
         path: path.into(),
@@ -300,31 +300,54 @@ pub fn read(path: &Path, format: Format) -> Result<Triplets, Error> {
             MAX_DECOMPRESSED,
         );
     }
-    parse_stream(path, first, &mut file, format, file_bytes, mm::WINDOW_BYTES)
+    let size = Size {
+        exact: file_bytes,
+        reserve: file_bytes,
+    };
+    parse_stream(path, first, &mut file, format, size, mm::WINDOW_BYTES)
 }
+
+/// What is known of a file's (decompressed) size when it is read.
+#[derive(Clone, Copy)]
+struct Size {
+    /// Its exact size (a plain file's), which bounds the counts a header may
+    /// announce.
+    exact: Option<u64>,
+    /// The bytes that bound what is reserved ahead of reading (a gzip file:
+    /// [`GZIP_RESERVE_RATIO`] times its compressed size).
+    reserve: Option<u64>,
+}
+
+/// Bytes assumed for the reservations of a file whose size is unknown.
+const UNKNOWN_SIZE_RESERVE: u64 = 1 << 26;
 
 /// Parses the text whose first bytes are `first` (at most `window` of them;
 /// fewer: all of it) and whose rest `rest` gives, in `format` (`Auto`: from
-/// `first` and the name): Matrix Market and Abaqus in windows of `window`
-/// bytes of whole lines ([`mm::parse_reader_window`],
-/// [`abaqus::parse_reader_window`]), Harwell-Boeing read whole. `reserve`:
-/// the data bytes that bound the entries reserved ahead.
+/// `first` and the name), without holding the file's text: Matrix Market
+/// and Abaqus in windows of `window` bytes of whole lines
+/// ([`mm::parse_reader_window`], [`abaqus::parse_reader_window`]),
+/// Harwell-Boeing line by line ([`hb::parse_reader`]).
 fn parse_stream(
     path: &Path,
     mut first: Vec<u8>,
     rest: &mut dyn Read,
     format: Format,
-    reserve: Option<u64>,
+    size: Size,
     window: usize,
 ) -> Result<Triplets, Error> {
     let format = match format {
         Format::Auto => detect(path, &first).unwrap_or(Format::Auto),
         f => f,
     };
+    let reserve = size.reserve;
     let mut t = match format {
         Format::MatrixMarket => mm::parse_reader_window(path, first, rest, reserve, window)?,
         Format::Abaqus => abaqus::parse_reader_window(path, first, rest, reserve, window)?,
-        Format::HarwellBoeing | Format::Auto => {
+        Format::HarwellBoeing => {
+            let reserve = reserve.unwrap_or(UNKNOWN_SIZE_RESERVE);
+            hb::parse_reader(path, first, rest, size.exact, reserve)?
+        }
+        Format::Auto => {
             rest.read_to_end(&mut first).map_err(|e| Error::Io {
                 path: path.into(),
                 message: e.to_string(),
@@ -343,8 +366,8 @@ fn parse_stream(
 const GZIP_RESERVE_RATIO: u64 = 32;
 
 /// A gzip-compressed file's stream `compressed`, decompressed as it is
-/// read: Matrix Market and Abaqus text parsed in windows of `window` bytes
-/// ([`parse_stream`]), Harwell-Boeing read whole; more than
+/// read and parsed as it comes ([`parse_stream`]: Matrix Market and Abaqus
+/// text in windows of `window` bytes, Harwell-Boeing line by line); more than
 /// `limit` decompressed bytes is an error naming the limit, and a broken
 /// stream an error saying `gzip`. `reserve`: the data bytes that bound the
 /// entries reserved ahead.
@@ -370,7 +393,11 @@ fn read_gzip(
         .take(window as u64)
         .read_to_end(&mut first)
         .map_err(io)?;
-    parse_stream(path, first, &mut dec, format, reserve, window)
+    let size = Size {
+        exact: None,
+        reserve,
+    };
+    parse_stream(path, first, &mut dec, format, size, window)
 }
 
 /// A gzip decoder that counts what it gives and fails past `limit` bytes

@@ -883,3 +883,107 @@ fn abaqus_read_in_windows_equals_the_whole_text() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A random symmetric banded matrix of order `n` as Harwell-Boeing (RSA,
+/// lower triangle by columns, `(10I8)`, `(10I8)`, `(1P,4E20.12)`).
+fn random_hb(rng: &mut ChaCha8Rng, n: usize) -> String {
+    let (mut ptr, mut ind, mut val) = (vec![1usize], Vec::new(), Vec::new());
+    for c in 0..n {
+        for r in c..(c + 4).min(n) {
+            ind.push(r + 1);
+            val.push(rng.random_range(-1e8..1e8));
+        }
+        ptr.push(ind.len() + 1);
+    }
+    let records = |items: Vec<String>, per: usize| -> Vec<String> {
+        items.chunks(per).map(|c| c.concat()).collect()
+    };
+    let p = records(ptr.iter().map(|x| format!("{x:>8}")).collect(), 10);
+    let i = records(ind.iter().map(|x| format!("{x:>8}")).collect(), 10);
+    let v = records(
+        val.iter().map(|x: &f64| format!("{x:>20.12E}")).collect(),
+        4,
+    );
+    let mut t = format!(
+        "{:<72}{:<8}\n{:>14}{:>14}{:>14}{:>14}\n{:<14}{:>14}{:>14}{:>14}{:>14}\n{:<16}{:<16}{:<20}\n",
+        "random band",
+        "K",
+        p.len() + i.len() + v.len(),
+        p.len(),
+        i.len(),
+        v.len(),
+        "RSA",
+        n,
+        n,
+        ind.len(),
+        0,
+        "(10I8)",
+        "(10I8)",
+        "(1P,4E20.12)"
+    );
+    for l in p.iter().chain(&i).chain(&v) {
+        t.push_str(l);
+        t.push('\n');
+    }
+    t
+}
+
+/// `read` parses a Harwell-Boeing file line by line (plain and
+/// gzip-compressed): the matrix and the errors of the whole text, bad
+/// records deep in the file named by the same line.
+#[test]
+fn harwell_boeing_read_line_by_line_equals_the_whole_text() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let good = random_hb(&mut rng, 300);
+    let lines: Vec<&str> = good.lines().collect();
+    let n = lines.len();
+    let with = |k: usize, l: &str| {
+        let mut v = lines.clone();
+        v[k] = l;
+        v.join("\n") + "\n"
+    };
+    let long = format!("{:>20.12E}", f64::NAN);
+    let cases = vec![
+        good.clone(),
+        good.replace('\n', "\r\n"),
+        lines[..n - 3].join("\n"),
+        with(n - 10, "  1.0E+00  oops"),
+        with(n - 2, &long),
+        with(40, "       1    9999"),
+    ];
+    let dir = std::env::temp_dir().join(format!("feio_hb_lines_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (k, text) in cases.iter().enumerate() {
+        let whole = rd("k.rsa", text, Format::Auto);
+        if k <= 1 {
+            let t = whole.as_ref().unwrap();
+            assert_eq!((t.nrows, t.nnz()), (300, 300 * 4 - 6));
+        } else {
+            assert!(whole.as_ref().unwrap_err().line().unwrap() > 30);
+        }
+        let p = dir.join("k.rsa");
+        std::fs::write(&p, text).unwrap();
+        let pz = dir.join("k.rsa.gz");
+        let mut enc = flate2_writer(std::fs::File::create(&pz).unwrap());
+        std::io::Write::write_all(&mut enc, text.as_bytes()).unwrap();
+        enc.finish().unwrap();
+        for file in [&p, &pz] {
+            let streamed = read(file, Format::Auto);
+            match (&whole, &streamed) {
+                (Ok(a), Ok(b)) => assert!(a == b, "case {k}: {}", file.display()),
+                (Err(a), Err(b)) => {
+                    assert_eq!(a.line(), b.line(), "case {k}: {a} / {b}");
+                    assert_eq!(
+                        a.to_string().replace("k.rsa", ""),
+                        b.to_string()
+                            .replace(&file.display().to_string(), "")
+                            .replace("k.rsa.gz", ""),
+                        "case {k}"
+                    );
+                }
+                _ => panic!("case {k}: {:?} / {:?}", whole.is_ok(), streamed.is_ok()),
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
