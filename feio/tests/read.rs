@@ -943,7 +943,7 @@ fn harwell_boeing_read_line_by_line_equals_the_whole_text() {
         v.join("\n") + "\n"
     };
     let long = format!("{:>20.12E}", f64::NAN);
-    let cases = vec![
+    let cases = [
         good.clone(),
         good.replace('\n', "\r\n"),
         lines[..n - 3].join("\n"),
