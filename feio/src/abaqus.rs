@@ -12,6 +12,7 @@
 //! Lines starting with `*` (keywords, `**` comments) and blank lines are skipped.
 use crate::text::{self, shown};
 use crate::{parse_error, Detail, Error, Format, Label, Triplets, MAX_DIM};
+use rayon::prelude::*;
 use std::path::Path;
 
 const F: Format = Format::Abaqus;
@@ -76,67 +77,47 @@ impl<'p> Entries<'p> {
         let cap = (bytes / 16).min(1 << 24) as usize;
         Entries {
             path,
-            out: Read {
-                nfields: 0,
-                rows: Vec::with_capacity(cap),
-                cols: Vec::with_capacity(cap),
-                vals: Vec::with_capacity(cap),
-                labels: Vec::new(),
-                bad_value: None,
-                last: 0,
-            },
+            out: Read::empty(0, cap),
             lines_before: 0,
         }
     }
 
-    /// The whole lines of the next window of the file.
+    /// The whole lines of the next window of the file: the lines up to the
+    /// first entry (which fixes the format) one by one, the rest in
+    /// line-aligned chunks on all threads ([`text::line_chunks`]), merged in
+    /// file order (so the first error in file order is the one reported, as
+    /// when read line by line).
     fn window(&mut self, b: &[u8]) -> Result<(), Error> {
-        let (path, out) = (self.path, &mut self.out);
-        let mut fields: Vec<&[u8]> = Vec::with_capacity(6);
-        let mut count = 0;
-        for (k, line) in text::lines(b) {
-            count = k;
-            let l = self.lines_before + k;
-            out.last = l;
-            let t = text::trim(line);
-            if t.is_empty() || t[0] == b'*' {
-                continue;
-            }
-            fields.clear();
-            fields.extend(t.split(|&c| c == b','));
-            // a trailing comma
-            if fields.len() > 1 && text::trim(fields[fields.len() - 1]).is_empty() {
-                fields.pop();
-            }
-            if out.nfields == 0 {
-                out.nfields = fields.len();
-                if out.nfields != 3 && out.nfields != 5 {
-                    return Err(err(
-                        path,
-                        l,
-                        Detail::Expected {
-                            expected: "`row, column, value` or `node, dof, node, dof, value`"
-                                .into(),
-                            found: shown(t),
-                        },
-                    ));
-                }
-            }
-            let (ints, v) = entry_fields(path, l, t, &fields, out.nfields)?;
-            if out.nfields == 3 {
-                let (r, c) = coordinate_entry(path, l, &ints, v)?;
-                out.rows.push(r);
-                out.cols.push(c);
-            } else {
-                let entry = labels_entry(path, l, &ints)?;
-                if !v.is_finite() && out.bad_value.is_none() {
-                    out.bad_value = Some((l, out.labels.len(), v));
-                }
-                out.labels.push(entry);
-            }
-            out.vals.push(v);
+        let path = self.path;
+        let mut rest = b;
+        if self.out.nfields == 0 {
+            let end = first_entry_end(rest);
+            self.lines_before += read_lines(path, &rest[..end], self.lines_before, &mut self.out)?;
+            rest = &rest[end..];
         }
-        self.lines_before += count;
+        let nfields = self.out.nfields;
+        let parse = |r: &std::ops::Range<usize>| {
+            let mut part = Read::empty(nfields, 0);
+            let lines = read_lines(path, &rest[r.clone()], 0, &mut part);
+            (part, lines)
+        };
+        let chunks = text::line_chunks(rest);
+        let parts: Vec<(Read, Result<usize, Error>)> = if chunks.len() > 1 {
+            chunks.par_iter().map(parse).collect()
+        } else {
+            chunks.iter().map(parse).collect()
+        };
+        for (part, lines) in parts {
+            let base = self.lines_before;
+            let lines = lines.map_err(|mut e| {
+                if let Error::Parse { line, .. } = &mut e {
+                    *line += base;
+                }
+                e
+            })?;
+            self.out.append(part, base);
+            self.lines_before += lines;
+        }
         Ok(())
     }
 
@@ -188,6 +169,106 @@ impl<'p> Entries<'p> {
             format: F,
         })
     }
+}
+
+impl Read {
+    /// No entries yet, `nfields` per entry (0: not known), `cap` reserved.
+    fn empty(nfields: usize, cap: usize) -> Self {
+        Read {
+            nfields,
+            rows: Vec::with_capacity(cap),
+            cols: Vec::with_capacity(cap),
+            vals: Vec::with_capacity(cap),
+            labels: Vec::new(),
+            bad_value: None,
+            last: 0,
+        }
+    }
+
+    /// The entries of `part`, read after these, its lines numbered from 1
+    /// after `base` lines.
+    fn append(&mut self, part: Read, base: usize) {
+        if self.bad_value.is_none() {
+            let before = self.labels.len();
+            self.bad_value = part.bad_value.map(|(l, k, v)| (base + l, before + k, v));
+        }
+        self.rows.extend_from_slice(&part.rows);
+        self.cols.extend_from_slice(&part.cols);
+        self.vals.extend_from_slice(&part.vals);
+        self.labels.extend_from_slice(&part.labels);
+        if part.last > 0 {
+            self.last = base + part.last;
+        }
+    }
+}
+
+/// The end of the line of the first entry of `b` (a line neither blank nor a
+/// keyword or comment), or the end of `b` if it has none.
+fn first_entry_end(b: &[u8]) -> usize {
+    let mut p = 0;
+    while p < b.len() {
+        let end = b[p..]
+            .iter()
+            .position(|&c| c == b'\n')
+            .map_or(b.len(), |i| p + i + 1);
+        let t = text::trim(&b[p..end]);
+        let t = t.strip_suffix(b"\n").map_or(t, text::trim);
+        if !t.is_empty() && t[0] != b'*' {
+            return end;
+        }
+        p = end;
+    }
+    b.len()
+}
+
+/// Reads the entry lines of `b` (whole lines, numbered from `base + 1`) into
+/// `out`, checked (the format is the first entry's: `out.nfields`, set by
+/// the first entry if 0); returns the number of lines.
+fn read_lines(path: &Path, b: &[u8], base: usize, out: &mut Read) -> Result<usize, Error> {
+    let mut fields: Vec<&[u8]> = Vec::with_capacity(6);
+    let mut count = 0;
+    for (k, line) in text::lines(b) {
+        count = k;
+        let l = base + k;
+        out.last = l;
+        let t = text::trim(line);
+        if t.is_empty() || t[0] == b'*' {
+            continue;
+        }
+        fields.clear();
+        fields.extend(t.split(|&c| c == b','));
+        // a trailing comma
+        if fields.len() > 1 && text::trim(fields[fields.len() - 1]).is_empty() {
+            fields.pop();
+        }
+        if out.nfields == 0 {
+            out.nfields = fields.len();
+            if out.nfields != 3 && out.nfields != 5 {
+                return Err(err(
+                    path,
+                    l,
+                    Detail::Expected {
+                        expected: "`row, column, value` or `node, dof, node, dof, value`".into(),
+                        found: shown(t),
+                    },
+                ));
+            }
+        }
+        let (ints, v) = entry_fields(path, l, t, &fields, out.nfields)?;
+        if out.nfields == 3 {
+            let (r, c) = coordinate_entry(path, l, &ints, v)?;
+            out.rows.push(r);
+            out.cols.push(c);
+        } else {
+            let entry = labels_entry(path, l, &ints)?;
+            if !v.is_finite() && out.bad_value.is_none() {
+                out.bad_value = Some((l, out.labels.len(), v));
+            }
+            out.labels.push(entry);
+        }
+        out.vals.push(v);
+    }
+    Ok(count)
 }
 
 /// The integers and the value of the entry line `l` (text `t`, split into
@@ -291,7 +372,7 @@ fn label_indices(
     bad_value: Option<(usize, usize, f64)>,
 ) -> Result<LabelIndices, Error> {
     let mut all: Vec<Label> = labels.iter().flat_map(|(a, b)| [*a, *b]).collect();
-    all.sort_unstable();
+    all.par_sort_unstable();
     all.dedup();
     if all.len() > MAX_DIM {
         return Err(err(
@@ -304,9 +385,26 @@ fn label_indices(
             },
         ));
     }
-    let index = |x: &Label| all.binary_search(x).unwrap_or(0);
-    let rows: Vec<usize> = labels.iter().map(|(a, _)| index(a)).collect();
-    let cols: Vec<usize> = labels.iter().map(|(_, b)| index(b)).collect();
+    // each entry's labels among `all`: through the first label of each node
+    // where the node numbers are dense enough for a table of them (an FE
+    // model's), else by binary search (the same indices either way)
+    let max_node = all.last().map_or(0, |l| l.0);
+    let first = (max_node <= 4 * all.len() as u64 + 1024).then(|| {
+        let mut first = vec![usize::MAX; max_node as usize + 1];
+        for (i, l) in all.iter().enumerate().rev() {
+            first[l.0 as usize] = i;
+        }
+        first
+    });
+    let index = |x: &Label| match &first {
+        Some(first) => {
+            let s = first[x.0 as usize];
+            s + all[s..].iter().position(|y| y == x).unwrap_or(0)
+        }
+        None => all.binary_search(x).unwrap_or(0),
+    };
+    let rows: Vec<usize> = labels.par_iter().map(|(a, _)| index(a)).collect();
+    let cols: Vec<usize> = labels.par_iter().map(|(_, b)| index(b)).collect();
     if let Some((l, k, value)) = bad_value {
         return Err(err(
             path,

@@ -7,14 +7,14 @@
 //! Coordinate data is split into line-aligned chunks parsed in parallel
 //! (rayon) above [`PARALLEL_MIN_BYTES`]; a chunk's lines are numbered after
 //! the fact, so an error still names its line.
-use crate::text::{self, shown, skip_ws, uint};
+use crate::text::{self, count_lines, line_chunks as chunks, shown, skip_ws, uint};
 use crate::{parse_error, Detail, Error, Format, Triplets, MAX_DIM};
 use rayon::prelude::*;
 use std::io::Read;
 use std::path::Path;
 
 /// Coordinate data of at least this many bytes is parsed on all threads.
-pub const PARALLEL_MIN_BYTES: usize = 4 << 20;
+pub use crate::text::PARALLEL_MIN_BYTES;
 
 const F: Format = Format::MatrixMarket;
 
@@ -551,35 +551,6 @@ struct Chunk {
     vals: Vec<f64>,
     /// (1-based line within the chunk, what is wrong)
     err: Option<(usize, Detail)>,
-}
-
-/// Line-aligned byte ranges of `data`: one below [`PARALLEL_MIN_BYTES`], else
-/// about four per thread.
-fn chunks(data: &[u8]) -> Vec<std::ops::Range<usize>> {
-    let threads = rayon::current_num_threads().max(1);
-    if data.len() < PARALLEL_MIN_BYTES || threads == 1 {
-        return std::iter::once(0..data.len()).collect();
-    }
-    let target = (data.len() / (4 * threads)).max(1 << 20);
-    let mut out = Vec::new();
-    let mut start = 0;
-    while start < data.len() {
-        let mut end = (start + target).min(data.len());
-        if end < data.len() {
-            end = data[end..]
-                .iter()
-                .position(|&c| c == b'\n')
-                .map_or(data.len(), |i| end + i + 1);
-        }
-        out.push(start..end);
-        start = end;
-    }
-    out
-}
-
-fn count_lines(b: &[u8]) -> usize {
-    b.iter().filter(|&&c| c == b'\n').count()
-        + usize::from(!b.is_empty() && b[b.len() - 1] != b'\n')
 }
 
 /// 1-based line (within `chunk`) of its `k`-th (0-based) entry.

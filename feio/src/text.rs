@@ -3,6 +3,39 @@ use crate::Error;
 use std::io::Read;
 use std::path::Path;
 
+/// Bytes of text below which a window is parsed on one thread.
+pub const PARALLEL_MIN_BYTES: usize = 4 << 20;
+
+/// Line-aligned byte ranges of `data`: one below [`PARALLEL_MIN_BYTES`], else
+/// about four per thread.
+pub(crate) fn line_chunks(data: &[u8]) -> Vec<std::ops::Range<usize>> {
+    let threads = rayon::current_num_threads().max(1);
+    if data.len() < PARALLEL_MIN_BYTES || threads == 1 {
+        return std::iter::once(0..data.len()).collect();
+    }
+    let target = (data.len() / (4 * threads)).max(1 << 20);
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < data.len() {
+        let mut end = (start + target).min(data.len());
+        if end < data.len() {
+            end = data[end..]
+                .iter()
+                .position(|&c| c == b'\n')
+                .map_or(data.len(), |i| end + i + 1);
+        }
+        out.push(start..end);
+        start = end;
+    }
+    out
+}
+
+/// The lines of `b` as [`lines`] counts them.
+pub(crate) fn count_lines(b: &[u8]) -> usize {
+    b.iter().filter(|&&c| c == b'\n').count()
+        + usize::from(!b.is_empty() && b[b.len() - 1] != b'\n')
+}
+
 /// Reads the text `buf` (already read) and then `rest` in windows of about
 /// `window` bytes of whole lines, handing each window to `f` in file order
 /// (the last may end without `\n`); a line longer than the window is read

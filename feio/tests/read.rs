@@ -987,3 +987,78 @@ fn harwell_boeing_read_line_by_line_equals_the_whole_text() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// An Abaqus file large enough for several parallel chunks per window: the
+/// matrix, labels and errors (bad entries deep in the file, a non-finite
+/// value named by its line and indices) of a one-thread read, exactly.
+#[test]
+fn abaqus_parallel_chunks_equal_one_thread() {
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let big = random_abaqus(&mut rng, 6000, false);
+    assert!(big.len() > feio::mm::PARALLEL_MIN_BYTES, "{}", big.len());
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let lines: Vec<&str> = big.lines().collect();
+    let n = lines.len();
+    let mut cases = vec![(big.clone(), None)];
+    for (k, bad) in [
+        (n - 1234, "1, 1, 1, 1, oops"),
+        (n / 2 + 7, "7, 2, 5, 1, nan"),
+        (n - 3, "5, 4"),
+    ] {
+        let mut l = lines.clone();
+        l[k] = bad;
+        cases.push((l.join("\n"), Some(k + 1)));
+    }
+    for (text, line) in &cases {
+        let seq = one.install(|| rd("K.mtx", text, Format::Abaqus));
+        let par = rd("K.mtx", text, Format::Abaqus);
+        match (&seq, &par, line) {
+            (Ok(a), Ok(b), None) => {
+                assert!(a == b, "parallel read differs");
+                assert_eq!(a.nrows, 18_000);
+            }
+            (Err(a), Err(b), Some(l)) => {
+                assert_eq!(a.to_string(), b.to_string());
+                assert_eq!(a.line(), Some(*l), "{a}");
+            }
+            _ => panic!("{line:?}: {:?} / {:?}", seq.is_ok(), par.is_ok()),
+        }
+    }
+}
+
+/// Node numbers far apart (no table of them: binary search) give the rows
+/// and columns of the same file with dense node numbers.
+#[test]
+fn abaqus_sparse_node_numbers_give_the_same_indices() {
+    let mut rng = ChaCha8Rng::seed_from_u64(13);
+    let dense = random_abaqus(&mut rng, 50, false);
+    let spread: String = dense
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split(", ").collect();
+            if f.len() != 5 {
+                return format!("{l}\n");
+            }
+            let node = |s: &str| s.parse::<u64>().unwrap() * 10_000_000_000;
+            format!(
+                "{}, {}, {}, {}, {}\n",
+                node(f[0]),
+                f[1],
+                node(f[2]),
+                f[3],
+                f[4]
+            )
+        })
+        .collect();
+    let (a, b) = (
+        rd("K.mtx", &dense, Format::Abaqus).unwrap(),
+        rd("K.mtx", &spread, Format::Abaqus).unwrap(),
+    );
+    assert!(a.rows == b.rows && a.cols == b.cols && a.vals == b.vals);
+    let labels = b.labels.unwrap();
+    assert_eq!(labels.len(), 150);
+    assert_eq!(labels[149], (500_000_000_000, 3));
+}
