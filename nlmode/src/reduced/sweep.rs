@@ -593,8 +593,8 @@ struct PassBatch<'a> {
 impl EnvelopeBatch for PassBatch<'_> {
     #[inline(always)]
     fn each<F: FnMut(f64, f64, f64)>(self, f: F) -> Result<(), ReducedError> {
-        let fields = SampleFields::Envelope;
-        (self.model).output_fields_into(self.states, fields, self.scratch, &mut FoldOut(f))
+        let (model, fields) = (self.model, SampleFields::Envelope);
+        model.output_fields_into(self.states, fields, self.scratch, &mut FoldOut(f))
     }
 }
 
