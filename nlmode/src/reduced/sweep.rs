@@ -633,6 +633,7 @@ trait Emit {
     ) -> Result<SweepRun, ReducedError>;
 }
 
+/// The batches to a [`SweepSink`]: each stored, then handed over.
 struct ToSink<'a>(&'a mut dyn SweepSink);
 
 impl Emit for ToSink<'_> {
@@ -659,6 +660,8 @@ impl Emit for ToSink<'_> {
     }
 }
 
+/// The batches to an [`EnvelopeFold`]: each sample's quantities folded as
+/// the output pass computes them.
 struct ToFold<'a, K>(&'a mut K);
 
 impl<K: EnvelopeFold> Emit for ToFold<'_, K> {
