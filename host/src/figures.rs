@@ -100,7 +100,7 @@ pub struct Fold {
 }
 
 /// The figures so far of a [`Fold`] (all but its ring): a copy lives in
-/// registers while a batch is folded ([`Fold`]'s `SweepSink::samples`).
+/// registers while a batch is folded ([`Fold`]'s `EnvelopeFold::fold`).
 #[derive(Debug, Clone, Copy)]
 struct FoldState {
     w: usize,
@@ -222,29 +222,20 @@ impl FoldState {
 }
 
 /// A slow-flow sweep folded as it integrates
-/// ([`nlmode::reduced::ReducedModel::simulate_sweep_into`]).
-impl nlmode::reduced::SweepSink for Fold {
-    fn samples(
+/// ([`nlmode::reduced::ReducedModel::simulate_sweep_folded`]): each sample's
+/// `Omega`, tip and force amplitudes computed as they are folded.
+impl nlmode::reduced::EnvelopeFold for Fold {
+    #[inline(always)]
+    fn fold<B: nlmode::reduced::EnvelopeBatch>(
         &mut self,
-        batch: &[nlmode::reduced::SlowFlowSample],
+        batch: B,
     ) -> Result<(), nlmode::reduced::ReducedError> {
         // the state in a local (registers) over the batch, the ring apart
         let mut st = self.state;
-        for s in batch {
-            st.push(
-                &mut self.ring,
-                s.omega_rad_s,
-                s.tip_amplitude_m,
-                s.force_amplitude_n,
-            );
-        }
+        let ring = &mut self.ring[..];
+        let r = batch.each(|x, y, f| st.push(ring, x, y, f));
         self.state = st;
-        Ok(())
-    }
-
-    /// The figures read the frequency, tip and force amplitudes only.
-    fn fields(&self) -> nlmode::reduced::SampleFields {
-        nlmode::reduced::SampleFields::Envelope
+        r
     }
 }
 

@@ -2,8 +2,9 @@
 //! item 4), without the host: one slow-flow sweep of the paper's beam with
 //! the paper's shaker at 2l/3 from 0.8 to 1.8 omega0 (the default 2,001
 //! output samples), the voltage and the rate drawn as the bench study draws
-//! them (2-10 V, 1-3 % per pseudo period), its samples folded by a sink that
-//! reads the envelope fields only (as the study's figures of merit do).
+//! them (2-10 V, 1-3 % per pseudo period), its samples folded as they are computed
+//! (`simulate_sweep_folded`: the envelope fields only, as the study's figures
+//! of merit).
 //!
 //! `cargo bench -p nlmode --bench study_sweep [-- SWEEPS]` prints the CPU
 //! time per sweep and a checksum of the folded figures (equal before and
@@ -15,9 +16,7 @@
 use nlmode::attachment::{LinearAttachment, ShakerParams};
 use nlmode::excitation::LinearSweep;
 use nlmode::nma::{nonlinear_modal_analysis, TablePolicy};
-use nlmode::reduced::{
-    ReducedError, ReducedModel, SampleFields, SlowFlowOptions, SlowFlowSample, SweepSink,
-};
+use nlmode::reduced::{EnvelopeBatch, EnvelopeFold, ReducedError, ReducedModel, SlowFlowOptions};
 use nlmode::structure::{paper_structure, PaperStructureOptions};
 use nlmode::Complex64;
 
@@ -30,20 +29,16 @@ struct Fold {
     count: usize,
 }
 
-impl SweepSink for Fold {
-    fn samples(&mut self, batch: &[SlowFlowSample]) -> Result<(), ReducedError> {
-        for s in batch {
-            if s.tip_amplitude_m > self.peak.0 {
-                self.peak = (s.tip_amplitude_m, s.omega_rad_s);
+impl EnvelopeFold for Fold {
+    fn fold<B: EnvelopeBatch>(&mut self, batch: B) -> Result<(), ReducedError> {
+        batch.each(|x, y, f| {
+            if y > self.peak.0 {
+                self.peak = (y, x);
             }
-            self.fmin = self.fmin.min(s.force_amplitude_n);
-            self.fmax = self.fmax.max(s.force_amplitude_n);
+            self.fmin = self.fmin.min(f);
+            self.fmax = self.fmax.max(f);
             self.count += 1;
-        }
-        Ok(())
-    }
-    fn fields(&self) -> SampleFields {
-        SampleFields::Envelope
+        })
     }
 }
 
@@ -95,7 +90,7 @@ fn main() {
             fmax: f64::NEG_INFINITY,
             ..Default::default()
         };
-        m.simulate_sweep_into(&sweep, &opts, zero, &mut fold)
+        m.simulate_sweep_folded(&sweep, &opts, zero, &mut fold)
             .unwrap();
         checksum += fold.peak.0 * 1e3 + fold.peak.1 + fold.fmin + fold.fmax;
         samples += fold.count;

@@ -54,6 +54,33 @@ pub struct LinearSweep {
     pub amplitude: f64,
 }
 
+/// The excitation frequency `Omega(t)` of a [`LinearSweep`] with its
+/// constants (the span `|Omega_end - Omega_start|`, the signed rate) taken
+/// once: the slow flow evaluates it at every right-hand side and output
+/// sample. The same operations on the same numbers as
+/// [`LinearSweep::omega_rad_s`], which is this.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct OmegaRamp {
+    start: f64,
+    end: f64,
+    rate: f64,
+    span: f64,
+    signed_rate: f64,
+}
+
+impl OmegaRamp {
+    /// `Omega(t)` \[rad/s\]: on the ramp while `rate t <= span`, held at
+    /// the end after it (a zero rate gives `Omega_start` exactly).
+    #[inline(always)]
+    pub fn at(&self, t_s: f64) -> f64 {
+        if self.rate * t_s <= self.span {
+            self.start + self.signed_rate * t_s
+        } else {
+            self.end
+        }
+    }
+}
+
 impl LinearSweep {
     /// A sweep with an explicit rate magnitude [rad/s^2].
     pub fn new(
@@ -151,12 +178,20 @@ impl LinearSweep {
 
     /// Instantaneous excitation frequency `Omega(t)` [rad/s]; held at
     /// `omega_end_rad_s` after the sweep, `omega_start_rad_s` for a zero rate.
+    #[inline]
     pub fn omega_rad_s(&self, t_s: f64) -> f64 {
-        if self.in_ramp(t_s) {
-            // a zero rate gives Omega_start exactly
-            self.omega_start_rad_s + self.signed_rate_rad_s2() * t_s
-        } else {
-            self.omega_end_rad_s
+        self.ramp().at(t_s)
+    }
+
+    /// `Omega(t)` with the sweep's constants taken once ([`OmegaRamp`]).
+    #[inline(always)]
+    pub(crate) fn ramp(&self) -> OmegaRamp {
+        OmegaRamp {
+            start: self.omega_start_rad_s,
+            end: self.omega_end_rad_s,
+            rate: self.rate_rad_s2,
+            span: (self.omega_end_rad_s - self.omega_start_rad_s).abs(),
+            signed_rate: self.signed_rate_rad_s2(),
         }
     }
 

@@ -110,8 +110,8 @@ pub use post::TimeSignals;
 pub use residual::ResidualModes;
 pub use steady::{LinearSteady, SteadyFrequency, SteadyPoint};
 pub use sweep::{
-    Envelope, SlowFlowOptions, SlowFlowResult, SlowFlowSample, SweepRun, SweepSink, SweepStatus,
-    SweepSummary, SWEEP_BATCH,
+    Envelope, EnvelopeBatch, EnvelopeFold, SlowFlowOptions, SlowFlowResult, SlowFlowSample,
+    SweepRun, SweepSink, SweepStatus, SweepSummary, SWEEP_BATCH,
 };
 
 /// Boxed error of an attachment model.

@@ -23,7 +23,7 @@
 //! integrated and folded. The figures of merit are folded as the sweep integrates: the
 //! slow flow hands its output samples to a [`fom::Fold`] in batches of
 //! [`nlmode::reduced::SWEEP_BATCH`]
-//! ([`nlmode::reduced::ReducedModel::simulate_sweep_into`], the one sweep
+//! ([`nlmode::reduced::ReducedModel::simulate_sweep_folded`], the one sweep
 //! kernel; `host run` stores the same samples through it), so no envelope is
 //! kept or written. The numbers stay bit-identical to `host run`'s
 //! `summary.json`: the same samples (same integration, same output
@@ -564,6 +564,10 @@ fn run_sample(cache: &Cache, sample: usize, group: usize, sc: &Scenario, method:
 
 /// [`run_sample`] by either [`SweepPath`]: the rows are identical, bit for
 /// bit (the same samples folded in the same order by the same expressions).
+// (never inlined: the per-sample cost is measured on this function,
+// `valgrind --tool=callgrind --toggle-collect='*run_sample_with*'`, and a
+// call per sample is nothing against its sweep)
+#[inline(never)]
 fn run_sample_with(
     cache: &Cache,
     sample: usize,
@@ -612,7 +616,7 @@ fn run_sample_with(
                         let mut fold = fom::Fold::new(opts.output_samples);
                         let zero = num_complex::Complex64::new(0.0, 0.0);
                         model
-                            .simulate_sweep_into(&sweep, &opts, zero, &mut fold)
+                            .simulate_sweep_folded(&sweep, &opts, zero, &mut fold)
                             .and_then(|run| {
                                 if fold.is_exact() {
                                     Ok((fold.finish(true), run.status))

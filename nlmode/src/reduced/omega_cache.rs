@@ -203,9 +203,20 @@ impl OmegaCache {
     /// `cubic(&c[ch], t)` (the numbers of [`Self::eval`]).
     #[inline(always)]
     pub fn segment(&self, w: f64) -> (&[[Complex64; 4]], f64) {
-        let loc = self
-            .nodes
-            .locate(w.clamp(self.nodes.first(), self.nodes.last()));
+        let loc = self.nodes.locate(self.clamped(w));
         (&self.c[loc.k * self.nch..(loc.k + 1) * self.nch], loc.t)
+    }
+
+    /// `w.clamp(first node, last node)`, the same number (the nodes are
+    /// ordered: without `clamp`'s check of its bounds, per evaluation).
+    #[inline(always)]
+    fn clamped(&self, w: f64) -> f64 {
+        let (lo, hi) = (self.nodes.first(), self.nodes.last());
+        let w = if w < lo { lo } else { w };
+        if w > hi {
+            hi
+        } else {
+            w
+        }
     }
 }

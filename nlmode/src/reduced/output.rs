@@ -126,9 +126,10 @@ impl ReducedModel {
         Ok(out)
     }
 
-    /// [`Self::output_fields`] appended to `out`, with the work space of
-    /// `scratch` (a sweep keeps both across its batches: no allocation per
-    /// batch). On an error `out` is left as it was.
+    /// [`Self::output_fields`] handed to `out` in sample order (appended to a
+    /// `Vec`, or folded as they are computed: [`SampleOut`]), with the work
+    /// space of `scratch` (a sweep keeps both across its batches: no
+    /// allocation per batch). On an error a `Vec` is left as it was.
     ///
     /// One pass over the samples: table location, channels (from the
     /// sweep's tabulation if [`Channels::Tabulated`]), `eq:fc1`, the
@@ -138,12 +139,15 @@ impl ReducedModel {
     /// quantity is the same expression as before, element by element (the
     /// same operations in the same order): the numbers do not change by a
     /// bit.
-    pub(crate) fn output_fields_into(
+    // (inlined, and the pass too: a fold's state stays in registers over
+    // the samples of a batch)
+    #[inline(always)]
+    pub(crate) fn output_fields_into<O: SampleOut>(
         &self,
         s: &OutputStates,
         fields: SampleFields,
         scratch: &mut OutputScratch,
-        out: &mut Vec<SlowFlowSample>,
+        out: &mut O,
     ) -> Result<(), ReducedError> {
         let nch = self.nch;
         debug_assert!(
@@ -166,15 +170,15 @@ impl ReducedModel {
             Channels::Rows(rows) => {
                 let ch = FromRows(rows, nch);
                 match one {
-                    Some(z) => self.output_pass::<_, true>(s, fields, z, scratch, out, ch),
-                    None => self.output_pass::<_, false>(s, fields, 0, scratch, out, ch),
+                    Some(z) => self.output_pass::<_, _, true>(s, fields, z, scratch, out, ch),
+                    None => self.output_pass::<_, _, false>(s, fields, 0, scratch, out, ch),
                 }
             }
             Channels::Tabulated(cache) => {
                 let ch = FromCache(cache);
                 match one {
-                    Some(z) => self.output_pass::<_, true>(s, fields, z, scratch, out, ch),
-                    None => self.output_pass::<_, false>(s, fields, 0, scratch, out, ch),
+                    Some(z) => self.output_pass::<_, _, true>(s, fields, z, scratch, out, ch),
+                    None => self.output_pass::<_, _, false>(s, fields, 0, scratch, out, ch),
                 }
             }
         }
@@ -185,32 +189,32 @@ impl ReducedModel {
     /// interface point, at the drive point, its `Z_G` channel `z_one` (the
     /// force plan's one term of each list), no residual modes, no imposed
     /// force.
-    fn output_pass<S: ChannelSource, const ONE: bool>(
+    #[inline(always)]
+    fn output_pass<S: ChannelSource, O: SampleOut, const ONE: bool>(
         &self,
         s: &OutputStates,
         fields: SampleFields,
         z_one: usize,
         scratch: &mut OutputScratch,
-        out: &mut Vec<SlowFlowSample>,
+        out: &mut O,
         channels: S,
     ) -> Result<(), ReducedError> {
-        let all = fields == SampleFields::All;
+        let all = !O::ENVELOPE_ONLY && fields == SampleFields::All;
         let OutputScratch { plan, phi, row } = scratch;
         let plan = &*plan.get_or_insert_with(|| self.force_plan());
         phi.clear();
         phi.resize(plan.points.len(), Complex64::new(0.0, 0.0));
         row.clear();
         row.resize(self.nch, Complex64::new(0.0, 0.0));
-        let base = out.len();
-        out.reserve(s.len());
+        let base = out.mark(s.len());
         let zero = Complex64::new(0.0, 0.0);
         let detuned = self.frequency_error.eps != 0.0 || self.frequency_error.offset_rad_s != 0.0;
         // (iterators rather than indices: no bounds check per sample)
         let states = s.t_s.iter().zip(s.omega_rad_s).zip(s.amplitude);
         for (i, ((&t_s, &omega_rad_s), &amp)) in states.enumerate() {
             let a = modulus(&amp);
-            let fail = |out: &mut Vec<SlowFlowSample>, stage, e| {
-                out.truncate(base);
+            let fail = |out: &mut O, stage, e| {
+                out.reset(base);
                 Err(self.first_output_error(s, all, i, stage, e))
             };
             let loc = match self.fast.locate(a) {
@@ -228,10 +232,9 @@ impl ReducedModel {
                 }
             }
             // the shapes at the plan's points: tip, drive, then the others
-            let shapes = self.fast.shapes(loc.k);
             let (tip, drive) = (
-                cubic(&shapes[self.tip], loc.t),
-                cubic(&shapes[self.drive], loc.t),
+                self.fast.shape(loc, self.tip),
+                self.fast.shape(loc, self.drive),
             );
             let ch = channels.at(i, omega_rad_s);
             // eq:fc1, term by term
@@ -244,6 +247,7 @@ impl ReducedModel {
             } else {
                 if let [p0, p1, others @ ..] = &mut phi[..] {
                     (*p0, *p1) = (tip, drive);
+                    let shapes = self.fast.shapes(loc.k);
                     for (p, &pt) in others.iter_mut().zip(&plan.points[2..]) {
                         *p = cubic(&shapes[pt], loc.t);
                     }
@@ -270,7 +274,7 @@ impl ReducedModel {
             } else {
                 (a * modulus(&tip), f64::NAN)
             };
-            out.push(SlowFlowSample {
+            out.put(&SlowFlowSample {
                 t_s,
                 omega_rad_s,
                 a,
@@ -322,6 +326,55 @@ impl ReducedModel {
             }
         }
         error
+    }
+}
+
+/// Where the output pass hands each sample (called once per sample, in
+/// order, and inlined: a sink that reads a few of the quantities leaves the
+/// others uncomputed and unstored).
+pub(crate) trait SampleOut {
+    /// Reads the envelope's quantities only ([`SampleFields::Envelope`]
+    /// whatever the pass is asked for: known when the pass is compiled).
+    const ENVELOPE_ONLY: bool = false;
+    /// Before a pass of `n` samples: the mark to [`Self::reset`] to.
+    fn mark(&mut self, n: usize) -> usize;
+    /// After an error of the pass: back to `mark` where possible.
+    fn reset(&mut self, mark: usize);
+    /// The next sample.
+    fn put(&mut self, s: &SlowFlowSample);
+}
+
+/// The samples stored (the envelope, the sink's batch).
+impl SampleOut for Vec<SlowFlowSample> {
+    #[inline(always)]
+    fn mark(&mut self, n: usize) -> usize {
+        self.reserve(n);
+        self.len()
+    }
+    fn reset(&mut self, mark: usize) {
+        self.truncate(mark);
+    }
+    #[inline(always)]
+    fn put(&mut self, s: &SlowFlowSample) {
+        self.push(*s);
+    }
+}
+
+/// The figures' quantities `(Omega, tip amplitude, force amplitude)` of
+/// each sample to a fold (`f`), nothing stored; a sample handed over is
+/// not taken back on an error.
+pub(crate) struct FoldOut<F>(pub F);
+
+impl<F: FnMut(f64, f64, f64)> SampleOut for FoldOut<F> {
+    const ENVELOPE_ONLY: bool = true;
+    #[inline(always)]
+    fn mark(&mut self, _: usize) -> usize {
+        0
+    }
+    fn reset(&mut self, _: usize) {}
+    #[inline(always)]
+    fn put(&mut self, s: &SlowFlowSample) {
+        (self.0)(s.omega_rad_s, s.tip_amplitude_m, s.force_amplitude_n)
     }
 }
 

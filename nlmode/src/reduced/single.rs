@@ -54,7 +54,7 @@ impl ReducedModel {
         if fe.eps != 0.0 || fe.offset_rad_s != 0.0 {
             w = self.detuned_omega(w, a)?;
         }
-        let ph = cubic(&self.fast.shapes(loc.k)[sp.pt], loc.t);
+        let ph = self.fast.shape(loc, sp.pt);
         let (z_g, t_g) = match &c[sp.z..sp.z + 2] {
             [z, t] => (cubic(z, tc), cubic(t, tc)),
             _ => unreachable!(),

@@ -2,9 +2,11 @@
 //! `linear-slowflow`, `imposed-force`).
 use super::dynamic::AttachmentStates;
 pub(crate) use super::omega_cache::OmegaCache;
-use super::output::{Channels, OutputScratch, OutputStates, SampleFields};
+use super::output::{Channels, FoldOut, OutputScratch, OutputStates, SampleFields};
 use super::{ImposedForces, ReducedError, ReducedModel, MAX_PHI};
-use crate::dopri::{integrate, Controller, ErrorScale, IntegratorStats, Stop, Tolerances};
+use crate::dopri::{
+    integrate, Controller, DensePoly, ErrorScale, IntegratorStats, Stop, Tolerances,
+};
 use crate::excitation::LinearSweep;
 use crate::table::TableError;
 use num_complex::Complex64;
@@ -326,6 +328,34 @@ impl ReducedModel {
         a0: Complex64,
         sink: &mut dyn SweepSink,
     ) -> Result<SweepRun, ReducedError> {
+        self.sweep_with(sweep, opts, a0, &mut ToSink(sink))
+    }
+
+    /// [`Self::simulate_sweep_into`] folded by `fold` (the figures of merit
+    /// of a sweep read `Omega`, the tip and the force amplitudes only): each
+    /// sample's three quantities are computed as the fold takes them, by the
+    /// same expressions as in the stored result, and no sample is stored.
+    /// On an error the fold may have taken a part of the last batch (the
+    /// sweep's result is then the error).
+    pub fn simulate_sweep_folded<K: EnvelopeFold>(
+        &self,
+        sweep: &LinearSweep,
+        opts: &SlowFlowOptions,
+        a0: Complex64,
+        fold: &mut K,
+    ) -> Result<SweepRun, ReducedError> {
+        self.sweep_with(sweep, opts, a0, &mut ToFold(fold))
+    }
+
+    /// The sweep kernel of [`Self::simulate_sweep_into`] and
+    /// [`Self::simulate_sweep_folded`], its output batches to `out`.
+    fn sweep_with<E: Emit>(
+        &self,
+        sweep: &LinearSweep,
+        opts: &SlowFlowOptions,
+        a0: Complex64,
+        out: &mut E,
+    ) -> Result<SweepRun, ReducedError> {
         opts.check()?;
         let (lo, hi) = {
             let (s, e) = (sweep.omega_start_rad_s, sweep.omega_end_rad_s);
@@ -338,7 +368,7 @@ impl ReducedModel {
             let ports = super::dynamic::StatePort::select(self, lo, hi, opts.fast_pole_factor)?;
             // without a slow attachment state the model is `eq:NM` itself
             if !ports.is_empty() {
-                return super::dynamic::simulate(self, &ports, sweep, opts, a0, sink);
+                return out.dynamic(self, &ports, (sweep, opts), a0);
             }
         }
         let cache = OmegaCache::build(self, lo, hi, sweep.amplitude, opts.channel_tol)?;
@@ -354,6 +384,27 @@ impl ReducedModel {
             max_steps: 10_000_000,
             h0: None,
         };
+        // one port with one point, no imposed force: straight-line code,
+        // the integration compiled for it alone (no tests of the other
+        // cases per evaluation)
+        if let (Some(sp), false) = (self.single_point(), opts.rate_terms) {
+            let ramp = sweep.ramp();
+            // (inlined into the integrator's stages: no call per evaluation)
+            return self.integrate_sweep(
+                #[inline(always)]
+                |t: f64, y: &[f64; 2], dy: &mut [f64; 2]| -> Result<(), ReducedError> {
+                    let w = ramp.at(t);
+                    let (c, tc) = cache.segment(w);
+                    *dy = self.rhs_single(sp, y, w, c, tc)?;
+                    Ok(())
+                },
+                (sweep, opts),
+                &cache,
+                &tol,
+                a0,
+                out,
+            );
+        }
         let mut ch = vec![Complex64::new(0.0, 0.0); self.nch];
         let mut phi = [Complex64::new(0.0, 0.0); MAX_PHI];
         let no_imposed = self.imposed.is_empty();
@@ -361,8 +412,6 @@ impl ReducedModel {
         // evaluated, copied or summed per evaluation)
         let mut fi = ImposedForces::NONE;
         let mut dch = vec![Complex64::new(0.0, 0.0); if opts.rate_terms { self.nch } else { 0 }];
-        // one port with one point, no imposed force: straight-line code
-        let single = self.single_point();
         let rhs = |t: f64, y: &[f64; 2], dy: &mut [f64; 2]| -> Result<(), ReducedError> {
             let w = sweep.omega_rad_s(t);
             if !no_imposed {
@@ -373,39 +422,42 @@ impl ReducedModel {
                 let wdot = sweep.omega_rate_rad_s2(t);
                 let d = self.rhs_first_order(y, w, wdot, &ch, &dch, &fi, &mut phi)?;
                 *dy = [d.re, d.im];
-            } else if let Some(sp) = single {
-                let (c, tc) = cache.segment(w);
-                *dy = self.rhs_single(sp, y, w, c, tc)?;
             } else {
                 cache.eval(w, &mut ch);
                 *dy = self.rhs(y, w, &ch, &fi, &mut phi)?;
             }
             Ok(())
         };
+        self.integrate_sweep(rhs, (sweep, opts), &cache, &tol, a0, out)
+    }
+
+    /// The integration of [`Self::sweep_with`] with the slow flow's
+    /// right-hand side `rhs` (the sweep's channels tabulated in `cache`,
+    /// the integrator's tolerances `tol`), from `A0`: the output samples
+    /// taken from each step's continuous extension, in batches to `out`.
+    fn integrate_sweep<E: Emit>(
+        &self,
+        rhs: impl FnMut(f64, &[f64; 2], &mut [f64; 2]) -> Result<(), ReducedError>,
+        (sweep, opts): (&LinearSweep, &SlowFlowOptions),
+        cache: &OmegaCache,
+        tol: &Tolerances<[f64; 2]>,
+        a0: Complex64,
+        out: &mut E,
+    ) -> Result<SweepRun, ReducedError> {
+        let duration = sweep.duration_s();
         let n = opts.output_samples;
         let mut batch = OutputBatch::new(opts.rate_terms);
         let mut next = 0usize;
         let dt = duration / (n - 1) as f64;
-        let sample_t = |j: usize| if j + 1 == n { duration } else { j as f64 * dt };
+        let times = SampleTimes { n, dt, duration };
         let mut last_state = (0.0, [a0.re, a0.im]);
-        let (stats, stop) = integrate(rhs, 0.0, [a0.re, a0.im], duration, &tol, |d, _| {
+        let (stats, stop) = integrate(rhs, 0.0, [a0.re, a0.im], duration, tol, |d, _| {
             let t1 = d.t0 + d.h;
             // the step's continuous extension, its coefficients once
             let poly = d.polynomial();
             let t_last = t1 * (1.0 + 1e-14);
-            while next < n {
-                let ts = sample_t(next);
-                if !(ts <= t_last) {
-                    break;
-                }
-                // `ts.max(t0)` (neither is NaN)
-                let t = if ts < d.t0 { d.t0 } else { ts };
-                let y = poly.eval(t);
-                batch.push(t, Complex64::new(y[0], y[1]));
-                next += 1;
-                if batch.ts.len() == SWEEP_BATCH {
-                    batch.flush(self, sweep, &cache, sink)?;
-                }
+            while batch.take(&poly, (d.t0, t_last), &times, &mut next) {
+                batch.flush(self, sweep, cache, out)?;
             }
             last_state = (t1, poly.eval(t1));
             Ok(())
@@ -421,12 +473,15 @@ impl ReducedModel {
                 let status = stop_status(stop, t_stop, sweep.omega_rad_s(t_stop), a_stop)?;
                 // the state where the sweep stopped ends the output
                 if batch.last_t.map(|t| t < t_stop).unwrap_or(true) {
+                    if batch.ts.len() == SWEEP_BATCH {
+                        batch.flush(self, sweep, cache, out)?;
+                    }
                     batch.push(t_stop, Complex64::new(last_state.1[0], last_state.1[1]));
                 }
                 status
             }
         };
-        batch.flush(self, sweep, &cache, sink)?;
+        batch.flush(self, sweep, cache, out)?;
         Ok(SweepRun {
             status,
             stats,
@@ -497,6 +552,146 @@ impl SweepSink for Vec<SlowFlowSample> {
     }
 }
 
+/// A fold of a sweep's envelope ([`ReducedModel::simulate_sweep_folded`]):
+/// the figures of merit of a sweep, folded as it integrates without a
+/// sample stored.
+pub trait EnvelopeFold {
+    /// Fold the next samples of the sweep (at most [`SWEEP_BATCH`], at least
+    /// one), in order: `batch.each(f)` calls `f(Omega [rad/s], tip amplitude
+    /// [m], force amplitude [N])` once per sample (the quantities of
+    /// [`SlowFlowSample`]) and returns the error of the sweep's output, if
+    /// any (to be returned as it is).
+    fn fold<B: EnvelopeBatch>(&mut self, batch: B) -> Result<(), ReducedError>;
+}
+
+/// The samples of one output batch of a sweep, for an [`EnvelopeFold`]
+/// (computed as they are folded, or stored ones).
+pub trait EnvelopeBatch {
+    /// Calls `f(Omega, tip amplitude, force amplitude)` per sample, in order.
+    fn each<F: FnMut(f64, f64, f64)>(self, f: F) -> Result<(), ReducedError>;
+}
+
+/// Stored samples (e.g. of the sweep with carried attachment states).
+impl EnvelopeBatch for &[SlowFlowSample] {
+    #[inline(always)]
+    fn each<F: FnMut(f64, f64, f64)>(self, mut f: F) -> Result<(), ReducedError> {
+        for s in self {
+            f(s.omega_rad_s, s.tip_amplitude_m, s.force_amplitude_n);
+        }
+        Ok(())
+    }
+}
+
+/// One batch of the sweep's output states: the output pass, its samples
+/// to the fold as they are computed.
+struct PassBatch<'a> {
+    model: &'a ReducedModel,
+    states: &'a OutputStates<'a>,
+    scratch: &'a mut OutputScratch,
+}
+
+impl EnvelopeBatch for PassBatch<'_> {
+    #[inline(always)]
+    fn each<F: FnMut(f64, f64, f64)>(self, f: F) -> Result<(), ReducedError> {
+        let (model, fields) = (self.model, SampleFields::Envelope);
+        model.output_fields_into(self.states, fields, self.scratch, &mut FoldOut(f))
+    }
+}
+
+/// An [`EnvelopeFold`] as a [`SweepSink`] (reading the envelope only).
+struct FoldSink<'a, K>(&'a mut K);
+
+impl<K: EnvelopeFold> SweepSink for FoldSink<'_, K> {
+    fn samples(&mut self, batch: &[SlowFlowSample]) -> Result<(), ReducedError> {
+        self.0.fold(batch)
+    }
+    fn fields(&self) -> SampleFields {
+        SampleFields::Envelope
+    }
+}
+
+/// Where the sweep kernel hands its output batches: a [`SweepSink`]'s
+/// samples, or an [`EnvelopeFold`]'s quantities as they are computed.
+trait Emit {
+    /// The output samples of the states of one batch (`buf`: the sweep's
+    /// buffer of samples, kept across batches).
+    fn emit(
+        &mut self,
+        model: &ReducedModel,
+        states: &OutputStates,
+        scratch: &mut OutputScratch,
+        buf: &mut Vec<SlowFlowSample>,
+    ) -> Result<(), ReducedError>;
+
+    /// The sweep with carried attachment states ([`super::dynamic`]).
+    fn dynamic(
+        &mut self,
+        model: &ReducedModel,
+        ports: &[super::dynamic::StatePort],
+        sweep: (&LinearSweep, &SlowFlowOptions),
+        a0: Complex64,
+    ) -> Result<SweepRun, ReducedError>;
+}
+
+/// The batches to a [`SweepSink`]: each stored, then handed over.
+struct ToSink<'a>(&'a mut dyn SweepSink);
+
+impl Emit for ToSink<'_> {
+    fn emit(
+        &mut self,
+        model: &ReducedModel,
+        states: &OutputStates,
+        scratch: &mut OutputScratch,
+        buf: &mut Vec<SlowFlowSample>,
+    ) -> Result<(), ReducedError> {
+        buf.clear();
+        model.output_fields_into(states, self.0.fields(), scratch, buf)?;
+        self.0.samples(buf)
+    }
+
+    fn dynamic(
+        &mut self,
+        model: &ReducedModel,
+        ports: &[super::dynamic::StatePort],
+        (sweep, opts): (&LinearSweep, &SlowFlowOptions),
+        a0: Complex64,
+    ) -> Result<SweepRun, ReducedError> {
+        super::dynamic::simulate(model, ports, sweep, opts, a0, self.0)
+    }
+}
+
+/// The batches to an [`EnvelopeFold`]: each sample's quantities folded as
+/// the output pass computes them.
+struct ToFold<'a, K>(&'a mut K);
+
+impl<K: EnvelopeFold> Emit for ToFold<'_, K> {
+    #[inline(always)]
+    fn emit(
+        &mut self,
+        model: &ReducedModel,
+        states: &OutputStates,
+        scratch: &mut OutputScratch,
+        _: &mut Vec<SlowFlowSample>,
+    ) -> Result<(), ReducedError> {
+        self.0.fold(PassBatch {
+            model,
+            states,
+            scratch,
+        })
+    }
+
+    fn dynamic(
+        &mut self,
+        model: &ReducedModel,
+        ports: &[super::dynamic::StatePort],
+        (sweep, opts): (&LinearSweep, &SlowFlowOptions),
+        a0: Complex64,
+    ) -> Result<SweepRun, ReducedError> {
+        let sink = &mut FoldSink(&mut *self.0);
+        super::dynamic::simulate(model, ports, sweep, opts, a0, sink)
+    }
+}
+
 /// How a sweep into a [`SweepSink`] ended.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SweepRun {
@@ -508,9 +703,35 @@ pub struct SweepRun {
     pub samples: usize,
 }
 
+/// The first `j` in `[j0, end)` where `taken(j)` is false (`end` if none)
+/// for a `taken` true up to some index and false after it (the sample
+/// times are ordered): searched from the estimate `guess` (`taken` true up
+/// to about there) down and up, so the result is that of testing `j0, j0 +
+/// 1, ...` in turn, at a few tests per step instead of one per sample.
+#[inline(always)]
+fn first_after(j0: usize, end: usize, guess: usize, taken: impl Fn(usize) -> bool) -> usize {
+    let mut j = guess.saturating_add(1).clamp(j0, end.max(j0));
+    while j > j0 && !taken(j - 1) {
+        j -= 1;
+    }
+    while j < end && taken(j) {
+        j += 1;
+    }
+    j
+}
+
+/// The output times of a sweep: `n` uniform in `[0, duration]`, sample `j`
+/// at `j dt`, the last at `duration` exactly.
+struct SampleTimes {
+    n: usize,
+    dt: f64,
+    duration: f64,
+}
+
 /// The states of the output samples not yet handed to the sink, and the
 /// buffers of their output quantities (reused from batch to batch).
 struct OutputBatch {
+    /// Times and states of the pending samples (at most [`SWEEP_BATCH`]).
     ts: Vec<f64>,
     amps: Vec<Complex64>,
     /// Samples handed to the sink so far.
@@ -538,17 +759,65 @@ impl OutputBatch {
             w: Vec::with_capacity(SWEEP_BATCH),
             channels: Vec::new(),
             scratch: OutputScratch::default(),
-            samples: Vec::with_capacity(SWEEP_BATCH),
+            // (reserved by the first batch handed to a sink: a fold never
+            // stores a sample)
+            samples: Vec::new(),
         }
     }
 
-    // (inlined: called per output sample; left to itself it was not, with
-    // the inlining decided by the codegen units' partition)
-    #[inline(always)]
+    /// The sample at `t` with state `a`.
     fn push(&mut self, t: f64, a: Complex64) {
         self.ts.push(t);
         self.amps.push(a);
         self.last_t = Some(t);
+    }
+
+    /// Takes the output samples from `*next` on whose times lie at or
+    /// before `t_last` in the step from `t0` (continuous extension `poly`),
+    /// until the batch is full; `true` if it is (flush it, then take on).
+    /// A sample's time is `max(j dt, t0)` (the last `duration`), its state
+    /// `poly` there.
+    // (the count first, from `t_last / dt` corrected by the exact test;
+    // then each buffer extended by an exact-size iterator: no capacity test
+    // per sample, no buffer zeroed per sweep; `jf` is `j as f64`, exact as
+    // an integer count)
+    #[inline(always)]
+    fn take(
+        &mut self,
+        poly: &DensePoly<2>,
+        (t0, t_last): (f64, f64),
+        times: &SampleTimes,
+        next: &mut usize,
+    ) -> bool {
+        let (len, j0) = (self.ts.len(), *next);
+        let time = |j: usize, jf: f64| {
+            let ts = if j + 1 == times.n {
+                times.duration
+            } else {
+                jf * times.dt
+            };
+            // `ts.max(t0)` (neither is NaN)
+            (ts, if ts < t0 { t0 } else { ts })
+        };
+        let end = times.n.min(j0 + (SWEEP_BATCH - len));
+        let j = first_after(j0, end, (t_last / times.dt) as usize, |j| {
+            time(j, j as f64).0 <= t_last
+        });
+        let mut jf = j0 as f64;
+        self.ts.extend((j0..j).map(|j| {
+            let t = time(j, jf).1;
+            jf += 1.0;
+            t
+        }));
+        self.amps.extend(self.ts[len..].iter().map(|&t| {
+            let y = poly.eval(t);
+            Complex64::new(y[0], y[1])
+        }));
+        if let Some(&t) = self.ts[len..].last() {
+            self.last_t = Some(t);
+        }
+        *next = j;
+        self.ts.len() == SWEEP_BATCH
     }
 
     /// The output quantities of the pending states, to the sink.
@@ -557,39 +826,35 @@ impl OutputBatch {
         model: &ReducedModel,
         sweep: &LinearSweep,
         cache: &OmegaCache,
-        sink: &mut dyn SweepSink,
+        out: &mut impl Emit,
     ) -> Result<(), ReducedError> {
         if self.ts.is_empty() {
             return Ok(());
         }
+        let (ts, amps) = (&self.ts[..], &self.amps[..]);
         self.w.clear();
-        self.w.extend(self.ts.iter().map(|&t| sweep.omega_rad_s(t)));
+        let ramp = sweep.ramp();
+        self.w.extend(ts.iter().map(|&t| ramp.at(t)));
         // with the rate terms each sample's row, its rate force subtracted
         // (super::rate); else the channels from the tabulation
         if self.rate_terms {
             self.channels.clear();
-            let states = (&self.ts[..], &self.w[..], &self.amps[..]);
+            let states = (ts, &self.w[..], amps);
             model.rate_rows_into(cache, sweep, states, &mut self.channels)?;
         }
         let imposed_n = model.drive_imposed_n(&self.w)?;
-        self.samples.clear();
-        model.output_fields_into(
-            &OutputStates {
-                t_s: &self.ts,
-                omega_rad_s: &self.w,
-                amplitude: &self.amps,
-                channels: if self.rate_terms {
-                    Channels::Rows(&self.channels)
-                } else {
-                    Channels::Tabulated(cache)
-                },
-                imposed_n: &imposed_n,
+        let states = OutputStates {
+            t_s: ts,
+            omega_rad_s: &self.w,
+            amplitude: amps,
+            channels: if self.rate_terms {
+                Channels::Rows(&self.channels)
+            } else {
+                Channels::Tabulated(cache)
             },
-            sink.fields(),
-            &mut self.scratch,
-            &mut self.samples,
-        )?;
-        sink.samples(&self.samples)?;
+            imposed_n: &imposed_n,
+        };
+        out.emit(model, &states, &mut self.scratch, &mut self.samples)?;
         self.emitted += self.ts.len();
         self.ts.clear();
         self.amps.clear();

@@ -99,6 +99,26 @@ fn the_sink_receives_the_stored_samples() {
         }
         assert_eq!(run.samples, stored.samples.len());
         assert_eq!(run.status, stored.status);
+        // folded as computed: the same three quantities, bit for bit
+        struct Triples(Vec<[u64; 3]>);
+        impl EnvelopeFold for Triples {
+            fn fold<B: EnvelopeBatch>(&mut self, b: B) -> Result<(), ReducedError> {
+                b.each(|x, y, f| self.0.push([x.to_bits(), y.to_bits(), f.to_bits()]))
+            }
+        }
+        let mut folded = Triples(Vec::new());
+        let frun = m
+            .simulate_sweep_folded(&sweep, &opts, zero, &mut folded)
+            .unwrap();
+        let bits = |s: &SlowFlowSample| {
+            let q = [s.omega_rad_s, s.tip_amplitude_m, s.force_amplitude_n];
+            q.map(f64::to_bits)
+        };
+        assert_eq!(
+            folded.0,
+            stored.samples.iter().map(bits).collect::<Vec<_>>()
+        );
+        assert_eq!((frun.samples, frun.status), (run.samples, run.status));
         assert!(sink.1 >= stored.samples.len().div_ceil(SWEEP_BATCH));
         if volts > 1e3 {
             assert!(
