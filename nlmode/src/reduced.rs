@@ -619,7 +619,7 @@ impl ReducedModel {
     pub(crate) fn detuned_omega(&self, omega_rad_s: f64, a: f64) -> Result<f64, ReducedError> {
         let fe = self.frequency_error;
         let w = (1.0 + fe.eps) * omega_rad_s + fe.offset_rad_s;
-        if !(w > 0.0) {
+        if w.is_nan() || w <= 0.0 {
             return Err(ReducedError::FrequencyError {
                 a,
                 omega_rad_s: w,

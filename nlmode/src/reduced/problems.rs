@@ -10,6 +10,7 @@ use num_complex::Complex64;
 /// modal damping `2 D(a) omega(a) = 2 D0 omega0`. `n` points uniform in
 /// `(0, a_max]`; shapes at `points` with the fundamental `phi` and zero
 /// higher harmonics up to `harmonics`.
+#[allow(clippy::too_many_arguments)] // the problem's parameters, each named
 pub fn duffing_table(
     omega0_rad_s: f64,
     d0: f64,

@@ -62,6 +62,7 @@ impl ReducedModel {
     /// attachment channels `ch` and their derivatives `dch = dch/dOmega`
     /// (standard channels first); `phi` is scratch space.
     #[inline]
+    #[allow(clippy::too_many_arguments)] // the integrator's hot path: its operands by value
     pub(crate) fn rhs_first_order(
         &self,
         y: &[f64],
@@ -100,7 +101,7 @@ impl ReducedModel {
         let zs = Complex64::new(dza.im, -dza.re);
         let den = Complex64::new(2.0 * p.damping_ratio * p.omega_rad_s, 2.0 * omega) + zs;
         let mass = den.norm() / (2.0 * omega);
-        if !(mass >= MIN_MODAL_MASS) {
+        if mass.is_nan() || mass < MIN_MODAL_MASS {
             return Err(ReducedError::RateTerms {
                 omega_rad_s: omega,
                 a,
