@@ -215,22 +215,6 @@ pub(crate) fn lanczos_with(
     name: &'static str,
     keep_mv: bool,
 ) -> Result<SparseModes> {
-    lanczos_from(pencil, solver, sigma, n_modes, name, keep_mv, None)
-}
-
-/// [`lanczos_with`] from the start block `start` (its columns, independent,
-/// span the first block of the Krylov space; the block size is their
-/// count, convergence tested after every step), or from `Op` applied to a
-/// pseudo-random block of `min(n_modes, 3)` columns (`None`).
-pub(crate) fn lanczos_from(
-    pencil: &Pencil,
-    solver: &dyn ShiftInvert,
-    sigma: f64,
-    n_modes: usize,
-    name: &'static str,
-    keep_mv: bool,
-    start: Option<&DMatrix<f64>>,
-) -> Result<SparseModes> {
     let n = pencil.m.nrows() - pencil.fixed.len();
     if n_modes == 0 || n_modes > n || n_modes > MAX_SPARSE_MODES {
         return Err(StructureError::ModeCount {
@@ -241,8 +225,8 @@ pub(crate) fn lanczos_from(
     }
     let nn = pencil.m.nrows();
     let m_scale = pencil.mass_scale();
-    let b = start.map_or(n_modes.min(3), |s| s.ncols().clamp(1, n));
-    let m_max = max_basis(n_modes, n).max(2 * b).min(n);
+    let b = n_modes.min(3);
+    let m_max = max_basis(n_modes, n);
     let op = |x: &DMatrix<f64>| {
         let mut w = pencil.mul_m(x);
         solver.solve_in_place(&mut w);
@@ -257,14 +241,7 @@ pub(crate) fn lanczos_from(
     };
     let mut t = DMatrix::<f64>::zeros(m_max + b, m_max + b);
     // start block: Op applied to a random block, M-orthonormalised
-    let w0 = match start {
-        Some(s) => {
-            let mut w = s.columns(0, b).into_owned();
-            pencil.mask(&mut w);
-            w
-        }
-        None => op(&rng.block(nn, b)),
-    };
+    let w0 = op(&rng.block(nn, b));
     let (w0, mw0, _) = reorthogonalize(pencil, &basis, w0);
     let (q, mq, _) = orthonormalize_block(pencil, &basis, w0, mw0, b, &mut rng, m_scale)?;
     basis.push(&q, &mq);
@@ -293,8 +270,7 @@ pub(crate) fn lanczos_from(
         check += 1;
         // a truncated last block (keep < bl) has an incomplete R: wait for the
         // exact step that follows it
-        if m_cur >= n_modes && (exact || keep == bl) && (check % 2 == 0 || full || start.is_some())
-        {
+        if m_cur >= n_modes && (exact || keep == bl) && (check % 2 == 0 || full) {
             let (worst, ritz) = ritz_pairs(&t, m_cur, m0, bl, &r, n_modes);
             last_residual = worst;
             if worst <= LANCZOS_RTOL {

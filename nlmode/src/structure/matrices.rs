@@ -663,16 +663,22 @@ pub fn matrix_structure_sparse_cb(
 
 /// [`matrix_structure_sparse_cb`] with options: the stages check, order (and
 /// the memory estimate, refused above [`SparseOptions::memory_limit_bytes`]
-/// before any numeric work), factor, eigen (full model), then the reduction;
+/// before any numeric work), factor, then with `K` positive definite the
+/// reduction (eigen of the fixed-interface modes, constraint modes, project)
+/// followed by eigen of the full model's used modes from its basis
+/// ([`super::subspace::cb_first`]; the Lanczos iteration if that does not
+/// converge), otherwise eigen (full model, Lanczos) then the reduction;
 /// their times in [`MatrixStructure::timings`].
 ///
 /// One numeric factorisation: `K` ordered with the masters last, whose
 /// leading block is the factor of `K_ii` ([`SymbolicFactor::with_last`]).
 /// `M` is not factorised: every result depends on `M` only through the
-/// subspaces the Lanczos bases and `T` span, and there it is checked. The
-/// `M`-norm of every new Lanczos direction must be positive (a clearly
-/// negative `x^T M x` proves `M` indefinite,
-/// [`super::lanczos::MASS_NORM_RTOL`]); with `K` positive definite (its
+/// subspaces the Lanczos bases, the subspace iteration's blocks and `T`
+/// span, and there it is checked. The `M`-norm of every new Lanczos
+/// direction must be positive (a clearly negative `x^T M x` proves `M`
+/// indefinite, [`super::lanczos::MASS_NORM_RTOL`]; a block of the subspace
+/// iteration whose `X^T M X` is not positive definite hands over to the
+/// Lanczos iteration, which then tells); with `K` positive definite (its
 /// factor) `K^{-1} M` is self-adjoint in the `K` inner product whatever `M`
 /// is, so its largest eigenvalues, the lowest modes, are real and verified
 /// by their residuals, and a negative eigenvalue there proves `M` indefinite;
@@ -791,13 +797,10 @@ pub fn matrix_structure_sparse_cb_with(
         c_matrix.map_or(0.0, |c| p.dot(&sparse_mul(c, &p)))
     });
     drop(phi);
+    drop(mf);
     let cb = match cb {
-        Some(cb) => {
-            drop(mf);
-            cb
-        }
+        Some(cb) => cb,
         None => {
-            drop(mf);
             let (d, n) = (&dofs, *cb_modes);
             craig_bampton_sparse_with(m, k, c_matrix, d, n, None, sparse, &mut timings)
         }

@@ -3,52 +3,66 @@
 //! Craig-Bampton basis `T` of the same model.
 //!
 //! `T = [Psi, Phi_i]` (constraint modes and fixed-interface modes) spans the
-//! lowest modes of the full model closely: its Rayleigh-Ritz vectors (from
-//! the reduced `T^T K T`, `T^T M T` already computed) carry the lowest
-//! frequency to some six digits, and what they miss lies mostly in high
-//! modes. Each step applies `Op = K^{-1} M` to the whole block (one solve of
-//! all columns: one pass over the factor, forward and back) and takes the
-//! Rayleigh-Ritz pairs of `(K, M)` on the result:
+//! lowest modes of the full model closely: the Rayleigh-Ritz vectors of
+//! `(K, M)` on `T` (from the reduced `T^T K T`, `T^T M T` already computed)
+//! carry the lowest frequency to some six digits, and what they miss lies
+//! mostly in high modes. The start block `X` is the lowest
+//! `n_modes + SUBSPACE_RITZ_MARGIN` of them and [`SUBSPACE_EXTRA`]
+//! pseudo-random columns (a guard against a start deficient in a low mode).
+//! Each step applies `Op = K^{-1} M` to the whole block (one solve of all
+//! columns: one pass over the factor, forward and back) and takes the
+//! Rayleigh-Ritz pairs of `Op` on `X` in the inverse form, as the Lanczos
+//! iteration does (inner products of smooth vectors only, no product with
+//! `K`, whose quadratic forms lose `eps lambda_max / lambda` to cancellation):
 //!
 //! ```text
-//! Z = K^{-1} M X,   K_r = Z^T K Z = Z^T (M X),   M_r = Z^T M Z,
-//! K_r q = lambda M_r q,   X <- Z Q   (M-orthonormal, lambda ascending).
+//! Z = Op X,   (X^T M Z) v = mu (X^T M X) v,   lambda = 1 / mu,   y = X v,
+//! residual ||y - lambda Op y||_M = ||X v - lambda Z v||_M,
+//! X <- M-orthonormalised Z V diag(lambda)   (= Y + R diag(1 / mu), R M-orthogonal to Y).
 //! ```
 //!
 //! The content of mode `k` in the Ritz vector of mode `j` shrinks by
 //! `lambda_j / lambda_k` per step, so the error of mode `j` decays as
-//! `lambda_j / lambda_{p+1}` (`p` columns): fast for the lowest mode (about
-//! `1e-2` per step on the benchmark plate, `p = 14`), slow for the seventh
-//! (`0.13` at `p = 16`: 11 steps, more work than the Lanczos iteration).
-//! [`cb_first`] therefore asks only for the modes the result uses (`omega0`
-//! and the mode of a stiffness-proportional damping), and takes the Lanczos
-//! route for anything else. [`SUBSPACE_EXTRA`] pseudo-random columns guard
-//! against a start block deficient in a low mode.
+//! `lambda_j / lambda_{p+1}` (`p` columns): about `1e-3` per step for the
+//! lowest mode of the plates (`p = 8`), 4 steps from the Craig-Bampton start,
+//! but `0.13` for the seventh at `p = 16` (11 steps: more work than the
+//! Lanczos iteration). [`cb_first`] therefore asks only for the modes the
+//! result uses (`omega0` and the mode of a stiffness-proportional damping)
+//! and takes the Lanczos route for all `n_modes` otherwise.
 //!
 //! Convergence is tested on the residual of the original problem that
-//! [`super::lanczos`] verifies, in the norm of `K^{-1}` relative to `||x||_M
-//! = 1`: `||x - lambda K^{-1} M x||_M`, with the `K^{-1} M x` of the next step
-//! (no extra solve), against [`LANCZOS_RTOL`] (`1e-12`), the tolerance of the
-//! Lanczos iteration's own Ritz residual `||Op x - mu x||_M / mu` (the same
-//! quantity), below [`RESIDUAL_RTOL`] that the Lanczos route then verifies.
-//! The Rayleigh-Ritz step has a rounding floor of its own (its `K_r` holds
-//! the solve's forward error, about `eps lambda_max / lambda_1` relative; on
-//! a 1500-DOF plate the lowest mode's residual fell to `8e-12` and rose to
-//! `4e-10` at the next step): when a step does not reduce the residual
-//! tenfold, the best step is taken if it meets [`RESIDUAL_RTOL`] (the
-//! Lanczos route's verified bound). The iteration count is bounded ([`MAX_SUBSPACE_ITERATIONS`]),
-//! and the iteration gives up early when its observed rate cannot reach the
-//! tolerance within the bound, or when `M_r` is not positive definite: the
-//! caller then runs the Lanczos iteration ([`SubspaceOutcome::modes`] is
-//! `None`), never a less accurate result.
+//! [`super::lanczos`] verifies, in the norm of `K^{-1}` relative to `||y||_M
+//! = 1`, with the solve of the step (no extra solve), against
+//! [`LANCZOS_RTOL`] (`1e-12`), the tolerance of the Lanczos iteration's own
+//! Ritz residual `||Op y - mu y||_M / mu` (the same quantity), below the
+//! [`RESIDUAL_RTOL`] that the Lanczos route then verifies. A step that does
+//! not lower the largest residual ends the iteration (a rounding floor), and
+//! the best step is taken if it meets [`RESIDUAL_RTOL`]. The iteration count
+//! is bounded ([`MAX_SUBSPACE_ITERATIONS`]), and the iteration gives up early
+//! when its observed rate cannot reach the tolerance within the bound, or
+//! when `X^T M X` is not positive definite or a wanted `mu` not positive
+//! (`M` indefinite on the block): the caller then runs the Lanczos iteration
+//! ([`SubspaceOutcome::modes`] is `None`), never a less accurate result.
+//!
+//! The small eigenproblems use faer's self-adjoint eigensolver: on the
+//! nearly diagonal matrices of the later steps nalgebra's `SymmetricEigen`
+//! returned eigenvalues out of step with its eigenvectors, and with the
+//! values recomputed from the vectors the second mode's residual still
+//! jumped from `2e-8` to `1e-3` in one step (1500-DOF plate); with faer all
+//! residuals fall steadily.
 use super::craig_bampton::{craig_bampton_sparse_with, SparseCraigBampton};
 use super::lanczos::{m_norm, modes, omega_of, ModalFactor, Pencil, ShiftInvert, SparseModes};
 use super::lanczos::{LANCZOS_RTOL, RESIDUAL_RTOL};
 use super::sparse::{SparseMatrix, SparseOptions, Stage, StageTimings, Xorshift};
 use super::Result;
-use nalgebra::{DMatrix, SymmetricEigen};
+use nalgebra::DMatrix;
 
-/// Pseudo-random columns added to the start block `T` (module docs).
+/// The start block: the `n_modes + SUBSPACE_RITZ_MARGIN` lowest Ritz
+/// vectors of `(K, M)` on `T` (at most all of `T`'s columns), plus
+/// [`SUBSPACE_EXTRA`] pseudo-random columns (module docs).
+pub const SUBSPACE_RITZ_MARGIN: usize = 5;
+
+/// Pseudo-random columns added to the start block (module docs).
 pub const SUBSPACE_EXTRA: usize = 2;
 
 /// Most block steps of [`subspace_modes`] before it gives up.
@@ -186,17 +200,23 @@ pub fn subspace_modes(
     max_iterations: usize,
 ) -> Result<SubspaceOutcome> {
     let (n, nt) = (pencil.m.nrows(), cb.transform.ncols());
-    let p = (nt.max(n_modes) + extra).min(n - pencil.fixed.len());
+    let ritz_cols = (n_modes + SUBSPACE_RITZ_MARGIN).min(nt);
+    let p = (ritz_cols + extra).min(n - pencil.fixed.len());
     let mut outcome = SubspaceOutcome {
         modes: None,
         iterations: 0,
         columns: p,
         residual: f64::INFINITY,
     };
-    if n_modes == 0 || n == 0 || cb.transform.nrows() != n || p < n_modes || p < nt {
+    let shapes_ok = cb.transform.nrows() == n && cb.stiffness.shape() == (nt, nt);
+    if n_modes == 0 || n == 0 || !shapes_ok || p < n_modes || p < ritz_cols {
         return Ok(outcome);
     }
-    let mut x = start_block(pencil, &cb.transform, p);
+    // the lowest Ritz vectors of (K, M) on T from the reduced matrices
+    let Some((_, q)) = ritz(&cb.stiffness, &cb.mass) else {
+        return Ok(outcome);
+    };
+    let mut x = start_block(pencil, &(&cb.transform * q.columns(0, ritz_cols)), p);
     let mut mx = pencil.mul_m(&x);
     let m_scale = pencil.mass_scale();
     let mut history = Vec::new();
@@ -272,8 +292,8 @@ struct Best {
     res: Vec<f64>,
 }
 
-/// The start block `[T, R]` (`R`: `p - ncols(T)` pseudo-random columns),
-/// the fixed rows zero.
+/// The start block `[T, R]` (`R`: `p - ncols(T)` pseudo-random columns,
+/// here `T` the chosen Ritz vectors), the fixed rows zero.
 fn start_block(pencil: &Pencil, t: &DMatrix<f64>, p: usize) -> DMatrix<f64> {
     let (n, nt) = t.shape();
     let mut x = DMatrix::zeros(n, p);
@@ -408,17 +428,18 @@ fn hopeless(history: &[f64], it: usize, max_iterations: usize) -> bool {
         return false;
     }
     let rate = history[k - 1] / history[k - 2];
-    if !(rate < 0.9) {
+    if rate.is_nan() || rate >= 0.9 {
         return true;
     }
     let needed = (LANCZOS_RTOL / history[k - 1]).ln() / rate.ln();
     it as f64 + needed > max_iterations as f64 + 1.0
 }
 
-/// Rayleigh-Ritz of `(K, M)` on a block from `kr = Z^T K Z`, `mr = Z^T M Z`:
-/// `lambda` ascending and `Q` with `Q^T mr Q = I`, `Q^T kr Q = diag(lambda)`.
-/// The columns are scaled to unit `M`-norm first (their norms differ by the
-/// ratios of the eigenvalues after a solve). `None` when `mr` is not
+/// The small symmetric pencil `kr q = lambda mr q` (both symmetrised) of a
+/// Rayleigh-Ritz step on a block `X` (`kr = X^T K X`, `mr = X^T M X` for
+/// `(K, M)` on `T`; `-X^T M Op X`, `X^T M X` for [`ritz_inverse`]): `lambda`
+/// ascending and `Q` with `Q^T mr Q = I`, `Q^T kr Q = diag(lambda)`. The
+/// columns are scaled to unit `M`-norm first. `None` when `mr` is not
 /// positive definite (`M` indefinite on the block, or dependent columns).
 fn ritz(kr: &DMatrix<f64>, mr: &DMatrix<f64>) -> Option<(Vec<f64>, DMatrix<f64>)> {
     let p = kr.nrows();
@@ -435,24 +456,23 @@ fn ritz(kr: &DMatrix<f64>, mr: &DMatrix<f64>) -> Option<(Vec<f64>, DMatrix<f64>)
     let lk = l.solve_lower_triangular(&kr)?;
     let a = l.solve_lower_triangular(&lk.transpose())?;
     let a = DMatrix::from_fn(p, p, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
-    let e = SymmetricEigen::new(a.clone()).eigenvectors;
-    // each value as its vector's Rayleigh quotient: the pairs stay matched
-    // (nalgebra's values and vectors were seen out of step on a nearly
-    // diagonal `A`)
-    let values: Vec<f64> = (0..p)
-        .map(|j| e.column(j).dot(&(&a * e.column(j))))
-        .collect();
+    // faer's eigensolver (values ascending, matched to the vectors): nalgebra's
+    // SymmetricEigen returned values out of step with the vectors on a
+    // nearly diagonal `A`, as the blocks here become
+    let evd = faer::Mat::<f64>::from_fn(p, p, |i, j| a[(i, j)])
+        .self_adjoint_eigen(faer::Side::Lower)
+        .ok()?;
+    let (sv, u) = (evd.S().column_vector(), evd.U());
+    let values: Vec<f64> = (0..p).map(|j| sv[j]).collect();
     if values.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    let mut order: Vec<usize> = (0..p).collect();
-    order.sort_by(|&i, &j| values[i].total_cmp(&values[j]));
-    let v = DMatrix::from_fn(p, p, |i, j| e[(i, order[j])]);
+    let v = DMatrix::from_fn(p, p, |i, j| u[(i, j)]);
     let mut q = l.transpose().solve_upper_triangular(&v)?;
     for (i, si) in s.iter().enumerate() {
         q.row_mut(i).scale_mut(*si);
     }
-    Some((order.iter().map(|&i| values[i]).collect(), q))
+    Some((values, q))
 }
 
 #[cfg(test)]
@@ -504,8 +524,11 @@ mod tests {
         let lz = lanczos(&pencil, &f.factor, 0.0, 7, "n_modes").unwrap();
         for wanted in [1, 3, 7] {
             let o = subspace_modes(&pencil, &f.factor, &cb, wanted, SUBSPACE_EXTRA, 30).unwrap();
-            let s = o.modes.unwrap();
+            let s = o
+                .modes
+                .unwrap_or_else(|| panic!("{wanted}: {} steps, {:e}", o.iterations, o.residual));
             assert_eq!(s.lambda.len(), wanted);
+            assert_eq!(o.columns, (wanted + 5).min(12) + SUBSPACE_EXTRA);
 
             for j in 0..wanted {
                 let e = rel(s.lambda[j], lz.lambda[j]);
