@@ -35,14 +35,15 @@
 //! = 1`, with the solve of the step (no extra solve), against
 //! [`LANCZOS_RTOL`] (`1e-12`), the tolerance of the Lanczos iteration's own
 //! Ritz residual `||Op y - mu y||_M / mu` (the same quantity), below the
-//! [`RESIDUAL_RTOL`] that the Lanczos route then verifies. A step that does
-//! not lower the largest residual ends the iteration (a rounding floor), and
-//! the best step is taken if it meets [`RESIDUAL_RTOL`]. The iteration count
-//! is bounded ([`MAX_SUBSPACE_ITERATIONS`]), and the iteration gives up early
-//! when its observed rate cannot reach the tolerance within the bound, or
-//! when `X^T M X` is not positive definite or a wanted `mu` not positive
-//! (`M` indefinite on the block): the caller then runs the Lanczos iteration
-//! ([`SubspaceOutcome::modes`] is `None`), never a less accurate result.
+//! [`RESIDUAL_RTOL`] that the Lanczos route then verifies. The iteration
+//! also ends at a step that does not lower the largest residual (a rounding
+//! floor), after [`MAX_SUBSPACE_ITERATIONS`] steps, when its observed rate
+//! cannot reach [`LANCZOS_RTOL`] within them, or when `X^T M X` is not
+//! positive definite or a wanted `mu` not positive (`M` indefinite on the
+//! block); its best step is then taken if every wanted residual meets
+//! [`RESIDUAL_RTOL`] (the bound the Lanczos route guarantees), and otherwise
+//! the caller runs the Lanczos iteration ([`SubspaceOutcome::modes`] is
+//! `None`): never a less accurate result than the Lanczos route's.
 //!
 //! The small eigenproblems use faer's self-adjoint eigensolver: on the
 //! nearly diagonal matrices of the later steps nalgebra's `SymmetricEigen`
