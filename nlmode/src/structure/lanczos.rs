@@ -562,10 +562,19 @@ pub fn modes(
     n_modes: usize,
     name: &'static str,
 ) -> Result<(Vec<f64>, DMatrix<f64>, usize)> {
-    let scale = pencil.lambda_scale();
     let modes = lanczos(pencil, &f.factor, f.sigma, n_modes, name)?;
-    let mut omega = Vec::with_capacity(n_modes);
-    for (c, &l) in modes.lambda.iter().enumerate() {
+    let omega = omega_of(pencil, &modes.lambda)?;
+    Ok((omega, modes.shapes, modes.basis))
+}
+
+/// The natural frequencies [rad/s] of the eigenvalues `lambda` of the
+/// pencil, as [`modes`]: rigid-body modes (`|lambda| <= 1e-12
+/// lambda_scale`) exactly zero, a clearly negative eigenvalue
+/// [`StructureError::NegativeEigenvalue`].
+pub fn omega_of(pencil: &Pencil, lambda: &[f64]) -> Result<Vec<f64>> {
+    let scale = pencil.lambda_scale();
+    let mut omega = Vec::with_capacity(lambda.len());
+    for (c, &l) in lambda.iter().enumerate() {
         if l < -1e-12 * scale {
             return Err(StructureError::NegativeEigenvalue {
                 index: c,
@@ -578,7 +587,7 @@ pub fn modes(
             l.sqrt()
         });
     }
-    Ok((omega, modes.shapes, modes.basis))
+    Ok(omega)
 }
 
 /// [`modes`] of `(M, K)` with their own factorisation (sequential).

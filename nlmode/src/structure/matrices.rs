@@ -36,6 +36,7 @@ use super::sparse::{
     asymmetry, diagonal, for_each_entry, sparse_from_dense, sparse_mul, sparse_to_dense,
     MemoryEstimate, SparseMatrix, SparseOptions, Stage, StageTimings, SymbolicFactor,
 };
+use super::subspace::cb_first;
 use super::{CubicSpring, NamedPoint, NonlinearElement, StructuralModel, StructureError};
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
@@ -662,16 +663,22 @@ pub fn matrix_structure_sparse_cb(
 
 /// [`matrix_structure_sparse_cb`] with options: the stages check, order (and
 /// the memory estimate, refused above [`SparseOptions::memory_limit_bytes`]
-/// before any numeric work), factor, eigen (full model), then the reduction;
+/// before any numeric work), factor, then with `K` positive definite the
+/// reduction (eigen of the fixed-interface modes, constraint modes, project)
+/// followed by eigen of the full model's used modes from its basis
+/// ([`super::subspace::cb_first`]; the Lanczos iteration if that does not
+/// converge), otherwise eigen (full model, Lanczos) then the reduction;
 /// their times in [`MatrixStructure::timings`].
 ///
 /// One numeric factorisation: `K` ordered with the masters last, whose
 /// leading block is the factor of `K_ii` ([`SymbolicFactor::with_last`]).
 /// `M` is not factorised: every result depends on `M` only through the
-/// subspaces the Lanczos bases and `T` span, and there it is checked. The
-/// `M`-norm of every new Lanczos direction must be positive (a clearly
-/// negative `x^T M x` proves `M` indefinite,
-/// [`super::lanczos::MASS_NORM_RTOL`]); with `K` positive definite (its
+/// subspaces the Lanczos bases, the subspace iteration's blocks and `T`
+/// span, and there it is checked. The `M`-norm of every new Lanczos
+/// direction must be positive (a clearly negative `x^T M x` proves `M`
+/// indefinite, [`super::lanczos::MASS_NORM_RTOL`]; a block of the subspace
+/// iteration whose `X^T M X` is not positive definite hands over to the
+/// Lanczos iteration, which then tells); with `K` positive definite (its
 /// factor) `K^{-1} M` is self-adjoint in the `K` inner product whatever `M`
 /// is, so its largest eigenvalues, the lowest modes, are real and verified
 /// by their residuals, and a negative eigenvalue there proves `M` indefinite;
@@ -750,12 +757,31 @@ pub fn matrix_structure_sparse_cb_with(
         fixed: &[],
         par,
     };
-    let (omega, phi, basis) = timings
-        .time(Stage::Eigen, sparse, || {
-            modes(&pencil, &mf, n_modes, "n_modes")
-        })
-        .map_err(|e| sparse_error(opts, e, Some(mf.sigma)))?;
-    timings.lanczos_basis.push(basis);
+    // K positive definite: Craig-Bampton first on its factor, whose basis
+    // starts the full model's modes (subspace.rs); a shifted factor (rigid-body
+    // modes): the full model's modes by Lanczos, then the factor freed and
+    // K_ii factorised on its own (one factorisation alive at a time)
+    let (omega, phi, cb) = if mf.sigma == 0.0 {
+        // the modes the result uses: omega0 and a stiffness-proportional
+        // damping's mode (n_modes also counts rigid-body modes)
+        let wanted = match &opts.damping {
+            MatrixDamping::StiffnessProportional { mode_index, .. } => mode_index + 1,
+            _ => 1,
+        };
+        let counts = (wanted.min(n_modes), n_modes);
+        let (d, t) = (&dofs, &mut timings);
+        let f = cb_first(&pencil, &mf, c_matrix, d, *cb_modes, counts, sparse, t)
+            .map_err(|e| sparse_error(opts, e, Some(0.0)))?;
+        (f.omega, f.phi, Some(f.cb))
+    } else {
+        let (omega, phi, basis) = timings
+            .time(Stage::Eigen, sparse, || {
+                modes(&pencil, &mf, n_modes, "n_modes")
+            })
+            .map_err(|e| sparse_error(opts, e, Some(mf.sigma)))?;
+        timings.lanczos_basis.push(basis);
+        (omega, phi, None)
+    };
     let (rigid_body_modes, omega0_rad_s) = rigid_and_omega0(opts, &omega)?;
     if let MatrixDamping::StiffnessProportional { mode_index, .. } = &opts.damping {
         if omega[*mode_index] == 0.0 {
@@ -771,22 +797,15 @@ pub fn matrix_structure_sparse_cb_with(
         c_matrix.map_or(0.0, |c| p.dot(&sparse_mul(c, &p)))
     });
     drop(phi);
-    // K positive definite: its factor (masters last) serves K_ii as well; a
-    // shifted factor (rigid-body modes) is freed and K_ii factorised on its
-    // own (one factorisation alive at a time)
-    let k_factor = (mf.sigma == 0.0).then_some(mf.factor);
-    let cb = craig_bampton_sparse_with(
-        m,
-        k,
-        c_matrix,
-        &dofs,
-        *cb_modes,
-        k_factor.as_ref(),
-        sparse,
-        &mut timings,
-    )
+    drop(mf);
+    let cb = match cb {
+        Some(cb) => cb,
+        None => {
+            let (d, n) = (&dofs, *cb_modes);
+            craig_bampton_sparse_with(m, k, c_matrix, d, n, None, sparse, &mut timings)
+        }
+    }
     .map_err(|e| sparse_error(opts, e, None))?;
-    drop(k_factor);
     let interface_omega_rad_s = cb.interface_omega_rad_s.clone();
     let (model, transform) =
         cb_structural_model(opts, cb, &omega, spring).map_err(|e| match e {

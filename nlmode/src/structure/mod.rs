@@ -148,6 +148,7 @@ pub mod ordering;
 pub mod paper;
 pub mod solid;
 pub mod sparse;
+pub mod subspace;
 
 pub use beam::{Beam, BeamSpec, BoundaryCondition};
 pub use craig_bampton::{craig_bampton, craig_bampton_sparse, CraigBampton, SparseCraigBampton};

@@ -255,8 +255,8 @@ pub enum Stage {
     Order,
     /// Numeric factorisation of `K` (or `K - sigma M`).
     Factor,
-    /// Shift-invert Lanczos: the full model's lowest modes and the
-    /// fixed-interface modes.
+    /// The fixed-interface modes and the full model's lowest modes (Lanczos,
+    /// or subspace iteration from the Craig-Bampton basis).
     Eigen,
     /// Craig-Bampton constraint modes by sparse solves.
     ConstraintModes,
@@ -342,8 +342,12 @@ pub struct StageTimings {
     pub factor_nnz: usize,
     /// [`MemoryEstimate::total_bytes`] of the model.
     pub memory_estimate_bytes: u64,
-    /// Lanczos basis sizes at convergence: full model, fixed-interface modes.
+    /// Vectors `K^{-1} M` was applied to: full model (its Lanczos basis, or
+    /// the subspace iteration's columns times its steps), fixed-interface modes.
     pub lanczos_basis: Vec<usize>,
+    /// The full model's subspace iteration ([`super::subspace::SubspaceStats`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subspace: Option<super::subspace::SubspaceStats>,
     /// Reading the matrix files (the caller's, e.g. the host's; 0 when the
     /// matrices came from memory).
     #[serde(default)]
