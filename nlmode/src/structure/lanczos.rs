@@ -270,7 +270,7 @@ pub(crate) fn lanczos_with(
         check += 1;
         // a truncated last block (keep < bl) has an incomplete R: wait for the
         // exact step that follows it
-        if m_cur >= n_modes && (exact || keep == bl) && (check % 2 == 0 || full) {
+        if m_cur >= n_modes && (exact || keep == bl) && (check.is_multiple_of(2) || full) {
             let (worst, ritz) = ritz_pairs(&t, m_cur, m0, bl, &r, n_modes);
             last_residual = worst;
             if worst <= LANCZOS_RTOL {
@@ -347,7 +347,7 @@ fn reorthogonalize(
                 Some(mvv) => mvv.tr_mul(&w),
                 None => vv.tr_mul(&pencil.mul_m(&w)),
             };
-            w -= &vv * &c;
+            w -= vv * &c;
             coef += c;
         }
     }
@@ -398,7 +398,7 @@ fn orthonormalize_block(
             let (f, mf) = reorthogonalize_local(pencil, &w, c, f);
             let (fc, mfc) = (f.column(0), mf.column(0));
             let norm = m_norm(fc.dot(&mfc), fc.norm_squared(), m_scale)?;
-            if !(norm > 0.0) {
+            if norm.is_nan() || norm <= 0.0 {
                 return Err(StructureError::MassNotPositiveDefinite { name: "mass" });
             }
             w.set_column(c, &(f.column(0) / norm));
@@ -531,7 +531,7 @@ pub fn modal_factor(
     let scale = lambda_scale(m, k);
     let mut shift = 0.0;
     for j in 0..=12 {
-        if !(scale > 0.0) {
+        if scale.is_nan() || scale <= 0.0 {
             break;
         }
         shift = 1e-8 * scale * 10f64.powi(j);
