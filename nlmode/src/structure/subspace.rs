@@ -500,6 +500,16 @@ mod tests {
         (m, k, ModalFactor { factor, sigma: 0.0 }, masters)
     }
 
+    /// The free pencil `(M, K)`, sequential.
+    fn free<'a>(m: &'a SparseMatrix, k: &'a SparseMatrix) -> Pencil<'a> {
+        Pencil {
+            m,
+            k,
+            fixed: &[],
+            par: Par::Seq,
+        }
+    }
+
     fn rel(a: f64, b: f64) -> f64 {
         (a - b).abs() / b.abs()
     }
@@ -511,12 +521,7 @@ mod tests {
     #[test]
     fn subspace_modes_equal_the_lanczos_modes() {
         let (m, k, f, masters) = plate();
-        let pencil = Pencil {
-            m: &m,
-            k: &k,
-            fixed: &[],
-            par: Par::Seq,
-        };
+        let pencil = free(&m, &k);
         let opts = SparseOptions::default();
         let mut t = StageTimings::default();
         let cb =
@@ -550,12 +555,7 @@ mod tests {
     #[test]
     fn cb_first_falls_back_to_lanczos() {
         let (m, k, f, masters) = plate();
-        let pencil = Pencil {
-            m: &m,
-            k: &k,
-            fixed: &[],
-            par: Par::Seq,
-        };
+        let pencil = free(&m, &k);
         let opts = SparseOptions::default();
         let (omega_lz, _, basis_lz) = modes(&pencil, &f, 7, "n_modes").unwrap();
         let run = |most| {
