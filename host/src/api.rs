@@ -66,13 +66,8 @@ pub fn compute(sc: &Scenario, source: &str, out: &Path, opts: &Options) -> Resul
         .filter(|m| sc.run.methods.contains(&m.id()))
         .collect();
     for m in &listed {
-        m.check(&setup)?;
-        let id = m.id();
-        if [Method::Nlmode, Method::ImposedForce, Method::LinearSlowflow].contains(&id) {
-            sc.slowflow
-                .check_sweep_projection(id.name())
-                .with_context(|| format!("scenario {source}"))?;
-        }
+        m.check(sc, &setup)
+            .with_context(|| format!("scenario {source}"))?;
     }
     let mut ctx = methods::RunContext::new(sc, &setup, out, opts.echo);
     if listed.iter().any(|m| m.needs_mode(sc)) {

@@ -135,7 +135,7 @@ impl super::Method for Cosim {
         sc.structure.matrices().is_some()
     }
 
-    fn check(&self, setup: &Setup) -> Result<()> {
+    fn check(&self, _sc: &crate::scenario::Scenario, setup: &Setup) -> Result<()> {
         setup.check_cosim()
     }
 

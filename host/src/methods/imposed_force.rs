@@ -34,7 +34,8 @@ impl super::Method for ImposedForce {
         true
     }
 
-    fn check(&self, setup: &crate::model::Setup) -> Result<()> {
+    fn check(&self, sc: &crate::scenario::Scenario, setup: &crate::model::Setup) -> Result<()> {
+        sc.slowflow.check_sweep_projection(self.id().name())?;
         setup.check_imposed_force()
     }
 

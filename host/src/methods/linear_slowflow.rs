@@ -30,6 +30,10 @@ impl super::Method for LinearSlowflow {
         true
     }
 
+    fn check(&self, sc: &crate::scenario::Scenario, _setup: &crate::model::Setup) -> Result<()> {
+        Ok(sc.slowflow.check_sweep_projection(self.id().name())?)
+    }
+
     fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
         let id = MethodId::LinearSlowflow;
         let model = reduced_model(ctx.setup, ctx.table(), None)?.linear()?;

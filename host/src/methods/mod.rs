@@ -90,8 +90,9 @@ pub trait Method: Sync {
         false
     }
 
-    /// Checks of the setup made before anything is computed.
-    fn check(&self, _setup: &Setup) -> Result<()> {
+    /// Checks of the scenario and the setup made before anything is
+    /// computed (errors name the scenario's key).
+    fn check(&self, _sc: &Scenario, _setup: &Setup) -> Result<()> {
         Ok(())
     }
 

@@ -29,6 +29,10 @@ impl super::Method for Nlmode {
         true
     }
 
+    fn check(&self, sc: &crate::scenario::Scenario, _setup: &crate::model::Setup) -> Result<()> {
+        Ok(sc.slowflow.check_sweep_projection(self.id().name())?)
+    }
+
     fn run(&self, ctx: &RunContext) -> Result<MethodOutput> {
         let opts = ctx.sc.slowflow.options(MethodId::Nlmode);
         let n_res = ctx.sc.slowflow.residual_modes;

@@ -229,20 +229,29 @@ impl Study {
         let reference_samples: Vec<usize> = (0..spec.reference_subset)
             .map(|k| k * n / spec.reference_subset)
             .collect();
-        // every sample through the scenario parser, before anything runs
+        // every sample through the scenario parser, before anything runs; a
+        // slow-flow method's sweep refuses what only the controllers apply
+        let slow_flow = methods::get(method).section() == Some("slowflow");
         let scenarios = {
             use rayon::prelude::*;
             values
                 .par_iter()
                 .enumerate()
                 .map(|(i, v)| {
-                    sample_scenario(&base, &keys, v, scenario_dir.as_deref()).map_err(|message| {
-                        StudyError::Sample {
+                    sample_scenario(&base, &keys, v, scenario_dir.as_deref())
+                        .and_then(|sc| {
+                            if slow_flow {
+                                let name = method.name();
+                                let check = sc.slowflow.check_sweep_projection(name);
+                                check.map_err(|e| e.to_string())?;
+                            }
+                            Ok(sc)
+                        })
+                        .map_err(|message| StudyError::Sample {
                             sample: i,
                             values: describe(&keys, v),
                             message,
-                        }
-                    })
+                        })
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };

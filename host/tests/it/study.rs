@@ -303,6 +303,26 @@ fn bad_input_is_one_error_naming_the_key_exit_2_nothing_written() {
         assert!(!stderr.contains("panicked"), "{stderr}");
         assert!(!out.exists(), "{i}: {} was written", out.display());
     }
+    // a slow-flow sweep with what only the controllers apply
+    std::fs::write(
+        dir.join("base.toml"),
+        "[slowflow]\nharmonic_force_projection = true\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("study.toml"),
+        format!("scenario = \"base.toml\"\ndesign = \"lhs\"\nsamples = 2\n[[parameter]]\nkey = \"excitation.voltage_v\"\n{uniform}"),
+    )
+    .unwrap();
+    let out = dir.join("out-projection");
+    let o = study(&dir, &out, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("slowflow.harmonic_force_projection"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
     // an output folder that cannot be created
     std::fs::write(
         dir.join("study.toml"),
