@@ -355,6 +355,11 @@ fn reorthogonalize(
     (w, mw, coef)
 }
 
+/// A block column whose Gram-Schmidt update left less than this fraction of
+/// its `M`-norm gets `M w` afresh ([`orthonormalize_block`]); above it the
+/// updated `M w` loses at most about `eps / FRESH_PRODUCT_BELOW` relative.
+const FRESH_PRODUCT_BELOW: f64 = 0.25;
+
 /// `M`-orthonormalises `w` (already orthogonal to the basis) by modified
 /// Gram-Schmidt into at most `keep` columns, `w[.., ..keep] = Q R` (`R` is
 /// `keep x w.ncols()`); a direction that vanishes (relative `1e-10`) is replaced
@@ -383,12 +388,20 @@ fn orthonormalize_block(
                 r[(d, c)] += s[d];
             }
         }
+        // M w_c by the same update as w_c (M is linear), afresh when the update
+        // cancelled much of w_c (the small remainder would be lost to rounding)
+        let s_all = r.view((0, c), (c, 1)).into_owned();
+        let mut mwc = mw.column(c) - mw.columns(0, c) * &s_all;
         let wc = w.column(c).into_owned();
-        let mwc = pencil.mul_m(&DMatrix::from_column_slice(wc.len(), 1, wc.as_slice()));
-        let norm = m_norm(wc.dot(&mwc.column(0)), wc.norm_squared(), m_scale)?;
+        let mut norm = m_norm(wc.dot(&mwc), wc.norm_squared(), m_scale)?;
+        if norm < FRESH_PRODUCT_BELOW * before {
+            let fresh = pencil.mul_m(&DMatrix::from_column_slice(wc.len(), 1, wc.as_slice()));
+            mwc = fresh.column(0).into_owned();
+            norm = m_norm(wc.dot(&mwc), wc.norm_squared(), m_scale)?;
+        }
         if norm > 1e-10 * before && norm > 0.0 {
             w.column_mut(c).scale_mut(1.0 / norm);
-            mw.set_column(c, &(mwc.column(0) / norm));
+            mw.set_column(c, &(mwc / norm));
             r[(c, c)] = norm;
         } else {
             // an invariant subspace: continue with a fresh direction
@@ -461,10 +474,13 @@ fn finish(
     pencil.mask(&mut opx);
     let mut inverse_residual = Vec::with_capacity(lambda.len());
     let mut residual = Vec::with_capacity(lambda.len());
+    let mut r = x.clone();
     for (j, &l) in lambda.iter().enumerate() {
-        let r = x.column(j) - opx.column(j) * (l - sigma);
-        let mr = pencil.mul_m(&DMatrix::from_column_slice(r.len(), 1, r.as_slice()));
-        let inv = r.dot(&mr.column(0)).max(0.0).sqrt();
+        r.column_mut(j).axpy(-(l - sigma), &opx.column(j), 1.0);
+    }
+    let mr = pencil.mul_m(&r);
+    for (j, &l) in lambda.iter().enumerate() {
+        let inv = r.column(j).dot(&mr.column(j)).max(0.0).sqrt();
         // a zero eigenvalue (|lambda| <= 1e-12 lambda_scale: a rigid-body mode, or
         // with sigma = 0 a singular K that passed the factorisation by rounding)
         // is left to the caller; its residual is rounding-dominated

@@ -146,9 +146,11 @@ pub mod matrices;
 pub mod modal;
 pub mod ordering;
 pub mod paper;
+pub mod product;
 pub mod solid;
 pub mod sparse;
 pub mod subspace;
+pub mod supernodal;
 
 pub use beam::{Beam, BeamSpec, BoundaryCondition};
 pub use craig_bampton::{craig_bampton, craig_bampton_sparse, CraigBampton, SparseCraigBampton};

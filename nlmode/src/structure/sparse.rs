@@ -22,6 +22,9 @@
 //! [`SparseCholesky::with_values`]). Nothing of size `n x n` is formed; one
 //! factorisation is alive at a time.
 pub use super::ordering::Ordering;
+pub(crate) use super::product::mul_into;
+pub use super::product::{sparse_mul, sparse_mul_par};
+use super::supernodal::SolvePlan;
 use super::{Result, StructureError};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{
@@ -30,7 +33,7 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, SparseColMatRef, Triplet};
-use faer::{Accum, Conj, MatMut, MatRef, Par, Side};
+use faer::{Conj, MatMut, Par, Side};
 use nalgebra::DMatrix;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -132,13 +135,25 @@ pub fn asymmetry(a: &SparseMatrix) -> (f64, f64) {
 
 /// The diagonal of a square sparse matrix.
 pub fn diagonal(a: &SparseMatrix) -> Vec<f64> {
-    let mut d = vec![0.0; a.nrows().min(a.ncols())];
-    for_each_entry(a, |r, c, v| {
-        if r == c {
-            d[r] += v;
-        }
-    });
-    d
+    let a = a.as_ref();
+    let (sym, val) = (a.symbolic(), a.val());
+    let rows = sym.row_idx();
+    (0..a.nrows().min(a.ncols()))
+        .map(|c| {
+            let range = sym.col_range(c);
+            let col = &rows[range.clone()];
+            if col.is_sorted_by(|p, q| p < q) {
+                // rows strictly ascending (as faer builds them): one search
+                col.binary_search(&c).map_or(0.0, |p| val[range.start + p])
+            } else {
+                col.iter()
+                    .zip(&val[range])
+                    .filter(|(r, _)| **r == c)
+                    .map(|(_, v)| v)
+                    .sum()
+            }
+        })
+        .collect()
 }
 
 /// `alpha A + beta B` of two sparse matrices of one size.
@@ -183,50 +198,6 @@ pub fn dense_block(
         d[(i, j)] += v;
     }
     d
-}
-
-/// `A X` of a sparse `A` and a dense block `X` (faer's kernel).
-pub fn sparse_mul(a: &SparseMatrix, x: &DMatrix<f64>) -> DMatrix<f64> {
-    sparse_mul_par(a, x, Par::Seq)
-}
-
-/// As [`sparse_mul`], the columns of `X` shared among the threads of `par`
-/// (faer's sparse-dense kernel itself is sequential).
-pub fn sparse_mul_par(a: &SparseMatrix, x: &DMatrix<f64>, par: Par) -> DMatrix<f64> {
-    assert_eq!(a.ncols(), x.nrows(), "sparse_mul: sizes");
-    let (nr, nc) = (a.nrows(), x.ncols());
-    let mut y = DMatrix::zeros(nr, nc);
-    mul_into(a.as_ref(), x.as_slice(), y.as_mut_slice(), nc, par.degree());
-    y
-}
-
-fn mul_into(
-    a: SparseColMatRef<'_, usize, f64>,
-    x: &[f64],
-    y: &mut [f64],
-    nc: usize,
-    threads: usize,
-) {
-    let (nr, nx) = (a.nrows(), a.ncols());
-    if threads > 1 && nc > 1 {
-        let h = nc / 2;
-        let (x0, x1) = x.split_at(nx * h);
-        let (y0, y1) = y.split_at_mut(nr * h);
-        let t0 = threads / 2;
-        rayon::join(
-            || mul_into(a, x0, y0, h, t0),
-            || mul_into(a, x1, y1, nc - h, threads - t0),
-        );
-        return;
-    }
-    faer::sparse::linalg::matmul::sparse_dense_matmul(
-        MatMut::from_column_major_slice_mut(y, nr, nc),
-        Accum::Replace,
-        a,
-        MatRef::from_column_major_slice(x, nx, nc),
-        1.0,
-        Par::Seq,
-    );
 }
 
 /// Deterministic pseudo-random numbers in `(-1, 1)` (xorshift64*), for start
@@ -411,6 +382,8 @@ pub struct SymbolicFactor {
     /// the factor's leading block is then the factor of the matrix without
     /// them ([`SparseCholesky::solve_leading_in_place`]).
     last: Arc<[usize]>,
+    /// The parallel solves' split of a supernodal factor ([`SolvePlan`]).
+    pub(crate) plan: Option<Arc<SolvePlan>>,
 }
 
 /// A fingerprint of a sparsity pattern (size, column pointers, row indices).
@@ -504,10 +477,15 @@ impl SymbolicFactor {
             ),
         }
         .ok()?;
+        let plan = match inner.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => SolvePlan::new(s).map(Arc::new),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        };
         Some(Self {
             inner: Arc::new(inner),
             ordering,
             last: last.into(),
+            plan,
         })
     }
 
@@ -692,7 +670,7 @@ impl SparseCholesky {
         let z = Xorshift(0x2545_f491_4f6c_dd1d).block(a.nrows(), 1);
         // A z (as `sparse_mul`)
         let mut x = DMatrix::zeros(a.nrows(), 1);
-        mul_into(a, z.as_slice(), x.as_mut_slice(), 1, 1);
+        mul_into(a, z.as_slice(), x.as_mut_slice(), 1, Par::Seq);
         f.solve_in_place(&mut x);
         let err = (x - &z).amax() / z.amax();
         (err <= SINGULAR_PROBE_RTOL).then_some(f)
@@ -701,6 +679,9 @@ impl SparseCholesky {
     /// Solves `A X = B` in place (`B` overwritten by `X`).
     pub fn solve_in_place(&self, b: &mut DMatrix<f64>) {
         let (nr, nc) = b.shape();
+        if self.solve_planned(b, nr) {
+            return;
+        }
         let sym = &self.symbolic.inner;
         let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(nc, self.par));
         let view = MatMut::from_column_major_slice_mut(b.as_mut_slice(), nr, nc);
@@ -710,6 +691,42 @@ impl SparseCholesky {
             self.par,
             MemStack::new(&mut mem),
         );
+    }
+
+    /// The solve of a supernodal factor by its [`SolvePlan`] (the permuted
+    /// rows from `zero_from` on zeroed between `L` and `L^T`); `false` (and
+    /// `b` untouched) without a plan.
+    fn solve_planned(&self, b: &mut DMatrix<f64>, zero_from: usize) -> bool {
+        let sym = &self.symbolic.inner;
+        let (Some(plan), SymbolicCholeskyRaw::Supernodal(s)) = (&self.symbolic.plan, sym.raw())
+        else {
+            return false;
+        };
+        let (nr, nc) = b.shape();
+        let fwd: Vec<usize> = match sym.perm() {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..nr).collect(),
+        };
+        let mut x = vec![0.0; nr * nc];
+        for (i, &old) in fwd.iter().enumerate() {
+            for j in 0..nc {
+                x[i * nc + j] = b[(old, j)];
+            }
+        }
+        use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+        plan.solve(
+            SupernodalLltRef::new(s, &self.values),
+            &mut x,
+            nc,
+            zero_from,
+            self.par,
+        );
+        for (i, &old) in fwd.iter().enumerate() {
+            for j in 0..nc {
+                b[(old, j)] = x[i * nc + j];
+            }
+        }
+        true
     }
 
     /// Solves `A_ii X_i = B_i` in place, `A_ii` the matrix without the DOFs
@@ -724,6 +741,9 @@ impl SparseCholesky {
         let (nr, nc) = b.shape();
         let sym = &self.symbolic.inner;
         let keep = nr - self.symbolic.last.len();
+        if self.solve_planned(b, keep) {
+            return;
+        }
         let fwd: Vec<usize> = match sym.perm() {
             Some(p) => p.arrays().0.to_vec(),
             None => (0..nr).collect(),

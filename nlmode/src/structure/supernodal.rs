@@ -1,0 +1,482 @@
+//! Solves with a supernodal Cholesky factor `A = P^T L L^T P` (faer's storage,
+//! [`super::sparse::SparseCholesky`]): `L z = P b`, then `L^T y = z`,
+//! `x = P^T y`, with independent subtrees of the elimination tree solved in
+//! parallel.
+//!
+//! Hand-written around faer's dense kernels instead of faer's supernodal
+//! solve (performance): faer visits the supernodes one after the other and
+//! gives its threads to the dense products inside each supernode, which at the
+//! Lanczos iteration's 3 right-hand sides are too small to share: its solves
+//! ran slower with 2 threads than with 1 (10^5 and 3·10^5 DOFs). A solve reads
+//! the whole factor twice and is bound by memory bandwidth, which two cores
+//! double on the benchmark machine. Here the supernodes are split once per
+//! symbolic factorisation ([`SolvePlan`]) into [`PARTS`] groups of whole
+//! subtrees (about equal factor entries, a subtree-to-thread mapping) and the
+//! ancestors of those subtrees (the top separators of a nested dissection):
+//!
+//! - forward (`L z = b`): each part solves its subtrees, the updates of the
+//!   ancestors' rows summed in a block of its own; the blocks are added in
+//!   part order, then the ancestors are solved;
+//! - backward (`L^T y = z`): the ancestors first, then each part's subtrees,
+//!   reading the ancestors' rows from a copy.
+//!
+//! The grouping does not depend on the thread count (so neither does the
+//! rounding); with one thread the parts run one after the other.
+use faer::linalg::matmul::matmul;
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
+use faer::sparse::linalg::cholesky::supernodal::{SupernodalLltRef, SymbolicSupernodalCholesky};
+use faer::{Accum, MatMut, MatRef, Par};
+
+/// Groups of subtrees solved independently (the same fixed count as the
+/// products' runs, [`super::product::PARTS`]).
+pub const PARTS: usize = super::product::PARTS;
+
+/// A subtree is split further while it holds more than this factor times an
+/// equal share of the entries still in subtrees.
+const SPLIT_SLACK: f64 = 1.05;
+
+/// Where a supernode is solved: in a part, or among the ancestors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Owner {
+    /// Part, position in its list.
+    Part(usize, usize),
+    /// Position among the top supernodes, first of its rows among the top rows.
+    Top(usize, usize),
+}
+
+/// The split of a factor's supernodes (module docs).
+#[derive(Debug)]
+pub struct SolvePlan {
+    /// Per part, its supernodes (whole subtrees), ascending.
+    parts: Vec<Vec<usize>>,
+    /// The supernodes in no part (ancestors of the parts' subtrees), ascending.
+    top: Vec<usize>,
+    /// Rows of the top supernodes.
+    top_rows: usize,
+    owner: Vec<Owner>,
+    /// The supernode of each (permuted) row.
+    supernode_of_row: Vec<u32>,
+}
+
+impl SolvePlan {
+    /// The plan of `sym`; `None` for a factor too large for 32-bit supernode
+    /// numbers or with an inconsistent tree (the solve is then faer's).
+    pub fn new(sym: &SymbolicSupernodalCholesky<usize>) -> Option<Self> {
+        let ns = sym.n_supernodes();
+        let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+        let n = end.last().copied().unwrap_or(0);
+        if ns >= u32::MAX as usize {
+            return None;
+        }
+        let mut supernode_of_row = vec![0u32; n];
+        let mut children = vec![Vec::new(); ns];
+        let mut roots = Vec::new();
+        let mut sub = vec![0.0f64; ns];
+        for s in 0..ns {
+            if begin[s] > end[s] || end[s] > n {
+                return None;
+            }
+            supernode_of_row[begin[s]..end[s]].fill(s as u32);
+            let pattern = sym.supernode(s).pattern();
+            let cols = end[s] - begin[s];
+            sub[s] += ((cols + pattern.len()) * cols) as f64;
+        }
+        // the parent: the supernode of the first off-diagonal row (children
+        // come before their parents, so subtree sums accumulate in one pass)
+        for s in 0..ns {
+            match sym.supernode(s).pattern().iter().min() {
+                Some(&r) if r < n && supernode_of_row[r] as usize > s => {
+                    let p = supernode_of_row[r] as usize;
+                    sub[p] += sub[s];
+                    children[p].push(s);
+                }
+                Some(_) => return None,
+                None => roots.push(s),
+            }
+        }
+        // split the largest subtree while it is above an equal share
+        let (mut cands, mut top) = (roots, Vec::new());
+        for _ in 0..ns {
+            let total: f64 = cands.iter().map(|&c| sub[c]).sum();
+            let Some((i, &big)) = cands
+                .iter()
+                .enumerate()
+                .max_by(|a, b| sub[*a.1].total_cmp(&sub[*b.1]).then(b.0.cmp(&a.0)))
+            else {
+                break;
+            };
+            if sub[big] <= SPLIT_SLACK * total / PARTS as f64 || children[big].is_empty() {
+                break;
+            }
+            cands.swap_remove(i);
+            top.push(big);
+            cands.extend_from_slice(&children[big]);
+        }
+        // largest subtree first into the lightest part
+        cands.sort_by(|&a, &b| sub[b].total_cmp(&sub[a]).then(a.cmp(&b)));
+        let mut load = [0.0f64; PARTS];
+        let mut part_of_root = Vec::with_capacity(cands.len());
+        for &c in &cands {
+            let p = (0..PARTS)
+                .min_by(|&a, &b| load[a].total_cmp(&load[b]).then(a.cmp(&b)))
+                .expect("PARTS > 0");
+            load[p] += sub[c];
+            part_of_root.push(p);
+        }
+        let mut part = vec![usize::MAX; ns];
+        for (&c, &p) in cands.iter().zip(&part_of_root) {
+            let mut stack = vec![c];
+            while let Some(s) = stack.pop() {
+                part[s] = p;
+                stack.extend_from_slice(&children[s]);
+            }
+        }
+        top.sort_unstable();
+        let mut parts = vec![Vec::new(); PARTS];
+        let mut owner = vec![Owner::Top(0, 0); ns];
+        let mut top_rows = 0;
+        let mut next_top = 0;
+        for s in 0..ns {
+            if part[s] == usize::MAX {
+                if top.get(next_top) != Some(&s) {
+                    return None;
+                }
+                owner[s] = Owner::Top(next_top, top_rows);
+                next_top += 1;
+                top_rows += end[s] - begin[s];
+            } else {
+                owner[s] = Owner::Part(part[s], parts[part[s]].len());
+                parts[part[s]].push(s);
+            }
+        }
+        Some(Self {
+            parts,
+            top,
+            top_rows,
+            owner,
+            supernode_of_row,
+        })
+    }
+
+    /// `X := L^{-T} Z L^{-1} X` for `X` held by rows (`nc` values per row,
+    /// permuted order), where `Z` zeroes the rows from `zero_from` on (the
+    /// DOFs ordered last: [`super::sparse::SparseCholesky::solve_leading_in_place`];
+    /// `zero_from = n` for a plain solve).
+    pub fn solve(
+        &self,
+        llt: SupernodalLltRef<'_, usize, f64>,
+        x: &mut [f64],
+        nc: usize,
+        zero_from: usize,
+        par: Par,
+    ) {
+        if nc == 0 {
+            return;
+        }
+        let ctx = Ctx {
+            llt,
+            plan: self,
+            nc,
+        };
+        // forward: the parts, their updates of the top rows summed apart,
+        // added in part order; then the top
+        let mut acc: Vec<Vec<f64>> = vec![vec![0.0; self.top_rows * nc]; PARTS];
+        {
+            let (mut parts, mut top) = self.chunks(llt, x, nc);
+            let jobs: Vec<_> = parts.iter_mut().zip(acc.iter_mut()).enumerate().collect();
+            run_parts(par, jobs, |(p, (chunks, acc))| {
+                let mut tmp = Vec::new();
+                for i in 0..chunks.len() {
+                    ctx.forward(
+                        self.parts[p][i],
+                        i,
+                        chunks,
+                        &mut Sink::Acc(p, acc),
+                        &mut tmp,
+                    );
+                }
+            });
+            for a in &acc {
+                for (t, chunk) in top.iter_mut().enumerate() {
+                    let Owner::Top(_, first) = self.owner[self.top[t]] else {
+                        unreachable!("top supernodes are owned by the top")
+                    };
+                    // the block holds the updates with their sign
+                    for (y, v) in chunk.iter_mut().zip(&a[first * nc..]) {
+                        *y += v;
+                    }
+                }
+            }
+            let mut tmp = Vec::new();
+            for t in 0..top.len() {
+                ctx.forward(self.top[t], t, &mut top, &mut Sink::Top, &mut tmp);
+            }
+        }
+        let n = x.len() / nc;
+        x[zero_from.min(n) * nc..].fill(0.0);
+        // backward: the top, then the parts reading its rows
+        let (mut parts, mut top) = self.chunks(llt, x, nc);
+        let mut tmp = Vec::new();
+        for t in (0..top.len()).rev() {
+            ctx.backward(self.top[t], t, &mut top, &[], &mut tmp);
+        }
+        let top: Vec<&[f64]> = top.into_iter().map(|c| &*c).collect();
+        let jobs: Vec<_> = parts.iter_mut().enumerate().collect();
+        run_parts(par, jobs, |(p, chunks)| {
+            let mut tmp = Vec::new();
+            for i in (0..chunks.len()).rev() {
+                ctx.backward(self.parts[p][i], i, chunks, &top, &mut tmp);
+            }
+        });
+    }
+
+    /// `x` cut into the supernodes' rows, handed to their parts (in the
+    /// parts' order) and to the top.
+    #[allow(clippy::type_complexity)]
+    fn chunks<'a>(
+        &self,
+        llt: SupernodalLltRef<'_, usize, f64>,
+        x: &'a mut [f64],
+        nc: usize,
+    ) -> (Vec<Vec<&'a mut [f64]>>, Vec<&'a mut [f64]>) {
+        let sym = llt.symbolic();
+        let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+        let mut parts: Vec<Vec<&mut [f64]>> = self
+            .parts
+            .iter()
+            .map(|p| Vec::with_capacity(p.len()))
+            .collect();
+        let mut top = Vec::with_capacity(self.top.len());
+        let mut rest = x;
+        for s in 0..self.owner.len() {
+            let (mine, tail) = std::mem::take(&mut rest).split_at_mut((end[s] - begin[s]) * nc);
+            rest = tail;
+            match self.owner[s] {
+                Owner::Part(p, _) => parts[p].push(mine),
+                Owner::Top(..) => top.push(mine),
+            }
+        }
+        (parts, top)
+    }
+}
+
+/// Runs `f` on each job, in parallel when `par` has threads.
+fn run_parts<J: Send>(par: Par, jobs: Vec<J>, f: impl Fn(J) + Sync + Send) {
+    if par.degree() > 1 {
+        use rayon::prelude::*;
+        jobs.into_par_iter().for_each(f);
+    } else {
+        jobs.into_iter().for_each(f);
+    }
+}
+
+/// Where a part's forward updates of rows outside its chunks go.
+enum Sink<'a> {
+    /// Part `p`'s block of the top rows.
+    Acc(usize, &'a mut [f64]),
+    /// The top solving itself: all its rows are its own.
+    Top,
+}
+
+/// What the supernode kernels read.
+#[derive(Clone, Copy)]
+struct Ctx<'a> {
+    llt: SupernodalLltRef<'a, usize, f64>,
+    plan: &'a SolvePlan,
+    nc: usize,
+}
+
+impl Ctx<'_> {
+    /// The chunk index and row offset of row `r` (of a supernode in `own`, the
+    /// part or the top the caller solves) or `None` for a top row of a part.
+    fn locate(&self, r: usize, top_caller: bool, part: usize) -> (bool, usize, usize) {
+        let q = self.plan.supernode_of_row[r] as usize;
+        let start = self.llt.symbolic().supernode_begin()[q];
+        match self.plan.owner[q] {
+            Owner::Part(p, i) => {
+                debug_assert!(
+                    !top_caller && p == part,
+                    "a subtree's ancestor in another part"
+                );
+                (true, i, r - start)
+            }
+            Owner::Top(t, first) => {
+                if top_caller {
+                    (true, t, r - start)
+                } else {
+                    (false, first + r - start, 0)
+                }
+            }
+        }
+    }
+
+    /// Supernode `s` (chunk `i`) of `L z = b`: the diagonal block solved, the
+    /// off-diagonal block's update subtracted from the rows in `chunks` or
+    /// added to the part's block of the top rows.
+    fn forward(
+        &self,
+        s: usize,
+        i: usize,
+        chunks: &mut [&mut [f64]],
+        sink: &mut Sink,
+        tmp: &mut Vec<f64>,
+    ) {
+        let nc = self.nc;
+        let sn = self.llt.supernode(s);
+        let (l, pattern) = (sn.val(), sn.pattern());
+        let size = l.ncols();
+        let (l_top, l_bot) = l.split_at_row(size);
+        tmp.clear();
+        tmp.resize(pattern.len() * nc, 0.0);
+        {
+            let mut xs = MatMut::from_row_major_slice_mut(&mut *chunks[i], size, nc);
+            solve_lower_triangular_in_place(l_top, xs.as_mut(), Par::Seq);
+            let t = MatMut::from_row_major_slice_mut(tmp, pattern.len(), nc);
+            matmul(t, Accum::Replace, l_bot, xs.as_ref(), 1.0, Par::Seq);
+        }
+        let (top_caller, part) = match sink {
+            Sink::Acc(p, _) => (false, *p),
+            Sink::Top => (true, usize::MAX),
+        };
+        for (k, &r) in pattern.iter().enumerate() {
+            let upd = &tmp[k * nc..(k + 1) * nc];
+            let target = match self.locate(r, top_caller, part) {
+                (true, c, off) => &mut chunks[c][off * nc..(off + 1) * nc],
+                (false, row, _) => match sink {
+                    Sink::Acc(_, acc) => &mut acc[row * nc..(row + 1) * nc],
+                    Sink::Top => unreachable!("the top owns its rows"),
+                },
+            };
+            for (y, u) in target.iter_mut().zip(upd) {
+                *y -= u;
+            }
+        }
+    }
+
+    /// Supernode `s` (chunk `i`) of `L^T y = z`: the off-diagonal block's rows
+    /// gathered from `chunks` or the `top` chunks, then the diagonal block solved.
+    fn backward(
+        &self,
+        s: usize,
+        i: usize,
+        chunks: &mut [&mut [f64]],
+        top: &[&[f64]],
+        tmp: &mut Vec<f64>,
+    ) {
+        let nc = self.nc;
+        let sn = self.llt.supernode(s);
+        let (l, pattern) = (sn.val(), sn.pattern());
+        let size = l.ncols();
+        let (l_top, l_bot) = l.split_at_row(size);
+        let (top_caller, part) = match self.plan.owner[s] {
+            Owner::Part(p, _) => (false, p),
+            Owner::Top(..) => (true, usize::MAX),
+        };
+        tmp.clear();
+        tmp.reserve(pattern.len() * nc);
+        for &r in pattern {
+            let q = self.plan.supernode_of_row[r] as usize;
+            let off = r - self.llt.symbolic().supernode_begin()[q];
+            match (self.locate(r, top_caller, part), self.plan.owner[q]) {
+                ((true, c, off), _) => tmp.extend_from_slice(&chunks[c][off * nc..][..nc]),
+                (_, Owner::Top(t, _)) => tmp.extend_from_slice(&top[t][off * nc..][..nc]),
+                (_, Owner::Part(..)) => unreachable!("a part's own rows are in its chunks"),
+            }
+        }
+        let mut xs = MatMut::from_row_major_slice_mut(&mut *chunks[i], size, nc);
+        let t = MatRef::from_row_major_slice(tmp, pattern.len(), nc);
+        matmul(
+            xs.as_mut(),
+            Accum::Add,
+            l_bot.transpose(),
+            t,
+            -1.0,
+            Par::Seq,
+        );
+        solve_upper_triangular_in_place(l_top.transpose(), xs.as_mut(), Par::Seq);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::structure::sparse::{
+        sparse_from_triplets, sparse_to_dense, Ordering, SparseCholesky, SparseMatrix,
+        SymbolicFactor, Xorshift,
+    };
+    use faer::Par;
+
+    /// The 7-point Laplacian of an `n^3` grid plus a random diagonal shift: SPD,
+    /// with a deep elimination tree.
+    fn grid(n: usize, rng: &mut Xorshift) -> SparseMatrix {
+        let id = |i: usize, j: usize, k: usize| (i * n + j) * n + k;
+        let mut t = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                for k in 0..n {
+                    let a = id(i, j, k);
+                    t.push((a, a, 7.0 + 0.5 * rng.next()));
+                    for (di, dj, dk) in [(1, 0, 0), (0, 1, 0), (0, 0, 1)] {
+                        let (p, q, r) = (i + di, j + dj, k + dk);
+                        if p < n && q < n && r < n {
+                            let b = id(p, q, r);
+                            t.push((a, b, -1.0));
+                            t.push((b, a, -1.0));
+                        }
+                    }
+                }
+            }
+        }
+        sparse_from_triplets(n * n * n, &t).unwrap()
+    }
+
+    #[test]
+    fn planned_solves_equal_the_dense_solution() {
+        let mut rng = Xorshift(0x5eed_0001);
+        for &(n, ordering) in &[
+            (4, Ordering::Amd),
+            (12, Ordering::Amd),
+            (14, Ordering::NestedDissection),
+        ] {
+            let a = grid(n, &mut rng);
+            let dense = sparse_to_dense(&a);
+            let sym = SymbolicFactor::with_ordering(&a, ordering).unwrap();
+            assert!(sym.plan.is_some() || n < 10, "n {n}: no plan");
+            let seq = SparseCholesky::with_symbolic(&sym, &a, Par::Seq).unwrap();
+            let par = SparseCholesky::with_symbolic(&sym, &a, Par::rayon(2)).unwrap();
+            for nc in [1, 3, 10] {
+                let b = rng.block(a.nrows(), nc);
+                let mut x = b.clone();
+                seq.solve_in_place(&mut x);
+                let r = (&dense * &x - &b).amax();
+                assert!(r <= 1e-12, "n {n} nc {nc}: residual {r}");
+                // the rounding does not depend on the threads
+                let mut y = b.clone();
+                par.solve_in_place(&mut y);
+                assert_eq!(x, y);
+            }
+        }
+    }
+
+    #[test]
+    fn planned_leading_solve_is_the_solve_without_the_last_dofs() {
+        let mut rng = Xorshift(0x5eed_0002);
+        let a = grid(12, &mut rng);
+        let n = a.nrows();
+        let last = [5, 700, 1200];
+        let sym = SymbolicFactor::with_last(&a, Ordering::NestedDissection, &last).unwrap();
+        assert!(sym.plan.is_some());
+        let f = SparseCholesky::with_symbolic(&sym, &a, Par::rayon(2)).unwrap();
+        let keep: Vec<usize> = (0..n).filter(|i| !last.contains(i)).collect();
+        let dense = sparse_to_dense(&a).select_rows(&keep).select_columns(&keep);
+        let b = rng.block(n, 4);
+        let mut x = b.clone();
+        f.solve_leading_in_place(&mut x);
+        for &d in &last {
+            assert!(x.row(d).iter().all(|v| *v == 0.0));
+        }
+        let r = (&dense * x.select_rows(&keep) - b.select_rows(&keep)).amax();
+        assert!(r <= 1e-12, "residual {r}");
+    }
+}
