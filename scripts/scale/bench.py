@@ -3,7 +3,11 @@ hexahedral cantilever plate (nlmode example `hex_plate`), run `host nma` on it
 once per fill-reducing ordering (`[structure] ordering`: stage times, CPU and
 peak memory per stage from modal_table.json's `provenance`) and scipy's
 shift-invert `eigsh` for the 10 lowest modes of the same matrices, each under
-/usr/bin/time -v (wall, CPU, peak memory of the whole run).
+/usr/bin/time -v (wall, CPU, peak memory of the whole run), and nlmode's own
+10 lowest modes of the same matrices (nlmode example `lowest_modes`: ordering,
+factorisation and Lanczos alone), the work of `eigsh`. Two ratios to scipy:
+the whole `host nma` run against scipy's whole script, and `lowest_modes`'
+eigen-analysis against `eigsh` alone (both without reading the files).
 
     python3 scripts/scale/bench.py [--profile release|dev] [--orderings amd,nested-dissection]
                                    [--no-scipy] 100000 300000 1000000
@@ -77,6 +81,8 @@ def main():
                    check=True, cwd=ROOT)
     subprocess.run(["cargo", "build", "-q", *prof, "-p", "host", "--features", "metis", "--bin", "host"],
                    check=True, cwd=ROOT)
+    subprocess.run(["cargo", "build", "-q", *prof, "-p", "nlmode", "--features", "metis",
+                    "--example", "lowest_modes"], check=True, cwd=ROOT)
     tdir = "release" if a.profile == "release" else ("debug" if a.profile == "dev" else a.profile)
     exe = lambda name: os.path.join(ROOT, "target", tdir, name)
     rows = []
@@ -101,6 +107,17 @@ def main():
                    "omega0_rad_s": table["provenance"]["omega0_rad_s"], **t}
             rows.append((size, ordering, row))
             print(json.dumps(row), flush=True)
+        rc, out, err, ewall, ecpu, epeak = timed(
+            [exe("examples/lowest_modes"), d, "--ordering", a.orderings.split(",")[-1]],
+            os.path.join(d, "lowest_modes.log"))
+        if rc == 0:
+            e = json.loads(out.strip().splitlines()[-1])
+            row = {"eigen_only_s": e["eigen_s"], "eigen_only_cpu_s": ecpu, "eigen_only_peak_gb": epeak,
+                   "eigen_only_omega0_rad_s": e["omega_rad_s"][0], "eigen_only_basis": e["basis"]}
+        else:
+            row = f"lowest_modes failed (exit {rc}): see {d}/lowest_modes.log"
+        rows.append((size, "eigen-only", row))
+        print(json.dumps(row), flush=True)
         if not a.no_scipy:
             rc, out, err, swall, scpu, speak = timed(
                 [a.python, os.path.join(ROOT, "scripts/scale/scipy_eigsh.py"), d],
@@ -122,7 +139,7 @@ def main():
         if isinstance(r, str):
             print(f"| {size} | {ordering} | {r} |")
             continue
-        if ordering == "scipy":
+        if ordering in ("scipy", "eigen-only"):
             continue
         g = lambda k, f="{:.1f}": f.format(r[k]) if k in r else "-"
         w, s = r["omega0_rad_s"], scipy.get(size)
@@ -147,6 +164,20 @@ def main():
             continue
         print(f"| {size} | {r['scipy_wall_s']:.1f} | {r['scipy_cpu_s']:.1f} | "
               f"{r['scipy_peak_gb']:.2f} | {r['scipy_omega0_rad_s']:.9f} |")
+    print("\nRatios to scipy (10 lowest modes; wall time):\n")
+    print("| DOFs | host nma (whole run) / scipy (whole script) | lowest_modes eigen s | "
+          "scipy eigsh s | eigsh / lowest_modes | omega0 difference |")
+    print("|---|---|---|---|---|---|")
+    by = {(size, o): r for size, o, r in rows if isinstance(r, dict)}
+    for size in a.sizes:
+        s, e = by.get((size, "scipy")), by.get((size, "eigen-only"))
+        host = [r for (sz, o), r in by.items() if sz == size and o not in ("scipy", "eigen-only")]
+        if not (s and e):
+            continue
+        whole = "; ".join(f"{s['scipy_wall_s'] / h['wall_s']:.1f}x ({h['ordering']})" for h in host)
+        diff = abs(e["eigen_only_omega0_rad_s"] - s["scipy_omega0_rad_s"]) / s["scipy_omega0_rad_s"]
+        print(f"| {size} | {whole} | {e['eigen_only_s']:.2f} | {s['scipy_eigsh_s']:.1f} | "
+              f"{s['scipy_eigsh_s'] / e['eigen_only_s']:.1f}x | {diff:.1e} |")
 
 
 if __name__ == "__main__":

@@ -23,8 +23,7 @@
 use super::lanczos::{lanczos, Pencil, ShiftInvert};
 use super::modal::generalized_eigen;
 use super::sparse::{
-    sparse_mul_par, SparseCholesky, SparseMatrix, SparseOptions, Stage, StageTimings,
-    SymbolicFactor,
+    sym_mul_par, SparseCholesky, SparseMatrix, SparseOptions, Stage, StageTimings, SymbolicFactor,
 };
 use super::{symmetrize, NamedPoint, NonlinearElement, Result, StructuralModel, StructureError};
 use nalgebra::{DMatrix, DVector};
@@ -421,7 +420,7 @@ pub fn craig_bampton_sparse_with(
         interface_omega_rad_s = modes.lambda[..n_modes].iter().map(|l| l.sqrt()).collect();
     }
     let par = opts.par();
-    let project = |a: &SparseMatrix| symmetrize(t.tr_mul(&sparse_mul_par(a, &t, par)));
+    let project = |a: &SparseMatrix| symmetrize(t.tr_mul(&sym_mul_par(a, &t, par)));
     let nr = t.ncols();
     let (mass, stiffness, damping) = timings.time(Stage::Project, opts, || {
         (

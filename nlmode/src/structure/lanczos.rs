@@ -27,7 +27,7 @@
 //! `K_ii` or `M_ii`: `M x` and `K x` have their fixed rows dropped, the solver
 //! returns vectors with zero fixed rows (see
 //! [`super::craig_bampton::InteriorSolver`]).
-use super::sparse::{diagonal, sparse_mul_par, Xorshift};
+use super::sparse::{diagonal, sym_mul_par, Xorshift};
 use super::sparse::{sparse_add, SparseCholesky, SparseMatrix, SymbolicFactor};
 use super::{Result, StructureError};
 use faer::Par;
@@ -83,14 +83,14 @@ impl Pencil<'_> {
 
     /// `M x` with the fixed rows dropped.
     pub fn mul_m(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
-        let mut y = sparse_mul_par(self.m, x, self.par);
+        let mut y = sym_mul_par(self.m, x, self.par);
         self.mask(&mut y);
         y
     }
 
     /// `K x` with the fixed rows dropped.
     pub fn mul_k(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
-        let mut y = sparse_mul_par(self.k, x, self.par);
+        let mut y = sym_mul_par(self.k, x, self.par);
         self.mask(&mut y);
         y
     }
@@ -468,30 +468,45 @@ fn finish(
             }
         }
     }
-    let (kx, mx) = (pencil.mul_k(&x), pencil.mul_m(&x));
-    let mut opx = mx.clone();
+    // a zero eigenvalue (|lambda| <= 1e-12 lambda_scale: a rigid-body mode, or
+    // with sigma = 0 a singular K that passed the factorisation by rounding)
+    // is left to the caller; its residual is rounding-dominated
+    let zero: Vec<bool> = lambda.iter().map(|l| l.abs() <= 1e-12 * scale).collect();
+    // the plain residuals first; then M x becomes Op x, then the residual
+    // x - (lambda - sigma) Op x in place (three blocks of n x modes alive at most)
+    let kx = pencil.mul_k(&x);
+    let mut opx = pencil.mul_m(&x);
+    let residual: Vec<f64> = lambda
+        .iter()
+        .enumerate()
+        .map(|(j, &l)| {
+            let kn = kx.column(j).norm();
+            if zero[j] || kn == 0.0 {
+                0.0
+            } else {
+                (kx.column(j) - opx.column(j) * l).norm() / kn
+            }
+        })
+        .collect();
+    drop(kx);
     solver.solve_in_place(&mut opx);
     pencil.mask(&mut opx);
-    let mut inverse_residual = Vec::with_capacity(lambda.len());
-    let mut residual = Vec::with_capacity(lambda.len());
-    let mut r = x.clone();
     for (j, &l) in lambda.iter().enumerate() {
-        r.column_mut(j).axpy(-(l - sigma), &opx.column(j), 1.0);
+        let mut c = opx.column_mut(j);
+        c *= -(l - sigma);
+        c += x.column(j);
     }
-    let mr = pencil.mul_m(&r);
-    for (j, &l) in lambda.iter().enumerate() {
-        let inv = r.column(j).dot(&mr.column(j)).max(0.0).sqrt();
-        // a zero eigenvalue (|lambda| <= 1e-12 lambda_scale: a rigid-body mode, or
-        // with sigma = 0 a singular K that passed the factorisation by rounding)
-        // is left to the caller; its residual is rounding-dominated
-        let zero = l.abs() <= 1e-12 * scale;
-        // a shifted factorisation (rigid-body modes) is as ill-conditioned as
-        // lambda_scale / |sigma|: its rounding floor
-        let bound = if sigma == 0.0 {
-            RESIDUAL_RTOL
-        } else {
-            RESIDUAL_RTOL.max(64.0 * f64::EPSILON * scale / sigma.abs())
-        };
+    let mr = pencil.mul_m(&opx);
+    // a shifted factorisation (rigid-body modes) is as ill-conditioned as
+    // lambda_scale / |sigma|: its rounding floor
+    let bound = if sigma == 0.0 {
+        RESIDUAL_RTOL
+    } else {
+        RESIDUAL_RTOL.max(64.0 * f64::EPSILON * scale / sigma.abs())
+    };
+    let mut inverse_residual = Vec::with_capacity(lambda.len());
+    for (j, &zero) in zero.iter().enumerate() {
+        let inv = opx.column(j).dot(&mr.column(j)).max(0.0).sqrt();
         if !(inv <= bound || zero) {
             return Err(StructureError::EigenNotConverged {
                 name,
@@ -501,12 +516,6 @@ fn finish(
             });
         }
         inverse_residual.push(inv);
-        let kn = kx.column(j).norm();
-        residual.push(if zero || kn == 0.0 {
-            0.0
-        } else {
-            (kx.column(j) - mx.column(j) * l).norm() / kn
-        });
     }
     Ok(SparseModes {
         lambda,

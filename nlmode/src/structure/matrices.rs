@@ -33,7 +33,7 @@ use super::damping::{rayleigh_damping, stiffness_proportional_damping_from_modes
 use super::lanczos::{max_basis, modal_factor, modes, Pencil};
 use super::modal::modal_analysis;
 use super::sparse::{
-    asymmetry, diagonal, for_each_entry, sparse_from_dense, sparse_mul, sparse_to_dense,
+    asymmetry, diagonal, for_each_entry, sparse_from_dense, sparse_to_dense, sym_mul,
     MemoryEstimate, SparseMatrix, SparseOptions, Stage, StageTimings, SymbolicFactor,
 };
 use super::subspace::cb_first;
@@ -794,7 +794,7 @@ pub fn matrix_structure_sparse_cb_with(
     }
     let damping_ratio = damping_ratio_of(&opts.damping, omega0_rad_s, &omega, || {
         let p = phi.columns(rigid_body_modes, 1).into_owned();
-        c_matrix.map_or(0.0, |c| p.dot(&sparse_mul(c, &p)))
+        c_matrix.map_or(0.0, |c| p.dot(&sym_mul(c, &p)))
     });
     drop(phi);
     drop(mf);

@@ -23,7 +23,7 @@
 //! factorisation is alive at a time.
 pub use super::ordering::Ordering;
 pub(crate) use super::product::mul_into;
-pub use super::product::{sparse_mul, sparse_mul_par};
+pub use super::product::{sym_mul, sym_mul_par};
 use super::supernodal::SolvePlan;
 use super::{Result, StructureError};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -668,7 +668,7 @@ impl SparseCholesky {
             par,
         };
         let z = Xorshift(0x2545_f491_4f6c_dd1d).block(a.nrows(), 1);
-        // A z (as `sparse_mul`)
+        // A z (as `sym_mul`)
         let mut x = DMatrix::zeros(a.nrows(), 1);
         mul_into(a, z.as_slice(), x.as_mut_slice(), 1, Par::Seq);
         f.solve_in_place(&mut x);
@@ -869,7 +869,7 @@ mod tests {
         assert_eq!(sparse_to_dense(&sparse_from_dense(&d)), d);
         assert!(sparse_from_triplets(2, &[(2, 0, 1.0)]).is_none());
         let x = DMatrix::from_row_slice(2, 1, &[1.0, -1.0]);
-        assert_eq!(sparse_mul(&a, &x), &d * &x);
+        assert_eq!(sym_mul(&a, &x), d.transpose() * &x); // A^T x for an unsymmetric A
         assert_eq!(diagonal(&a), vec![4.0, 0.0]);
     }
 
@@ -969,7 +969,7 @@ mod tests {
             assert!(e < 1e-10, "{ordering:?}: {e:e}");
             // and the factor is still K's
             let x = Xorshift(5).block(n, 1);
-            let mut y = sparse_mul(&k, &x);
+            let mut y = sym_mul(&k, &x);
             f.solve_in_place(&mut y);
             assert!((&y - &x).amax() < 1e-8 * x.amax());
         }
