@@ -251,7 +251,16 @@ pub(crate) fn lanczos_with(
     let mut check = 0usize;
     loop {
         let bl = m_cur - m0;
-        let w = op(&basis.v().columns(m0, bl).into_owned());
+        // Op on the last block: its M V is kept (below LEAN_BASIS_MIN_DOF)
+        let w = match basis.mv() {
+            Some(mv) => {
+                let mut w = mv.columns(m0, bl).into_owned();
+                solver.solve_in_place(&mut w);
+                pencil.mask(&mut w);
+                w
+            }
+            None => op(&basis.v().columns(m0, bl).into_owned()),
+        };
         let (w, mw, coef) = reorthogonalize(pencil, &basis, w);
         t.view_mut((0, m0), (m_cur, bl)).copy_from(&coef);
         let exact = m_cur == n;
