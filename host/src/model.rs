@@ -352,24 +352,31 @@ fn read_matrices(
     Vec<feio::Triplets>,
 )> {
     use nlmode::structure::matrices::{read_matrix_triplets, sparse_from_feio};
+    use rayon::prelude::*;
     let key = |e| matrices_error(st, e);
+    // the files at once (each parse is itself parallel in chunks, but the
+    // conversion to compressed columns is not): the errors in file order
+    let one =
+        |(k, (role, path)): (usize, &(nlmode::structure::MatrixRole, &std::path::PathBuf))| {
+            if let Some(t) = st.in_memory.as_ref().and_then(|m| m.get(k)) {
+                let s = sparse_from_feio(*role, path, t).map_err(key)?;
+                return Ok((Some(s), feio::Triplets::default()));
+            }
+            let t = read_matrix_triplets(*role, path, format).map_err(key)?;
+            if t.labels.is_none() {
+                let s = sparse_from_feio(*role, path, &t).map_err(key)?;
+                Ok((Some(s), feio::Triplets::default()))
+            } else {
+                Ok((None, t))
+            }
+        };
+    let each: Vec<Result<_>> = files.par_iter().enumerate().map(one).collect();
     let mut read = Vec::with_capacity(files.len());
     let mut sparse = Vec::with_capacity(files.len());
-    for (k, (role, path)) in files.iter().enumerate() {
-        if let Some(t) = st.in_memory.as_ref().and_then(|m| m.get(k)) {
-            sparse.push(Some(sparse_from_feio(*role, path, t).map_err(key)?));
-            read.push(feio::Triplets::default());
-            continue;
-        }
-        let t = read_matrix_triplets(*role, path, format).map_err(key)?;
-        if t.labels.is_none() {
-            sparse.push(Some(sparse_from_feio(*role, path, &t).map_err(key)?));
-            drop(t);
-            read.push(feio::Triplets::default());
-        } else {
-            sparse.push(None);
-            read.push(t);
-        }
+    for r in each {
+        let (s, t) = r?;
+        sparse.push(s);
+        read.push(t);
     }
     Ok((sparse, read))
 }
