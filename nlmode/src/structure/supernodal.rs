@@ -189,13 +189,7 @@ impl SolvePlan {
             run_parts(par, jobs, |(p, (chunks, acc))| {
                 let mut tmp = Vec::new();
                 for i in 0..chunks.len() {
-                    ctx.forward(
-                        self.parts[p][i],
-                        i,
-                        chunks,
-                        &mut Sink::Acc(p, acc),
-                        &mut tmp,
-                    );
+                    ctx.forward(self.parts[p][i], i, chunks, &mut Sink::Acc(acc), &mut tmp);
                 }
             });
             for a in &acc {
@@ -274,8 +268,8 @@ fn run_parts<J: Send>(par: Par, jobs: Vec<J>, f: impl Fn(J) + Sync + Send) {
 
 /// Where a part's forward updates of rows outside its chunks go.
 enum Sink<'a> {
-    /// Part `p`'s block of the top rows.
-    Acc(usize, &'a mut [f64]),
+    /// The part's block of the top rows.
+    Acc(&'a mut [f64]),
     /// The top solving itself: all its rows are its own.
     Top,
 }
@@ -288,7 +282,7 @@ struct Ctx<'a> {
     nc: usize,
 }
 
-impl Ctx<'_> {
+impl<'a> Ctx<'a> {
     /// The chunk index and row offset of row `r` (of a supernode in `own`, the
     /// part or the top the caller solves) or `None` for a top row of a part.
     fn locate(&self, r: usize, top_caller: bool, part: usize) -> (bool, usize, usize) {
@@ -312,6 +306,20 @@ impl Ctx<'_> {
         }
     }
 
+    /// Supernode `s`'s diagonal and off-diagonal blocks of `L`, its pattern,
+    /// and who solves it: the top (`true`) or its part.
+    #[allow(clippy::type_complexity)]
+    fn block(&self, s: usize) -> (MatRef<'a, f64>, MatRef<'a, f64>, &'a [usize], bool, usize) {
+        let sn = self.llt.supernode(s);
+        let l = sn.val();
+        let (l_top, l_bot) = l.split_at_row(l.ncols());
+        let (top_caller, part) = match self.plan.owner[s] {
+            Owner::Part(p, _) => (false, p),
+            Owner::Top(..) => (true, usize::MAX),
+        };
+        (l_top, l_bot, sn.pattern(), top_caller, part)
+    }
+
     /// Supernode `s` (chunk `i`) of `L z = b`: the diagonal block solved, the
     /// off-diagonal block's update subtracted from the rows in `chunks` or
     /// added to the part's block of the top rows.
@@ -324,10 +332,8 @@ impl Ctx<'_> {
         tmp: &mut Vec<f64>,
     ) {
         let nc = self.nc;
-        let sn = self.llt.supernode(s);
-        let (l, pattern) = (sn.val(), sn.pattern());
-        let size = l.ncols();
-        let (l_top, l_bot) = l.split_at_row(size);
+        let (l_top, l_bot, pattern, top_caller, part) = self.block(s);
+        let size = l_top.ncols();
         tmp.clear();
         tmp.resize(pattern.len() * nc, 0.0);
         {
@@ -336,16 +342,12 @@ impl Ctx<'_> {
             let t = MatMut::from_row_major_slice_mut(tmp, pattern.len(), nc);
             matmul(t, Accum::Replace, l_bot, xs.as_ref(), 1.0, Par::Seq);
         }
-        let (top_caller, part) = match sink {
-            Sink::Acc(p, _) => (false, *p),
-            Sink::Top => (true, usize::MAX),
-        };
         for (k, &r) in pattern.iter().enumerate() {
             let upd = &tmp[k * nc..(k + 1) * nc];
             let target = match self.locate(r, top_caller, part) {
                 (true, c, off) => &mut chunks[c][off * nc..(off + 1) * nc],
                 (false, row, _) => match sink {
-                    Sink::Acc(_, acc) => &mut acc[row * nc..(row + 1) * nc],
+                    Sink::Acc(acc) => &mut acc[row * nc..(row + 1) * nc],
                     Sink::Top => unreachable!("the top owns its rows"),
                 },
             };
@@ -366,14 +368,8 @@ impl Ctx<'_> {
         tmp: &mut Vec<f64>,
     ) {
         let nc = self.nc;
-        let sn = self.llt.supernode(s);
-        let (l, pattern) = (sn.val(), sn.pattern());
-        let size = l.ncols();
-        let (l_top, l_bot) = l.split_at_row(size);
-        let (top_caller, part) = match self.plan.owner[s] {
-            Owner::Part(p, _) => (false, p),
-            Owner::Top(..) => (true, usize::MAX),
-        };
+        let (l_top, l_bot, pattern, top_caller, part) = self.block(s);
+        let size = l_top.ncols();
         tmp.clear();
         tmp.reserve(pattern.len() * nc);
         for &r in pattern {
