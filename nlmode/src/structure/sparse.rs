@@ -745,14 +745,13 @@ impl SparseCholesky {
             return false;
         };
         let (nr, nc) = b.shape();
-        let fwd: Vec<usize> = match sym.perm() {
-            Some(p) => p.arrays().0.to_vec(),
-            None => (0..nr).collect(),
-        };
+        // row i of the permuted system is row fwd[i] of b (no copy of fwd)
+        let fwd = sym.perm().map(|p| p.arrays().0);
+        let old = |i: usize| fwd.map_or(i, |f| f[i]);
         let mut x = vec![0.0; nr * nc];
-        for (i, &old) in fwd.iter().enumerate() {
+        for i in 0..nr {
             for j in 0..nc {
-                x[i * nc + j] = b[(old, j)];
+                x[i * nc + j] = b[(old(i), j)];
             }
         }
         use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
@@ -763,9 +762,9 @@ impl SparseCholesky {
             zero_from,
             self.par,
         );
-        for (i, &old) in fwd.iter().enumerate() {
+        for i in 0..nr {
             for j in 0..nc {
-                b[(old, j)] = x[i * nc + j];
+                b[(old(i), j)] = x[i * nc + j];
             }
         }
         true

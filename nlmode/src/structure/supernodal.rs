@@ -266,6 +266,15 @@ fn run_parts<J: Send>(par: Par, jobs: Vec<J>, f: impl Fn(J) + Sync + Send) {
     }
 }
 
+/// Where a row is held for a supernode's solver ([`Ctx::locate`]).
+enum Place {
+    /// In the caller's own chunks: chunk, row within it.
+    Own(usize, usize),
+    /// A top row seen from a part: top supernode, row within it, row among
+    /// all the top rows.
+    Top(usize, usize, usize),
+}
+
 /// Where a part's forward updates of rows outside its chunks go.
 enum Sink<'a> {
     /// The part's block of the top rows.
@@ -283,26 +292,21 @@ struct Ctx<'a> {
 }
 
 impl<'a> Ctx<'a> {
-    /// The chunk index and row offset of row `r` (of a supernode in `own`, the
-    /// part or the top the caller solves) or `None` for a top row of a part.
-    fn locate(&self, r: usize, top_caller: bool, part: usize) -> (bool, usize, usize) {
+    /// Where row `r` (an ancestor's, of supernode `s` solved by the top when
+    /// `top_caller`, else by part `part`) is held for the caller.
+    fn locate(&self, r: usize, top_caller: bool, part: usize) -> Place {
         let q = self.plan.supernode_of_row[r] as usize;
-        let start = self.llt.symbolic().supernode_begin()[q];
+        let off = r - self.llt.symbolic().supernode_begin()[q];
         match self.plan.owner[q] {
             Owner::Part(p, i) => {
                 debug_assert!(
                     !top_caller && p == part,
                     "a subtree's ancestor in another part"
                 );
-                (true, i, r - start)
+                Place::Own(i, off)
             }
-            Owner::Top(t, first) => {
-                if top_caller {
-                    (true, t, r - start)
-                } else {
-                    (false, first + r - start, 0)
-                }
-            }
+            Owner::Top(t, _) if top_caller => Place::Own(t, off),
+            Owner::Top(t, first) => Place::Top(t, off, first + off),
         }
     }
 
@@ -345,8 +349,8 @@ impl<'a> Ctx<'a> {
         for (k, &r) in pattern.iter().enumerate() {
             let upd = &tmp[k * nc..(k + 1) * nc];
             let target = match self.locate(r, top_caller, part) {
-                (true, c, off) => &mut chunks[c][off * nc..(off + 1) * nc],
-                (false, row, _) => match sink {
+                Place::Own(c, off) => &mut chunks[c][off * nc..(off + 1) * nc],
+                Place::Top(_, _, row) => match sink {
                     Sink::Acc(acc) => &mut acc[row * nc..(row + 1) * nc],
                     Sink::Top => unreachable!("the top owns its rows"),
                 },
@@ -373,13 +377,11 @@ impl<'a> Ctx<'a> {
         tmp.clear();
         tmp.reserve(pattern.len() * nc);
         for &r in pattern {
-            let q = self.plan.supernode_of_row[r] as usize;
-            let off = r - self.llt.symbolic().supernode_begin()[q];
-            match (self.locate(r, top_caller, part), self.plan.owner[q]) {
-                ((true, c, off), _) => tmp.extend_from_slice(&chunks[c][off * nc..][..nc]),
-                (_, Owner::Top(t, _)) => tmp.extend_from_slice(&top[t][off * nc..][..nc]),
-                (_, Owner::Part(..)) => unreachable!("a part's own rows are in its chunks"),
-            }
+            let row = match self.locate(r, top_caller, part) {
+                Place::Own(c, off) => &chunks[c][off * nc..][..nc],
+                Place::Top(t, off, _) => &top[t][off * nc..][..nc],
+            };
+            tmp.extend_from_slice(row);
         }
         let mut xs = MatMut::from_row_major_slice_mut(&mut *chunks[i], size, nc);
         let t = MatRef::from_row_major_slice(tmp, pattern.len(), nc);
