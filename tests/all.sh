@@ -11,6 +11,11 @@ export CARGO_INCREMENTAL="${CARGO_INCREMENTAL:-0}"
 echo "== cargo test (workspace; the test profile optimises the numerics)"
 cargo test --workspace 2>&1
 echo "== cargo test done after ${SECONDS} s"
+# nlmode's METIS nested dissection is an opt-in feature that the workspace
+# build leaves out: the sparse path's unit tests again with it
+echo "== cargo test -p nlmode --features metis (the sparse path with nested dissection)"
+cargo test -p nlmode --features metis --lib structure:: 2>&1
+echo "== nested-dissection tests done after ${SECONDS} s"
 if [ -x tests/run.sh ]; then
   echo "== fmpy harness (the binaries of the test profile, already built)"
   ./tests/run.sh

@@ -11,19 +11,10 @@
 pub fn node_nd(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<usize>> {
     use metis_sys as m;
     let n = weights.len();
-    if xadj.len() != n + 1 || xadj[n] != adj.len() || xadj.windows(2).any(|w| w[0] > w[1]) {
-        return None;
-    }
-    if adj.iter().any(|&v| v >= n) {
-        return None;
-    }
+    let (mut xadj, mut adj, mut vwgt) = checked(xadj, adj, weights)?;
     if n == 0 {
         return Some(Vec::new());
     }
-    let idx = |v: &[usize]| -> Option<Vec<m::idx_t>> {
-        v.iter().map(|&x| m::idx_t::try_from(x).ok()).collect()
-    };
-    let (mut xadj, mut adj, mut vwgt) = (idx(xadj)?, idx(adj)?, idx(weights)?);
     let mut nvtxs = m::idx_t::try_from(n).ok()?;
     let mut options = [0 as m::idx_t; m::METIS_NOPTIONS as usize];
     // SAFETY: `options` has the METIS_NOPTIONS entries METIS writes.
@@ -62,6 +53,74 @@ pub fn node_nd(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<u
     Some(perm)
 }
 
+/// METIS' vertex separator of the graph of [`node_nd`]'s arguments (the
+/// bisection at the top of its nested dissection): `part[v]` is 0 or 1 for
+/// the two sides, 2 for the separator; no edge joins side 0 to side 1.
+/// `None` as for [`node_nd`].
+pub fn vertex_separator(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<u8>> {
+    use metis_sys as m;
+    let n = weights.len();
+    let (mut xadj, mut adj, mut vwgt) = checked(xadj, adj, weights)?;
+    if n == 0 {
+        return Some(Vec::new());
+    }
+    let mut nvtxs = m::idx_t::try_from(n).ok()?;
+    let mut options = [0 as m::idx_t; m::METIS_NOPTIONS as usize];
+    // SAFETY: `options` has the METIS_NOPTIONS entries METIS writes.
+    unsafe { m::METIS_SetDefaultOptions(options.as_mut_ptr()) };
+    options[m::moptions_et_METIS_OPTION_NUMBERING as usize] = 0;
+    let mut part = vec![0 as m::idx_t; n];
+    let mut sepsize: m::idx_t = 0;
+    // SAFETY: a checked CSR graph of `nvtxs` vertices (as in `node_nd`),
+    // `vwgt` and `part` have nvtxs entries; METIS reads the graph and the
+    // options and writes only `sepsize` and `part`.
+    let status = unsafe {
+        m::METIS_ComputeVertexSeparator(
+            &mut nvtxs,
+            xadj.as_mut_ptr(),
+            adj.as_mut_ptr(),
+            vwgt.as_mut_ptr(),
+            options.as_mut_ptr(),
+            &mut sepsize,
+            part.as_mut_ptr(),
+        )
+    };
+    if status != m::rstatus_et_METIS_OK {
+        return None;
+    }
+    part.into_iter()
+        .map(|p| u8::try_from(p).ok().filter(|&p| p <= 2))
+        .collect()
+}
+
+/// The graph as METIS' 32-bit arrays, `None` when inconsistent (`xadj` of
+/// `n + 1` non-decreasing entries ending at `adj.len()`, neighbours below
+/// `n`) or beyond 32 bits.
+#[allow(clippy::type_complexity)]
+fn checked(
+    xadj: &[usize],
+    adj: &[usize],
+    weights: &[usize],
+) -> Option<(
+    Vec<metis_sys::idx_t>,
+    Vec<metis_sys::idx_t>,
+    Vec<metis_sys::idx_t>,
+)> {
+    let n = weights.len();
+    if xadj.len() != n + 1 || xadj[n] != adj.len() || xadj.windows(2).any(|w| w[0] > w[1]) {
+        return None;
+    }
+    if adj.iter().any(|&v| v >= n) {
+        return None;
+    }
+    let idx = |v: &[usize]| -> Option<Vec<metis_sys::idx_t>> {
+        v.iter()
+            .map(|&x| metis_sys::idx_t::try_from(x).ok())
+            .collect()
+    };
+    Some((idx(xadj)?, idx(adj)?, idx(weights)?))
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -74,5 +133,40 @@ mod tests {
         s.sort();
         assert_eq!(s, vec![0, 1, 2, 3, 4]);
         assert!(super::node_nd(&xadj, &adj[..7], &[1; 5]).is_none());
+    }
+
+    #[test]
+    fn a_grid_is_separated() {
+        // a 20 x 20 grid graph: a separator of about one line
+        let k = 20;
+        let (mut xadj, mut adj) = (vec![0], Vec::new());
+        for i in 0..k {
+            for j in 0..k {
+                let v = i * k + j;
+                if i > 0 {
+                    adj.push(v - k);
+                }
+                if j > 0 {
+                    adj.push(v - 1);
+                }
+                if j + 1 < k {
+                    adj.push(v + 1);
+                }
+                if i + 1 < k {
+                    adj.push(v + k);
+                }
+                xadj.push(adj.len());
+            }
+        }
+        let part = super::vertex_separator(&xadj, &adj, &[1; 400]).unwrap();
+        let count = |p: u8| part.iter().filter(|&&q| q == p).count();
+        assert!((k..=2 * k).contains(&count(2)), "separator {}", count(2));
+        assert!(count(0) >= 150 && count(1) >= 150);
+        for v in 0..400 {
+            for &u in &adj[xadj[v]..xadj[v + 1]] {
+                assert!(part[v] + part[u] != 1, "edge {v}-{u} across the separator");
+            }
+        }
+        assert!(super::vertex_separator(&xadj, &adj[..5], &[1; 400]).is_none());
     }
 }

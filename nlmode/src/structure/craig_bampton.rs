@@ -407,7 +407,7 @@ pub fn craig_bampton_sparse_with(
             lanczos(&pencil, &solver, 0.0, n_modes.max(1), "n_modes")
         })?;
         timings.lanczos_basis.push(modes.basis);
-        let floor = 1e-12 * pencil.lambda_scale();
+        let floor = 1e-12 * modes.lambda_scale;
         if modes.lambda[0].is_nan() || modes.lambda[0] <= floor {
             return Err(singular());
         }

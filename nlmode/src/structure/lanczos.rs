@@ -27,6 +27,7 @@
 //! `K_ii` or `M_ii`: `M x` and `K x` have their fixed rows dropped, the solver
 //! returns vectors with zero fixed rows (see
 //! [`super::craig_bampton::InteriorSolver`]).
+use super::product::{tall_mul_add, tall_tr_mul};
 use super::sparse::{diagonal, sym_mul_par, Xorshift};
 use super::sparse::{sparse_add, SparseCholesky, SparseMatrix, SymbolicFactor};
 use super::{Result, StructureError};
@@ -103,15 +104,22 @@ impl Pencil<'_> {
     /// `lambda_scale = max_i K_ii / M_ii` over the free DOFs (a lower bound of
     /// the largest eigenvalue).
     pub fn lambda_scale(&self) -> f64 {
+        self.scales().1
+    }
+
+    /// [`Pencil::mass_scale`] and [`Pencil::lambda_scale`] from one pass over
+    /// each diagonal (a pass reads all of a matrix' row indices).
+    pub fn scales(&self) -> (f64, f64) {
         let (dk, dm) = (diagonal(self.k), diagonal(self.m));
         let mut free = vec![true; dk.len()];
         for &d in self.fixed {
             free[d] = false;
         }
-        (0..dk.len())
+        let lambda = (0..dk.len())
             .filter(|&i| free[i])
             .map(|i| dk[i] / dm[i])
-            .fold(0.0, f64::max)
+            .fold(0.0, f64::max);
+        (dm.iter().fold(0.0, |a, d| a.max(d.abs())), lambda)
     }
 }
 
@@ -128,6 +136,8 @@ pub struct SparseModes {
     pub residual: Vec<f64>,
     /// Size of the Lanczos basis at convergence.
     pub basis: usize,
+    /// [`Pencil::lambda_scale`] of the pencil ([`omega_of`]).
+    pub lambda_scale: f64,
 }
 
 /// `x^T M x` below `-MASS_NORM_RTOL max_i |M_ii| x^T x` proves `M` indefinite
@@ -224,7 +234,7 @@ pub(crate) fn lanczos_with(
         });
     }
     let nn = pencil.m.nrows();
-    let m_scale = pencil.mass_scale();
+    let (m_scale, lambda_scale) = pencil.scales();
     let b = n_modes.min(3);
     let m_max = max_basis(n_modes, n);
     let op = |x: &DMatrix<f64>| {
@@ -284,9 +294,14 @@ pub(crate) fn lanczos_with(
             last_residual = worst;
             if worst <= LANCZOS_RTOL {
                 let (y, mus) = ritz;
-                let x = basis.v() * y;
+                let mut x = DMatrix::zeros(nn, y.ncols());
+                tall_mul_add(x.as_mut_slice(), &basis.v, &y, 1.0, nn, pencil.par);
                 drop(basis);
-                return finish(pencil, solver, sigma, &mus, x, m_cur, name);
+                let found = Found {
+                    basis: m_cur,
+                    lambda_scale,
+                };
+                return finish(pencil, solver, sigma, &mus, x, found, name);
             }
         }
         if full {
@@ -346,17 +361,17 @@ fn reorthogonalize(
     basis: &Basis,
     mut w: DMatrix<f64>,
 ) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let (vv, mvv) = (basis.v(), basis.mv());
+    let (n, par) = (basis.n, pencil.par);
     let mut coef = DMatrix::zeros(basis.cols(), w.ncols());
     if basis.cols() > 0 {
         for _ in 0..2 {
             // M w afresh each pass: updating it as M w - (M V) c would lose the small
             // remainder to cancellation once the Krylov space has converged
-            let c = match &mvv {
-                Some(mvv) => mvv.tr_mul(&w),
-                None => vv.tr_mul(&pencil.mul_m(&w)),
+            let c = match &basis.mv {
+                Some(mv) => tall_tr_mul(mv, w.as_slice(), n, par),
+                None => tall_tr_mul(&basis.v, pencil.mul_m(&w).as_slice(), n, par),
             };
-            w -= vv * &c;
+            tall_mul_add(w.as_mut_slice(), &basis.v, &c, -1.0, n, par);
             coef += c;
         }
     }
@@ -451,6 +466,12 @@ fn reorthogonalize_local(
     (f, mf)
 }
 
+/// The converged basis size and [`Pencil::lambda_scale`] ([`finish`]).
+struct Found {
+    basis: usize,
+    lambda_scale: f64,
+}
+
 /// Ritz vectors to eigenpairs: `lambda = sigma + 1/mu`, sign convention, the
 /// verified residuals (module docs).
 fn finish(
@@ -459,10 +480,13 @@ fn finish(
     sigma: f64,
     mus: &[f64],
     mut x: DMatrix<f64>,
-    basis: usize,
+    found: Found,
     name: &'static str,
 ) -> Result<SparseModes> {
-    let scale = pencil.lambda_scale();
+    let Found {
+        basis,
+        lambda_scale: scale,
+    } = found;
     let lambda: Vec<f64> = mus.iter().map(|mu| sigma + 1.0 / mu).collect();
     if lambda.iter().any(|l| !l.is_finite()) {
         return Err(StructureError::NonFinite {
@@ -532,6 +556,7 @@ fn finish(
         inverse_residual,
         residual,
         basis,
+        lambda_scale: scale,
     })
 }
 
@@ -597,16 +622,15 @@ pub fn modes(
     name: &'static str,
 ) -> Result<(Vec<f64>, DMatrix<f64>, usize)> {
     let modes = lanczos(pencil, &f.factor, f.sigma, n_modes, name)?;
-    let omega = omega_of(pencil, &modes.lambda)?;
+    let omega = omega_of(&modes.lambda, modes.lambda_scale)?;
     Ok((omega, modes.shapes, modes.basis))
 }
 
-/// The natural frequencies [rad/s] of the eigenvalues `lambda` of the
-/// pencil, as [`modes`]: rigid-body modes (`|lambda| <= 1e-12
-/// lambda_scale`) exactly zero, a clearly negative eigenvalue
+/// The natural frequencies [rad/s] of the eigenvalues `lambda` of a pencil
+/// of [`Pencil::lambda_scale`] `scale`, as [`modes`]: rigid-body modes
+/// (`|lambda| <= 1e-12 scale`) exactly zero, a clearly negative eigenvalue
 /// [`StructureError::NegativeEigenvalue`].
-pub fn omega_of(pencil: &Pencil, lambda: &[f64]) -> Result<Vec<f64>> {
-    let scale = pencil.lambda_scale();
+pub fn omega_of(lambda: &[f64], scale: f64) -> Result<Vec<f64>> {
     let mut omega = Vec::with_capacity(lambda.len());
     for (c, &l) in lambda.iter().enumerate() {
         if l < -1e-12 * scale {

@@ -17,9 +17,18 @@
 //! thread count. Strictly it is `A^T X`, which for a matrix symmetric only
 //! within the tolerance differs from `A X` by that much (the factorisation
 //! reads one triangle alone).
+//!
+//! The tall dense products of the Lanczos basis `V` (`n x k`, `k` a few tens)
+//! with a block `W` (`n x b`), `V^T W` ([`tall_tr_mul`]) and `Y += alpha V C`
+//! ([`tall_mul_add`]), are faer's kernel on fixed chunks of [`TALL_ROWS`] rows
+//! shared among the threads (performance: nalgebra's product is sequential,
+//! and `V^T W` is a reduction over the rows into a `k x b` result that faer's
+//! parallel GEMM cannot share). The chunks' partial sums are added in chunk
+//! order: the result does not depend on the thread count either.
 use super::sparse::SparseMatrix;
+use faer::linalg::matmul::matmul;
 use faer::sparse::SparseColMatRef;
-use faer::Par;
+use faer::{Accum, Mat, MatMut, MatRef, Par};
 use nalgebra::DMatrix;
 use std::borrow::Cow;
 use std::ops::Range;
@@ -169,6 +178,101 @@ fn gather<const W: usize>(
     }
 }
 
+/// Rows of a chunk of the tall dense products (module docs): fixed, so that
+/// the sums do not depend on the thread count; a chunk of a 48-column basis
+/// is 1.5 MB.
+pub const TALL_ROWS: usize = 4096;
+
+/// `V^T W` of the column-major `V` (`n x k`, `v.len() = n k`) and `W` (`n x
+/// b`) (module docs).
+pub fn tall_tr_mul(v: &[f64], w: &[f64], n: usize, par: Par) -> DMatrix<f64> {
+    let (k, b) = tall_shape(v, w, n);
+    let mut out = DMatrix::zeros(k, b);
+    if k == 0 || b == 0 || n == 0 {
+        return out;
+    }
+    let (v, w) = (
+        MatRef::from_column_major_slice(v, n, k),
+        MatRef::from_column_major_slice(w, n, b),
+    );
+    let part = |(vr, wr): (MatRef<'_, f64>, MatRef<'_, f64>)| {
+        let mut p = Mat::<f64>::zeros(k, b);
+        matmul(
+            p.as_mut(),
+            Accum::Replace,
+            vr.transpose(),
+            wr,
+            1.0,
+            Par::Seq,
+        );
+        p
+    };
+    let parts: Vec<Mat<f64>> = if par.degree() > 1 {
+        use rayon::prelude::*;
+        v.par_row_chunks(TALL_ROWS)
+            .zip(w.par_row_chunks(TALL_ROWS))
+            .map(part)
+            .collect()
+    } else {
+        (0..n)
+            .step_by(TALL_ROWS)
+            .map(|r| {
+                let len = TALL_ROWS.min(n - r);
+                part((v.subrows(r, len), w.subrows(r, len)))
+            })
+            .collect()
+    };
+    for p in &parts {
+        for j in 0..b {
+            for i in 0..k {
+                out[(i, j)] += p[(i, j)];
+            }
+        }
+    }
+    out
+}
+
+/// `Y += alpha V C` of the column-major `V` (`n x k`, `v.len() = n k`), `C`
+/// (`k x b`) and `Y` (`n x b`) (module docs).
+pub fn tall_mul_add(y: &mut [f64], v: &[f64], c: &DMatrix<f64>, alpha: f64, n: usize, par: Par) {
+    let (k, b) = tall_shape(v, y, n);
+    assert_eq!((c.nrows(), c.ncols()), (k, b), "tall_mul_add: sizes");
+    if k == 0 || b == 0 || n == 0 {
+        return;
+    }
+    let v = MatRef::from_column_major_slice(v, n, k);
+    let y = MatMut::from_column_major_slice_mut(y, n, b);
+    let c = MatRef::from_column_major_slice(c.as_slice(), k, b);
+    let part = |(yr, vr): (MatMut<'_, f64>, MatRef<'_, f64>)| {
+        matmul(yr, Accum::Add, vr, c, alpha, Par::Seq);
+    };
+    if par.degree() > 1 {
+        use rayon::prelude::*;
+        y.par_row_chunks_mut(TALL_ROWS)
+            .zip(v.par_row_chunks(TALL_ROWS))
+            .for_each(part);
+    } else {
+        let mut y = y;
+        for r in (0..n).step_by(TALL_ROWS) {
+            let len = TALL_ROWS.min(n - r);
+            part((y.as_mut().subrows_mut(r, len), v.subrows(r, len)));
+        }
+    }
+}
+
+/// The column counts of two column-major blocks of `n` rows.
+fn tall_shape(v: &[f64], w: &[f64], n: usize) -> (usize, usize) {
+    if n == 0 {
+        assert!(v.is_empty() && w.is_empty(), "tall product: sizes");
+        return (0, 0);
+    }
+    assert!(
+        v.len().is_multiple_of(n) && w.len().is_multiple_of(n),
+        "tall product: sizes"
+    );
+    (v.len() / n, w.len() / n)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -230,6 +334,41 @@ mod tests {
         let a = sparse_from_triplets(2, &[(0, 0, 1.0), (1, 0, 2.0), (1, 1, 3.0)]).unwrap();
         let x = DMatrix::from_column_slice(2, 1, &[1.0, 10.0]);
         assert_eq!(sym_mul(&a, &x).as_slice(), &[21.0, 30.0]);
+    }
+
+    #[test]
+    fn tall_products_equal_nalgebra_for_any_thread_count() {
+        let mut rng = Xorshift(0x7a11);
+        for &(n, k, b) in &[
+            (1, 1, 1),
+            (10, 3, 2),
+            (4095, 7, 3),
+            (4097, 5, 1),
+            (20_000, 42, 3),
+        ] {
+            let v = rng.block(n, k);
+            let w = rng.block(n, b);
+            let want = v.tr_mul(&w);
+            let got = tall_tr_mul(v.as_slice(), w.as_slice(), n, Par::Seq);
+            let scale = (n as f64).sqrt();
+            assert!((&got - &want).amax() <= 1e-14 * scale, "V^T W {n} {k} {b}");
+            let c = rng.block(k, b);
+            let want_y = &w - &v * &c * 2.0;
+            let mut y = w.clone();
+            tall_mul_add(y.as_mut_slice(), v.as_slice(), &c, -2.0, n, Par::Seq);
+            assert!(
+                (&y - &want_y).amax() <= 1e-14 * k as f64,
+                "Y - 2 V C {n} {k} {b}"
+            );
+            for t in [2, 3] {
+                let par = Par::rayon(t);
+                assert_eq!(tall_tr_mul(v.as_slice(), w.as_slice(), n, par), got);
+                let mut yp = w.clone();
+                tall_mul_add(yp.as_mut_slice(), v.as_slice(), &c, -2.0, n, par);
+                assert_eq!(yp, y);
+            }
+        }
+        assert_eq!(tall_tr_mul(&[], &[], 0, Par::Seq).shape(), (0, 0));
     }
 
     #[test]

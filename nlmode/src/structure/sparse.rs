@@ -1,9 +1,10 @@
 //! Sparse FE matrices for large models (the `craig-bampton` path of a matrices
 //! structure, [`super::matrices::matrix_structure_sparse`]): compressed-column
 //! storage (faer), products with dense blocks, and the sparse Cholesky
-//! factorisation `A = L L^T` (faer's supernodal factorisation after a
-//! fill-reducing ordering, [`super::ordering`]: AMD or nested dissection, with
-//! its parallelism) with a memory estimate from the
+//! factorisation `A = L L^T` (faer's symbolic factorisation after a
+//! fill-reducing ordering, [`super::ordering`]: AMD or nested dissection; the
+//! numeric one subtree-parallel in faer's supernodal layout,
+//! [`super::supernodal`], or faer's own where the factor is simplicial) with a memory estimate from the
 //! symbolic factorisation taken before any numeric work
 //! ([`MemoryEstimate`], [`SparseOptions::memory_limit_bytes`]).
 //!
@@ -589,8 +590,11 @@ impl SymbolicFactor {
         8 * (self.nnz() + idx + 2 * self.inner.nrows()) as u64
     }
 
-    /// Bytes of faer's workspace of the numeric factorisation (a permuted copy
-    /// of the matrix and the supernodal update blocks).
+    /// Bytes of the numeric factorisation's workspace: faer's (a permuted copy
+    /// of the matrix, `16 nnz(A)`, and the supernodal update blocks), an upper
+    /// bound of the subtree-parallel one's ([`super::supernodal`]: the lower
+    /// triangle permuted with 32-bit indices, `12 nnz(A) / 2`, and per
+    /// thread `8 n` and one update block).
     pub fn workspace_bytes(&self, par: Par) -> u64 {
         self.inner
             .factorize_numeric_llt_scratch::<f64>(par, Default::default())
@@ -688,9 +692,67 @@ impl SparseCholesky {
         if sym.nrows() != a.nrows() {
             return None;
         }
+        let values = match symbolic.plan.as_deref() {
+            Some(plan) => Self::planned_values(symbolic, plan, a, par)?,
+            None => Self::faer_values(symbolic, a, par)?,
+        };
+        Self::probed(symbolic, values, a, par)
+    }
+
+    /// A zeroed factor of `symbolic`'s layout (`None` out of memory), written
+    /// by the threads of `par`: the first touch of its pages is most of the
+    /// cost (0.18 s for the 0.34 GB factor of 10^5 DOFs on one thread).
+    fn zeroed(symbolic: &SymbolicFactor, par: Par) -> Option<Vec<f64>> {
+        let len = symbolic.inner.len_val();
         let mut values = Vec::new();
-        values.try_reserve_exact(sym.len_val()).ok()?;
-        values.resize(sym.len_val(), 0.0);
+        values.try_reserve_exact(len).ok()?;
+        if par.degree() > 1 {
+            use rayon::prelude::*;
+            values.par_extend(rayon::iter::repeat_n(0.0, len));
+        } else {
+            values.resize(len, 0.0);
+        }
+        Some(values)
+    }
+
+    /// The factor's values by the subtree-parallel factorisation of
+    /// [`SolvePlan::factorize`] (a supernodal factor with a solve plan); faer's
+    /// where the row indices do not fit its 32-bit copy of `P A P^T`.
+    fn planned_values(
+        symbolic: &SymbolicFactor,
+        plan: &SolvePlan,
+        a: SparseColMatRef<'_, usize, f64>,
+        par: Par,
+    ) -> Option<Vec<f64>> {
+        let sym = &symbolic.inner;
+        let SymbolicCholeskyRaw::Supernodal(s) = sym.raw() else {
+            return Self::faer_values(symbolic, a, par);
+        };
+        if u32::try_from(sym.nrows()).is_err() {
+            return Self::faer_values(symbolic, a, par);
+        }
+        let mut values = Self::zeroed(symbolic, par)?;
+        let identity: Vec<usize>;
+        let inv = match sym.perm() {
+            Some(p) => p.arrays().1,
+            None => {
+                identity = (0..sym.nrows()).collect();
+                &identity
+            }
+        };
+        plan.factorize(s, inv, a, &mut values, par)
+            .then_some(values)
+    }
+
+    /// The factor's values by faer's numeric factorisation (`None` when it
+    /// fails: not positive definite, or out of memory).
+    pub(crate) fn faer_values(
+        symbolic: &SymbolicFactor,
+        a: SparseColMatRef<'_, usize, f64>,
+        par: Par,
+    ) -> Option<Vec<f64>> {
+        let sym = &symbolic.inner;
+        let mut values = Self::zeroed(symbolic, par)?;
         let req = sym.factorize_numeric_llt_scratch::<f64>(par, Default::default());
         let mut mem = MemBuffer::try_new(req).ok()?;
         sym.factorize_numeric_llt(
@@ -703,7 +765,42 @@ impl SparseCholesky {
             Default::default(),
         )
         .ok()?;
-        drop(mem);
+        Some(values)
+    }
+
+    /// The factor's values in faer's layout of its symbolic factorisation,
+    /// with the strict upper triangles of the supernodes' diagonal blocks
+    /// cleared (faer leaves its work there, the solves never read it).
+    #[cfg(test)]
+    pub(crate) fn lower_values(symbolic: &SymbolicFactor, values: &[f64]) -> Vec<f64> {
+        let mut out = values.to_vec();
+        if let SymbolicCholeskyRaw::Supernodal(s) = symbolic.inner.raw() {
+            let cpv = s.col_ptr_for_val();
+            for k in 0..s.n_supernodes() {
+                let sc = s.supernode_end()[k] - s.supernode_begin()[k];
+                let rows = sc + s.supernode(k).pattern().len();
+                for c in 1..sc {
+                    out[cpv[k] + c * rows..][..c].fill(0.0);
+                }
+            }
+        }
+        out
+    }
+
+    /// [`SparseCholesky::lower_values`] of this factor.
+    #[cfg(test)]
+    pub(crate) fn values(&self) -> Vec<f64> {
+        Self::lower_values(&self.symbolic, &self.values)
+    }
+
+    /// The factor with `values`, if it reproduces a random `z` from `A z`
+    /// ([`SINGULAR_PROBE_RTOL`]).
+    fn probed(
+        symbolic: &SymbolicFactor,
+        values: Vec<f64>,
+        a: SparseColMatRef<'_, usize, f64>,
+        par: Par,
+    ) -> Option<Self> {
         let f = Self {
             symbolic: symbolic.clone(),
             values,

@@ -157,10 +157,13 @@ fn cb_first_with(
         columns: o.columns,
         converged: o.modes.is_some(),
     });
-    let scale = pencil.lambda_scale();
-    let elastic = |s: &SparseModes| s.lambda.iter().all(|&l| l > 1e-12 * scale);
+    let elastic = |s: &SparseModes| s.lambda.iter().all(|&l| l > 1e-12 * s.lambda_scale);
     let (omega, phi, basis) = match outcome.and_then(|o| o.modes).filter(elastic) {
-        Some(modes) => (omega_of(pencil, &modes.lambda)?, modes.shapes, modes.basis),
+        Some(modes) => (
+            omega_of(&modes.lambda, modes.lambda_scale)?,
+            modes.shapes,
+            modes.basis,
+        ),
         None => {
             if let Some(s) = &mut timings.subspace {
                 s.converged = false;
@@ -219,7 +222,7 @@ pub fn subspace_modes(
     };
     let mut x = start_block(pencil, &(&cb.transform * q.columns(0, ritz_cols)), p);
     let mut mx = pencil.mul_m(&x);
-    let m_scale = pencil.mass_scale();
+    let (m_scale, lambda_scale) = pencil.scales();
     let mut history = Vec::new();
     let mut best: Option<Best> = None;
     for it in 1..=max_iterations {
@@ -278,7 +281,15 @@ pub fn subspace_modes(
     outcome.residual = best.as_ref().map_or(f64::INFINITY, |b| b.worst);
     if let Some(b) = best.filter(|b| b.worst <= RESIDUAL_RTOL) {
         let solved = p * outcome.iterations;
-        outcome.modes = Some(converged(pencil, b.x, &b.mx, &b.lambda, b.res, solved));
+        outcome.modes = Some(converged(
+            pencil,
+            b.x,
+            &b.mx,
+            &b.lambda,
+            b.res,
+            solved,
+            lambda_scale,
+        ));
     }
     Ok(outcome)
 }
@@ -363,6 +374,7 @@ fn converged(
     lambda: &[f64],
     res: Vec<f64>,
     solved: usize,
+    lambda_scale: f64,
 ) -> SparseModes {
     let nm = res.len();
     let mut shapes = x.columns(0, nm).into_owned();
@@ -394,6 +406,7 @@ fn converged(
         inverse_residual: res,
         residual,
         basis: solved,
+        lambda_scale,
     }
 }
 
