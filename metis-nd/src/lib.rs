@@ -1,7 +1,16 @@
-//! METIS' nested-dissection ordering (`METIS_NodeND`) of a graph, behind one
-//! safe function: the workspace's only call into C for the numerics, kept out
-//! of `nlmode` (which forbids `unsafe`). METIS 5 and GKlib are compiled from
-//! the sources vendored by the `metis-sys` crate (32-bit indices).
+//! METIS' nested-dissection ordering (`METIS_NodeND`) and vertex separator
+//! (`METIS_ComputeVertexSeparator`) of a graph, behind safe functions: the
+//! workspace's only calls into C for the numerics, kept out of `nlmode`
+//! (which forbids `unsafe`). METIS 5 and GKlib are compiled from the sources
+//! vendored by the `metis-sys` crate (32-bit indices).
+//!
+//! METIS keeps the state of its random generator in globals (GKlib's
+//! `random.c`, seeded at each call): two calls at once from different threads
+//! would race on it, and their results would depend on the timing. Every
+//! call here holds [`METIS`] for its duration.
+
+/// Held during every call into METIS (module docs).
+static METIS: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// The nested-dissection order of the undirected graph of `n = weights.len()`
 /// vertices in compressed rows (neighbours of `v` at `adj[xadj[v]..xadj[v +
@@ -25,6 +34,7 @@ pub fn node_nd(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<u
     // non-decreasing entries ending at adj.len(), every neighbour in range),
     // `vwgt`, `perm` and `iperm` have nvtxs entries; METIS reads the graph and
     // the options and writes only `perm` and `iperm`.
+    let _one_at_a_time = METIS.lock().unwrap_or_else(|e| e.into_inner());
     let status = unsafe {
         m::METIS_NodeND(
             &mut nvtxs,
@@ -54,10 +64,15 @@ pub fn node_nd(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<u
 }
 
 /// METIS' vertex separator of the graph of [`node_nd`]'s arguments (the
-/// bisection at the top of its nested dissection): `part[v]` is 0 or 1 for
-/// the two sides, 2 for the separator; no edge joins side 0 to side 1.
-/// `None` as for [`node_nd`].
-pub fn vertex_separator(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<u8>> {
+/// bisection at the top of its nested dissection), the smallest of `tries`
+/// (`METIS_OPTION_NSEPS`): `part[v]` is 0 or 1 for the two sides, 2 for the
+/// separator; no edge joins side 0 to side 1. `None` as for [`node_nd`].
+pub fn vertex_separator(
+    xadj: &[usize],
+    adj: &[usize],
+    weights: &[usize],
+    tries: usize,
+) -> Option<Vec<u8>> {
     use metis_sys as m;
     let n = weights.len();
     let (mut xadj, mut adj, mut vwgt) = checked(xadj, adj, weights)?;
@@ -69,11 +84,13 @@ pub fn vertex_separator(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Opt
     // SAFETY: `options` has the METIS_NOPTIONS entries METIS writes.
     unsafe { m::METIS_SetDefaultOptions(options.as_mut_ptr()) };
     options[m::moptions_et_METIS_OPTION_NUMBERING as usize] = 0;
+    options[m::moptions_et_METIS_OPTION_NSEPS as usize] = m::idx_t::try_from(tries.max(1)).ok()?;
     let mut part = vec![0 as m::idx_t; n];
     let mut sepsize: m::idx_t = 0;
     // SAFETY: a checked CSR graph of `nvtxs` vertices (as in `node_nd`),
     // `vwgt` and `part` have nvtxs entries; METIS reads the graph and the
     // options and writes only `sepsize` and `part`.
+    let _one_at_a_time = METIS.lock().unwrap_or_else(|e| e.into_inner());
     let status = unsafe {
         m::METIS_ComputeVertexSeparator(
             &mut nvtxs,
@@ -135,10 +152,8 @@ mod tests {
         assert!(super::node_nd(&xadj, &adj[..7], &[1; 5]).is_none());
     }
 
-    #[test]
-    fn a_grid_is_separated() {
-        // a 20 x 20 grid graph: a separator of about one line
-        let k = 20;
+    /// The graph of a `k x k` grid (4 neighbours).
+    fn grid(k: usize) -> (Vec<usize>, Vec<usize>) {
         let (mut xadj, mut adj) = (vec![0], Vec::new());
         for i in 0..k {
             for j in 0..k {
@@ -158,7 +173,15 @@ mod tests {
                 xadj.push(adj.len());
             }
         }
-        let part = super::vertex_separator(&xadj, &adj, &[1; 400]).unwrap();
+        (xadj, adj)
+    }
+
+    #[test]
+    fn a_grid_is_separated() {
+        // a 20 x 20 grid graph: a separator of about one line
+        let k = 20;
+        let (xadj, adj) = grid(k);
+        let part = super::vertex_separator(&xadj, &adj, &[1; 400], 2).unwrap();
         let count = |p: u8| part.iter().filter(|&&q| q == p).count();
         assert!((k..=2 * k).contains(&count(2)), "separator {}", count(2));
         assert!(count(0) >= 150 && count(1) >= 150);
@@ -167,6 +190,35 @@ mod tests {
                 assert!(part[v] + part[u] != 1, "edge {v}-{u} across the separator");
             }
         }
-        assert!(super::vertex_separator(&xadj, &adj[..5], &[1; 400]).is_none());
+        assert!(super::vertex_separator(&xadj, &adj[..5], &[1; 400], 1).is_none());
+    }
+
+    #[test]
+    fn calls_at_once_give_the_results_of_calls_one_by_one() {
+        let (xadj, adj) = grid(60);
+        let w = vec![1; 3600];
+        let nd = super::node_nd(&xadj, &adj, &w).unwrap();
+        let sep = super::vertex_separator(&xadj, &adj, &w, 2).unwrap();
+        std::thread::scope(|s| {
+            let runs: Vec<_> = (0..4)
+                .map(|_| {
+                    s.spawn(|| {
+                        (0..5)
+                            .map(|_| {
+                                (
+                                    super::node_nd(&xadj, &adj, &w).unwrap(),
+                                    super::vertex_separator(&xadj, &adj, &w, 2).unwrap(),
+                                )
+                            })
+                            .collect::<Vec<_>>()
+                    })
+                })
+                .collect();
+            for r in runs {
+                for (p, q) in r.join().unwrap() {
+                    assert!(p == nd && q == sep, "a result that depends on the timing");
+                }
+            }
+        });
     }
 }

@@ -211,25 +211,32 @@ struct Compressed {
 }
 
 /// From this many vertices of the compressed graph on, [`nested_dissection`]
-/// takes METIS' top vertex separator itself (`METIS_ComputeVertexSeparator`)
-/// and orders the two sides, split again while this large, the separator
-/// last; below, `METIS_NodeND`. On the benchmark plate of 10^5 DOFs (34,584
-/// vertices) the factor has 6 % fewer entries than with `METIS_NodeND` on the
-/// whole graph (39.8 against 42.2 million) and its subtrees are better
-/// balanced for the parallel factorisation ([`super::supernodal`]), for about
-/// the same ordering time. The sides are ordered one after the other: METIS
-/// keeps its random generator's state in globals (GKlib's `random.c`), so two
-/// calls at once would race.
+/// takes the top vertex separator itself, the smaller of
+/// [`SEPARATOR_TRIES`] by METIS (`METIS_ComputeVertexSeparator`), and orders
+/// each side by `METIS_NodeND`, the separator last; below, `METIS_NodeND` on
+/// the whole graph. The factor's two top subtrees are then about equal, as
+/// the parallel factorisation and solves share them ([`super::supernodal`]).
+/// On the benchmark plate the factor has fewer entries at 10^5 DOFs (39.9
+/// against 42.2 million; the factorisation took 0.62-0.70 s against
+/// 0.88-0.93 s) and as many at 10^6 (582.1 against 581.2 million), for about
+/// the same ordering time (0.42 against 0.39 s; 5.6 against 5.2 s). Splitting
+/// further was tried: more fill at 10^6 (591 million with one separator per
+/// level), or 35 % more ordering time (567 million with two). The sides are
+/// ordered one after the other: METIS keeps its random generator's state in
+/// globals (GKlib's `random.c`), so two calls at once would race.
 pub const SPLIT_MIN_VERTICES: usize = 8192;
 
+/// Separators METIS computes for the top split, the smallest kept.
+pub const SEPARATOR_TRIES: usize = 2;
+
 /// The nested-dissection order of `g`'s vertices (`perm[new] = old`), split at
-/// METIS' top separators from `split_min` vertices on.
+/// the top separator from `split_min` vertices on.
 fn order_graph(g: &Compressed, split_min: usize) -> Option<Vec<usize>> {
     let n = g.weights.len();
     if n < split_min.max(2) {
         return metis_node_nd(&g.xadj, &g.adj, &g.weights);
     }
-    let part = metis_vertex_separator(&g.xadj, &g.adj, &g.weights)?;
+    let part = metis_vertex_separator(&g.xadj, &g.adj, &g.weights, SEPARATOR_TRIES)?;
     let (s0, s1) = (side(g, &part, 0), side(g, &part, 1));
     if s0.1.weights.is_empty() || s1.1.weights.is_empty() {
         // no split (a graph METIS cannot bisect): its own ordering
@@ -237,11 +244,8 @@ fn order_graph(g: &Compressed, split_min: usize) -> Option<Vec<usize>> {
     }
     let mut out = Vec::with_capacity(n);
     for (members, sub) in [s0, s1] {
-        out.extend(
-            order_graph(&sub, split_min)?
-                .into_iter()
-                .map(|i| members[i]),
-        );
+        let p = metis_node_nd(&sub.xadj, &sub.adj, &sub.weights)?;
+        out.extend(p.into_iter().map(|i| members[i]));
     }
     out.extend((0..n).filter(|&v| part[v] == 2));
     Some(out)
@@ -283,12 +287,17 @@ fn metis_node_nd(_: &[usize], _: &[usize], _: &[usize]) -> Option<Vec<usize>> {
 }
 
 #[cfg(feature = "metis")]
-fn metis_vertex_separator(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<u8>> {
-    metis_nd::vertex_separator(xadj, adj, weights)
+fn metis_vertex_separator(
+    xadj: &[usize],
+    adj: &[usize],
+    weights: &[usize],
+    tries: usize,
+) -> Option<Vec<u8>> {
+    metis_nd::vertex_separator(xadj, adj, weights, tries)
 }
 
 #[cfg(not(feature = "metis"))]
-fn metis_vertex_separator(_: &[usize], _: &[usize], _: &[usize]) -> Option<Vec<u8>> {
+fn metis_vertex_separator(_: &[usize], _: &[usize], _: &[usize], _: usize) -> Option<Vec<u8>> {
     None
 }
 
@@ -394,8 +403,9 @@ mod tests {
         }
     }
 
-    /// The split ordering is a permutation, and a dissection: at the top, the
-    /// vertices before the separator fall in two runs with no edge between.
+    /// The split ordering is a permutation, and a dissection: the vertices
+    /// before the top separator fall in two runs with no edge between (the
+    /// separator's property, tested in `metis-nd`), each in METIS' order.
     #[test]
     fn split_ordering_is_a_nested_dissection() {
         if !NESTED_DISSECTION_AVAILABLE {
@@ -408,7 +418,7 @@ mod tests {
         sorted.sort();
         assert_eq!(sorted, (0..n).collect::<Vec<_>>());
         // the top split again, as order_graph takes it (METIS is deterministic)
-        let part = metis_vertex_separator(&g.xadj, &g.adj, &g.weights).unwrap();
+        let part = metis_vertex_separator(&g.xadj, &g.adj, &g.weights, SEPARATOR_TRIES).unwrap();
         let count = |q: u8| part.iter().filter(|&&x| x == q).count();
         let (n0, n1) = (count(0), count(1));
         assert!(n0 > n / 4 && n1 > n / 4, "sides {n0} {n1}");

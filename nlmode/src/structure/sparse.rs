@@ -592,9 +592,8 @@ impl SymbolicFactor {
 
     /// Bytes of the numeric factorisation's workspace: faer's (a permuted copy
     /// of the matrix, `16 nnz(A)`, and the supernodal update blocks), an upper
-    /// bound of the subtree-parallel one's ([`super::supernodal`]: the lower
-    /// triangle permuted with 32-bit indices, `12 nnz(A) / 2`, and per
-    /// thread `8 n` and one update block).
+    /// bound of the subtree-parallel one's ([`super::supernodal`]: `A` read in
+    /// place, per thread `8 n` and one update block).
     pub fn workspace_bytes(&self, par: Par) -> u64 {
         self.inner
             .factorize_numeric_llt_scratch::<f64>(par, Default::default())
@@ -634,7 +633,9 @@ pub fn is_diagonal(a: &SparseMatrix) -> bool {
 }
 
 /// Sparse Cholesky factorisation `A = L L^T` of a symmetric positive definite
-/// matrix (faer; the lower triangle is read).
+/// matrix stored in full (both triangles, as the products and the singular
+/// probe read it): a supernodal factor by [`super::supernodal`] (the columns
+/// of `A` read), a simplicial one by faer (its lower triangle read).
 pub struct SparseCholesky {
     symbolic: SymbolicFactor,
     values: Vec<f64>,
@@ -716,8 +717,7 @@ impl SparseCholesky {
     }
 
     /// The factor's values by the subtree-parallel factorisation of
-    /// [`SolvePlan::factorize`] (a supernodal factor with a solve plan); faer's
-    /// where the row indices do not fit its 32-bit copy of `P A P^T`.
+    /// [`SolvePlan::factorize`] (a supernodal factor with a solve plan).
     fn planned_values(
         symbolic: &SymbolicFactor,
         plan: &SolvePlan,
@@ -728,19 +728,16 @@ impl SparseCholesky {
         let SymbolicCholeskyRaw::Supernodal(s) = sym.raw() else {
             return Self::faer_values(symbolic, a, par);
         };
-        if u32::try_from(sym.nrows()).is_err() {
-            return Self::faer_values(symbolic, a, par);
-        }
         let mut values = Self::zeroed(symbolic, par)?;
         let identity: Vec<usize>;
-        let inv = match sym.perm() {
-            Some(p) => p.arrays().1,
+        let perm = match sym.perm() {
+            Some(p) => p.arrays(),
             None => {
                 identity = (0..sym.nrows()).collect();
-                &identity
+                (&identity[..], &identity[..])
             }
         };
-        plan.factorize(s, inv, a, &mut values, par)
+        plan.factorize(s, perm, a, &mut values, par)
             .then_some(values)
     }
 
