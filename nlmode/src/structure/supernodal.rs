@@ -415,21 +415,27 @@ impl SolvePlan {
                 );
                 continue;
             }
-            ws.tmp.clear();
-            ws.tmp.resize(m * q, 0.0);
-            let t = MatMut::from_column_major_slice_mut(&mut ws.tmp, m, q);
-            matmul(
-                t,
-                Accum::Replace,
-                below,
-                below.subrows(0, q).transpose(),
-                1.0,
-                dense_par(m * q * dc, par),
-            );
-            for jj in 0..q {
-                let c = (dp[p0 + jj] - s0) * sr;
-                for ii in jj..m {
-                    ls[local(dp[p0 + ii]) + c] -= ws.tmp[ii + jj * m];
+            // scattered rows: the product by blocks of columns (the scratch
+            // stays small beside a large top supernode's update), each from
+            // its diagonal down
+            for jb in (0..q).step_by(UPDATE_BLOCK_COLS) {
+                let (qb, rows) = (UPDATE_BLOCK_COLS.min(q - jb), m - jb);
+                ws.tmp.clear();
+                ws.tmp.resize(rows * qb, 0.0);
+                let t = MatMut::from_column_major_slice_mut(&mut ws.tmp, rows, qb);
+                matmul(
+                    t,
+                    Accum::Replace,
+                    below.subrows(jb, rows),
+                    below.subrows(jb, qb).transpose(),
+                    1.0,
+                    dense_par(rows * qb * dc, par),
+                );
+                for jl in 0..qb {
+                    let c = (dp[p0 + jb + jl] - s0) * sr;
+                    for il in jl..rows {
+                        ls[local(dp[p0 + jb + il]) + c] -= ws.tmp[il + jl * rows];
+                    }
                 }
             }
         }
@@ -547,6 +553,11 @@ fn dense_par(work: usize, par: Par) -> Par {
         Par::Seq
     }
 }
+
+/// Columns of an updater's product formed at once where its rows scatter
+/// ([`SolvePlan::factorize`]): the scratch of a product with `m` rows is at
+/// most `8 m` times this many bytes.
+const UPDATE_BLOCK_COLS: usize = 128;
 
 /// See [`dense_par`].
 const PAR_MIN_WORK: usize = 1 << 21;
