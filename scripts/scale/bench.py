@@ -8,9 +8,12 @@ shift-invert `eigsh` for the 10 lowest modes of the same matrices, each under
 factorisation and Lanczos alone), the work of `eigsh`. Two ratios to scipy:
 the whole `host nma` run against scipy's whole script, and `lowest_modes`'
 eigen-analysis against `eigsh` alone (both without reading the files).
+With `--repeat N` the two eigen-analyses run N times each, alternately (ours,
+scipy's, ours, ...: a change of the machine's load falls on both), and the
+tables give the medians and the range of the N pairwise ratios.
 
     python3 scripts/scale/bench.py [--profile release|dev] [--orderings amd,nested-dissection]
-                                   [--no-scipy] 100000 300000 1000000
+                                   [--no-scipy] [--repeat N] 100000 300000 1000000
 
 Needs numpy and scipy (the venv of tests/run.sh has them). Models are cached
 in $SCALE_DIR (default /tmp/nlmode-scale). A size whose memory estimate exceeds
@@ -22,6 +25,7 @@ import json
 import os
 import re
 import resource
+import statistics
 import subprocess
 import sys
 
@@ -74,7 +78,11 @@ def main():
     ap.add_argument("--scipy-limit-gb", default="16",
                     help="address-space cap of the scipy run (it has no memory estimate)")
     ap.add_argument("--python", default=sys.executable)
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="runs of lowest_modes and of scipy's eigsh per size (medians reported)")
     a = ap.parse_args()
+    if a.repeat < 1:
+        ap.error("--repeat must be at least 1")
     base = os.environ.get("SCALE_DIR", "/tmp/nlmode-scale")
     prof = ["--release"] if a.profile == "release" else ["--profile", a.profile]
     subprocess.run(["cargo", "build", "-q", *prof, "-p", "nlmode", "--example", "hex_plate"],
@@ -107,28 +115,17 @@ def main():
                    "omega0_rad_s": table["provenance"]["omega0_rad_s"], **t}
             rows.append((size, ordering, row))
             print(json.dumps(row), flush=True)
-        rc, out, err, ewall, ecpu, epeak = timed(
-            [exe("examples/lowest_modes"), d, "--ordering", a.orderings.split(",")[-1]],
-            os.path.join(d, "lowest_modes.log"))
-        if rc == 0:
-            e = json.loads(out.strip().splitlines()[-1])
-            row = {"eigen_only_s": e["eigen_s"], "eigen_only_cpu_s": ecpu, "eigen_only_peak_gb": epeak,
-                   "eigen_only_omega0_rad_s": e["omega_rad_s"][0], "eigen_only_basis": e["basis"]}
-        else:
-            row = f"lowest_modes failed (exit {rc}): see {d}/lowest_modes.log"
-        rows.append((size, "eigen-only", row))
-        print(json.dumps(row), flush=True)
-        if not a.no_scipy:
-            rc, out, err, swall, scpu, speak = timed(
-                [a.python, os.path.join(ROOT, "scripts/scale/scipy_eigsh.py"), d],
-                os.path.join(d, "scipy.log"), a.scipy_limit_gb)
-            if rc == 0:
-                s = json.loads(out.strip().splitlines()[-1])
-                row = {"scipy_wall_s": swall, "scipy_cpu_s": scpu, "scipy_peak_gb": speak,
-                       "scipy_eigsh_s": s["eigsh_s"], "scipy_omega0_rad_s": s["omega_rad_s"][0]}
-            else:
-                row = f"scipy failed (exit {rc}; MemoryError above --scipy-limit-gb?)"
-            rows.append((size, "scipy", row))
+        eigen, scipy_runs = [], []
+        for r in range(a.repeat):
+            eigen.append(eigen_only(exe, d, a.orderings.split(",")[-1], r))
+            if not a.no_scipy:
+                scipy_runs.append(scipy_eigsh(a, d, r))
+        for label, runs in (("eigen-only", eigen), ("scipy", scipy_runs)):
+            if not runs:
+                continue
+            failed = next((x for x in runs if isinstance(x, str)), None)
+            row = failed or merge_runs(runs)
+            rows.append((size, label, row))
             print(json.dumps(row), flush=True)
     print("\n| DOFs | ordering | wall s | CPU s | peak GB | read | order | factor | eigen | "
           "constraint | nnz(L) | estimate GB | omega0 rad/s | vs scipy |")
@@ -165,8 +162,8 @@ def main():
         print(f"| {size} | {r['scipy_wall_s']:.1f} | {r['scipy_cpu_s']:.1f} | "
               f"{r['scipy_peak_gb']:.2f} | {r['scipy_omega0_rad_s']:.9f} |")
     print("\nRatios to scipy (10 lowest modes; wall time):\n")
-    print("| DOFs | host nma (whole run) / scipy (whole script) | lowest_modes eigen s | "
-          "scipy eigsh s | eigsh / lowest_modes | omega0 difference |")
+    print("| DOFs | host nma (whole run) / scipy (whole script) | lowest_modes eigen s (median; runs) | "
+          "scipy eigsh s (median; runs) | eigsh / lowest_modes (medians) | omega0 difference |")
     print("|---|---|---|---|---|---|")
     by = {(size, o): r for size, o, r in rows if isinstance(r, dict)}
     for size in a.sizes:
@@ -176,8 +173,52 @@ def main():
             continue
         whole = "; ".join(f"{s['scipy_wall_s'] / h['wall_s']:.1f}x ({h['ordering']})" for h in host)
         diff = abs(e["eigen_only_omega0_rad_s"] - s["scipy_omega0_rad_s"]) / s["scipy_omega0_rad_s"]
-        print(f"| {size} | {whole} | {e['eigen_only_s']:.2f} | {s['scipy_eigsh_s']:.1f} | "
-              f"{s['scipy_eigsh_s'] / e['eigen_only_s']:.1f}x | {diff:.1e} |")
+        pairs = [b / o for o, b in zip(e["eigen_only_s_runs"], s["scipy_eigsh_s_runs"])]
+        spread = f" (runs {min(pairs):.1f}-{max(pairs):.1f}x)" if len(pairs) > 1 else ""
+        print(f"| {size} | {whole} | {runs_text(e['eigen_only_s_runs'], '{:.2f}')} | "
+              f"{runs_text(s['scipy_eigsh_s_runs'], '{:.1f}')} | "
+              f"{s['scipy_eigsh_s'] / e['eigen_only_s']:.1f}x{spread} | {diff:.1e} |")
+
+
+def eigen_only(exe, d, ordering, r):
+    """One run of `lowest_modes` on the plate in d: its row, or why it failed."""
+    rc, out, _, wall, cpu, peak = timed([exe("examples/lowest_modes"), d, "--ordering", ordering],
+                                        os.path.join(d, f"lowest_modes_{r}.log"))
+    if rc != 0:
+        return f"lowest_modes failed (exit {rc}): see {d}/lowest_modes_{r}.log"
+    e = json.loads(out.strip().splitlines()[-1])
+    return {"eigen_only_s": e["eigen_s"], "eigen_only_cpu_s": cpu, "eigen_only_peak_gb": peak,
+            "eigen_only_omega0_rad_s": e["omega_rad_s"][0], "eigen_only_basis": e["basis"]}
+
+
+def scipy_eigsh(a, d, r):
+    """One run of scipy_eigsh.py on the plate in d: its row, or why it failed."""
+    rc, out, _, wall, cpu, peak = timed(
+        [a.python, os.path.join(ROOT, "scripts/scale/scipy_eigsh.py"), d],
+        os.path.join(d, f"scipy_{r}.log"), a.scipy_limit_gb)
+    if rc != 0:
+        return f"scipy failed (exit {rc}; MemoryError above --scipy-limit-gb?)"
+    s = json.loads(out.strip().splitlines()[-1])
+    return {"scipy_wall_s": wall, "scipy_cpu_s": cpu, "scipy_peak_gb": peak,
+            "scipy_eigsh_s": s["eigsh_s"], "scipy_omega0_rad_s": s["omega_rad_s"][0]}
+
+
+def merge_runs(runs):
+    """The rows of repeated runs as one: each number's median, and every
+    run's time under `<key>_runs` for the timed keys."""
+    out = {}
+    for k in runs[0]:
+        out[k] = statistics.median(r[k] for r in runs)
+    for k in ("eigen_only_s", "scipy_eigsh_s"):
+        if k in out:
+            out[k + "_runs"] = [r[k] for r in runs]
+    return out
+
+
+def runs_text(v, fmt):
+    """`median` or `median; run, run, ...` of repeated times."""
+    med = statistics.median(v)
+    return fmt.format(med) if len(v) == 1 else fmt.format(med) + "; " + ", ".join(fmt.format(x) for x in v)
 
 
 if __name__ == "__main__":
