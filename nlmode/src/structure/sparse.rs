@@ -838,29 +838,23 @@ impl SparseCholesky {
         else {
             return false;
         };
-        let (nr, nc) = b.shape();
+        let nc = b.ncols();
         // row i of the permuted system is row fwd[i] of b (no copy of fwd)
         let fwd = sym.perm().map(|p| p.arrays().0);
         let old = |i: usize| fwd.map_or(i, |f| f[i]);
-        let mut x = vec![0.0; nr * nc];
-        for i in 0..nr {
-            for j in 0..nc {
-                x[i * nc + j] = b[(old(i), j)];
-            }
-        }
         use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
-        plan.solve(
-            SupernodalLltRef::new(s, &self.values),
-            &mut x,
-            nc,
-            zero_from,
-            self.par,
-        );
-        for i in 0..nr {
-            for j in 0..nc {
-                b[(old(i), j)] = x[i * nc + j];
+        let llt = SupernodalLltRef::new(s, &self.values);
+        let mut x = plan.gather(llt, nc, |i, out| {
+            for (j, o) in out.iter_mut().enumerate() {
+                *o = b[(old(i), j)];
             }
-        }
+        });
+        plan.solve(llt, &mut x, zero_from, self.par);
+        plan.scatter(llt, &x, |i, vals| {
+            for (j, v) in vals.iter().enumerate() {
+                b[(old(i), j)] = *v;
+            }
+        });
         true
     }
 

@@ -274,18 +274,69 @@ impl SolvePlan {
         })
     }
 
-    /// `X := L^{-T} Z L^{-1} X` for `X` held by rows (`nc` values per row,
-    /// permuted order), where `Z` zeroes the rows from `zero_from` on (the
-    /// DOFs ordered last: [`super::sparse::SparseCholesky::solve_leading_in_place`];
-    /// `zero_from = n` for a plain solve).
+    /// The right-hand sides `X` (`nc` columns) regrouped for [`SolvePlan::solve`]
+    /// (module docs): `row(r, out)` writes the `nc` values of row `r` of `X`
+    /// (permuted order) into `out`.
+    pub fn gather(
+        &self,
+        llt: SupernodalLltRef<'_, usize, f64>,
+        nc: usize,
+        mut row: impl FnMut(usize, &mut [f64]),
+    ) -> SolveRows {
+        let sym = llt.symbolic();
+        let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+        let mut parts: Vec<Vec<f64>> = self.part_rows.iter().map(|&r| vec![0.0; r * nc]).collect();
+        let mut top = vec![0.0; self.top_rows * nc];
+        for s in 0..self.owner.len() {
+            let held = match self.owner[s] {
+                Owner::Part(p, _) => &mut parts[p],
+                Owner::Top(..) => &mut top,
+            };
+            let at = self.local[begin[s]] as usize * nc;
+            let rows = held[at..at + (end[s] - begin[s]) * nc].chunks_exact_mut(nc.max(1));
+            for (r, out) in (begin[s]..end[s]).zip(rows) {
+                row(r, out);
+            }
+        }
+        SolveRows { parts, top, nc }
+    }
+
+    /// The solution in `rows` handed back by rows: `row(r, values)` for each
+    /// row `r` (permuted order) of `X`.
+    pub fn scatter(
+        &self,
+        llt: SupernodalLltRef<'_, usize, f64>,
+        rows: &SolveRows,
+        mut row: impl FnMut(usize, &[f64]),
+    ) {
+        let sym = llt.symbolic();
+        let (begin, end, nc) = (sym.supernode_begin(), sym.supernode_end(), rows.nc);
+        for s in 0..self.owner.len() {
+            let held = match self.owner[s] {
+                Owner::Part(p, _) => &rows.parts[p],
+                Owner::Top(..) => &rows.top,
+            };
+            let at = self.local[begin[s]] as usize * nc;
+            let vals = held[at..at + (end[s] - begin[s]) * nc].chunks_exact(nc.max(1));
+            for (r, v) in (begin[s]..end[s]).zip(vals) {
+                row(r, v);
+            }
+        }
+    }
+
+    /// `X := L^{-T} Z L^{-1} X` for `X` regrouped by [`SolvePlan::gather`],
+    /// where `Z` zeroes the rows from `zero_from` on (the DOFs ordered last:
+    /// [`super::sparse::SparseCholesky::solve_leading_in_place`]; `zero_from
+    /// = n` for a plain solve).
     pub fn solve(
         &self,
         llt: SupernodalLltRef<'_, usize, f64>,
-        x: &mut [f64],
-        nc: usize,
+        x: &mut SolveRows,
         zero_from: usize,
         par: Par,
     ) {
+        let SolveRows { parts, top, nc } = x;
+        let nc = *nc;
         if nc == 0 {
             return;
         }
@@ -296,20 +347,6 @@ impl SolvePlan {
         };
         let sym = llt.symbolic();
         let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
-        // x's rows regrouped: each part's, in the part's order, and the top's
-        let mut parts: Vec<Vec<f64>> = self
-            .part_rows
-            .iter()
-            .map(|&r| Vec::with_capacity(r * nc))
-            .collect();
-        let mut top = Vec::with_capacity(self.top_rows * nc);
-        for s in 0..self.owner.len() {
-            let rows = &x[begin[s] * nc..end[s] * nc];
-            match self.owner[s] {
-                Owner::Part(p, _) => parts[p].extend_from_slice(rows),
-                Owner::Top(..) => top.extend_from_slice(rows),
-            }
-        }
         // forward: the parts, their updates of the top rows summed apart,
         // added in part order; then the top
         let mut acc: Vec<Vec<f64>> = vec![vec![0.0; self.top_rows * nc]; PARTS];
@@ -328,7 +365,7 @@ impl SolvePlan {
         }
         let mut tmp = Vec::new();
         for &s in &self.top {
-            ctx.forward(s, &mut top, &mut [], &mut tmp);
+            ctx.forward(s, top, &mut [], &mut tmp);
         }
         // the rows from zero_from on
         for s in 0..self.owner.len() {
@@ -339,29 +376,21 @@ impl SolvePlan {
             let l0 = self.local[r0] as usize;
             let held = match self.owner[s] {
                 Owner::Part(p, _) => &mut parts[p],
-                Owner::Top(..) => &mut top,
+                Owner::Top(..) => &mut *top,
             };
             held[l0 * nc..(l0 + r1 - r0) * nc].fill(0.0);
         }
         // backward: the top, then the parts reading its rows
         for &s in self.top.iter().rev() {
-            ctx.backward(s, &mut top, &[], &mut tmp);
+            ctx.backward(s, top, &[], &mut tmp);
         }
         let jobs: Vec<_> = parts.iter_mut().enumerate().collect();
         run_parts(par, jobs, |(p, rows)| {
             let mut tmp = Vec::new();
             for &s in self.parts[p].iter().rev() {
-                ctx.backward(s, rows, &top, &mut tmp);
+                ctx.backward(s, rows, top, &mut tmp);
             }
         });
-        for s in 0..self.owner.len() {
-            let (at, len) = (self.local[begin[s]] as usize * nc, (end[s] - begin[s]) * nc);
-            let held = match self.owner[s] {
-                Owner::Part(p, _) => &parts[p],
-                Owner::Top(..) => &top,
-            };
-            x[begin[s] * nc..end[s] * nc].copy_from_slice(&held[at..at + len]);
-        }
     }
 
     /// The numeric factorisation `P A P^T = L L^T` into `values` (faer's
@@ -650,6 +679,15 @@ fn run_parts<J: Send>(par: Par, jobs: Vec<J>, f: impl Fn(J) + Sync + Send) {
     } else {
         jobs.into_iter().for_each(f);
     }
+}
+
+/// Right-hand sides regrouped for the solves ([`SolvePlan::gather`]): each
+/// part's rows in the part's order, and the top's, `nc` values per row.
+#[derive(Debug)]
+pub struct SolveRows {
+    parts: Vec<Vec<f64>>,
+    top: Vec<f64>,
+    nc: usize,
 }
 
 /// What the supernode kernels read.
