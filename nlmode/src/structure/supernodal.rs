@@ -186,81 +186,8 @@ impl SolvePlan {
                 parts[part[s]].push(s);
             }
         }
-        // each row's place among its owner's rows; a part's pattern rows in
-        // the part first, then the top's
-        if n >= u32::MAX as usize {
-            return None;
-        }
-        let mut local = vec![0u32; n];
-        let mut part_rows = vec![0usize; PARTS];
-        for s in 0..ns {
-            let first = match owner[s] {
-                Owner::Part(p, _) => {
-                    part_rows[p] += end[s] - begin[s];
-                    part_rows[p] - (end[s] - begin[s])
-                }
-                Owner::Top(_, first) => first,
-            };
-            for (k, l) in local[begin[s]..end[s]].iter_mut().enumerate() {
-                *l = (first + k) as u32;
-            }
-        }
-        let mut own = vec![0u32; ns];
-        for s in 0..ns {
-            let pattern = sym.supernode(s).pattern();
-            let in_top = |r: usize| matches!(owner[supernode_of_row[r] as usize], Owner::Top(..));
-            own[s] = match owner[s] {
-                Owner::Top(..) => pattern.len() as u32,
-                Owner::Part(..) => {
-                    let k = pattern.iter().take_while(|&&r| !in_top(r)).count();
-                    if !pattern[k..].iter().all(|&r| in_top(r)) {
-                        return None;
-                    }
-                    k as u32
-                }
-            };
-        }
-        // the updaters (patterns ascending, so a supernode's rows are a run);
-        // a part's supernode is updated from its own part only
-        let mut updaters_ptr = vec![0usize; ns + 1];
-        for d in 0..ns {
-            let pattern = sym.supernode(d).pattern();
-            if !pattern.is_sorted_by(|a, b| a < b) {
-                return None;
-            }
-            let mut last = usize::MAX;
-            for &r in pattern {
-                let q = supernode_of_row[r] as usize;
-                if q != last {
-                    let same_part = match (owner[d], owner[q]) {
-                        (Owner::Part(a, _), Owner::Part(b, _)) => a == b,
-                        (Owner::Top(..), Owner::Part(..)) => false,
-                        (_, Owner::Top(..)) => true,
-                    };
-                    if q <= d || !same_part {
-                        return None;
-                    }
-                    updaters_ptr[q + 1] += 1;
-                    last = q;
-                }
-            }
-        }
-        for s in 0..ns {
-            updaters_ptr[s + 1] += updaters_ptr[s];
-        }
-        let mut updaters = vec![0u32; updaters_ptr[ns]];
-        let mut next = updaters_ptr.clone();
-        for d in 0..ns {
-            let mut last = usize::MAX;
-            for &r in sym.supernode(d).pattern() {
-                let q = supernode_of_row[r] as usize;
-                if q != last {
-                    updaters[next[q]] = d as u32;
-                    next[q] += 1;
-                    last = q;
-                }
-            }
-        }
+        let (local, part_rows, own) = row_places(sym, &owner, &supernode_of_row)?;
+        let (updaters, updaters_ptr) = updaters(sym, &owner, &supernode_of_row)?;
         Some(Self {
             parts,
             top,
@@ -633,6 +560,108 @@ impl Permuted<'_> {
             }
         }
     }
+}
+
+/// Each (permuted) row's place among its owner's rows ([`SolvePlan::local`]),
+/// the rows of each part, and per supernode how many of its pattern's rows
+/// its owner holds; `None` when a part's pattern does not list its own rows
+/// before the top's.
+#[allow(clippy::type_complexity)]
+fn row_places(
+    sym: &SymbolicSupernodalCholesky<usize>,
+    owner: &[Owner],
+    supernode_of_row: &[u32],
+) -> Option<(Vec<u32>, Vec<usize>, Vec<u32>)> {
+    let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+    let (ns, n) = (owner.len(), supernode_of_row.len());
+    // each row's place among its owner's rows; a part's pattern rows in
+    // the part first, then the top's
+    if n >= u32::MAX as usize {
+        return None;
+    }
+    let mut local = vec![0u32; n];
+    let mut part_rows = vec![0usize; PARTS];
+    for s in 0..ns {
+        let first = match owner[s] {
+            Owner::Part(p, _) => {
+                part_rows[p] += end[s] - begin[s];
+                part_rows[p] - (end[s] - begin[s])
+            }
+            Owner::Top(_, first) => first,
+        };
+        for (k, l) in local[begin[s]..end[s]].iter_mut().enumerate() {
+            *l = (first + k) as u32;
+        }
+    }
+    let mut own = vec![0u32; ns];
+    for s in 0..ns {
+        let pattern = sym.supernode(s).pattern();
+        let in_top = |r: usize| matches!(owner[supernode_of_row[r] as usize], Owner::Top(..));
+        own[s] = match owner[s] {
+            Owner::Top(..) => pattern.len() as u32,
+            Owner::Part(..) => {
+                let k = pattern.iter().take_while(|&&r| !in_top(r)).count();
+                if !pattern[k..].iter().all(|&r| in_top(r)) {
+                    return None;
+                }
+                k as u32
+            }
+        };
+    }
+    Some((local, part_rows, own))
+}
+
+/// The supernodes that update each supernode ([`SolvePlan::updaters`]) and
+/// their pointers; `None` for an unsorted pattern, or an update across
+/// parts or from the top into a part.
+fn updaters(
+    sym: &SymbolicSupernodalCholesky<usize>,
+    owner: &[Owner],
+    supernode_of_row: &[u32],
+) -> Option<(Vec<u32>, Vec<usize>)> {
+    let ns = owner.len();
+    // the updaters (patterns ascending, so a supernode's rows are a run);
+    // a part's supernode is updated from its own part only
+    let mut updaters_ptr = vec![0usize; ns + 1];
+    for d in 0..ns {
+        let pattern = sym.supernode(d).pattern();
+        if !pattern.is_sorted_by(|a, b| a < b) {
+            return None;
+        }
+        let mut last = usize::MAX;
+        for &r in pattern {
+            let q = supernode_of_row[r] as usize;
+            if q != last {
+                let same_part = match (owner[d], owner[q]) {
+                    (Owner::Part(a, _), Owner::Part(b, _)) => a == b,
+                    (Owner::Top(..), Owner::Part(..)) => false,
+                    (_, Owner::Top(..)) => true,
+                };
+                if q <= d || !same_part {
+                    return None;
+                }
+                updaters_ptr[q + 1] += 1;
+                last = q;
+            }
+        }
+    }
+    for s in 0..ns {
+        updaters_ptr[s + 1] += updaters_ptr[s];
+    }
+    let mut updaters = vec![0u32; updaters_ptr[ns]];
+    let mut next = updaters_ptr.clone();
+    for d in 0..ns {
+        let mut last = usize::MAX;
+        for &r in sym.supernode(d).pattern() {
+            let q = supernode_of_row[r] as usize;
+            if q != last {
+                updaters[next[q]] = d as u32;
+                next[q] += 1;
+                last = q;
+            }
+        }
+    }
+    Some((updaters, updaters_ptr))
 }
 
 /// Threads for a dense kernel of about `work` multiply-adds: `par` from
