@@ -20,15 +20,10 @@ static METIS: std::sync::Mutex<()> = std::sync::Mutex::new(());
 pub fn node_nd(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<usize>> {
     use metis_sys as m;
     let n = weights.len();
-    let (mut xadj, mut adj, mut vwgt) = checked(xadj, adj, weights)?;
+    let mut g = Graph32::new(xadj, adj, weights)?;
     if n == 0 {
         return Some(Vec::new());
     }
-    let mut nvtxs = m::idx_t::try_from(n).ok()?;
-    let mut options = [0 as m::idx_t; m::METIS_NOPTIONS as usize];
-    // SAFETY: `options` has the METIS_NOPTIONS entries METIS writes.
-    unsafe { m::METIS_SetDefaultOptions(options.as_mut_ptr()) };
-    options[m::moptions_et_METIS_OPTION_NUMBERING as usize] = 0;
     let (mut perm, mut iperm) = (vec![0 as m::idx_t; n], vec![0 as m::idx_t; n]);
     // SAFETY: a checked CSR graph of `nvtxs` vertices (`xadj` has nvtxs + 1
     // non-decreasing entries ending at adj.len(), every neighbour in range),
@@ -37,11 +32,11 @@ pub fn node_nd(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Vec<u
     let _one_at_a_time = METIS.lock().unwrap_or_else(|e| e.into_inner());
     let status = unsafe {
         m::METIS_NodeND(
-            &mut nvtxs,
-            xadj.as_mut_ptr(),
-            adj.as_mut_ptr(),
-            vwgt.as_mut_ptr(),
-            options.as_mut_ptr(),
+            &mut g.nvtxs,
+            g.xadj.as_mut_ptr(),
+            g.adj.as_mut_ptr(),
+            g.vwgt.as_mut_ptr(),
+            g.options.as_mut_ptr(),
             perm.as_mut_ptr(),
             iperm.as_mut_ptr(),
         )
@@ -75,16 +70,12 @@ pub fn vertex_separator(
 ) -> Option<Vec<u8>> {
     use metis_sys as m;
     let n = weights.len();
-    let (mut xadj, mut adj, mut vwgt) = checked(xadj, adj, weights)?;
+    let mut g = Graph32::new(xadj, adj, weights)?;
     if n == 0 {
         return Some(Vec::new());
     }
-    let mut nvtxs = m::idx_t::try_from(n).ok()?;
-    let mut options = [0 as m::idx_t; m::METIS_NOPTIONS as usize];
-    // SAFETY: `options` has the METIS_NOPTIONS entries METIS writes.
-    unsafe { m::METIS_SetDefaultOptions(options.as_mut_ptr()) };
-    options[m::moptions_et_METIS_OPTION_NUMBERING as usize] = 0;
-    options[m::moptions_et_METIS_OPTION_NSEPS as usize] = m::idx_t::try_from(tries.max(1)).ok()?;
+    g.options[m::moptions_et_METIS_OPTION_NSEPS as usize] =
+        m::idx_t::try_from(tries.max(1)).ok()?;
     let mut part = vec![0 as m::idx_t; n];
     let mut sepsize: m::idx_t = 0;
     // SAFETY: a checked CSR graph of `nvtxs` vertices (as in `node_nd`),
@@ -93,11 +84,11 @@ pub fn vertex_separator(
     let _one_at_a_time = METIS.lock().unwrap_or_else(|e| e.into_inner());
     let status = unsafe {
         m::METIS_ComputeVertexSeparator(
-            &mut nvtxs,
-            xadj.as_mut_ptr(),
-            adj.as_mut_ptr(),
-            vwgt.as_mut_ptr(),
-            options.as_mut_ptr(),
+            &mut g.nvtxs,
+            g.xadj.as_mut_ptr(),
+            g.adj.as_mut_ptr(),
+            g.vwgt.as_mut_ptr(),
+            g.options.as_mut_ptr(),
             &mut sepsize,
             part.as_mut_ptr(),
         )
@@ -110,32 +101,43 @@ pub fn vertex_separator(
         .collect()
 }
 
-/// The graph as METIS' 32-bit arrays, `None` when inconsistent (`xadj` of
-/// `n + 1` non-decreasing entries ending at `adj.len()`, neighbours below
-/// `n`) or beyond 32 bits.
-#[allow(clippy::type_complexity)]
-fn checked(
-    xadj: &[usize],
-    adj: &[usize],
-    weights: &[usize],
-) -> Option<(
-    Vec<metis_sys::idx_t>,
-    Vec<metis_sys::idx_t>,
-    Vec<metis_sys::idx_t>,
-)> {
-    let n = weights.len();
-    if xadj.len() != n + 1 || xadj[n] != adj.len() || xadj.windows(2).any(|w| w[0] > w[1]) {
-        return None;
+/// A graph as METIS takes it: 32-bit arrays, the vertex count, and the
+/// default options with 0-based numbering.
+struct Graph32 {
+    xadj: Vec<metis_sys::idx_t>,
+    adj: Vec<metis_sys::idx_t>,
+    vwgt: Vec<metis_sys::idx_t>,
+    nvtxs: metis_sys::idx_t,
+    options: [metis_sys::idx_t; metis_sys::METIS_NOPTIONS as usize],
+}
+
+impl Graph32 {
+    /// `None` when inconsistent (`xadj` of `n + 1` non-decreasing entries
+    /// ending at `adj.len()`, neighbours below `n`) or beyond 32 bits.
+    fn new(xadj: &[usize], adj: &[usize], weights: &[usize]) -> Option<Self> {
+        use metis_sys as m;
+        let n = weights.len();
+        if xadj.len() != n + 1 || xadj[n] != adj.len() || xadj.windows(2).any(|w| w[0] > w[1]) {
+            return None;
+        }
+        if adj.iter().any(|&v| v >= n) {
+            return None;
+        }
+        let idx = |v: &[usize]| -> Option<Vec<m::idx_t>> {
+            v.iter().map(|&x| m::idx_t::try_from(x).ok()).collect()
+        };
+        let mut options = [0 as m::idx_t; m::METIS_NOPTIONS as usize];
+        // SAFETY: `options` has the METIS_NOPTIONS entries METIS writes.
+        unsafe { m::METIS_SetDefaultOptions(options.as_mut_ptr()) };
+        options[m::moptions_et_METIS_OPTION_NUMBERING as usize] = 0;
+        Some(Self {
+            xadj: idx(xadj)?,
+            adj: idx(adj)?,
+            vwgt: idx(weights)?,
+            nvtxs: m::idx_t::try_from(n).ok()?,
+            options,
+        })
     }
-    if adj.iter().any(|&v| v >= n) {
-        return None;
-    }
-    let idx = |v: &[usize]| -> Option<Vec<metis_sys::idx_t>> {
-        v.iter()
-            .map(|&x| metis_sys::idx_t::try_from(x).ok())
-            .collect()
-    };
-    Some((idx(xadj)?, idx(adj)?, idx(weights)?))
 }
 
 #[cfg(test)]
