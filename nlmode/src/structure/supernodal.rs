@@ -212,20 +212,16 @@ impl SolvePlan {
     ) -> SolveRows {
         let sym = llt.symbolic();
         let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
-        let mut parts: Vec<Vec<f64>> = self.part_rows.iter().map(|&r| vec![0.0; r * nc]).collect();
-        let mut top = vec![0.0; self.top_rows * nc];
+        let rows_held = self.part_rows.iter().sum::<usize>() + self.top_rows;
+        let mut data = vec![0.0; rows_held * nc];
         for s in 0..self.owner.len() {
-            let held = match self.owner[s] {
-                Owner::Part(p, _) => &mut parts[p],
-                Owner::Top(..) => &mut top,
-            };
-            let at = self.local[begin[s]] as usize * nc;
-            let rows = held[at..at + (end[s] - begin[s]) * nc].chunks_exact_mut(nc.max(1));
+            let at = self.held_at(s, begin[s], nc);
+            let rows = data[at..at + (end[s] - begin[s]) * nc].chunks_exact_mut(nc.max(1));
             for (r, out) in (begin[s]..end[s]).zip(rows) {
                 row(r, out);
             }
         }
-        SolveRows { parts, top, nc }
+        SolveRows { data, nc }
     }
 
     /// The solution in `rows` handed back by rows: `row(r, values)` for each
@@ -239,12 +235,8 @@ impl SolvePlan {
         let sym = llt.symbolic();
         let (begin, end, nc) = (sym.supernode_begin(), sym.supernode_end(), rows.nc);
         for s in 0..self.owner.len() {
-            let held = match self.owner[s] {
-                Owner::Part(p, _) => &rows.parts[p],
-                Owner::Top(..) => &rows.top,
-            };
-            let at = self.local[begin[s]] as usize * nc;
-            let vals = held[at..at + (end[s] - begin[s]) * nc].chunks_exact(nc.max(1));
+            let at = self.held_at(s, begin[s], nc);
+            let vals = rows.data[at..at + (end[s] - begin[s]) * nc].chunks_exact(nc.max(1));
             for (r, v) in (begin[s]..end[s]).zip(vals) {
                 row(r, v);
             }
@@ -262,11 +254,11 @@ impl SolvePlan {
         zero_from: usize,
         par: Par,
     ) {
-        let SolveRows { parts, top, nc } = x;
-        let nc = *nc;
+        let nc = x.nc;
         if nc == 0 {
             return;
         }
+        let (mut parts, top) = self.blocks(&mut x.data, nc);
         let ctx = Ctx {
             llt,
             plan: self,
@@ -302,7 +294,7 @@ impl SolvePlan {
             let (r0, r1) = (begin[s].max(zero_from), end[s]);
             let l0 = self.local[r0] as usize;
             let held = match self.owner[s] {
-                Owner::Part(p, _) => &mut parts[p],
+                Owner::Part(p, _) => &mut *parts[p],
                 Owner::Top(..) => &mut *top,
             };
             held[l0 * nc..(l0 + r1 - r0) * nc].fill(0.0);
@@ -318,6 +310,28 @@ impl SolvePlan {
                 ctx.backward(s, rows, top, &mut tmp);
             }
         });
+    }
+
+    /// Where the row `row` of supernode `s` is held in a [`SolveRows`]' data:
+    /// its owner's block (the parts' in order, then the top's), its place there.
+    fn held_at(&self, s: usize, row: usize, nc: usize) -> usize {
+        let base: usize = match self.owner[s] {
+            Owner::Part(p, _) => self.part_rows[..p].iter().sum(),
+            Owner::Top(..) => self.part_rows.iter().sum(),
+        };
+        (base + self.local[row] as usize) * nc
+    }
+
+    /// A [`SolveRows`]' data cut into the parts' blocks and the top's.
+    fn blocks<'a>(&self, data: &'a mut [f64], nc: usize) -> (Vec<&'a mut [f64]>, &'a mut [f64]) {
+        let mut parts = Vec::with_capacity(PARTS);
+        let mut rest = data;
+        for &r in &self.part_rows {
+            let (mine, tail) = std::mem::take(&mut rest).split_at_mut(r * nc);
+            parts.push(mine);
+            rest = tail;
+        }
+        (parts, rest)
     }
 
     /// The numeric factorisation `P A P^T = L L^T` into `values` (faer's
@@ -711,11 +725,11 @@ fn run_parts<J: Send>(par: Par, jobs: Vec<J>, f: impl Fn(J) + Sync + Send) {
 }
 
 /// Right-hand sides regrouped for the solves ([`SolvePlan::gather`]): each
-/// part's rows in the part's order, and the top's, `nc` values per row.
+/// part's rows in the part's order, then the top's, `nc` values per row, in
+/// one block (as large as the right-hand sides: one allocation per solve).
 #[derive(Debug)]
 pub struct SolveRows {
-    parts: Vec<Vec<f64>>,
-    top: Vec<f64>,
+    data: Vec<f64>,
     nc: usize,
 }
 
