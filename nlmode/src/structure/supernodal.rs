@@ -67,8 +67,18 @@ const SPLIT_SLACK: f64 = 1.05;
 enum Owner {
     /// Part, position in its list.
     Part(usize, usize),
-    /// Position among the top supernodes, first of its rows among the top rows.
-    Top(usize, usize),
+    /// The top.
+    Top,
+}
+
+impl Owner {
+    /// The owner's block of the rows a solve holds ([`SolvePlan::held_rows`]).
+    fn block(self) -> usize {
+        match self {
+            Owner::Part(p, _) => p,
+            Owner::Top => PARTS,
+        }
+    }
 }
 
 /// The split of a factor's supernodes (module docs).
@@ -78,10 +88,8 @@ pub struct SolvePlan {
     parts: Vec<Vec<usize>>,
     /// The supernodes in no part (ancestors of the parts' subtrees), ascending.
     top: Vec<usize>,
-    /// Rows of the top supernodes.
-    top_rows: usize,
-    /// Rows of each part's supernodes.
-    part_rows: Vec<usize>,
+    /// Rows of each part's supernodes, then of the top's (`PARTS + 1`).
+    held_rows: Vec<usize>,
     owner: Vec<Owner>,
     /// Each (permuted) row's place among its owner's rows (a part's rows in
     /// the part's order, or the top's): where the solves hold it.
@@ -170,29 +178,25 @@ impl SolvePlan {
         }
         top.sort_unstable();
         let mut parts = vec![Vec::new(); PARTS];
-        let mut owner = vec![Owner::Top(0, 0); ns];
-        let mut top_rows = 0;
+        let mut owner = vec![Owner::Top; ns];
         let mut next_top = 0;
         for s in 0..ns {
             if part[s] == usize::MAX {
                 if top.get(next_top) != Some(&s) {
                     return None;
                 }
-                owner[s] = Owner::Top(next_top, top_rows);
                 next_top += 1;
-                top_rows += end[s] - begin[s];
             } else {
                 owner[s] = Owner::Part(part[s], parts[part[s]].len());
                 parts[part[s]].push(s);
             }
         }
-        let (local, part_rows, own) = row_places(sym, &owner, &supernode_of_row)?;
+        let (local, held_rows, own) = row_places(sym, &owner, &supernode_of_row)?;
         let (updaters, updaters_ptr) = updaters(sym, &owner, &supernode_of_row)?;
         Some(Self {
             parts,
             top,
-            top_rows,
-            part_rows,
+            held_rows,
             owner,
             local,
             own,
@@ -212,8 +216,7 @@ impl SolvePlan {
     ) -> SolveRows {
         let sym = llt.symbolic();
         let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
-        let rows_held = self.part_rows.iter().sum::<usize>() + self.top_rows;
-        let mut data = vec![0.0; rows_held * nc];
+        let mut data = vec![0.0; self.held_rows.iter().sum::<usize>() * nc];
         for s in 0..self.owner.len() {
             let at = self.held_at(s, begin[s], nc);
             let rows = data[at..at + (end[s] - begin[s]) * nc].chunks_exact_mut(nc.max(1));
@@ -268,7 +271,7 @@ impl SolvePlan {
         let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
         // forward: the parts, their updates of the top rows summed apart,
         // added in part order; then the top
-        let mut acc: Vec<Vec<f64>> = vec![vec![0.0; self.top_rows * nc]; PARTS];
+        let mut acc: Vec<Vec<f64>> = vec![vec![0.0; self.held_rows[PARTS] * nc]; PARTS];
         let jobs: Vec<_> = parts.iter_mut().zip(acc.iter_mut()).enumerate().collect();
         run_parts(par, jobs, |(p, (rows, acc))| {
             let mut tmp = Vec::new();
@@ -295,7 +298,7 @@ impl SolvePlan {
             let l0 = self.local[r0] as usize;
             let held = match self.owner[s] {
                 Owner::Part(p, _) => &mut *parts[p],
-                Owner::Top(..) => &mut *top,
+                Owner::Top => &mut *top,
             };
             held[l0 * nc..(l0 + r1 - r0) * nc].fill(0.0);
         }
@@ -315,10 +318,7 @@ impl SolvePlan {
     /// Where the row `row` of supernode `s` is held in a [`SolveRows`]' data:
     /// its owner's block (the parts' in order, then the top's), its place there.
     fn held_at(&self, s: usize, row: usize, nc: usize) -> usize {
-        let base: usize = match self.owner[s] {
-            Owner::Part(p, _) => self.part_rows[..p].iter().sum(),
-            Owner::Top(..) => self.part_rows.iter().sum(),
-        };
+        let base: usize = self.held_rows[..self.owner[s].block()].iter().sum();
         (base + self.local[row] as usize) * nc
     }
 
@@ -326,7 +326,7 @@ impl SolvePlan {
     fn blocks<'a>(&self, data: &'a mut [f64], nc: usize) -> (Vec<&'a mut [f64]>, &'a mut [f64]) {
         let mut parts = Vec::with_capacity(PARTS);
         let mut rest = data;
-        for &r in &self.part_rows {
+        for &r in &self.held_rows[..PARTS] {
             let (mine, tail) = std::mem::take(&mut rest).split_at_mut(r * nc);
             parts.push(mine);
             rest = tail;
@@ -367,7 +367,7 @@ impl SolvePlan {
                     let (done, rest) = chunks.split_at_mut(i);
                     let slot = |d: usize| match self.owner[d] {
                         Owner::Part(_, j) => j,
-                        Owner::Top(..) => unreachable!("checked by the plan"),
+                        Owner::Top => unreachable!("checked by the plan"),
                     };
                     let s = self.parts[p][i];
                     if !self.factor_supernode(
@@ -544,7 +544,7 @@ impl SolvePlan {
             rest = tail;
             match self.owner[s] {
                 Owner::Part(p, _) => parts[p].push(mine),
-                Owner::Top(..) => top.push(mine),
+                Owner::Top => top.push(mine),
             }
         }
         (parts, top)
@@ -577,9 +577,9 @@ impl Permuted<'_> {
 }
 
 /// Each (permuted) row's place among its owner's rows ([`SolvePlan::local`]),
-/// the rows of each part, and per supernode how many of its pattern's rows
-/// its owner holds; `None` when a part's pattern does not list its own rows
-/// before the top's.
+/// the rows each part and the top hold ([`SolvePlan::held_rows`]), and per
+/// supernode how many of its pattern's rows its owner holds; `None` when a
+/// part's pattern does not list its own rows before the top's.
 #[allow(clippy::type_complexity)]
 fn row_places(
     sym: &SymbolicSupernodalCholesky<usize>,
@@ -594,15 +594,11 @@ fn row_places(
         return None;
     }
     let mut local = vec![0u32; n];
-    let mut part_rows = vec![0usize; PARTS];
+    let mut held_rows = vec![0usize; PARTS + 1];
     for s in 0..ns {
-        let first = match owner[s] {
-            Owner::Part(p, _) => {
-                part_rows[p] += end[s] - begin[s];
-                part_rows[p] - (end[s] - begin[s])
-            }
-            Owner::Top(_, first) => first,
-        };
+        let held = &mut held_rows[owner[s].block()];
+        let first = *held;
+        *held += end[s] - begin[s];
         for (k, l) in local[begin[s]..end[s]].iter_mut().enumerate() {
             *l = (first + k) as u32;
         }
@@ -610,9 +606,9 @@ fn row_places(
     let mut own = vec![0u32; ns];
     for s in 0..ns {
         let pattern = sym.supernode(s).pattern();
-        let in_top = |r: usize| matches!(owner[supernode_of_row[r] as usize], Owner::Top(..));
+        let in_top = |r: usize| matches!(owner[supernode_of_row[r] as usize], Owner::Top);
         own[s] = match owner[s] {
-            Owner::Top(..) => pattern.len() as u32,
+            Owner::Top => pattern.len() as u32,
             Owner::Part(..) => {
                 let k = pattern.iter().take_while(|&&r| !in_top(r)).count();
                 if !pattern[k..].iter().all(|&r| in_top(r)) {
@@ -622,7 +618,7 @@ fn row_places(
             }
         };
     }
-    Some((local, part_rows, own))
+    Some((local, held_rows, own))
 }
 
 /// The supernodes that update each supernode ([`SolvePlan::updaters`]) and
@@ -648,8 +644,8 @@ fn updaters(
             if q != last {
                 let same_part = match (owner[d], owner[q]) {
                     (Owner::Part(a, _), Owner::Part(b, _)) => a == b,
-                    (Owner::Top(..), Owner::Part(..)) => false,
-                    (_, Owner::Top(..)) => true,
+                    (Owner::Top, Owner::Part(..)) => false,
+                    (_, Owner::Top) => true,
                 };
                 if q <= d || !same_part {
                     return None;
