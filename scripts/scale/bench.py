@@ -175,14 +175,14 @@ def main():
         diff = abs(e["eigen_only_omega0_rad_s"] - s["scipy_omega0_rad_s"]) / s["scipy_omega0_rad_s"]
         pairs = [b / o for o, b in zip(e["eigen_only_s_runs"], s["scipy_eigsh_s_runs"])]
         spread = f" (runs {min(pairs):.1f}-{max(pairs):.1f}x)" if len(pairs) > 1 else ""
-        print(f"| {size} | {whole} | {runs_text(e['eigen_only_s_runs'], '{:.2f}')} | "
-              f"{runs_text(s['scipy_eigsh_s_runs'], '{:.1f}')} | "
+        print(f"| {size} | {whole} | {runs_text(e, 'eigen_only_s', '{:.2f}')} | "
+              f"{runs_text(s, 'scipy_eigsh_s', '{:.1f}')} | "
               f"{s['scipy_eigsh_s'] / e['eigen_only_s']:.1f}x{spread} | {diff:.1e} |")
 
 
 def eigen_only(exe, d, ordering, r):
     """One run of `lowest_modes` on the plate in d: its row, or why it failed."""
-    rc, out, _, wall, cpu, peak = timed([exe("examples/lowest_modes"), d, "--ordering", ordering],
+    rc, out, _, _, cpu, peak = timed([exe("examples/lowest_modes"), d, "--ordering", ordering],
                                         os.path.join(d, f"lowest_modes_{r}.log"))
     if rc != 0:
         return f"lowest_modes failed (exit {rc}): see {d}/lowest_modes_{r}.log"
@@ -215,10 +215,11 @@ def merge_runs(runs):
     return out
 
 
-def runs_text(v, fmt):
-    """`median` or `median; run, run, ...` of repeated times."""
-    med = statistics.median(v)
-    return fmt.format(med) if len(v) == 1 else fmt.format(med) + "; " + ", ".join(fmt.format(x) for x in v)
+def runs_text(row, key, fmt):
+    """A merged row's time `key` as `median` or `median; run, run, ...`."""
+    runs = row[key + "_runs"]
+    med = fmt.format(row[key])
+    return med if len(runs) == 1 else med + "; " + ", ".join(fmt.format(x) for x in runs)
 
 
 if __name__ == "__main__":
